@@ -1,0 +1,1 @@
+"""Dynamics of open chains on kinematic trees: one algorithm per module, compiled kernels."""

@@ -1,0 +1,129 @@
+"""Argument checking shared by the public dynamics functions: states, gravity, f_tip.
+
+A state argument is a (nv,) vector or a batch (N, nv); anything else raises a ValueError that
+names the argument. Finiteness is checked inside the compiled kernels (it costs nothing there)
+and reported through a status code that `raise_status` turns into the same kind of error.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+F64 = np.dtype(np.float64)
+NO_WRENCH = np.zeros((0, 6))
+
+STATUS_ARG = {1: "q", 2: "qd", 3: "qdd", 4: "tau", 5: "gravity", 6: "f_tip"}
+
+
+def is_single(model, *xs):
+    """True when every x is already a float64 (nv,) array: the fast path, no conversion."""
+    shape = model._vector_shape
+    for x in xs:
+        if type(x) is not np.ndarray or x.shape != shape or x.dtype is not F64:
+            return False
+    return True
+
+
+def as_state(model, x, name):
+    """x as a C-contiguous float64 array of shape (nv,) or (N, nv)."""
+    if type(x) is np.ndarray and x.dtype is F64 and x.ndim == 1 and x.shape[0] == model.nv \
+            and x.flags.c_contiguous:
+        return x
+    try:
+        x = np.ascontiguousarray(x, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be an array of numbers of shape ({model.nv},) or "
+                         f"(N, {model.nv}), got {type(x).__name__}") from None
+    if x.ndim not in (1, 2) or x.shape[-1] != model.nv:
+        raise ValueError(f"{name} must have shape ({model.nv},) or (N, {model.nv}) for model "
+                         f"{model.name!r} (nv={model.nv}), got shape {x.shape}")
+    return x
+
+
+def as_states(model, *named):
+    """Several (name, value) state arguments: all single (nv,), or batches broadcast to one N.
+
+    Returns the arrays and whether they are a batch."""
+    arrays = [as_state(model, x, name) for name, x in named]
+    if all(a.ndim == 1 for a in arrays):
+        return arrays, False
+    n = max(a.shape[0] for a in arrays if a.ndim == 2)
+    for (name, _), a in zip(named, arrays):
+        if a.ndim == 2 and a.shape[0] != n:
+            raise ValueError(f"{name} has {a.shape[0]} states but another argument has {n}; "
+                             f"a batch must have one N")
+    return [np.ascontiguousarray(np.broadcast_to(a, (n, model.nv))) for a in arrays], True
+
+
+def as_gravity(model, gravity):
+    """The (3,) world-frame gravity vector: the model's default, or the override."""
+    if gravity is None:
+        return model._gravity
+    g = np.asarray(gravity, dtype=np.float64)
+    if g.shape != (3,):
+        raise ValueError(f"gravity must be a 3-vector (m/s^2, world frame), got shape {g.shape}")
+    if not np.all(np.isfinite(g)):
+        raise ValueError(f"gravity must be finite, got {g}")
+    return np.ascontiguousarray(g)
+
+
+def body_wrenches(model, f_tip, n_states=None):
+    """f_tip {frame: (6,) or (N, 6) wrench} -> wrenches on the bodies, (nb, 6) or (N, nb, 6).
+
+    f_tip[frame] = (m, f) is the wrench that frame applies TO THE ENVIRONMENT, in that frame's
+    coordinates. On body b it is F_b = Ad_{T_{frame, b}}^T F = (R m + p x (R f), R f), with
+    (R, p) = T_{b, frame}. A frame of the fixed world moves no joint and is skipped.
+    """
+    if f_tip is None or (isinstance(f_tip, dict) and not f_tip):
+        return NO_WRENCH if n_states is None else None
+    if not isinstance(f_tip, dict):
+        raise ValueError("f_tip must be a dict {frame_name: (6,) wrench (m, f) in that frame}, "
+                         f"got {type(f_tip).__name__}")
+    shape = (model.nb, 6) if n_states is None else (n_states, model.nb, 6)
+    out = np.zeros(shape)
+    for frame, F in f_tip.items():
+        k = model.frame_index(frame)
+        F = np.asarray(F, dtype=np.float64)
+        if F.shape != (6,) and not (n_states is not None and F.shape == (n_states, 6)):
+            want = "(6,)" if n_states is None else f"(6,) or ({n_states}, 6)"
+            raise ValueError(f"f_tip[{frame!r}] must have shape {want} (moment, force), got "
+                             f"shape {F.shape}")
+        if not np.all(np.isfinite(F)):
+            raise ValueError(f"f_tip[{frame!r}] must be finite, got {F}")
+        fr = model.frames[k]
+        if fr.body < 0:
+            continue
+        R, p = fr.T_body_frame[:3, :3], fr.T_body_frame[:3, 3]
+        f_b = F[..., 3:] @ R.T
+        m_b = F[..., :3] @ R.T + np.cross(p, f_b)
+        out[..., fr.body, :3] += m_b
+        out[..., fr.body, 3:] += f_b
+    return out
+
+
+def raise_status(status, model, what):
+    """Turn a kernel's non-zero status into a ValueError naming the argument or the joint."""
+    if status in STATUS_ARG:
+        raise ValueError(f"{what}: {STATUS_ARG[status]} must be finite (it has NaN or inf)")
+    if status >= 100:
+        raise SingularMassMatrixError(model, [model.joint_names[status - 100]], what)
+    raise RuntimeError(f"{what}: kernel failed with status {status}")
+
+
+def raise_batch_status(statuses, model, what):
+    """The first failing state of a batch, named by its row."""
+    bad = np.flatnonzero(statuses)
+    if bad.size:
+        raise_status(int(statuses[bad[0]]), model, f"{what} (state {bad[0]} of the batch)")
+
+
+class SingularMassMatrixError(ValueError):
+    """M(q) is singular: a moving joint has nothing with mass or inertia moving with it."""
+
+    def __init__(self, model, joints, what):
+        self.joints = list(joints)
+        super().__init__(
+            f"{what}: the mass matrix of {model.name!r} is singular at joint(s) "
+            f"{', '.join(repr(j) for j in self.joints)}: nothing with mass or inertia moves with "
+            f"that joint, so its acceleration is undetermined (add inertia below it, or "
+            f"armature in a scene)")

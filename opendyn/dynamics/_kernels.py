@@ -1,0 +1,194 @@
+"""Compiled building blocks shared by the dynamics kernels: the model's flat buffers, the joint
+transform T_{lambda(i), i}(q_i) = M_{lambda(i), i} exp([A_i] q_i), and the 3x3-block forms of
+Ad_T and ad_V on twists, wrenches and spatial inertias.
+
+Pose of body i in its parent: (R, p) = (R_{lambda i}, p_{lambda i}). Then, angular first,
+  twist to child   Ad_{T_{i,lambda}} V  = (R^T w,  R^T (v + w x p))
+  wrench to parent Ad_{T_{i,lambda}}^T F = (R m + p x (R f),  R f)
+  ad_V W = (w x w_W,  v x w_W + w x v_W);   -ad_V^T F = (w x m + v x f,  w x f)
+Small helpers are inlined by numba, so the kernels read like the algorithm boxes.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from ..model import PRISMATIC
+
+JIT = dict(cache=True, nogil=True)
+# small helpers are inlined into the kernels at the numba IR level (measured: RNEA on a UR5
+# 1.46 -> 1.10 us per call inside a compiled loop)
+INLINE = dict(cache=True, nogil=True, inline="always")
+
+
+@njit(**INLINE)
+def unpack(ibuf, fbuf):
+    """Views of the model buffers: parent, jtype, coord, mult, offset, A, G, R_home, p_home."""
+    nb = ibuf[0]
+    parent = ibuf[2:2 + nb]
+    jtype = ibuf[2 + nb:2 + 2 * nb]
+    coord = ibuf[2 + 2 * nb:2 + 3 * nb]
+    mult = fbuf[0:nb]
+    offset = fbuf[nb:2 * nb]
+    o = 2 * nb
+    A = fbuf[o:o + 6 * nb].reshape((nb, 6))
+    o += 6 * nb
+    G = fbuf[o:o + 36 * nb].reshape((nb, 6, 6))
+    o += 36 * nb
+    R_home = fbuf[o:o + 9 * nb].reshape((nb, 3, 3))
+    o += 9 * nb
+    p_home = fbuf[o:o + 3 * nb].reshape((nb, 3))
+    return parent, jtype, coord, mult, offset, A, G, R_home, p_home
+
+
+@njit(**INLINE)
+def all_finite(x):
+    """True when every entry of the 1-D array x is finite."""
+    for k in range(x.shape[0]):
+        if not np.isfinite(x[k]):
+            return False
+    return True
+
+
+@njit(**INLINE)
+def cross3(a, b, out):
+    """out = a x b (out must not alias a or b)."""
+    out[0] = a[1] * b[2] - a[2] * b[1]
+    out[1] = a[2] * b[0] - a[0] * b[2]
+    out[2] = a[0] * b[1] - a[1] * b[0]
+
+
+@njit(**INLINE)
+def joint_transform(jtype, A_i, R_home, p_home, q_i, R, p):
+    """(R, p) = T_{lambda(i), i}(q_i) = M_{lambda(i), i} exp([A_i] q_i).
+
+    Revolute, unit axis a: exp = (Rot(a, q), 0), Rot = I + sin q [a] + (1 - cos q) [a]^2.
+    Prismatic, unit axis a: exp = (I, a q).
+    """
+    if jtype == PRISMATIC:
+        for r in range(3):
+            s = 0.0
+            for c in range(3):
+                R[r, c] = R_home[r, c]
+                s += R_home[r, c] * A_i[3 + c]
+            p[r] = p_home[r] + s * q_i
+        return
+    x, y, z = A_i[0], A_i[1], A_i[2]
+    s, c = np.sin(q_i), np.cos(q_i)
+    t = 1.0 - c
+    e00, e01, e02 = c + t * x * x, t * x * y - s * z, t * x * z + s * y
+    e10, e11, e12 = t * x * y + s * z, c + t * y * y, t * y * z - s * x
+    e20, e21, e22 = t * x * z - s * y, t * y * z + s * x, c + t * z * z
+    for r in range(3):
+        h0, h1, h2 = R_home[r, 0], R_home[r, 1], R_home[r, 2]
+        R[r, 0] = h0 * e00 + h1 * e10 + h2 * e20
+        R[r, 1] = h0 * e01 + h1 * e11 + h2 * e21
+        R[r, 2] = h0 * e02 + h1 * e12 + h2 * e22
+        p[r] = p_home[r]
+
+
+@njit(**INLINE)
+def twist_to_child(R, p, V_parent, V_child):
+    """V_child = Ad_{T_{i,lambda}} V_parent = (R^T w, R^T (v + w x p))."""
+    w0, w1, w2 = V_parent[0], V_parent[1], V_parent[2]
+    u0 = V_parent[3] + w1 * p[2] - w2 * p[1]
+    u1 = V_parent[4] + w2 * p[0] - w0 * p[2]
+    u2 = V_parent[5] + w0 * p[1] - w1 * p[0]
+    for k in range(3):
+        V_child[k] = R[0, k] * w0 + R[1, k] * w1 + R[2, k] * w2
+        V_child[3 + k] = R[0, k] * u0 + R[1, k] * u1 + R[2, k] * u2
+
+
+@njit(**INLINE)
+def add_wrench_to_parent(R, p, F_child, F_parent):
+    """F_parent += Ad_{T_{i,lambda}}^T F_child = (R m + p x (R f), R f)."""
+    m0 = R[0, 0] * F_child[0] + R[0, 1] * F_child[1] + R[0, 2] * F_child[2]
+    m1 = R[1, 0] * F_child[0] + R[1, 1] * F_child[1] + R[1, 2] * F_child[2]
+    m2 = R[2, 0] * F_child[0] + R[2, 1] * F_child[1] + R[2, 2] * F_child[2]
+    f0 = R[0, 0] * F_child[3] + R[0, 1] * F_child[4] + R[0, 2] * F_child[5]
+    f1 = R[1, 0] * F_child[3] + R[1, 1] * F_child[4] + R[1, 2] * F_child[5]
+    f2 = R[2, 0] * F_child[3] + R[2, 1] * F_child[4] + R[2, 2] * F_child[5]
+    F_parent[0] += m0 + p[1] * f2 - p[2] * f1
+    F_parent[1] += m1 + p[2] * f0 - p[0] * f2
+    F_parent[2] += m2 + p[0] * f1 - p[1] * f0
+    F_parent[3] += f0
+    F_parent[4] += f1
+    F_parent[5] += f2
+
+
+@njit(**INLINE)
+def ad_twist(V, W, out):
+    """out = ad_V W = (w x w_W, v x w_W + w x v_W)  (the Lie bracket [V, W])."""
+    out[0] = V[1] * W[2] - V[2] * W[1]
+    out[1] = V[2] * W[0] - V[0] * W[2]
+    out[2] = V[0] * W[1] - V[1] * W[0]
+    out[3] = V[4] * W[2] - V[5] * W[1] + V[1] * W[5] - V[2] * W[4]
+    out[4] = V[5] * W[0] - V[3] * W[2] + V[2] * W[3] - V[0] * W[5]
+    out[5] = V[3] * W[1] - V[4] * W[0] + V[0] * W[4] - V[1] * W[3]
+
+
+@njit(**INLINE)
+def add_neg_ad_transpose(V, P, out):
+    """out += -ad_V^T P = (w x P_m + v x P_f, w x P_f) for a momentum or wrench P."""
+    out[0] += V[1] * P[2] - V[2] * P[1] + V[4] * P[5] - V[5] * P[4]
+    out[1] += V[2] * P[0] - V[0] * P[2] + V[5] * P[3] - V[3] * P[5]
+    out[2] += V[0] * P[1] - V[1] * P[0] + V[3] * P[4] - V[4] * P[3]
+    out[3] += V[1] * P[5] - V[2] * P[4]
+    out[4] += V[2] * P[3] - V[0] * P[5]
+    out[5] += V[0] * P[4] - V[1] * P[3]
+
+
+@njit(**INLINE)
+def mat6_vec(G, V, out):
+    """out = G V for a (6, 6) matrix."""
+    for r in range(6):
+        s = 0.0
+        for c in range(6):
+            s += G[r, c] * V[c]
+        out[r] = s
+
+
+@njit(**INLINE)
+def dot6(a, b):
+    """a . b for 6-vectors (e.g. the power F . A of a wrench on a screw axis)."""
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3] + a[4] * b[4] + a[5] * b[5]
+
+
+@njit(**INLINE)
+def add_inertia_to_parent(R, p, I_child, I_parent, S):
+    """I_parent += Ad_{T_{i,lambda}}^T I_child Ad_{T_{i,lambda}} for a symmetric (6, 6) inertia.
+
+    Rotate the blocks of I_child = [[K, B], [B^T, C]] into the parent's axes (K' = R K R^T, ...),
+    then shift the reference point by p:
+      C_p = C',   B_p = B' + [p] C',   K_p = K' - B'[p] + [p] B'^T - [p] C' [p].
+    S is (9, 6) scratch: rows 0-5 hold the rotated inertia, rows 6-8 hold [p] C'.
+    """
+    for r6 in range(6):
+        br = 3 * (r6 // 3)
+        r = r6 - br
+        for c6 in range(6):
+            bc = 3 * (c6 // 3)
+            c = c6 - bc
+            s = 0.0
+            for k in range(3):
+                t = 0.0
+                for l in range(3):
+                    t += I_child[br + k, bc + l] * R[c, l]
+                s += R[r, k] * t
+            S[r6, c6] = s
+    P = ((0.0, -p[2], p[1]), (p[2], 0.0, -p[0]), (-p[1], p[0], 0.0))
+    for r in range(3):
+        for c in range(3):
+            S[6 + r, c] = P[r][0] * S[3, 3 + c] + P[r][1] * S[4, 3 + c] + P[r][2] * S[5, 3 + c]
+    for r in range(3):
+        for c in range(3):
+            B_rc = S[r, 3 + c] + S[6 + r, c]
+            I_parent[r, 3 + c] += B_rc
+            I_parent[3 + c, r] += B_rc
+            I_parent[3 + r, 3 + c] += S[3 + r, 3 + c]
+            K_rc = S[r, c]
+            for k in range(3):
+                K_rc += (-S[r, 3 + k] * P[k][c] + P[r][k] * S[c, 3 + k]
+                         - S[6 + r, k] * P[k][c])
+            I_parent[r, c] += K_rc

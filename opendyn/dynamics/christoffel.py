@@ -1,0 +1,157 @@
+"""Christoffel symbols of the first kind and the Coriolis matrix:
+
+    Gamma_ijk(q) = 1/2 (dM_ij/dq_k + dM_ik/dq_j - dM_jk/dq_i),    C_ij(q, qd) = sum_k Gamma_ijk qd_k
+
+so c(q, qd) = C(q, qd) qd = qd^T Gamma(q) qd and Mdot - 2C is skew-symmetric (the seed notes,
+"Christoffel symbols"; Lynch & Park, Section 8.1.2).
+
+dM/dq is exact, not a finite difference. With space-frame screw axes S_i = Ad_{T_si} A_i and
+composite inertias Gc_j = sum_{b >= j} Ad_{T_bs}^T G_b Ad_{T_bs} (b over the subtree of j), for
+i an ancestor of j (or j itself) M_ij = S_i^T Gc_j S_j, and moving joint k turns everything
+outboard of it: dS/dq_k = ad_{S_k} S, dGc/dq_k = -(ad_{S_k}^T Gc + Gc ad_{S_k}). Hence
+    k ancestor of i, or k = i:       dM_ij/dq_k = 0
+    i strictly above k, k <= j:      dM_ij/dq_k = (ad_{S_i} S_k)^T Gc_j S_j
+    k strictly below j:              dM_ij/dq_k = -(ad_{S_k} S_i)^T Gc_k S_j - (Gc_k S_i)^T ad_{S_k} S_j
+    otherwise:                       0
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit, prange
+
+from . import _args
+from ._kernels import JIT, ad_twist, add_inertia_to_parent, all_finite, dot6, mat6_vec, unpack
+from .kinematics import fk_kernel
+
+
+@njit(**JIT)
+def christoffel_kernel(ibuf, fbuf, q, Gamma):
+    """Gamma (nv, nv, nv) <- Christoffel symbols at q. Status 1: q not finite."""
+    if not all_finite(q):
+        return 1
+    parent, jtype, coord, mult, offset, A, G, R_home, p_home = unpack(ibuf, fbuf)
+    nb, nv = parent.shape[0], Gamma.shape[0]
+    R_s = np.empty((nb, 3, 3))
+    p_s = np.empty((nb, 3))
+    fk_kernel(ibuf, fbuf, q, R_s, p_s)
+
+    # space screw axes S_i and space inertias, accumulated into composite inertias Gc_i
+    S = np.empty((nb, 6))
+    Gc = np.zeros((nb, 6, 6))
+    scratch = np.empty((9, 6))
+    for i in range(nb):
+        for r in range(3):
+            S[i, r] = R_s[i, r, 0] * A[i, 0] + R_s[i, r, 1] * A[i, 1] + R_s[i, r, 2] * A[i, 2]
+            S[i, 3 + r] = (R_s[i, r, 0] * A[i, 3] + R_s[i, r, 1] * A[i, 4]
+                           + R_s[i, r, 2] * A[i, 5])
+        ps = p_s[i]
+        S[i, 3] += ps[1] * S[i, 2] - ps[2] * S[i, 1]
+        S[i, 4] += ps[2] * S[i, 0] - ps[0] * S[i, 2]
+        S[i, 5] += ps[0] * S[i, 1] - ps[1] * S[i, 0]
+        add_inertia_to_parent(R_s[i], p_s[i], G[i], Gc[i], scratch)
+    for i in range(nb - 1, -1, -1):
+        if parent[i] >= 0:
+            Gc[parent[i]] += Gc[i]
+
+    # above[a, b]: a is b or an ancestor of b
+    above = np.zeros((nb, nb), dtype=np.bool_)
+    for b in range(nb):
+        a = b
+        while a >= 0:
+            above[a, b] = True
+            a = parent[a]
+    # adS[a, b] = ad_{S_a} S_b,  GcS[a, b] = Gc_a S_b
+    adS = np.empty((nb, nb, 6))
+    GcS = np.empty((nb, nb, 6))
+    for a in range(nb):
+        for b in range(nb):
+            ad_twist(S[a], S[b], adS[a, b])
+            mat6_vec(Gc[a], S[b], GcS[a, b])
+
+    # dM[a, b, c] = dM_ab / dq_c in coordinates: the body terms mapped by the mimic coupling
+    dM = np.zeros((nv, nv, nv))
+    for j in range(nb):
+        i = j
+        while i >= 0:
+            for k in range(nb):
+                if above[k, i]:
+                    continue
+                if above[i, k] and above[k, j]:
+                    val = dot6(adS[i, k], GcS[j, j])
+                elif above[j, k]:
+                    val = -dot6(adS[k, i], GcS[k, j]) - dot6(GcS[k, i], adS[k, j])
+                else:
+                    continue
+                w = mult[i] * mult[j] * mult[k] * val
+                dM[coord[i], coord[j], coord[k]] += w
+                if i != j:
+                    dM[coord[j], coord[i], coord[k]] += w
+            i = parent[i]
+
+    for a in range(nv):
+        for b in range(nv):
+            for c in range(nv):
+                Gamma[a, b, c] = 0.5 * (dM[a, b, c] + dM[a, c, b] - dM[b, c, a])
+    return 0
+
+
+@njit(**JIT)
+def coriolis_matrix_kernel(ibuf, fbuf, q, qd, C):
+    """C (nv, nv) <- sum_k Gamma[:, :, k] qd_k. Status 1/2: q/qd not finite."""
+    if not all_finite(qd):
+        return 2
+    nv = C.shape[0]
+    Gamma = np.empty((nv, nv, nv))
+    status = christoffel_kernel(ibuf, fbuf, q, Gamma)
+    if status:
+        return status
+    for a in range(nv):
+        for b in range(nv):
+            s = 0.0
+            for c in range(nv):
+                s += Gamma[a, b, c] * qd[c]
+            C[a, b] = s
+    return 0
+
+
+@njit(parallel=True, cache=True)
+def christoffel_batch_kernel(ibuf, fbuf, q, qd, out, status, matrix):
+    """Christoffel symbols (matrix False) or Coriolis matrices (True) over a batch."""
+    for n in prange(q.shape[0]):
+        if matrix:
+            status[n] = coriolis_matrix_kernel(ibuf, fbuf, q[n], qd[n], out[n, :, :, 0])
+        else:
+            status[n] = christoffel_kernel(ibuf, fbuf, q[n], out[n])
+
+
+def _run(model, q, qd, matrix, what):
+    (q, qd), batch = _args.as_states(model, ("q", q), ("qd", qd))
+    nv = model.nv
+    if not batch:
+        out = np.empty((nv, nv) if matrix else (nv, nv, nv))
+        status = (coriolis_matrix_kernel(model._ibuf, model._fbuf, q, qd, out) if matrix
+                  else christoffel_kernel(model._ibuf, model._fbuf, q, out))
+        if status:
+            _args.raise_status(status, model, what)
+        return out
+    out = np.empty((q.shape[0], nv, nv, 1 if matrix else nv))
+    status = np.zeros(q.shape[0], dtype=np.int64)
+    christoffel_batch_kernel(model._ibuf, model._fbuf, q, qd, out, status, matrix)
+    _args.raise_batch_status(status, model, what)
+    return out[..., 0] if matrix else out
+
+
+def christoffel_symbols(model, q):
+    """Gamma(q): (nv, nv, nv) Christoffel symbols of the first kind, Gamma[i, j, k] symmetric
+    in j, k, with c_i = sum_jk Gamma[i, j, k] qd_j qd_k. q: (nv,) or (N, nv) -> (N, nv, nv, nv).
+    """
+    q = _args.as_state(model, q, "q")
+    return _run(model, q, np.zeros_like(q), False, "christoffel_symbols")
+
+
+def coriolis_matrix(model, q, qd):
+    """C(q, qd): (nv, nv) Coriolis matrix C[i, j] = sum_k Gamma[i, j, k] qd_k, so that
+    C qd = c(q, qd) and Mdot - 2C is skew-symmetric. q, qd: (nv,) or (N, nv) -> (N, nv, nv).
+    """
+    return _run(model, q, qd, True, "coriolis_matrix")

@@ -1,0 +1,83 @@
+"""Mass matrix by the composite-rigid-body algorithm (CRBA):
+
+    M_ij = A_i^T Ad_{T_{j,i}}^T Ic_j A_j   for j a descendant of i (or i itself), else 0
+
+Backward pass, tips to base, composite inertias of the subtrees:
+    Ic_i = G_i + sum_children Ad_{T_{c,i}}^T Ic_c Ad_{T_{c,i}}
+then for each body the wrench F = Ic_i A_i is carried up its ancestors j: F <- Ad_{T_{j',j}}^T F,
+M_ij = F^T A_j. (Featherstone, Rigid Body Dynamics Algorithms, 2008, Section 6.2.)
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit, prange
+
+from . import _args
+from ._kernels import (JIT, add_inertia_to_parent, add_wrench_to_parent, all_finite, dot6,
+                       joint_transform, mat6_vec, unpack)
+
+
+@njit(**JIT)
+def crba_kernel(ibuf, fbuf, q, M):
+    """M (nv, nv) <- CRBA at one configuration. Returns 1 if q is not finite, else 0."""
+    if not all_finite(q):
+        return 1
+    parent, jtype, coord, mult, offset, A, G, R_home, p_home = unpack(ibuf, fbuf)
+    nb = parent.shape[0]
+    R = np.empty((nb, 3, 3))
+    p = np.empty((nb, 3))
+    Ic = G.copy()
+    S = np.empty((9, 6))
+    F = np.empty(6)
+    F_up = np.empty(6)
+    for i in range(nb):
+        joint_transform(jtype[i], A[i], R_home[i], p_home[i], mult[i] * q[coord[i]] + offset[i],
+                        R[i], p[i])
+    # backward pass: Ic_lambda += Ad^T Ic_i Ad
+    for i in range(nb - 1, -1, -1):
+        if parent[i] >= 0:
+            add_inertia_to_parent(R[i], p[i], Ic[i], Ic[parent[i]], S)
+    # M_ij = (Ad^T ... Ic_i A_i)^T A_j along the path from i to the root
+    M[:, :] = 0.0
+    for i in range(nb):
+        ci = coord[i]
+        mat6_vec(Ic[i], A[i], F)
+        M[ci, ci] += mult[i] * mult[i] * dot6(F, A[i])
+        j = i
+        while parent[j] >= 0:
+            F_up[:] = 0.0
+            add_wrench_to_parent(R[j], p[j], F, F_up)
+            F[:] = F_up
+            j = parent[j]
+            m_ij = mult[i] * mult[j] * dot6(F, A[j])
+            M[ci, coord[j]] += m_ij
+            M[coord[j], ci] += m_ij
+    return 0
+
+
+@njit(parallel=True, cache=True)
+def crba_batch_kernel(ibuf, fbuf, q, M, status):
+    """CRBA over a batch of configurations (N, nv) -> M (N, nv, nv)."""
+    for n in prange(q.shape[0]):
+        status[n] = crba_kernel(ibuf, fbuf, q[n], M[n])
+
+
+def mass_matrix(model, q):
+    """M(q): the (nv, nv) joint-space mass matrix, symmetric positive definite, by CRBA.
+
+    q: (nv,) joint positions (rad or m), or a batch (N, nv) -> (N, nv, nv).
+    Units: kg m^2 (revolute-revolute), kg m (mixed), kg (prismatic-prismatic).
+    """
+    q = _args.as_state(model, q, "q")
+    if q.ndim == 1:
+        M = np.empty((model.nv, model.nv))
+        status = crba_kernel(model._ibuf, model._fbuf, q, M)
+        if status:
+            _args.raise_status(status, model, "mass_matrix")
+        return M
+    M = np.empty((q.shape[0], model.nv, model.nv))
+    status = np.zeros(q.shape[0], dtype=np.int64)
+    crba_batch_kernel(model._ibuf, model._fbuf, q, M, status)
+    _args.raise_batch_status(status, model, "mass_matrix")
+    return M

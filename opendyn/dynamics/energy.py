@@ -1,0 +1,103 @@
+"""Kinetic and potential energy of the tree:
+
+    K(q, qd) = 1/2 qd^T M(q) qd = sum_i 1/2 V_i^T G_i V_i          (V_i: body twist in {i})
+    U(q)     = - sum_i m_i g . c_i(q)                               (c_i: centre of mass in {s})
+
+so that dU/dq = g(q), the gravity torques (Lynch & Park, Section 8.1).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit, prange
+
+from . import _args
+from ._kernels import JIT, all_finite, mat6_vec, unpack
+from .kinematics import fk_kernel
+from .rnea import forward_pass
+
+
+@njit(**JIT)
+def kinetic_kernel(ibuf, fbuf, q, qd, out):
+    """out[0] <- sum_i 1/2 V_i^T G_i V_i. Status 1/2: q/qd not finite."""
+    if not all_finite(q):
+        return 1
+    if not all_finite(qd):
+        return 2
+    parent, jtype, coord, mult, offset, A, G, R_home, p_home = unpack(ibuf, fbuf)
+    nb = parent.shape[0]
+    R = np.empty((nb, 3, 3))
+    p = np.empty((nb, 3))
+    V = np.empty((nb, 6))
+    dV = np.empty((nb, 6))
+    s = np.empty(6)
+    forward_pass(ibuf, fbuf, q, qd, np.zeros_like(qd), np.zeros(3), R, p, V, dV, s)
+    K = 0.0
+    for i in range(nb):
+        mat6_vec(G[i], V[i], s)
+        for k in range(6):
+            K += 0.5 * V[i, k] * s[k]
+    out[0] = K
+    return 0
+
+
+@njit(**JIT)
+def potential_kernel(ibuf, fbuf, q, gravity, out):
+    """out[0] <- -sum_i g . (R_si h_i + m_i p_si), h_i = m_i c_i read from G_i. Status 1."""
+    if not all_finite(q):
+        return 1
+    parent, jtype, coord, mult, offset, A, G, R_home, p_home = unpack(ibuf, fbuf)
+    nb = parent.shape[0]
+    R_s = np.empty((nb, 3, 3))
+    p_s = np.empty((nb, 3))
+    fk_kernel(ibuf, fbuf, q, R_s, p_s)
+    U = 0.0
+    for i in range(nb):
+        m = G[i, 3, 3]
+        h = (G[i, 2, 4], G[i, 0, 5], G[i, 1, 3])  # G_i[:3, 3:] = [h_i]
+        for r in range(3):
+            mc = R_s[i, r, 0] * h[0] + R_s[i, r, 1] * h[1] + R_s[i, r, 2] * h[2] + m * p_s[i, r]
+            U -= gravity[r] * mc
+    out[0] = U
+    return 0
+
+
+@njit(parallel=True, cache=True)
+def energy_batch_kernel(ibuf, fbuf, q, qd, gravity, kinetic, out, status):
+    """Kinetic (when kinetic) or potential energy over a batch of states."""
+    for n in prange(q.shape[0]):
+        if kinetic:
+            status[n] = kinetic_kernel(ibuf, fbuf, q[n], qd[n], out[n:n + 1])
+        else:
+            status[n] = potential_kernel(ibuf, fbuf, q[n], gravity, out[n:n + 1])
+
+
+def _energy(model, q, qd, gravity, kinetic, what):
+    (q, qd), batch = _args.as_states(model, ("q", q), ("qd", qd))
+    g = _args.as_gravity(model, gravity)
+    if not batch:
+        out = np.empty(1)
+        status = (kinetic_kernel(model._ibuf, model._fbuf, q, qd, out) if kinetic
+                  else potential_kernel(model._ibuf, model._fbuf, q, g, out))
+        if status:
+            _args.raise_status(status, model, what)
+        return float(out[0])
+    out = np.empty(q.shape[0])
+    status = np.zeros(q.shape[0], dtype=np.int64)
+    energy_batch_kernel(model._ibuf, model._fbuf, q, qd, g, kinetic, out, status)
+    _args.raise_batch_status(status, model, what)
+    return out
+
+
+def kinetic_energy(model, q, qd):
+    """K = 1/2 qd^T M(q) qd (J): float, or (N,) for a batch of states (N, nv)."""
+    return _energy(model, q, qd, None, True, "kinetic_energy")
+
+
+def potential_energy(model, q, gravity=None):
+    """U(q) = -sum_i m_i g . c_i(q) (J), zero at the world origin: float, or (N,) for (N, nv).
+
+    gravity: optional (3,) world-frame vector (m/s^2), default model.gravity; dU/dq = g(q).
+    """
+    q = _args.as_state(model, q, "q")
+    return _energy(model, q, np.zeros_like(q), gravity, False, "potential_energy")

@@ -1,0 +1,143 @@
+"""Forward dynamics: solve M(q) qdd = tau - h(q, qd) - sum_frames J_b(frame)^T F_tip(frame).
+
+Three methods, same answer, different cost:
+  "aba"           articulated-body algorithm, O(n) (module aba)
+  "crba"          M by CRBA, h by RNEA, then the Cholesky factorisation M = L L^T, O(n^3)
+  "newton_euler"  the seed's method: column k of M is RNEA with qdd = e_k, qd = 0, g = 0 and no
+                  F_tip (n RNEA calls), h is RNEA with qdd = 0, then Cholesky, O(n^3)
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit, prange
+
+from . import _args
+from ._kernels import JIT, all_finite
+from .aba import SINGULAR_PIVOT, aba_kernel
+from .crba import crba_kernel
+from .rnea import rnea_kernel
+
+METHODS = ("aba", "crba", "newton_euler")
+
+
+@njit(**JIT)
+def cholesky_solve(M, b, x):
+    """x = M^-1 b by M = L L^T, in place in M. Returns -1, or the first index k whose pivot is
+    not positive (M singular there)."""
+    n = M.shape[0]
+    scale = 0.0
+    for k in range(n):
+        scale = max(scale, M[k, k])
+    for k in range(n):
+        d = M[k, k]
+        for m in range(k):
+            d -= M[k, m] * M[k, m]
+        if not d > SINGULAR_PIVOT * scale:
+            return k
+        d = np.sqrt(d)
+        M[k, k] = d
+        for r in range(k + 1, n):
+            s = M[r, k]
+            for m in range(k):
+                s -= M[r, m] * M[k, m]
+            M[r, k] = s / d
+    # L y = b, then L^T x = y
+    for r in range(n):
+        s = b[r]
+        for m in range(r):
+            s -= M[r, m] * x[m]
+        x[r] = s / M[r, r]
+    for r in range(n - 1, -1, -1):
+        s = x[r]
+        for m in range(r + 1, n):
+            s -= M[m, r] * x[m]
+        x[r] = s / M[r, r]
+    return -1
+
+
+@njit(**JIT)
+def mass_matrix_solve(ibuf, fbuf, q, qd, tau, gravity, F_ext, qdd, newton_euler):
+    """qdd <- M^-1 (tau - h - J^T F_tip), M by CRBA or by n RNEA calls. Status as aba_kernel."""
+    if not all_finite(tau):
+        return 4
+    nv = qdd.shape[0]
+    M = np.empty((nv, nv))
+    zero = np.zeros(nv)
+    b = np.empty(nv)
+    status = rnea_kernel(ibuf, fbuf, q, qd, zero, gravity, F_ext, b)
+    if status:
+        return status
+    if newton_euler:
+        # column k of M: tau of RNEA with qdd = e_k, qd = 0, gravity = 0, F_tip = 0
+        e_k = np.zeros(nv)
+        col = np.empty(nv)
+        no_gravity = np.zeros(3)
+        no_wrench = np.zeros((0, 6))
+        for k in range(nv):
+            e_k[k] = 1.0
+            rnea_kernel(ibuf, fbuf, q, zero, e_k, no_gravity, no_wrench, col)
+            M[:, k] = col
+            e_k[k] = 0.0
+    else:
+        crba_kernel(ibuf, fbuf, q, M)
+    for k in range(nv):
+        b[k] = tau[k] - b[k]
+    k = cholesky_solve(M, b, qdd)
+    return 0 if k < 0 else 100 + k
+
+
+@njit(**JIT)
+def forward_kernel(ibuf, fbuf, q, qd, tau, gravity, F_ext, qdd, method):
+    """Dispatch one state to method 0 = ABA, 1 = CRBA + Cholesky, 2 = Newton-Euler columns."""
+    if method == 0:
+        return aba_kernel(ibuf, fbuf, q, qd, tau, gravity, F_ext, qdd)
+    return mass_matrix_solve(ibuf, fbuf, q, qd, tau, gravity, F_ext, qdd, method == 2)
+
+
+@njit(parallel=True, cache=True)
+def forward_batch_kernel(ibuf, fbuf, q, qd, tau, gravity, F_ext, qdd, method, status):
+    """Forward dynamics over a batch of states (N, nv)."""
+    for n in prange(q.shape[0]):
+        status[n] = forward_kernel(ibuf, fbuf, q[n], qd[n], tau[n], gravity,
+                                   F_ext[n] if F_ext.shape[0] else F_ext[0:0, 0], qdd[n], method)
+
+
+def forward_dynamics(model, q, qd, tau, f_tip=None, gravity=None, method="aba"):
+    """qdd = M(q)^-1 (tau - c(q, qd) - g(q) - sum_frames J_b(frame)^T F_tip(frame)).
+
+    Args:
+      q, qd, tau: (nv,) joint positions (rad or m), velocities, torques (N m or N); or (N, nv).
+      f_tip: optional {frame_name: (6,) wrench (m, f)} that each frame applies TO THE
+        ENVIRONMENT, in that frame's coordinates.
+      gravity: optional (3,) world-frame gravity (m/s^2), default model.gravity.
+      method: "aba" (O(n), default), "crba" (CRBA + Cholesky) or "newton_euler" (the seed's
+        n-RNEA mass matrix + Cholesky). Models with coupled mimic joints solve "aba" by CRBA.
+    Returns qdd, (nv,) or (N, nv) (rad/s^2 or m/s^2).
+    Raises SingularMassMatrixError (a ValueError) naming the joint when nothing with mass or
+    inertia moves with it.
+    """
+    try:
+        code = METHODS.index(method)
+    except ValueError:
+        raise ValueError(f"forward_dynamics: method must be one of {', '.join(METHODS)}, "
+                         f"got {method!r}") from None
+    if code == 0 and model.nb != model.nv:
+        code = 1
+    (q, qd, tau), batch = _args.as_states(model, ("q", q), ("qd", qd), ("tau", tau))
+    g = _args.as_gravity(model, gravity)
+    if not batch:
+        qdd = np.empty(model.nv)
+        status = forward_kernel(model._ibuf, model._fbuf, q, qd, tau, g,
+                                _args.body_wrenches(model, f_tip), qdd, code)
+        if status:
+            _args.raise_status(status, model, "forward_dynamics")
+        return qdd
+    n = q.shape[0]
+    F_ext = _args.body_wrenches(model, f_tip, n)
+    qdd = np.empty((n, model.nv))
+    status = np.zeros(n, dtype=np.int64)
+    forward_batch_kernel(model._ibuf, model._fbuf, q, qd, tau, g,
+                         np.zeros((0, model.nb, 6)) if F_ext is None else F_ext, qdd, code, status)
+    _args.raise_batch_status(status, model, "forward_dynamics")
+    return qdd

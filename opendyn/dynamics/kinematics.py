@@ -1,0 +1,165 @@
+"""Forward kinematics and Jacobians on the tree, product of exponentials in body frames:
+
+    T_{s,i}(q) = T_{s,lambda(i)} M_{lambda(i), i} exp([A_i] q_i),   T_{s,frame} = T_{s,body} T_{body,frame}
+    J_s(q)[:, k] = sum over bodies i on the frame's path with coordinate k of  mult_i Ad_{T_{s,i}} A_i
+    J_b(q) = Ad_{T_{frame,s}} J_s(q)
+
+so that V_s = J_s qd and V_b = J_b qd are the frame's twists in the space and the frame's own
+coordinates (angular first; Lynch & Park, Sections 4.1 and 5.1).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit, prange
+
+from . import _args
+from ._kernels import JIT, all_finite, joint_transform, twist_to_child, unpack
+
+
+@njit(**JIT)
+def fk_kernel(ibuf, fbuf, q, R_s, p_s):
+    """R_s[i], p_s[i] <- T_{s,i}(q) for every body (world frame = the root link)."""
+    parent, jtype, coord, mult, offset, A, G, R_home, p_home = unpack(ibuf, fbuf)
+    R = np.empty((3, 3))
+    p = np.empty(3)
+    for i in range(parent.shape[0]):
+        joint_transform(jtype[i], A[i], R_home[i], p_home[i], mult[i] * q[coord[i]] + offset[i],
+                        R, p)
+        lam = parent[i]
+        if lam < 0:
+            R_s[i] = R
+            p_s[i] = p
+            continue
+        for r in range(3):
+            for c in range(3):
+                R_s[i, r, c] = R_s[lam, r, 0] * R[0, c] + R_s[lam, r, 1] * R[1, c] + \
+                    R_s[lam, r, 2] * R[2, c]
+            p_s[i, r] = p_s[lam, r] + R_s[lam, r, 0] * p[0] + R_s[lam, r, 1] * p[1] + \
+                R_s[lam, r, 2] * p[2]
+
+
+@njit(**JIT)
+def compose_frame(R_s, p_s, body, T_bf, T_sf):
+    """T_sf (4, 4) <- T_{s,body} T_{body,frame}; body -1 is the world."""
+    T_sf[:, :] = 0.0
+    T_sf[3, 3] = 1.0
+    for r in range(3):
+        for c in range(4):
+            T_sf[r, c] = T_bf[r, c] if body < 0 else (
+                R_s[body, r, 0] * T_bf[0, c] + R_s[body, r, 1] * T_bf[1, c]
+                + R_s[body, r, 2] * T_bf[2, c])
+        if body >= 0:
+            T_sf[r, 3] += p_s[body, r]
+
+
+@njit(**JIT)
+def frame_pose_kernel(ibuf, fbuf, q, body, T_bf, T_sf):
+    """T_sf (4, 4) <- T_{s,body}(q) T_{body,frame}. Status 1: q not finite."""
+    if not all_finite(q):
+        return 1
+    nb = ibuf[0]
+    R_s = np.empty((nb, 3, 3))
+    p_s = np.empty((nb, 3))
+    fk_kernel(ibuf, fbuf, q, R_s, p_s)
+    compose_frame(R_s, p_s, body, T_bf, T_sf)
+    return 0
+
+
+@njit(**JIT)
+def jacobian_kernel(ibuf, fbuf, q, body, T_bf, body_frame, J):
+    """J (6, nv) <- J_s, or J_b of the frame when body_frame. Status 1: q not finite."""
+    if not all_finite(q):
+        return 1
+    parent, jtype, coord, mult, offset, A, G, R_home, p_home = unpack(ibuf, fbuf)
+    nb = parent.shape[0]
+    R_s = np.empty((nb, 3, 3))
+    p_s = np.empty((nb, 3))
+    fk_kernel(ibuf, fbuf, q, R_s, p_s)
+    T_sf = np.empty((4, 4))
+    compose_frame(R_s, p_s, body, T_bf, T_sf)
+    S = np.empty(6)
+    col = np.empty(6)
+    J[:, :] = 0.0
+    i = body
+    while i >= 0:
+        # S_i = Ad_{T_{s,i}} A_i = (R w, p x (R w) + R v)
+        for r in range(3):
+            S[r] = R_s[i, r, 0] * A[i, 0] + R_s[i, r, 1] * A[i, 1] + R_s[i, r, 2] * A[i, 2]
+            S[3 + r] = R_s[i, r, 0] * A[i, 3] + R_s[i, r, 1] * A[i, 4] + R_s[i, r, 2] * A[i, 5]
+        ps = p_s[i]
+        S[3] += ps[1] * S[2] - ps[2] * S[1]
+        S[4] += ps[2] * S[0] - ps[0] * S[2]
+        S[5] += ps[0] * S[1] - ps[1] * S[0]
+        if body_frame:
+            # Ad_{T_{frame,s}} S = (R^T w, R^T (v + w x p)) with (R, p) = T_sf
+            twist_to_child(T_sf[:3, :3], T_sf[:3, 3], S, col)
+        else:
+            col[:] = S
+        for k in range(6):
+            J[k, coord[i]] += mult[i] * col[k]
+        i = parent[i]
+    return 0
+
+
+@njit(parallel=True, cache=True)
+def jacobian_batch_kernel(ibuf, fbuf, q, body, T_bf, body_frame, J, status):
+    """Jacobians over a batch of configurations (N, nv) -> (N, 6, nv)."""
+    for n in prange(q.shape[0]):
+        status[n] = jacobian_kernel(ibuf, fbuf, q[n], body, T_bf, body_frame, J[n])
+
+
+@njit(parallel=True, cache=True)
+def frame_pose_batch_kernel(ibuf, fbuf, q, body, T_bf, T_sf, status):
+    """Frame poses over a batch of configurations (N, nv) -> (N, 4, 4)."""
+    for n in prange(q.shape[0]):
+        status[n] = frame_pose_kernel(ibuf, fbuf, q[n], body, T_bf, T_sf[n])
+
+
+def _frame(model, frame):
+    fr = model.frames[model.frame_index(frame)]
+    return fr.body, np.ascontiguousarray(fr.T_body_frame)
+
+
+def frame_pose(model, q, frame):
+    """T_sf(q): (4, 4) pose of a frame (any URDF link) in the world frame (the root link).
+
+    q: (nv,) or (N, nv) -> (4, 4) or (N, 4, 4); translation in metres.
+    Raises KeyError naming the frame if it is not a frame of the model.
+    """
+    q = _args.as_state(model, q, "q")
+    body, T_bf = _frame(model, frame)
+    if q.ndim == 1:
+        T = np.empty((4, 4))
+        if frame_pose_kernel(model._ibuf, model._fbuf, q, body, T_bf, T):
+            _args.raise_status(1, model, "frame_pose")
+        return T
+    T = np.empty((q.shape[0], 4, 4))
+    status = np.zeros(q.shape[0], dtype=np.int64)
+    frame_pose_batch_kernel(model._ibuf, model._fbuf, q, body, T_bf, T, status)
+    _args.raise_batch_status(status, model, "frame_pose")
+    return T
+
+
+def jacobian(model, q, frame, expressed_in="space"):
+    """The (6, nv) Jacobian of a frame: V = J(q) qd, twist (omega, v) angular first.
+
+    expressed_in="space": J_s, the frame's twist in the world frame (MR eq. 5.11);
+    expressed_in="body":  J_b, the twist in the frame's own coordinates (MR eq. 5.18);
+    J_s = Ad_{T_sf} J_b. q: (nv,) or (N, nv) -> (6, nv) or (N, 6, nv).
+    """
+    if expressed_in not in ("space", "body"):
+        raise ValueError(f"jacobian: expressed_in must be 'space' or 'body', got {expressed_in!r}")
+    q = _args.as_state(model, q, "q")
+    body, T_bf = _frame(model, frame)
+    body_frame = expressed_in == "body"
+    if q.ndim == 1:
+        J = np.empty((6, model.nv))
+        if jacobian_kernel(model._ibuf, model._fbuf, q, body, T_bf, body_frame, J):
+            _args.raise_status(1, model, "jacobian")
+        return J
+    J = np.empty((q.shape[0], 6, model.nv))
+    status = np.zeros(q.shape[0], dtype=np.int64)
+    jacobian_batch_kernel(model._ibuf, model._fbuf, q, body, T_bf, body_frame, J, status)
+    _args.raise_batch_status(status, model, "jacobian")
+    return J

@@ -1,0 +1,102 @@
+"""Task-space (operational-space) dynamics of a frame, in the frame's own coordinates:
+
+    F = Lambda(q) dV_b + eta(q, qd)
+    Lambda = (J_b M^-1 J_b^T)^-1,    eta = Lambda (J_b M^-1 h - Jdot_b qd)
+
+For a square invertible J_b these are the seed's Lambda = J^-T M J^-1 and
+eta = J^-T h - Lambda Jdot J^-1 V (Lynch & Park, Section 8.6). Jdot_b qd is the frame's twist
+rate at qdd = 0 without gravity, taken from the RNEA forward pass.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.linalg
+
+from . import _args
+from .crba import mass_matrix
+from .kinematics import jacobian
+from .rnea import bias_forces, forward_pass
+
+
+class SingularTaskSpaceError(ValueError):
+    """J_b M^-1 J_b^T is singular: the frame cannot move in every task direction."""
+
+
+def _inverse_task_inertia(model, q, frame, what):
+    """J_b (6, nv) and Lambda^-1 = J_b M^-1 J_b^T (6, 6), with M's Cholesky factor."""
+    M = mass_matrix(model, q)
+    J_b = jacobian(model, q, frame, expressed_in="body")
+    try:
+        M_chol = scipy.linalg.cho_factor(M)
+    except np.linalg.LinAlgError:
+        raise _args.SingularMassMatrixError(model, model.joint_names, what) from None
+    return J_b, scipy.linalg.cho_solve(M_chol, J_b.T), M_chol
+
+
+def task_space_mass_matrix(model, q, frame, damping=0.0):
+    """Lambda(q) = (J_b M^-1 J_b^T)^-1: (6, 6) apparent spatial inertia of a frame, in the
+    frame's coordinates (angular first), so that F = Lambda dV_b + eta.
+
+    q: (nv,) configuration; frame: a frame name.
+    damping: 0 (default) raises SingularTaskSpaceError where J_b M^-1 J_b^T is singular or
+      ill-conditioned (fewer than 6 joints, or a singular configuration); damping > 0 returns
+      the damped (J_b M^-1 J_b^T + damping I)^-1, finite everywhere.
+    """
+    q = _args.as_state(model, q, "q")
+    if q.ndim != 1:
+        raise ValueError("task_space_mass_matrix: q must be a single configuration (nv,)")
+    J_b, Minv_JT, _ = _inverse_task_inertia(model, q, frame, "task_space_mass_matrix")
+    Lambda_inv = J_b @ Minv_JT
+    if damping < 0 or not np.isfinite(damping):
+        raise ValueError(f"task_space_mass_matrix: damping must be finite and >= 0, got {damping}")
+    if damping > 0:
+        return np.linalg.inv(Lambda_inv + damping * np.eye(6))
+    sv = np.linalg.svd(Lambda_inv, compute_uv=False)
+    if sv[-1] <= 1e-10 * sv[0]:
+        raise SingularTaskSpaceError(
+            f"task_space_mass_matrix: frame {frame!r} of {model.name!r} cannot move in every "
+            f"task direction at this q (J_b M^-1 J_b^T has singular values {sv}; rank "
+            f"{int(np.sum(sv > 1e-10 * sv[0]))} < 6): Lambda is undefined. Pass damping > 0 "
+            f"for a damped inverse")
+    return np.linalg.inv(Lambda_inv)
+
+
+def frame_acceleration(model, q, qd, qdd, frame, gravity=None):
+    """dV_b = J_b qdd + Jdot_b qd (+ the gravity term when gravity is given): (6,) rate of the
+    frame's body twist, angular first, in the frame's coordinates.
+
+    With gravity=None the base does not accelerate (pure kinematics); otherwise dV_0 = (0, -g).
+    """
+    (q, qd, qdd), batch = _args.as_states(model, ("q", q), ("qd", qd), ("qdd", qdd))
+    if batch:
+        raise ValueError("frame_acceleration: q, qd, qdd must be single states (nv,)")
+    g = np.zeros(3) if gravity is None else _args.as_gravity(model, gravity)
+    fr = model.frames[model.frame_index(frame)]
+    if fr.body < 0:
+        return np.zeros(6)
+    nb = model.nb
+    R, p = np.empty((nb, 3, 3)), np.empty((nb, 3))
+    V, dV = np.empty((nb, 6)), np.empty((nb, 6))
+    for name, x in (("q", q), ("qd", qd), ("qdd", qdd)):
+        if not np.all(np.isfinite(x)):
+            raise ValueError(f"frame_acceleration: {name} must be finite")
+    forward_pass(model._ibuf, model._fbuf, q, qd, qdd, g, R, p, V, dV, np.empty(6))
+    # dV_frame = Ad_{T_{frame,body}} dV_body (the frame is rigidly attached)
+    T = fr.T_body_frame
+    R_bf, p_bf = T[:3, :3], T[:3, 3]
+    w, v = dV[fr.body, :3], dV[fr.body, 3:]
+    return np.concatenate([R_bf.T @ w, R_bf.T @ (v + np.cross(w, p_bf))])
+
+
+def task_space_bias(model, q, qd, frame, gravity=None):
+    """eta(q, qd) = Lambda (J_b M^-1 h - Jdot_b qd): (6,) the wrench (m, f), in the frame's
+    coordinates, of velocity-product and gravity terms, so that F = Lambda dV_b + eta.
+
+    Raises SingularTaskSpaceError where Lambda is undefined (see task_space_mass_matrix).
+    """
+    Lambda = task_space_mass_matrix(model, q, frame)
+    J_b, _, M_chol = _inverse_task_inertia(model, q, frame, "task_space_bias")
+    h = bias_forces(model, q, qd, gravity)
+    Jdot_qd = frame_acceleration(model, q, qd, np.zeros(model.nv), frame)
+    return Lambda @ (J_b @ scipy.linalg.cho_solve(M_chol, h) - Jdot_qd)

@@ -1,0 +1,472 @@
+"""load_urdf: a URDF file (parsed by yourdfpy) -> a frozen Model, with a fidelity report.
+
+For each moving joint i (revolute, continuous, prismatic) in depth-first order over the tree:
+
+    M_{lambda(i), i} = T_{body(parent link), parent link} T_origin(joint i)
+    A_i = (a, 0) revolute / continuous,  (0, a) prismatic,   a = axis / |axis|
+    G_i = sum over links L welded to body i of  Ad_{T_{L_com, i}}^T G_{L_com} Ad_{T_{L_com, i}}
+
+Fixed joints are merged: a link hanging from a fixed joint becomes a frame of the body above it
+and its inertia is lumped into that body. The root link and the links welded to it belong to the
+fixed world; their inertia plays no part (as in Pinocchio). Every URDF link stays a named frame.
+"""
+
+from __future__ import annotations
+
+import importlib.metadata
+import importlib.resources
+import io
+import math
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+from lxml import etree
+
+from .model import PRISMATIC, REVOLUTE, Frame, Model
+from .spatial import spatial_inertia
+
+MOVING_TYPES = {"revolute": REVOLUTE, "continuous": REVOLUTE, "prismatic": PRISMATIC}
+SUPPORTED_TYPES = set(MOVING_TYPES) | {"fixed"}
+
+
+class URDFError(ValueError):
+    """A URDF that cannot be turned into a model; the message names the file, element, problem."""
+
+
+@dataclass
+class FidelityReport:
+    """What the loader did with each part of the URDF.
+
+    honoured:    content that is part of the model exactly as written
+    transformed: content that was changed on the way in (lumped links, normalised axes, ...)
+    ignored:     content the model does not use (collision geometry, transmissions, ...)
+    """
+
+    source: str
+    honoured: list[str] = field(default_factory=list)
+    transformed: list[str] = field(default_factory=list)
+    ignored: list[str] = field(default_factory=list)
+
+    def __str__(self) -> str:
+        lines = [f"URDF fidelity report for {self.source}"]
+        for title, items in (("honoured", self.honoured), ("transformed", self.transformed),
+                             ("ignored", self.ignored)):
+            lines.append(f"  {title}: {len(items)}")
+            lines.extend(f"    - {item}" for item in items)
+        return "\n".join(lines)
+
+
+def load_urdf(path, floating_base: bool = False, mimic: bool = False,
+              check_inertia: bool = True) -> Model:
+    """Load a URDF file, or a robot by name, into a frozen Model.
+
+    Args:
+      path: a URDF file path, or a robot name (``"ur5"``, ``"panda"``, ``"double_pendulum"``)
+        resolved among the robots shipped with opendyn and, when installed, example-robot-data.
+      floating_base: a free-flying root joint; not supported yet (raises NotImplementedError).
+      mimic: False (default) keeps mimic joints as independent coordinates; True couples them,
+        q_joint = multiplier * q_mimicked + offset, so they are not coordinates of the model.
+      check_inertia: True (default) rejects inertias that no rigid body can have (not positive
+        semi-definite, or violating the triangle inequality I_a + I_b >= I_c of the principal
+        moments); False keeps them as written and lists them in the fidelity report.
+
+    Returns the Model; ``model.report`` is the fidelity report (honoured, transformed, ignored).
+    Raises URDFError naming the file, the element and the problem for malformed input.
+    """
+    if floating_base:
+        raise NotImplementedError("load_urdf: floating_base=True is not supported yet; "
+                                  "opendyn models are fixed-base")
+    file = resolve_robot(path)
+    root = _parse_xml(file)
+    _check_numbers(file, root)
+    urdf = _parse_yourdfpy(file, root)
+    return _Builder(file, root, urdf.robot, mimic, check_inertia).build()
+
+
+def resolve_robot(path) -> str:
+    """The URDF file for a path or a robot name; URDFError listing known names if neither."""
+    if isinstance(path, os.PathLike) or (isinstance(path, str) and (
+            os.sep in path or "/" in path or path.endswith(".urdf") or os.path.exists(path))):
+        if not os.path.isfile(path):
+            raise URDFError(f"{path}: no such URDF file")
+        return os.fspath(path)
+    if not isinstance(path, str):
+        raise TypeError(f"load_urdf: path must be a file path or a robot name, not {path!r}")
+    robots = available_robots()
+    if path in robots:
+        return robots[path]
+    known = ", ".join(sorted(robots)[:40])
+    raise URDFError(f"{path!r} is neither a URDF file nor a known robot name; known robots: "
+                    f"{known}{', ...' if len(robots) > 40 else ''}")
+
+
+def available_robots() -> dict[str, str]:
+    """Robot names -> URDF paths: opendyn's own robots first, then example-robot-data's.
+
+    A robot is named by its file stem (``ur5_robot``) and, where unambiguous, by the stem
+    without a ``_robot`` suffix (``ur5``).
+    """
+    found: dict[str, str] = {}
+    shipped = importlib.resources.files("opendyn.robots")
+    paths = sorted(str(p) for p in shipped.iterdir() if p.name.endswith(".urdf"))
+    try:
+        dist = importlib.metadata.distribution("example-robot-data")
+        paths += sorted(str(dist.locate_file(f)) for f in (dist.files or [])
+                        if str(f).endswith(".urdf"))
+    except importlib.metadata.PackageNotFoundError:
+        pass
+    for p in paths:
+        found.setdefault(Path(p).stem, p)
+    for p in paths:
+        stem = Path(p).stem
+        if stem.endswith("_robot"):
+            found.setdefault(stem[: -len("_robot")], p)
+    return found
+
+
+def _parse_xml(file):
+    try:
+        root = etree.parse(file).getroot()
+    except etree.XMLSyntaxError as e:
+        raise URDFError(f"{file}: malformed XML: {e}") from None
+    if root.tag != "robot":
+        raise URDFError(f"{file}: the root element is <{root.tag}>, expected <robot>")
+    if not root.get("name"):
+        raise URDFError(f"{file}: <robot> has no name attribute")
+    return root
+
+
+def _where(el) -> str:
+    """'<tag name="..."> (line N)' for the nearest named ancestor of an element."""
+    named = el
+    while named is not None and named.get("name") is None:
+        named = named.getparent()
+    owner = f'<{named.tag} name="{named.get("name")}">' if named is not None else "<robot>"
+    inner = "" if named is el else f" <{el.tag}>"
+    return f"{owner}{inner} (line {el.sourceline})"
+
+
+_NUMERIC = {  # element tag -> {attribute: number of values}
+    "origin": {"xyz": 3, "rpy": 3},
+    "axis": {"xyz": 3},
+    "mass": {"value": 1},
+    "inertia": {k: 1 for k in ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")},
+    "limit": {"lower": 1, "upper": 1, "effort": 1, "velocity": 1},
+    "dynamics": {"damping": 1, "friction": 1},
+    "mimic": {"multiplier": 1, "offset": 1},
+}
+
+
+def _check_numbers(file, root) -> None:
+    """Every numeric attribute of the kinematic and inertial elements parses and is finite."""
+    for owner in root.iterchildren("link", "joint"):
+        for el in owner.iter(*_NUMERIC):
+            if any(a.tag in ("visual", "collision") for a in el.iterancestors()):
+                continue
+            for attr, count in _NUMERIC[el.tag].items():
+                text = el.get(attr)
+                if text is not None:
+                    _check_values(file, el, attr, text, count)
+            if el.tag in ("mass", "inertia") and el.getparent().tag == "inertial" \
+                    and not el.attrib:
+                raise URDFError(f"{file}: {_where(el)}: <{el.tag}> has no values")
+
+
+def _check_values(file, el, attr, text, count):
+    try:
+        values = [float(t) for t in text.split()]
+    except ValueError:
+        raise URDFError(f"{file}: {_where(el)}: {attr}={text!r} is not a number") from None
+    if len(values) != count:
+        raise URDFError(f"{file}: {_where(el)}: {attr}={text!r} must have {count} "
+                        f"value{'s' if count > 1 else ''}")
+    if not all(math.isfinite(v) for v in values):
+        raise URDFError(f"{file}: {_where(el)}: {attr}={text!r} is not finite")
+
+
+def _parse_yourdfpy(file, root):
+    import yourdfpy
+
+    for tag in ("link", "joint"):
+        for el in root.iterchildren(tag):
+            if not el.get("name"):
+                raise URDFError(f"{file}: <{tag}> at line {el.sourceline} has no name")
+    for el in root.iterchildren("joint"):
+        for end in ("parent", "child"):
+            sub = el.find(end)
+            if sub is None or not sub.get("link"):
+                raise URDFError(f"{file}: {_where(el)}: missing <{end} link=...>")
+    try:
+        return yourdfpy.URDF.load(io.BytesIO(etree.tostring(root)), build_scene_graph=False,
+                                  load_meshes=False, build_collision_scene_graph=False,
+                                  load_collision_meshes=False)
+    except Exception as e:  # yourdfpy raises bare KeyError/ValueError on content it rejects
+        raise URDFError(f"{file}: yourdfpy could not parse the URDF: {e!r}") from None
+
+
+def _T_inv(T):
+    Ti = np.eye(4)
+    Ti[:3, :3] = T[:3, :3].T
+    Ti[:3, 3] = -T[:3, :3].T @ T[:3, 3]
+    return Ti
+
+
+class _Builder:
+    """Walks the URDF tree depth-first and accumulates bodies, frames and the report."""
+
+    def __init__(self, file, root, robot, mimic, check_inertia):
+        self.file, self.root, self.robot = file, root, robot
+        self.use_mimic, self.check_inertia = mimic, check_inertia
+        self.report = FidelityReport(source=file)
+
+    def fail(self, what: str):
+        raise URDFError(f"{self.file}: {what}")
+
+    def build(self) -> Model:
+        links = self._links_by_name()
+        joints = self._joints_by_name(links)
+        root_link, children = self._tree(links, joints)
+        order = self._depth_first(root_link, children)
+        coords, mimic_of = self._coordinates(order, joints)
+
+        body_of = {root_link: -1}
+        T_body_link = {root_link: np.eye(4)}
+        parent, jtype, A, R_home, p_home, body_names, body_joints = [], [], [], [], [], [], []
+        for j in order:
+            plink = j.parent
+            origin = j.origin if j.origin is not None else np.eye(4)
+            T_pj = T_body_link[plink] @ origin
+            if j.type == "fixed":
+                body_of[j.child], T_body_link[j.child] = body_of[plink], T_pj
+                continue
+            axis = self._unit_axis(j)
+            body_of[j.child], T_body_link[j.child] = len(body_names), np.eye(4)
+            parent.append(body_of[plink])
+            jtype.append(MOVING_TYPES[j.type])
+            A.append(np.concatenate([axis, np.zeros(3)]) if j.type != "prismatic"
+                     else np.concatenate([np.zeros(3), axis]))
+            R_home.append(T_pj[:3, :3])
+            p_home.append(T_pj[:3, 3])
+            body_names.append(j.child)
+            body_joints.append(j.name)
+
+        G = self._body_inertias(links, body_of, T_body_link, len(body_names))
+        frames = [Frame(name, body_of[name], T_body_link[name]) for name in links]
+        self._report_content(links, joints, body_of)
+
+        coord_index = {name: k for k, name in enumerate(coords)}
+        coord, mult, offset = [], [], []
+        for name in body_joints:
+            src, m, o = mimic_of.get(name, (name, 1.0, 0.0))
+            coord.append(coord_index[src])
+            mult.append(m)
+            offset.append(o)
+        limits = self._limits(coords, joints)
+        return Model.build(
+            name=self.robot.name, joint_names=coords, body_names=body_names,
+            body_joints=body_joints, parent=parent, jtype=jtype, coord=coord, mult=mult,
+            offset=offset, A=np.reshape(A, (-1, 6)), G=G, R_home=np.reshape(R_home, (-1, 3, 3)),
+            p_home=np.reshape(p_home, (-1, 3)), frames=frames, report=self.report,
+            source=self.file, **limits)
+
+    def _links_by_name(self):
+        links = {}
+        for link in self.robot.links:
+            if link.name in links:
+                self.fail(f'duplicate link name "{link.name}"')
+            links[link.name] = link
+        if not links:
+            self.fail("the robot has no <link>")
+        return links
+
+    def _joints_by_name(self, links):
+        joints = {}
+        for j in self.robot.joints:
+            where = f'<joint name="{j.name}">'
+            if j.name in joints:
+                self.fail(f'duplicate joint name "{j.name}"')
+            if j.type not in SUPPORTED_TYPES:
+                hint = (" (a free-flying base is load_urdf(..., floating_base=True))"
+                        if j.type == "floating" else "")
+                self.fail(f"{where}: joint type {j.type!r} is not supported; supported types: "
+                          f"revolute, continuous, prismatic, fixed{hint}")
+            for end, link in (("parent", j.parent), ("child", j.child)):
+                if link not in links:
+                    self.fail(f'{where}: {end} link "{link}" is not a <link> of the robot')
+            if j.parent == j.child:
+                self.fail(f'{where}: parent and child are the same link "{j.child}"')
+            joints[j.name] = j
+        return joints
+
+    def _tree(self, links, joints):
+        children = {name: [] for name in links}
+        parent_joint = {}
+        for j in joints.values():
+            if j.child in parent_joint:
+                self.fail(f'link "{j.child}" is the child of two joints, '
+                          f'"{parent_joint[j.child].name}" and "{j.name}" (a URDF is a tree)')
+            parent_joint[j.child] = j
+            children[j.parent].append(j)
+        roots = [name for name in links if name not in parent_joint]
+        if not roots:
+            self.fail("the joints form a cycle: every link is the child of a joint, so there is "
+                      "no root link")
+        if len(roots) > 1:
+            self.fail(f"the URDF has {len(roots)} root links ({', '.join(roots)}); a robot has "
+                      f"one root (link the others to it with a joint)")
+        reached, stack = {roots[0]}, [roots[0]]
+        while stack:
+            for j in children[stack.pop()]:
+                reached.add(j.child)
+                stack.append(j.child)
+        cut = [name for name in links if name not in reached]
+        if cut:
+            self.fail(f"the joints form a cycle through links {', '.join(cut)}: they cannot "
+                      f"be reached from the root link {roots[0]!r}")
+        return roots[0], children
+
+    @staticmethod
+    def _depth_first(root_link, children):
+        order, stack = [], list(reversed(children[root_link]))
+        while stack:
+            j = stack.pop()
+            order.append(j)
+            stack.extend(reversed(children[j.child]))
+        return order
+
+    def _coordinates(self, order, joints):
+        """Names of the generalized coordinates, and {joint: (source, multiplier, offset)}."""
+        mimic_of = {}
+        for j in order:
+            if j.mimic is None or j.type == "fixed":
+                continue
+            if not self.use_mimic:
+                self.report.ignored.append(
+                    f"mimic on joint {j.name!r} (follows {j.mimic.joint!r}): kept as an "
+                    f"independent coordinate (load_urdf(..., mimic=True) couples it)")
+                continue
+            if j.mimic.joint not in joints or joints[j.mimic.joint].type == "fixed":
+                self.fail(f'<joint name="{j.name}"> <mimic joint="{j.mimic.joint}">: not a '
+                          f"moving joint of the robot")
+            mimic_of[j.name] = (j.mimic.joint, float(j.mimic.multiplier or 1.0),
+                                float(j.mimic.offset or 0.0))
+        for name in list(mimic_of):
+            src, m, o = mimic_of[name]
+            seen = {name}
+            while src in mimic_of:
+                if src in seen:
+                    self.fail(f"mimic joints form a cycle through {sorted(seen)}")
+                seen.add(src)
+                src, m, o = mimic_of[src][0], m * mimic_of[src][1], m * mimic_of[src][2] + o
+            mimic_of[name] = (src, m, o)
+            self.report.transformed.append(
+                f"mimic joint {name!r} = {m:g} * {src!r} + {o:g}: not a coordinate of the model")
+        coords = [j.name for j in order if j.type != "fixed" and j.name not in mimic_of]
+        return coords, mimic_of
+
+    def _unit_axis(self, j):
+        axis = np.asarray(j.axis if j.axis is not None else (1.0, 0.0, 0.0), dtype=float)
+        norm = float(np.linalg.norm(axis))
+        if norm < 1e-12:
+            self.fail(f'<joint name="{j.name}"> <axis xyz="{" ".join(map(str, axis))}">: '
+                      f"the axis is zero")
+        if abs(norm - 1.0) > 1e-12:
+            self.report.transformed.append(
+                f"axis of joint {j.name!r} normalised (length {norm:g})")
+        return axis / norm
+
+    def _body_inertias(self, links, body_of, T_body_link, nb):
+        G = np.zeros((nb, 6, 6))
+        for name, link in links.items():
+            inertial = link.inertial
+            if inertial is None:
+                continue
+            where = f'<link name="{name}"> <inertial>'
+            mass = float(inertial.mass if inertial.mass is not None else 0.0)
+            I = np.zeros((3, 3)) if inertial.inertia is None else inertial.inertia
+            T_body_com = T_body_link[name] @ (
+                inertial.origin if inertial.origin is not None else np.eye(4))
+            com, R_com = T_body_com[:3, 3], T_body_com[:3, :3]
+            try:
+                G_link = spatial_inertia(mass, com, I, R_com)
+            except ValueError as e:
+                if self.check_inertia or mass < 0:
+                    self.fail(f"{where}: {e}; no rigid body has it"
+                              + ("" if mass < 0 else
+                                 " (load_urdf(..., check_inertia=False) keeps it as written)"))
+                self.report.honoured.append(f"{where}: kept as written although {e}")
+                G_link = spatial_inertia(mass, com, I, R_com, physical=False)
+            if body_of[name] >= 0:
+                G[body_of[name]] += G_link
+            elif mass > 0:
+                self.report.ignored.append(
+                    f"inertia of link {name!r} ({mass:g} kg): welded to the fixed root")
+        return G
+
+    def _limits(self, coords, joints):
+        n = len(coords)
+        out = {k: np.full(n, v) for k, v in (("lower", -np.inf), ("upper", np.inf),
+                                              ("velocity_limit", np.inf),
+                                              ("effort_limit", np.inf), ("damping", 0.0),
+                                              ("friction", 0.0))}
+        out["continuous"] = np.zeros(n, dtype=bool)
+        for k, name in enumerate(coords):
+            j = joints[name]
+            out["continuous"][k] = j.type == "continuous"
+            lim = j.limit
+            if lim is not None:
+                if j.type != "continuous":
+                    if lim.lower is not None:
+                        out["lower"][k] = float(lim.lower)
+                    if lim.upper is not None:
+                        out["upper"][k] = float(lim.upper)
+                    if out["lower"][k] > out["upper"][k]:
+                        self.fail(f'<joint name="{name}"> <limit>: lower {out["lower"][k]:g} '
+                                  f'> upper {out["upper"][k]:g}')
+                for key, val in (("velocity_limit", lim.velocity), ("effort_limit", lim.effort)):
+                    if val is not None:
+                        out[key][k] = float(val)
+            dyn = j.dynamics
+            if dyn is not None:
+                for key in ("damping", "friction"):
+                    val = getattr(dyn, key)
+                    if val is None:
+                        continue
+                    out[key][k] = float(val)
+                    if out[key][k] < 0:
+                        self.fail(f'<joint name="{name}"> <dynamics>: negative {key} '
+                                  f"{out[key][k]:g}")
+        return out
+
+    def _report_content(self, links, joints, body_of):
+        r = self.report
+        moving = [j for j in joints.values() if j.type != "fixed"]
+        fixed = [j for j in joints.values() if j.type == "fixed"]
+        r.honoured.append(f"{len(moving)} moving joints (revolute, continuous, prismatic) with "
+                          f"their origins, axes, limits and <dynamics>")
+        r.honoured.append(f"{len(links)} links kept as named frames, with their <inertial>")
+        for j in fixed:
+            where = "the fixed world" if body_of[j.child] < 0 else "the body above it"
+            r.transformed.append(f"fixed joint {j.name!r}: link {j.child!r} merged into {where}")
+        massless = [n for n, l in links.items() if l.inertial is None and body_of[n] >= 0]
+        if massless:
+            r.transformed.append(f"links without <inertial> taken as massless: "
+                                 f"{', '.join(massless)}")
+        n_vis = sum(len(l.visuals) for l in links.values())
+        n_col = sum(len(l.collisions) for l in links.values())
+        if n_vis:
+            r.ignored.append(f"{n_vis} <visual> elements (used only for playback)")
+        if n_col:
+            r.ignored.append(f"{n_col} <collision> elements (no contact model)")
+        for tag, what in (("safety_controller", "soft limits"), ("calibration", "calibration"),
+                          ("transmission", "actuator transmissions"),
+                          ("gazebo", "simulator-specific settings")):
+            count = sum(1 for _ in self.root.iter(tag))
+            if count:
+                r.ignored.append(f"{count} <{tag}> elements ({what})")
+        known = {"link", "joint", "material", "transmission", "gazebo"}
+        others = sorted({el.tag for el in self.root if isinstance(el.tag, str)} - known)
+        if others:
+            r.ignored.append(f"unknown top-level elements: {', '.join(others)}")

@@ -1,0 +1,1 @@
+"""URDFs and scenes shipped with opendyn."""
