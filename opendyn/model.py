@@ -44,6 +44,9 @@ def _fbuf_layout(nb: int) -> dict[str, tuple[int, tuple[int, ...]]]:
             ("offset", (nb,)),
             ("A", (nb, 6)),
             ("G", (nb, 6, 6)),
+            ("mass", (nb,)),
+            ("h", (nb, 3)),
+            ("I_o", (nb, 3, 3)),
             ("R_home", (nb, 3, 3)),
             ("p_home", (nb, 3)),
         ],
@@ -96,6 +99,8 @@ class Model:
       coord, mult, offset  (nb,) q_body[i] = mult[i] * q[coord[i]] + offset[i]
       A               (nb, 6) screw axis of joint i in {i}, angular first, unit axis
       G               (nb, 6, 6) spatial inertia of body i about the origin of {i}, in {i} (kg, m)
+      mass, h, I_o    (nb,), (nb, 3), (nb, 3, 3): the same inertia as mass, first moment m c (kg m)
+                      and rotational inertia about {i}'s origin (kg m^2), all in {i}
       R_home, p_home  (nb, 3, 3), (nb, 3): M_{lambda(i), i} = (R_home[i], p_home[i]) in metres
       lower, upper    (nv,) position limits (rad or m); -inf/+inf where the joint has none
       velocity_limit, effort_limit (nv,) (rad/s or m/s, N m or N); +inf where absent
@@ -138,7 +143,14 @@ class Model:
         for key, arr in (("parent", parent), ("jtype", jtype), ("coord", coord)):
             off, shape = ilay[key]
             ibuf[off:off + int(np.prod(shape))] = np.asarray(arr, dtype=np.int64).ravel()
+        G = np.reshape(np.asarray(G, dtype=np.float64), (nb, 6, 6))
+        # the same inertia in rigid-body form: mass m, first moment h = m c, I_o about {i}'s
+        # origin; G = [[I_o, [h]], [[h]^T, m 1]]
+        mass = G[:, 3, 3]
+        h = np.stack([G[:, 2, 4], G[:, 0, 5], G[:, 1, 3]], axis=-1)
+        I_o = G[:, :3, :3]
         for key, arr in (("mult", mult), ("offset", offset), ("A", A), ("G", G),
+                         ("mass", mass), ("h", h), ("I_o", I_o),
                          ("R_home", R_home), ("p_home", p_home)):
             off, shape = flay[key]
             fbuf[off:off + int(np.prod(shape))] = np.asarray(arr, dtype=np.float64).ravel()
@@ -183,6 +195,9 @@ class Model:
     offset = property(lambda self: self._ffield("offset"), doc="(nb,) mimic offset")
     A = property(lambda self: self._ffield("A"), doc="(nb, 6) screw axes A_i in {i}")
     G = property(lambda self: self._ffield("G"), doc="(nb, 6, 6) spatial inertias G_i in {i}")
+    mass = property(lambda self: self._ffield("mass"), doc="(nb,) body masses (kg)")
+    h = property(lambda self: self._ffield("h"), doc="(nb, 3) first moments m c in {i} (kg m)")
+    I_o = property(lambda self: self._ffield("I_o"), doc="(nb, 3, 3) inertia about {i}'s origin")
     R_home = property(lambda self: self._ffield("R_home"), doc="(nb, 3, 3) rotation of M_{p,i}")
     p_home = property(lambda self: self._ffield("p_home"), doc="(nb, 3) translation of M_{p,i}")
 

@@ -13,6 +13,7 @@ fixed world; their inertia plays no part (as in Pinocchio). Every URDF link stay
 
 from __future__ import annotations
 
+import difflib
 import importlib.metadata
 import importlib.resources
 import io
@@ -97,9 +98,11 @@ def resolve_robot(path) -> str:
     robots = available_robots()
     if path in robots:
         return robots[path]
+    close = difflib.get_close_matches(path, robots, n=5)
     known = ", ".join(sorted(robots)[:40])
-    raise URDFError(f"{path!r} is neither a URDF file nor a known robot name; known robots: "
-                    f"{known}{', ...' if len(robots) > 40 else ''}")
+    raise URDFError(f"{path!r} is neither a URDF file nor a known robot name"
+                    + (f"; closest names: {', '.join(close)}" if close else "")
+                    + f"; known robots: {known}{', ...' if len(robots) > 40 else ''}")
 
 
 def available_robots() -> dict[str, str]:
@@ -275,7 +278,7 @@ class _Builder:
         links = {}
         for link in self.robot.links:
             if link.name in links:
-                self.fail(f'duplicate link name "{link.name}"')
+                self.fail(f'<link name="{link.name}">: duplicate link name')
             links[link.name] = link
         if not links:
             self.fail("the robot has no <link>")
@@ -286,7 +289,7 @@ class _Builder:
         for j in self.robot.joints:
             where = f'<joint name="{j.name}">'
             if j.name in joints:
-                self.fail(f'duplicate joint name "{j.name}"')
+                self.fail(f"{where}: duplicate joint name")
             if j.type not in SUPPORTED_TYPES:
                 hint = (" (a free-flying base is load_urdf(..., floating_base=True))"
                         if j.type == "floating" else "")
@@ -305,17 +308,19 @@ class _Builder:
         parent_joint = {}
         for j in joints.values():
             if j.child in parent_joint:
-                self.fail(f'link "{j.child}" is the child of two joints, '
-                          f'"{parent_joint[j.child].name}" and "{j.name}" (a URDF is a tree)')
+                self.fail(f'<link name="{j.child}"> is the child of two joints, '
+                          f'<joint name="{parent_joint[j.child].name}"> and '
+                          f'<joint name="{j.name}"> (a URDF is a tree)')
             parent_joint[j.child] = j
             children[j.parent].append(j)
         roots = [name for name in links if name not in parent_joint]
         if not roots:
-            self.fail("the joints form a cycle: every link is the child of a joint, so there is "
-                      "no root link")
+            self.fail(f"the joints {self._cycle(parent_joint, next(iter(links)))} form a cycle: "
+                      f"every link is the child of a joint, so there is no root link")
         if len(roots) > 1:
-            self.fail(f"the URDF has {len(roots)} root links ({', '.join(roots)}); a robot has "
-                      f"one root (link the others to it with a joint)")
+            named = ", ".join(f'<link name="{r}">' for r in roots)
+            self.fail(f"the URDF has {len(roots)} root links ({named}); a robot has one root "
+                      f"(link the others to it with a joint)")
         reached, stack = {roots[0]}, [roots[0]]
         while stack:
             for j in children[stack.pop()]:
@@ -323,9 +328,21 @@ class _Builder:
                 stack.append(j.child)
         cut = [name for name in links if name not in reached]
         if cut:
-            self.fail(f"the joints form a cycle through links {', '.join(cut)}: they cannot "
-                      f"be reached from the root link {roots[0]!r}")
+            self.fail(f"the joints {self._cycle(parent_joint, cut[0])} form a cycle: links "
+                      f"{', '.join(cut)} cannot be reached from the root link {roots[0]!r}")
         return roots[0], children
+
+    @staticmethod
+    def _cycle(parent_joint, link):
+        """'<joint name="a">, <joint name="b">, ...': the cycle met walking up from a link that
+        no root reaches (every link on the way has a parent joint)."""
+        path, seen = [], set()
+        while link not in seen:
+            seen.add(link)
+            path.append(parent_joint[link])
+            link = path[-1].parent
+        start = next(k for k, j in enumerate(path) if j.child == link)
+        return ", ".join(f'<joint name="{j.name}">' for j in reversed(path[start:]))
 
     @staticmethod
     def _depth_first(root_link, children):
@@ -357,7 +374,8 @@ class _Builder:
             seen = {name}
             while src in mimic_of:
                 if src in seen:
-                    self.fail(f"mimic joints form a cycle through {sorted(seen)}")
+                    self.fail(f'<joint name="{name}"> <mimic>: mimic joints form a cycle '
+                              f"through {', '.join(sorted(seen))}")
                 seen.add(src)
                 src, m, o = mimic_of[src][0], m * mimic_of[src][1], m * mimic_of[src][2] + o
             mimic_of[name] = (src, m, o)
@@ -423,8 +441,8 @@ class _Builder:
                     if lim.upper is not None:
                         out["upper"][k] = float(lim.upper)
                     if out["lower"][k] > out["upper"][k]:
-                        self.fail(f'<joint name="{name}"> <limit>: lower {out["lower"][k]:g} '
-                                  f'> upper {out["upper"][k]:g}')
+                        self.fail(f'<joint name="{name}"> <limit>: lower limit '
+                                  f'{out["lower"][k]:g} is above upper limit {out["upper"][k]:g}')
                 for key, val in (("velocity_limit", lim.velocity), ("effort_limit", lim.effort)):
                     if val is not None:
                         out[key][k] = float(val)

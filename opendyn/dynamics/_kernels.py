@@ -24,7 +24,8 @@ INLINE = dict(cache=True, nogil=True, inline="always")
 
 @njit(**INLINE)
 def unpack(ibuf, fbuf):
-    """Views of the model buffers: parent, jtype, coord, mult, offset, A, G, R_home, p_home."""
+    """Views of the model buffers: parent, jtype, coord, mult, offset, A, G, mass, h, I_o,
+    R_home, p_home (the layout of model._fbuf_layout)."""
     nb = ibuf[0]
     parent = ibuf[2:2 + nb]
     jtype = ibuf[2 + nb:2 + 2 * nb]
@@ -36,10 +37,16 @@ def unpack(ibuf, fbuf):
     o += 6 * nb
     G = fbuf[o:o + 36 * nb].reshape((nb, 6, 6))
     o += 36 * nb
+    mass = fbuf[o:o + nb]
+    o += nb
+    h = fbuf[o:o + 3 * nb].reshape((nb, 3))
+    o += 3 * nb
+    I_o = fbuf[o:o + 9 * nb].reshape((nb, 3, 3))
+    o += 9 * nb
     R_home = fbuf[o:o + 9 * nb].reshape((nb, 3, 3))
     o += 9 * nb
     p_home = fbuf[o:o + 3 * nb].reshape((nb, 3))
-    return parent, jtype, coord, mult, offset, A, G, R_home, p_home
+    return parent, jtype, coord, mult, offset, A, G, mass, h, I_o, R_home, p_home
 
 
 @njit(**INLINE)
@@ -192,3 +199,43 @@ def add_inertia_to_parent(R, p, I_child, I_parent, S):
                 K_rc += (-S[r, 3 + k] * P[k][c] + P[r][k] * S[c, 3 + k]
                          - S[6 + r, k] * P[k][c])
             I_parent[r, c] += K_rc
+
+
+@njit(**INLINE)
+def rigid_inertia_times(mass, h, I_o, V, out):
+    """out = G V for G = [[I_o, [h]], [[h]^T, m 1]]: (I_o w + h x v, m v - h x w)."""
+    w0, w1, w2, v0, v1, v2 = V[0], V[1], V[2], V[3], V[4], V[5]
+    out[0] = I_o[0, 0] * w0 + I_o[0, 1] * w1 + I_o[0, 2] * w2 + h[1] * v2 - h[2] * v1
+    out[1] = I_o[1, 0] * w0 + I_o[1, 1] * w1 + I_o[1, 2] * w2 + h[2] * v0 - h[0] * v2
+    out[2] = I_o[2, 0] * w0 + I_o[2, 1] * w1 + I_o[2, 2] * w2 + h[0] * v1 - h[1] * v0
+    out[3] = mass * v0 - h[1] * w2 + h[2] * w1
+    out[4] = mass * v1 - h[2] * w0 + h[0] * w2
+    out[5] = mass * v2 - h[0] * w1 + h[1] * w0
+
+
+@njit(**INLINE)
+def add_rigid_inertia_to_parent(R, p, mass, h, I_o, mass_p, h_p, I_p):
+    """(mass_p, h_p, I_p) += the rigid-body inertia (mass, h, I_o) of {i} expressed in {lambda}.
+
+    With u = R h:  m' = m,  h' = u + m p,
+    I' = R I_o R^T - ([u][p] + [p][u]) - m [p][p]
+       = R I_o R^T - (p u^T + u p^T) + 2 (u . p) 1 - m (p p^T - |p|^2 1).
+    """
+    u0 = R[0, 0] * h[0] + R[0, 1] * h[1] + R[0, 2] * h[2]
+    u1 = R[1, 0] * h[0] + R[1, 1] * h[1] + R[1, 2] * h[2]
+    u2 = R[2, 0] * h[0] + R[2, 1] * h[1] + R[2, 2] * h[2]
+    u = (u0, u1, u2)
+    mass_p[0] += mass
+    for r in range(3):
+        h_p[r] += u[r] + mass * p[r]
+    diag = 2.0 * (u0 * p[0] + u1 * p[1] + u2 * p[2]) + mass * (p[0] * p[0] + p[1] * p[1]
+                                                               + p[2] * p[2])
+    for r in range(3):
+        for c in range(3):
+            s = 0.0
+            for k in range(3):
+                s += R[r, k] * (I_o[k, 0] * R[c, 0] + I_o[k, 1] * R[c, 1] + I_o[k, 2] * R[c, 2])
+            s -= p[r] * u[c] + u[r] * p[c] + mass * p[r] * p[c]
+            if r == c:
+                s += diag
+            I_p[r, c] += s

@@ -36,7 +36,7 @@ def aba_kernel(ibuf, fbuf, q, qd, tau, gravity, F_ext, qdd):
         return 2
     if not all_finite(tau):
         return 4
-    parent, jtype, coord, mult, offset, A, G, R_home, p_home = unpack(ibuf, fbuf)
+    parent, jtype, coord, mult, offset, A, G, mass, h, I_o, R_home, p_home = unpack(ibuf, fbuf)
     nb = parent.shape[0]
     R = np.empty((nb, 3, 3))
     p = np.empty((nb, 3))

@@ -30,7 +30,7 @@ def christoffel_kernel(ibuf, fbuf, q, Gamma):
     """Gamma (nv, nv, nv) <- Christoffel symbols at q. Status 1: q not finite."""
     if not all_finite(q):
         return 1
-    parent, jtype, coord, mult, offset, A, G, R_home, p_home = unpack(ibuf, fbuf)
+    parent, jtype, coord, mult, offset, A, G, mass, h, I_o, R_home, p_home = unpack(ibuf, fbuf)
     nb, nv = parent.shape[0], Gamma.shape[0]
     R_s = np.empty((nb, 3, 3))
     p_s = np.empty((nb, 3))

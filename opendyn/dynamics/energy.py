@@ -12,7 +12,7 @@ import numpy as np
 from numba import njit, prange
 
 from . import _args
-from ._kernels import JIT, all_finite, mat6_vec, unpack
+from ._kernels import JIT, all_finite, rigid_inertia_times, unpack
 from .kinematics import fk_kernel
 from .rnea import forward_pass
 
@@ -24,7 +24,7 @@ def kinetic_kernel(ibuf, fbuf, q, qd, out):
         return 1
     if not all_finite(qd):
         return 2
-    parent, jtype, coord, mult, offset, A, G, R_home, p_home = unpack(ibuf, fbuf)
+    parent, jtype, coord, mult, offset, A, G, mass, h, I_o, R_home, p_home = unpack(ibuf, fbuf)
     nb = parent.shape[0]
     R = np.empty((nb, 3, 3))
     p = np.empty((nb, 3))
@@ -34,7 +34,7 @@ def kinetic_kernel(ibuf, fbuf, q, qd, out):
     forward_pass(ibuf, fbuf, q, qd, np.zeros_like(qd), np.zeros(3), R, p, V, dV, s)
     K = 0.0
     for i in range(nb):
-        mat6_vec(G[i], V[i], s)
+        rigid_inertia_times(mass[i], h[i], I_o[i], V[i], s)
         for k in range(6):
             K += 0.5 * V[i, k] * s[k]
     out[0] = K
@@ -43,20 +43,19 @@ def kinetic_kernel(ibuf, fbuf, q, qd, out):
 
 @njit(**JIT)
 def potential_kernel(ibuf, fbuf, q, gravity, out):
-    """out[0] <- -sum_i g . (R_si h_i + m_i p_si), h_i = m_i c_i read from G_i. Status 1."""
+    """out[0] <- -sum_i g . (R_si h_i + m_i p_si), h_i = m_i c_i. Status 1: q not finite."""
     if not all_finite(q):
         return 1
-    parent, jtype, coord, mult, offset, A, G, R_home, p_home = unpack(ibuf, fbuf)
+    parent, jtype, coord, mult, offset, A, G, mass, h, I_o, R_home, p_home = unpack(ibuf, fbuf)
     nb = parent.shape[0]
     R_s = np.empty((nb, 3, 3))
     p_s = np.empty((nb, 3))
     fk_kernel(ibuf, fbuf, q, R_s, p_s)
     U = 0.0
     for i in range(nb):
-        m = G[i, 3, 3]
-        h = (G[i, 2, 4], G[i, 0, 5], G[i, 1, 3])  # G_i[:3, 3:] = [h_i]
         for r in range(3):
-            mc = R_s[i, r, 0] * h[0] + R_s[i, r, 1] * h[1] + R_s[i, r, 2] * h[2] + m * p_s[i, r]
+            mc = (R_s[i, r, 0] * h[i, 0] + R_s[i, r, 1] * h[i, 1] + R_s[i, r, 2] * h[i, 2]
+                  + mass[i] * p_s[i, r])
             U -= gravity[r] * mc
     out[0] = U
     return 0

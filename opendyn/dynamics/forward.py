@@ -19,6 +19,7 @@ from .crba import crba_kernel
 from .rnea import rnea_kernel
 
 METHODS = ("aba", "crba", "newton_euler")
+_METHOD_CODE = {name: code for code, name in enumerate(METHODS)}
 
 
 @njit(**JIT)
@@ -117,22 +118,25 @@ def forward_dynamics(model, q, qd, tau, f_tip=None, gravity=None, method="aba"):
     Raises SingularMassMatrixError (a ValueError) naming the joint when nothing with mass or
     inertia moves with it.
     """
-    try:
-        code = METHODS.index(method)
-    except ValueError:
+    code = _METHOD_CODE.get(method)
+    if code is None:
         raise ValueError(f"forward_dynamics: method must be one of {', '.join(METHODS)}, "
-                         f"got {method!r}") from None
+                         f"got {method!r}")
     if code == 0 and model.nb != model.nv:
         code = 1
-    (q, qd, tau), batch = _args.as_states(model, ("q", q), ("qd", qd), ("tau", tau))
-    g = _args.as_gravity(model, gravity)
-    if not batch:
+    if _args.is_single(model, q, qd, tau):
         qdd = np.empty(model.nv)
-        status = forward_kernel(model._ibuf, model._fbuf, q, qd, tau, g,
-                                _args.body_wrenches(model, f_tip), qdd, code)
+        status = forward_kernel(model._ibuf, model._fbuf, q, qd, tau,
+                                _args.as_gravity(model, gravity),
+                                _args.NO_WRENCH if f_tip is None else _args.body_wrenches(model, f_tip),
+                                qdd, code)
         if status:
             _args.raise_status(status, model, "forward_dynamics")
         return qdd
+    (q, qd, tau), batch = _args.as_states(model, ("q", q), ("qd", qd), ("tau", tau))
+    if not batch:
+        return forward_dynamics(model, q, qd, tau, f_tip, gravity, method)
+    g = _args.as_gravity(model, gravity)
     n = q.shape[0]
     F_ext = _args.body_wrenches(model, f_tip, n)
     qdd = np.empty((n, model.nv))

@@ -20,7 +20,7 @@ from ._kernels import JIT, all_finite, joint_transform, twist_to_child, unpack
 @njit(**JIT)
 def fk_kernel(ibuf, fbuf, q, R_s, p_s):
     """R_s[i], p_s[i] <- T_{s,i}(q) for every body (world frame = the root link)."""
-    parent, jtype, coord, mult, offset, A, G, R_home, p_home = unpack(ibuf, fbuf)
+    parent, jtype, coord, mult, offset, A, G, mass, h, I_o, R_home, p_home = unpack(ibuf, fbuf)
     R = np.empty((3, 3))
     p = np.empty(3)
     for i in range(parent.shape[0]):
@@ -71,7 +71,7 @@ def jacobian_kernel(ibuf, fbuf, q, body, T_bf, body_frame, J):
     """J (6, nv) <- J_s, or J_b of the frame when body_frame. Status 1: q not finite."""
     if not all_finite(q):
         return 1
-    parent, jtype, coord, mult, offset, A, G, R_home, p_home = unpack(ibuf, fbuf)
+    parent, jtype, coord, mult, offset, A, G, mass, h, I_o, R_home, p_home = unpack(ibuf, fbuf)
     nb = parent.shape[0]
     R_s = np.empty((nb, 3, 3))
     p_s = np.empty((nb, 3))

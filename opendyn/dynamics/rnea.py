@@ -19,7 +19,7 @@ from numba import njit, prange
 
 from . import _args
 from ._kernels import (INLINE, JIT, add_neg_ad_transpose, add_wrench_to_parent, ad_twist, all_finite,
-                       dot6, joint_transform, mat6_vec, twist_to_child, unpack)
+                       dot6, joint_transform, rigid_inertia_times, twist_to_child, unpack)
 
 
 @njit(**INLINE)
@@ -28,7 +28,7 @@ def forward_pass(ibuf, fbuf, q, qd, qdd, gravity, R, p, V, dV, s):
 
     dV_0 = (0, -gravity). s is (6,) scratch. Also used for energies and frame accelerations.
     """
-    parent, jtype, coord, mult, offset, A, G, R_home, p_home = unpack(ibuf, fbuf)
+    parent, jtype, coord, mult, offset, A, G, mass, h, I_o, R_home, p_home = unpack(ibuf, fbuf)
     zero, dV_0 = np.zeros(6), np.zeros(6)
     dV_0[3:] = -gravity
     for i in range(parent.shape[0]):
@@ -58,7 +58,7 @@ def rnea_kernel(ibuf, fbuf, q, qd, qdd, gravity, F_ext, tau):
         return 2
     if not all_finite(qdd):
         return 3
-    parent, jtype, coord, mult, offset, A, G, R_home, p_home = unpack(ibuf, fbuf)
+    parent, jtype, coord, mult, offset, A, G, mass, h, I_o, R_home, p_home = unpack(ibuf, fbuf)
     nb = parent.shape[0]
     work = np.empty((3, nb, 6))
     V, dV, F = work[0], work[1], work[2]
@@ -70,8 +70,8 @@ def rnea_kernel(ibuf, fbuf, q, qd, qdd, gravity, F_ext, tau):
     # backward pass: F_i = G_i dV_i - ad_{V_i}^T G_i V_i + F_tip,i + sum_children Ad^T F_c,
     # tau_i = F_i^T A_i
     for i in range(nb):
-        mat6_vec(G[i], dV[i], F[i])
-        mat6_vec(G[i], V[i], s)
+        rigid_inertia_times(mass[i], h[i], I_o[i], dV[i], F[i])
+        rigid_inertia_times(mass[i], h[i], I_o[i], V[i], s)
         add_neg_ad_transpose(V[i], s, F[i])
         if F_ext.shape[0]:
             for k in range(6):

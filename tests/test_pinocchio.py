@@ -1,0 +1,177 @@
+"""Every contract function against Pinocchio, on every example-robot-data URDF Pinocchio loads.
+
+Pinocchio is the oracle only; the conversions between its conventions and ours live in
+pin_adapter.py. Tolerance: 1e-9 relative to the largest entry of the reference (or 1 when that
+is smaller), at several random states per robot.
+"""
+
+from __future__ import annotations
+
+import importlib.metadata
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import opendyn as od
+from opendyn.dynamics.forward import METHODS
+
+pin = pytest.importorskip("pinocchio")
+from pin_adapter import PinOracle  # noqa: E402
+
+RTOL = 1e-9
+N_STATES = 3
+
+
+def _example_robot_data_urdfs():
+    try:
+        dist = importlib.metadata.distribution("example-robot-data")
+    except importlib.metadata.PackageNotFoundError:
+        return []
+    return sorted(str(dist.locate_file(f)) for f in dist.files or [] if str(f).endswith(".urdf"))
+
+
+def _pinocchio_loads(path):
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            pin.buildModelFromUrdf(path)
+        return True
+    except (ValueError, RuntimeError):
+        return False
+
+
+URDFS = [p for p in _example_robot_data_urdfs() if _pinocchio_loads(p)]
+MODELS = {p: od.load_urdf(p, check_inertia=False) for p in URDFS}
+
+
+def assert_close(ours, ref, what):
+    ours, ref = np.asarray(ours, dtype=float), np.asarray(ref, dtype=float)
+    assert ours.shape == ref.shape, f"{what}: shape {ours.shape} != {ref.shape}"
+    if ref.size == 0:
+        return
+    scale = max(1.0, float(np.abs(ref).max()))
+    err = float(np.abs(ours - ref).max()) / scale
+    assert err <= RTOL, f"{what}: relative error {err:.3e} > {RTOL:g}"
+
+
+def _load(path, **kw):
+    """Our model and the oracle; physically invalid inertias in a few of these URDFs are kept
+    as written (check_inertia=False) since Pinocchio keeps them too."""
+    model = od.load_urdf(path, check_inertia=False, **kw)
+    return model, PinOracle(path, model, mimic=kw.get("mimic", False))
+
+
+def _states(model, seed):
+    rng = np.random.default_rng(seed)
+    for _ in range(N_STATES):
+        yield rng.uniform(-np.pi, np.pi, model.nv), rng.normal(size=(3, model.nv))
+
+
+def _test_frames(model):
+    """A frame on the last body, a frame on a fixed joint (when there is one), the root."""
+    moving = [f.name for f in model.frames if f.body >= 0]
+    welded = [f.name for f in model.frames if f.body >= 0
+              and f.name not in model.body_names]
+    return list(dict.fromkeys(moving[-1:] + welded[:1] + [model.frames[0].name]))
+
+
+def test_the_oracle_covers_example_robot_data():
+    assert len(URDFS) >= 60, f"only {len(URDFS)} example-robot-data URDFs load in Pinocchio"
+
+
+@pytest.mark.parametrize("path", URDFS, ids=[Path(p).stem for p in URDFS])
+def test_contract_functions_match_pinocchio(path):
+    model, P = _load(path)
+    rng = np.random.default_rng(7)
+    frames = _test_frames(model)
+    for q, (qd, qdd, tau) in _states(model, 1):
+        assert_close(od.inverse_dynamics(model, q, qd, qdd), P.rnea(q, qd, qdd), "inverse_dynamics")
+        f_tip = {name: rng.normal(size=6) for name in frames}
+        assert_close(od.inverse_dynamics(model, q, qd, qdd, f_tip=f_tip),
+                     P.rnea(q, qd, qdd, f_tip=f_tip), "inverse_dynamics with f_tip")
+        g_moon = np.array([0.3, -0.2, -1.62])
+        assert_close(od.inverse_dynamics(model, q, qd, qdd, gravity=g_moon),
+                     P.rnea(q, qd, qdd, gravity=g_moon), "inverse_dynamics with gravity")
+        M_ref = P.mass_matrix(q)
+        assert_close(od.mass_matrix(model, q), M_ref, "mass_matrix")
+        assert_close(od.gravity_forces(model, q), P.gravity_forces(q), "gravity_forces")
+        zero = np.zeros(model.nv)
+        assert_close(od.coriolis_forces(model, q, qd), P.rnea(q, qd, zero, gravity=(0, 0, 0)),
+                     "coriolis_forces")
+        assert_close(od.bias_forces(model, q, qd), P.rnea(q, qd, zero), "bias_forces")
+        assert_close(od.coriolis_matrix(model, q, qd), P.coriolis_matrix(q, qd),
+                     "coriolis_matrix")
+        for name in frames:
+            assert_close(od.frame_pose(model, q, name), P.frame_pose(q, name), f"pose {name}")
+            for where in ("space", "body"):
+                assert_close(od.jacobian(model, q, name, where), P.jacobian(q, name, where),
+                             f"jacobian {name} {where}")
+        assert_close(od.kinetic_energy(model, q, qd), P.kinetic_energy(q, qd), "kinetic_energy")
+        assert_close(od.potential_energy(model, q), P.potential_energy(q), "potential_energy")
+        _check_forward_dynamics(model, P, q, qd, tau, M_ref, f_tip)
+
+
+def _check_forward_dynamics(model, P, q, qd, tau, M_ref, f_tip):
+    """All three methods against Pinocchio's ABA; a singular M must be refused, not solved."""
+    if model.nv and np.linalg.eigvalsh(M_ref)[0] <= 1e-12 * np.abs(M_ref).max():
+        for method in METHODS:
+            with pytest.raises(od.SingularMassMatrixError):
+                od.forward_dynamics(model, q, qd, tau, method=method)
+        return
+    ref = P.aba(q, qd, tau, f_tip=f_tip)
+    for method in METHODS:
+        assert_close(od.forward_dynamics(model, q, qd, tau, f_tip=f_tip, method=method), ref,
+                     f"forward_dynamics {method}")
+
+
+SMALL = [p for p in URDFS if 0 < MODELS[p].nv <= 16]
+
+
+@pytest.mark.parametrize("path", SMALL, ids=[Path(p).stem for p in SMALL])
+def test_christoffel_symbols_match_pinocchio(path):
+    model, P = _load(path)
+    for q, _ in _states(model, 2):
+        assert_close(od.christoffel_symbols(model, q), P.christoffel(q), "christoffel_symbols")
+
+
+MIMIC = [p for p in URDFS if any("mimic" in line for line in MODELS[p].report.ignored)]
+
+
+@pytest.mark.parametrize("path", MIMIC, ids=[Path(p).stem for p in MIMIC])
+def test_coupled_mimic_joints_match_pinocchio(path):
+    try:
+        model = od.load_urdf(path, check_inertia=False, mimic=True)
+    except od.URDFError as e:
+        # alex_psyonic_hands mimics joints that do not exist: refused with the joint named
+        assert "<mimic joint=" in str(e) and "not a moving joint" in str(e)
+        return
+    try:
+        P = PinOracle(path, model, mimic=True)
+    except ValueError as e:
+        pytest.skip(f"Pinocchio cannot couple these mimic joints: {e}")
+    assert model.nv < model.nb
+    for q, (qd, qdd, tau) in _states(model, 3):
+        assert_close(od.inverse_dynamics(model, q, qd, qdd), P.rnea(q, qd, qdd), "rnea (mimic)")
+        M = od.mass_matrix(model, q)
+        assert_close(M, P.mass_matrix(q), "mass_matrix (mimic)")
+        name = _test_frames(model)[0]
+        assert_close(od.jacobian(model, q, name, "body"), P.jacobian(q, name, "body"),
+                     "jacobian (mimic)")
+        h = P.rnea(q, qd, np.zeros(model.nv))
+        assert_close(od.forward_dynamics(model, q, qd, tau) @ M.T, tau - h,
+                     "forward_dynamics (mimic): M qdd = tau - h")
+
+
+def test_physically_invalid_inertias_are_refused_unless_asked():
+    """A few example-robot-data URDFs state inertias no rigid body has (e.g. pr2's
+    sensor_mount_link: principal moments 0.001, 0.001, 0.01); the default load refuses them."""
+    refused = []
+    for path in URDFS:
+        try:
+            od.load_urdf(path)
+        except od.URDFError as e:
+            assert "check_inertia=False" in str(e) and Path(path).name in str(e)
+            refused.append(Path(path).stem)
+    assert "pr2" in refused and "ur5_robot" not in refused
