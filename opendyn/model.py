@@ -187,6 +187,9 @@ class Model:
         object.__setattr__(self, "_vector_shape", (self.nv,))
         object.__setattr__(self, "_zero_v", np.zeros(self.nv))
         object.__setattr__(self, "_gravity", np.array(self.gravity))
+        loads = np.zeros((1, 6))
+        loads[0, 3:] = -self._gravity  # the kernels' dV_0 = (0, -g), no applied wrenches
+        object.__setattr__(self, "_loads", loads)
 
     parent = property(lambda self: self._ifield("parent"), doc="(nb,) parent body, -1 = world")
     jtype = property(lambda self: self._ifield("jtype"), doc="(nb,) REVOLUTE=0 / PRISMATIC=1")

@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import difflib
 import importlib.metadata
-import importlib.resources
 import io
 import math
 import os
@@ -112,8 +111,7 @@ def available_robots() -> dict[str, str]:
     without a ``_robot`` suffix (``ur5``).
     """
     found: dict[str, str] = {}
-    shipped = importlib.resources.files("opendyn.robots")
-    paths = sorted(str(p) for p in shipped.iterdir() if p.name.endswith(".urdf"))
+    paths = sorted(str(p) for p in shipped_robots_dir().glob("*.urdf"))
     try:
         dist = importlib.metadata.distribution("example-robot-data")
         paths += sorted(str(dist.locate_file(f)) for f in (dist.files or [])
@@ -127,6 +125,16 @@ def available_robots() -> dict[str, str]:
         if stem.endswith("_robot"):
             found.setdefault(stem[: -len("_robot")], p)
     return found
+
+
+def shipped_robots_dir() -> Path:
+    """The robots/ folder shipped with opendyn: inside the installed package, or at the top of
+    the source tree when opendyn is imported from a checkout."""
+    here = Path(__file__).resolve().parent
+    for candidate in (here / "robots", here.parent / "robots"):
+        if candidate.is_dir():
+            return candidate
+    raise FileNotFoundError(f"opendyn's robots folder is missing beside {here}")
 
 
 def _parse_xml(file):
@@ -291,7 +299,7 @@ class _Builder:
             if j.name in joints:
                 self.fail(f"{where}: duplicate joint name")
             if j.type not in SUPPORTED_TYPES:
-                hint = (" (a free-flying base is load_urdf(..., floating_base=True))"
+                hint = (" (a free-flying base is not supported yet)"
                         if j.type == "floating" else "")
                 self.fail(f"{where}: joint type {j.type!r} is not supported; supported types: "
                           f"revolute, continuous, prismatic, fixed{hint}")
@@ -380,12 +388,13 @@ class _Builder:
                 src, m, o = mimic_of[src][0], m * mimic_of[src][1], m * mimic_of[src][2] + o
             mimic_of[name] = (src, m, o)
             self.report.transformed.append(
-                f"mimic joint {name!r} = {m:g} * {src!r} + {o:g}: not a coordinate of the model")
+                f"mimic joint {name!r} = {m:g} * {src!r} + {o:g}: not a coordinate of the model "
+                f"(its own <limit> and <dynamics> are not used)")
         coords = [j.name for j in order if j.type != "fixed" and j.name not in mimic_of]
         return coords, mimic_of
 
     def _unit_axis(self, j):
-        axis = np.asarray(j.axis if j.axis is not None else (1.0, 0.0, 0.0), dtype=float)
+        axis = np.asarray(j.axis, dtype=float)  # yourdfpy gives (1, 0, 0) for a missing <axis>
         norm = float(np.linalg.norm(axis))
         if norm < 1e-12:
             self.fail(f'<joint name="{j.name}"> <axis xyz="{" ".join(map(str, axis))}">: '
@@ -468,6 +477,16 @@ class _Builder:
         for j in fixed:
             where = "the fixed world" if body_of[j.child] < 0 else "the body above it"
             r.transformed.append(f"fixed joint {j.name!r}: link {j.child!r} merged into {where}")
+        no_axis = [el.get("name") for el in self.root.iterchildren("joint")
+                   if el.get("type") in MOVING_TYPES and el.find("axis") is None]
+        if no_axis:
+            r.transformed.append(f"joints without <axis> take the default (1, 0, 0): "
+                                 f"{', '.join(no_axis)}")
+        no_limit = [el.get("name") for el in self.root.iterchildren("joint")
+                    if el.get("type") in ("revolute", "prismatic") and el.find("limit") is None]
+        if no_limit:
+            r.transformed.append(f"revolute/prismatic joints without the required <limit>, "
+                                 f"taken as unlimited: {', '.join(no_limit)}")
         massless = [n for n, l in links.items() if l.inertial is None and body_of[n] >= 0]
         if massless:
             r.transformed.append(f"links without <inertial> taken as massless: "

@@ -7,7 +7,8 @@ to leaves). Joint origins have arbitrary rpy; axes are random, some of them not 
 have arbitrary xyz and rpy, and inertias are physically valid: R diag(moments) R^T with
 moments (s2 + s3, s1 + s3, s1 + s2), s_i > 0, which satisfy the triangle inequality strictly.
 Some links have no <inertial> (massless), but every moving body (a moving joint's child link
-and the links welded to it) has mass, so M(q) is positive definite.
+and the links welded to it) has mass, so M(q) is positive definite. The root link has an
+<inertial> too, which the loader ignores (it is welded to the fixed world).
 
 Every number is written with repr(), so the loaded model is exactly the generated one.
 """

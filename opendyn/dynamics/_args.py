@@ -1,7 +1,7 @@
 """Argument checking shared by the public dynamics functions: states, gravity, f_tip.
 
 A state argument is a (nv,) vector or a batch (N, nv); anything else raises a ValueError that
-names the argument. Finiteness is checked inside the compiled kernels (it costs nothing there)
+names the argument. Gravity and f_tip reach the kernels as one array of external loads. Finiteness is checked inside the compiled kernels (it costs nothing there)
 and reported through a status code that `raise_status` turns into the same kind of error.
 """
 
@@ -10,7 +10,6 @@ from __future__ import annotations
 import numpy as np
 
 F64 = np.dtype(np.float64)
-NO_WRENCH = np.zeros((0, 6))
 
 STATUS_ARG = {1: "q", 2: "qd", 3: "qdd", 4: "tau", 5: "gravity", 6: "f_tip"}
 
@@ -67,24 +66,33 @@ def as_gravity(model, gravity):
     return np.ascontiguousarray(g)
 
 
-def body_wrenches(model, f_tip, n_states=None):
-    """f_tip {frame: (6,) or (N, 6) wrench} -> wrenches on the bodies, (nb, 6) or (N, nb, 6).
+def loads(model, gravity, f_tip, n_states=None):
+    """The kernels' external-load array: row 0 the base acceleration dV_0 = (0, -g), then (only
+    when f_tip is given) one row per body with the wrench it applies to the environment.
+
+    Shape (1, 6) or (1 + nb, 6); for a batch (1, rows, 6) shared by every state, or
+    (N, 1 + nb, 6) when f_tip varies per state.
 
     f_tip[frame] = (m, f) is the wrench that frame applies TO THE ENVIRONMENT, in that frame's
-    coordinates. On body b it is F_b = Ad_{T_{frame, b}}^T F = (R m + p x (R f), R f), with
-    (R, p) = T_{b, frame}. A frame of the fixed world moves no joint and is skipped.
+    coordinates; (6,) or, for a batch, (N, 6). On body b it is F_b = Ad_{T_{frame, b}}^T F =
+    (R m + p x (R f), R f), with (R, p) = T_{b, frame}. A frame of the fixed world moves no joint.
     """
-    if f_tip is None or (isinstance(f_tip, dict) and not f_tip):
-        return NO_WRENCH if n_states is None else None
+    if gravity is None and not f_tip:
+        return model._loads if n_states is None else model._loads[None]
+    dV_0 = np.zeros(6)
+    dV_0[3:] = -as_gravity(model, gravity)
+    if not f_tip:
+        return dV_0[None] if n_states is None else dV_0[None, None]
     if not isinstance(f_tip, dict):
         raise ValueError("f_tip must be a dict {frame_name: (6,) wrench (m, f) in that frame}, "
                          f"got {type(f_tip).__name__}")
-    shape = (model.nb, 6) if n_states is None else (n_states, model.nb, 6)
-    out = np.zeros(shape)
+    per_state = n_states is not None and any(np.ndim(F) == 2 for F in f_tip.values())
+    out = np.zeros((n_states, 1 + model.nb, 6) if per_state else (1 + model.nb, 6))
+    out[..., 0, :] = dV_0
     for frame, F in f_tip.items():
         k = model.frame_index(frame)
         F = np.asarray(F, dtype=np.float64)
-        if F.shape != (6,) and not (n_states is not None and F.shape == (n_states, 6)):
+        if F.shape != (6,) and not (per_state and F.shape == (n_states, 6)):
             want = "(6,)" if n_states is None else f"(6,) or ({n_states}, 6)"
             raise ValueError(f"f_tip[{frame!r}] must have shape {want} (moment, force), got "
                              f"shape {F.shape}")
@@ -96,9 +104,9 @@ def body_wrenches(model, f_tip, n_states=None):
         R, p = fr.T_body_frame[:3, :3], fr.T_body_frame[:3, 3]
         f_b = F[..., 3:] @ R.T
         m_b = F[..., :3] @ R.T + np.cross(p, f_b)
-        out[..., fr.body, :3] += m_b
-        out[..., fr.body, 3:] += f_b
-    return out
+        out[..., 1 + fr.body, :3] += m_b
+        out[..., 1 + fr.body, 3:] += f_b
+    return out if per_state or n_states is None else out[None]
 
 
 def raise_status(status, model, what):

@@ -27,8 +27,9 @@ SINGULAR_PIVOT = 1e-14  # D_i below this times the largest body inertia: nothing
 
 
 @njit(**JIT)
-def aba_kernel(ibuf, fbuf, q, qd, tau, gravity, F_ext, qdd):
-    """qdd (nv,) <- ABA at one state. Status: 0 ok, 1/2/4 q/qd/tau not finite,
+def aba_kernel(ibuf, fbuf, q, qd, tau, loads, qdd):
+    """qdd (nv,) <- ABA at one state; loads as in rnea_kernel (dV_0, then body wrenches).
+    Status: 0 ok, 1/2/4 q/qd/tau not finite,
     100 + k when joint coordinate k has no inertia moving with it (D_k ~ 0)."""
     if not all_finite(q):
         return 1
@@ -48,6 +49,7 @@ def aba_kernel(ibuf, fbuf, q, qd, tau, gravity, F_ext, qdd):
     S = np.empty((9, 6))
     s = np.empty(6)
     zero = np.zeros(6)
+    wrenches = loads.shape[0] > 1
     scale = 0.0
     for i in range(nb):
         for k in range(6):
@@ -66,9 +68,9 @@ def aba_kernel(ibuf, fbuf, q, qd, tau, gravity, F_ext, qdd):
         mat6_vec(G[i], V[i], s)
         pA[i, :] = 0.0
         add_neg_ad_transpose(V[i], s, pA[i])
-        if F_ext.shape[0]:
+        if wrenches:
             for k in range(6):
-                pA[i, k] += F_ext[i, k]
+                pA[i, k] += loads[1 + i, k]
 
     # pass 2: articulated inertias and bias wrenches, tips to base
     for i in range(nb - 1, -1, -1):
@@ -91,11 +93,9 @@ def aba_kernel(ibuf, fbuf, q, qd, tau, gravity, F_ext, qdd):
         add_wrench_to_parent(R[i], p[i], pA[i], pA[lam])
 
     # pass 3: accelerations, base to tips
-    dV_0 = np.zeros(6)
-    dV_0[3:] = -gravity
     for i in range(nb):
         lam = parent[i]
-        twist_to_child(R[i], p[i], dV_0 if lam < 0 else dV[lam], dV[i])
+        twist_to_child(R[i], p[i], loads[0] if lam < 0 else dV[lam], dV[i])
         for k in range(6):
             dV[i, k] += c[i, k]
         qdd[i] = (u[i] - dot6(U[i], dV[i])) / D[i]

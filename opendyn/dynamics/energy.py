@@ -31,7 +31,7 @@ def kinetic_kernel(ibuf, fbuf, q, qd, out):
     V = np.empty((nb, 6))
     dV = np.empty((nb, 6))
     s = np.empty(6)
-    forward_pass(ibuf, fbuf, q, qd, np.zeros_like(qd), np.zeros(3), R, p, V, dV, s)
+    forward_pass(ibuf, fbuf, q, qd, np.zeros_like(qd), np.zeros(6), R, p, V, dV, s)
     K = 0.0
     for i in range(nb):
         rigid_inertia_times(mass[i], h[i], I_o[i], V[i], s)

@@ -58,7 +58,7 @@ def cholesky_solve(M, b, x):
 
 
 @njit(**JIT)
-def mass_matrix_solve(ibuf, fbuf, q, qd, tau, gravity, F_ext, qdd, newton_euler):
+def mass_matrix_solve(ibuf, fbuf, q, qd, tau, loads, qdd, newton_euler):
     """qdd <- M^-1 (tau - h - J^T F_tip), M by CRBA or by n RNEA calls. Status as aba_kernel."""
     if not all_finite(tau):
         return 4
@@ -66,18 +66,17 @@ def mass_matrix_solve(ibuf, fbuf, q, qd, tau, gravity, F_ext, qdd, newton_euler)
     M = np.empty((nv, nv))
     zero = np.zeros(nv)
     b = np.empty(nv)
-    status = rnea_kernel(ibuf, fbuf, q, qd, zero, gravity, F_ext, b)
+    status = rnea_kernel(ibuf, fbuf, q, qd, zero, loads, b)
     if status:
         return status
     if newton_euler:
         # column k of M: tau of RNEA with qdd = e_k, qd = 0, gravity = 0, F_tip = 0
         e_k = np.zeros(nv)
         col = np.empty(nv)
-        no_gravity = np.zeros(3)
-        no_wrench = np.zeros((0, 6))
+        no_loads = np.zeros((1, 6))
         for k in range(nv):
             e_k[k] = 1.0
-            rnea_kernel(ibuf, fbuf, q, zero, e_k, no_gravity, no_wrench, col)
+            rnea_kernel(ibuf, fbuf, q, zero, e_k, no_loads, col)
             M[:, k] = col
             e_k[k] = 0.0
     else:
@@ -89,19 +88,20 @@ def mass_matrix_solve(ibuf, fbuf, q, qd, tau, gravity, F_ext, qdd, newton_euler)
 
 
 @njit(**JIT)
-def forward_kernel(ibuf, fbuf, q, qd, tau, gravity, F_ext, qdd, method):
+def forward_kernel(ibuf, fbuf, q, qd, tau, loads, qdd, method):
     """Dispatch one state to method 0 = ABA, 1 = CRBA + Cholesky, 2 = Newton-Euler columns."""
     if method == 0:
-        return aba_kernel(ibuf, fbuf, q, qd, tau, gravity, F_ext, qdd)
-    return mass_matrix_solve(ibuf, fbuf, q, qd, tau, gravity, F_ext, qdd, method == 2)
+        return aba_kernel(ibuf, fbuf, q, qd, tau, loads, qdd)
+    return mass_matrix_solve(ibuf, fbuf, q, qd, tau, loads, qdd, method == 2)
 
 
 @njit(parallel=True, cache=True)
-def forward_batch_kernel(ibuf, fbuf, q, qd, tau, gravity, F_ext, qdd, method, status):
-    """Forward dynamics over a batch of states (N, nv)."""
+def forward_batch_kernel(ibuf, fbuf, q, qd, tau, loads, qdd, method, status):
+    """Forward dynamics over a batch of states (N, nv); loads (1, rows, 6) or (N, rows, 6)."""
+    shared = loads.shape[0] == 1
     for n in prange(q.shape[0]):
-        status[n] = forward_kernel(ibuf, fbuf, q[n], qd[n], tau[n], gravity,
-                                   F_ext[n] if F_ext.shape[0] else F_ext[0:0, 0], qdd[n], method)
+        status[n] = forward_kernel(ibuf, fbuf, q[n], qd[n], tau[n],
+                                   loads[0] if shared else loads[n], qdd[n], method)
 
 
 def forward_dynamics(model, q, qd, tau, f_tip=None, gravity=None, method="aba"):
@@ -127,21 +127,17 @@ def forward_dynamics(model, q, qd, tau, f_tip=None, gravity=None, method="aba"):
     if _args.is_single(model, q, qd, tau):
         qdd = np.empty(model.nv)
         status = forward_kernel(model._ibuf, model._fbuf, q, qd, tau,
-                                _args.as_gravity(model, gravity),
-                                _args.NO_WRENCH if f_tip is None else _args.body_wrenches(model, f_tip),
-                                qdd, code)
+                                _args.loads(model, gravity, f_tip), qdd, code)
         if status:
             _args.raise_status(status, model, "forward_dynamics")
         return qdd
     (q, qd, tau), batch = _args.as_states(model, ("q", q), ("qd", qd), ("tau", tau))
     if not batch:
         return forward_dynamics(model, q, qd, tau, f_tip, gravity, method)
-    g = _args.as_gravity(model, gravity)
     n = q.shape[0]
-    F_ext = _args.body_wrenches(model, f_tip, n)
     qdd = np.empty((n, model.nv))
     status = np.zeros(n, dtype=np.int64)
-    forward_batch_kernel(model._ibuf, model._fbuf, q, qd, tau, g,
-                         np.zeros((0, model.nb, 6)) if F_ext is None else F_ext, qdd, code, status)
+    forward_batch_kernel(model._ibuf, model._fbuf, q, qd, tau, _args.loads(model, gravity, f_tip, n),
+                         qdd, code, status)
     _args.raise_batch_status(status, model, "forward_dynamics")
     return qdd

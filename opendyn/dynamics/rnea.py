@@ -23,14 +23,14 @@ from ._kernels import (INLINE, JIT, add_neg_ad_transpose, add_wrench_to_parent, 
 
 
 @njit(**INLINE)
-def forward_pass(ibuf, fbuf, q, qd, qdd, gravity, R, p, V, dV, s):
+def forward_pass(ibuf, fbuf, q, qd, qdd, dV_0, R, p, V, dV, s):
     """Forward pass of RNEA: R[i], p[i] = T_{lambda,i}; V[i], dV[i] twist and its rate in {i}.
 
-    dV_0 = (0, -gravity). s is (6,) scratch. Also used for energies and frame accelerations.
+    dV_0 is the base's acceleration, (0, -g) for gravity. s is (6,) scratch. Also used for
+    energies and frame accelerations.
     """
     parent, jtype, coord, mult, offset, A, G, mass, h, I_o, R_home, p_home = unpack(ibuf, fbuf)
-    zero, dV_0 = np.zeros(6), np.zeros(6)
-    dV_0[3:] = -gravity
+    zero = np.zeros(6)
     for i in range(parent.shape[0]):
         j = coord[i]
         joint_transform(jtype[i], A[i], R_home[i], p_home[i], mult[i] * q[j] + offset[i],
@@ -49,9 +49,9 @@ def forward_pass(ibuf, fbuf, q, qd, qdd, gravity, R, p, V, dV, s):
 
 
 @njit(**JIT)
-def rnea_kernel(ibuf, fbuf, q, qd, qdd, gravity, F_ext, tau):
-    """tau (nv,) <- RNEA at one state; F_ext (nb, 6) body wrenches or (0, 6). Returns a status:
-    0 ok, 1/2/3 q/qd/qdd not finite."""
+def rnea_kernel(ibuf, fbuf, q, qd, qdd, loads, tau):
+    """tau (nv,) <- RNEA at one state. loads[0] = dV_0 = (0, -g); loads[1 + i], when present,
+    the wrench body i applies to the environment. Status: 0 ok, 1/2/3 q/qd/qdd not finite."""
     if not all_finite(q):
         return 1
     if not all_finite(qd):
@@ -65,17 +65,18 @@ def rnea_kernel(ibuf, fbuf, q, qd, qdd, gravity, F_ext, tau):
     R = np.empty((nb, 3, 3))
     p = np.empty((nb, 3))
     s = np.empty(6)
-    forward_pass(ibuf, fbuf, q, qd, qdd, gravity, R, p, V, dV, s)
+    forward_pass(ibuf, fbuf, q, qd, qdd, loads[0], R, p, V, dV, s)
 
     # backward pass: F_i = G_i dV_i - ad_{V_i}^T G_i V_i + F_tip,i + sum_children Ad^T F_c,
     # tau_i = F_i^T A_i
+    wrenches = loads.shape[0] > 1
     for i in range(nb):
         rigid_inertia_times(mass[i], h[i], I_o[i], dV[i], F[i])
         rigid_inertia_times(mass[i], h[i], I_o[i], V[i], s)
         add_neg_ad_transpose(V[i], s, F[i])
-        if F_ext.shape[0]:
+        if wrenches:
             for k in range(6):
-                F[i, k] += F_ext[i, k]
+                F[i, k] += loads[1 + i, k]
     tau[:] = 0.0
     for i in range(nb - 1, -1, -1):
         tau[coord[i]] += mult[i] * dot6(F[i], A[i])
@@ -85,11 +86,12 @@ def rnea_kernel(ibuf, fbuf, q, qd, qdd, gravity, F_ext, tau):
 
 
 @njit(parallel=True, cache=True)
-def rnea_batch_kernel(ibuf, fbuf, q, qd, qdd, gravity, F_ext, tau, status):
-    """RNEA over a batch of states (N, nv), one state per parallel iteration."""
+def rnea_batch_kernel(ibuf, fbuf, q, qd, qdd, loads, tau, status):
+    """RNEA over a batch of states (N, nv); loads (1, rows, 6) shared or (N, rows, 6)."""
+    shared = loads.shape[0] == 1
     for n in prange(q.shape[0]):
-        status[n] = rnea_kernel(ibuf, fbuf, q[n], qd[n], qdd[n], gravity,
-                                F_ext[n] if F_ext.shape[0] else F_ext[0:0, 0], tau[n])
+        status[n] = rnea_kernel(ibuf, fbuf, q[n], qd[n], qdd[n], loads[0] if shared else loads[n],
+                                tau[n])
 
 
 _NO_GRAVITY = np.zeros(3)
@@ -100,22 +102,18 @@ def run_rnea(model, q, qd, qdd, f_tip, gravity, what):
     if _args.is_single(model, q, qd, qdd):
         tau = np.empty(model.nv)
         status = rnea_kernel(model._ibuf, model._fbuf, q, qd, qdd,
-                             _args.as_gravity(model, gravity),
-                             _args.NO_WRENCH if f_tip is None else _args.body_wrenches(model, f_tip),
-                             tau)
+                             _args.loads(model, gravity, f_tip), tau)
         if status:
             _args.raise_status(status, model, what)
         return tau
     (q, qd, qdd), batch = _args.as_states(model, ("q", q), ("qd", qd), ("qdd", qdd))
     if not batch:
         return run_rnea(model, q, qd, qdd, f_tip, gravity, what)
-    g = _args.as_gravity(model, gravity)
     n = q.shape[0]
-    F_ext = _args.body_wrenches(model, f_tip, n)
     tau = np.empty((n, model.nv))
     status = np.zeros(n, dtype=np.int64)
-    rnea_batch_kernel(model._ibuf, model._fbuf, q, qd, qdd, g,
-                      np.zeros((0, model.nb, 6)) if F_ext is None else F_ext, tau, status)
+    rnea_batch_kernel(model._ibuf, model._fbuf, q, qd, qdd, _args.loads(model, gravity, f_tip, n),
+                      tau, status)
     _args.raise_batch_status(status, model, what)
     return tau
 

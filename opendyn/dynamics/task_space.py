@@ -71,7 +71,9 @@ def frame_acceleration(model, q, qd, qdd, frame, gravity=None):
     (q, qd, qdd), batch = _args.as_states(model, ("q", q), ("qd", qd), ("qdd", qdd))
     if batch:
         raise ValueError("frame_acceleration: q, qd, qdd must be single states (nv,)")
-    g = np.zeros(3) if gravity is None else _args.as_gravity(model, gravity)
+    dV_0 = np.zeros(6)
+    if gravity is not None:
+        dV_0[3:] = -_args.as_gravity(model, gravity)
     fr = model.frames[model.frame_index(frame)]
     if fr.body < 0:
         return np.zeros(6)
@@ -81,7 +83,7 @@ def frame_acceleration(model, q, qd, qdd, frame, gravity=None):
     for name, x in (("q", q), ("qd", qd), ("qdd", qdd)):
         if not np.all(np.isfinite(x)):
             raise ValueError(f"frame_acceleration: {name} must be finite")
-    forward_pass(model._ibuf, model._fbuf, q, qd, qdd, g, R, p, V, dV, np.empty(6))
+    forward_pass(model._ibuf, model._fbuf, q, qd, qdd, dV_0, R, p, V, dV, np.empty(6))
     # dV_frame = Ad_{T_{frame,body}} dV_body (the frame is rigidly attached)
     T = fr.T_body_frame
     R_bf, p_bf = T[:3, :3], T[:3, 3]
