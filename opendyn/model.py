@@ -185,6 +185,7 @@ class Model:
         # writeable private copies handed to the kernels (one array type per argument, so
         # numba compiles each kernel once), never exposed
         object.__setattr__(self, "_vector_shape", (self.nv,))
+        object.__setattr__(self, "_matrix_shape", (self.nv, self.nv))
         object.__setattr__(self, "_zero_v", np.zeros(self.nv))
         object.__setattr__(self, "_gravity", np.array(self.gravity))
         loads = np.zeros((1, 6))

@@ -14,13 +14,16 @@ F64 = np.dtype(np.float64)
 STATUS_ARG = {1: "q", 2: "qd", 3: "qdd", 4: "tau", 5: "gravity", 6: "f_tip"}
 
 
-def is_single(model, *xs):
-    """True when every x is already a float64 (nv,) array: the fast path, no conversion."""
+def is_single(model, x, y=None, z=None):
+    """True when x (and y, z when given) are float64 (nv,) arrays: the fast path, no
+    conversion. Written out rather than looped: it runs on every call."""
     shape = model._vector_shape
-    for x in xs:
-        if type(x) is not np.ndarray or x.shape != shape or x.dtype is not F64:
-            return False
-    return True
+    ndarray = np.ndarray
+    if type(x) is not ndarray or x.shape != shape or x.dtype is not F64:
+        return False
+    if y is not None and (type(y) is not ndarray or y.shape != shape or y.dtype is not F64):
+        return False
+    return z is None or (type(z) is ndarray and z.shape == shape and z.dtype is F64)
 
 
 def as_state(model, x, name):
@@ -77,7 +80,7 @@ def loads(model, gravity, f_tip, n_states=None):
     coordinates; (6,) or, for a batch, (N, 6). On body b it is F_b = Ad_{T_{frame, b}}^T F =
     (R m + p x (R f), R f), with (R, p) = T_{b, frame}. A frame of the fixed world moves no joint.
     """
-    if gravity is None and not f_tip:
+    if gravity is None and f_tip is None:
         return model._loads if n_states is None else model._loads[None]
     dV_0 = np.zeros(6)
     dV_0[3:] = -as_gravity(model, gravity)

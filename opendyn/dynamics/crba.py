@@ -70,9 +70,10 @@ def mass_matrix(model, q):
     q: (nv,) joint positions (rad or m), or a batch (N, nv) -> (N, nv, nv).
     Units: kg m^2 (revolute-revolute), kg m (mixed), kg (prismatic-prismatic).
     """
-    q = _args.as_state(model, q, "q")
+    if not _args.is_single(model, q):
+        q = _args.as_state(model, q, "q")
     if q.ndim == 1:
-        M = np.empty((model.nv, model.nv))
+        M = np.empty(model._matrix_shape)
         status = crba_kernel(model._ibuf, model._fbuf, q, M)
         if status:
             _args.raise_status(status, model, "mass_matrix")

@@ -125,9 +125,10 @@ def forward_dynamics(model, q, qd, tau, f_tip=None, gravity=None, method="aba"):
     if code == 0 and model.nb != model.nv:
         code = 1
     if _args.is_single(model, q, qd, tau):
-        qdd = np.empty(model.nv)
+        qdd = np.empty(model._vector_shape)
         status = forward_kernel(model._ibuf, model._fbuf, q, qd, tau,
-                                _args.loads(model, gravity, f_tip), qdd, code)
+                                model._loads if gravity is None and f_tip is None
+                                else _args.loads(model, gravity, f_tip), qdd, code)
         if status:
             _args.raise_status(status, model, "forward_dynamics")
         return qdd

@@ -100,9 +100,10 @@ _NO_GRAVITY = np.zeros(3)
 def run_rnea(model, q, qd, qdd, f_tip, gravity, what):
     """Checked RNEA for single states (nv,) or batches (N, nv); the public functions' core."""
     if _args.is_single(model, q, qd, qdd):
-        tau = np.empty(model.nv)
+        tau = np.empty(model._vector_shape)
         status = rnea_kernel(model._ibuf, model._fbuf, q, qd, qdd,
-                             _args.loads(model, gravity, f_tip), tau)
+                             model._loads if gravity is None and f_tip is None
+                             else _args.loads(model, gravity, f_tip), tau)
         if status:
             _args.raise_status(status, model, what)
         return tau
