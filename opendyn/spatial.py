@@ -16,6 +16,8 @@ import numpy as np
 
 _ROTATION_TOLERANCE = 1e-6
 _INERTIA_RELATIVE_TOLERANCE = 1e-9
+# below this (kg m^2: a milligram a micrometre from its axis) an inertia entry is rounding noise
+_INERTIA_ABSOLUTE_TOLERANCE = 1e-18
 _SERIES_THRESHOLD = 0.1
 
 
@@ -71,11 +73,12 @@ def _as_rotational_inertia(I, name):
     """Return `I` as a physically valid rotational inertia, else raise ValueError naming it.
 
     Valid means symmetric, positive semi-definite, and principal moments satisfying the
-    triangle inequality, each within a tolerance relative to the largest entry of `I`.
+    triangle inequality, each within a tolerance relative to the largest entry of `I` (plus an
+    absolute 1e-18 kg m^2, so that an inertia of rounding noise, e.g. 2e-35, counts as zero).
     """
     I = _as_symmetric(I, name)
     moments = np.linalg.eigvalsh(I)
-    tolerance = _INERTIA_RELATIVE_TOLERANCE * np.abs(I).max()
+    tolerance = _INERTIA_RELATIVE_TOLERANCE * np.abs(I).max() + _INERTIA_ABSOLUTE_TOLERANCE
     if moments[0] < -tolerance:
         raise ValueError(f"{name} must be positive semi-definite, got principal moments {moments}")
     if moments[2] > moments[0] + moments[1] + tolerance:

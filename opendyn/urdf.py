@@ -419,6 +419,10 @@ class _Builder:
             try:
                 G_link = spatial_inertia(mass, com, I, R_com)
             except ValueError as e:
+                if body_of[name] < 0 and mass >= 0:
+                    self.report.ignored.append(f"{where}: not a rigid-body inertia ({e}), but "
+                                               f"welded to the fixed root, so unused")
+                    continue
                 if self.check_inertia or mass < 0:
                     self.fail(f"{where}: {e}; no rigid body has it"
                               + ("" if mass < 0 else

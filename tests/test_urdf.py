@@ -511,3 +511,21 @@ def test_joint_with_nothing_massive_below_makes_forward_dynamics_raise(tmp_path,
         od.forward_dynamics(model, zero, zero, zero, method=method)
     assert isinstance(info.value, ValueError)
     assert "'j2'" in str(info.value) and "'j1'" not in str(info.value)
+
+
+def test_an_inertia_of_rounding_noise_counts_as_zero(tmp_path):
+    """icub's head states ixz = 2.4e-35 and every other entry 0: eigenvalues +-2.4e-35, a point
+    mass up to rounding, so it loads and behaves as a point mass."""
+    noise = load(tmp_path, chain(1, links={1: {"inertia": (0, 0, 0, 0, 2.4e-35, 0)}}))
+    point = load(tmp_path, chain(1, links={1: {"inertia": (0, 0, 0, 0, 0, 0)}}), name="p.urdf")
+    q = np.array([0.3])
+    np.testing.assert_allclose(od.mass_matrix(noise, q), od.mass_matrix(point, q), rtol=1e-15)
+
+
+def test_an_invalid_inertia_welded_to_the_root_is_reported_not_refused(tmp_path):
+    """The root link's inertia plays no part in a fixed-base model (anymal's base states a
+    rod-like inertia 3e-6 > 0 + 0): it is listed as ignored, and the model loads."""
+    model = load(tmp_path, chain(1).replace(
+        link("base", mass=4.0), link("base", mass=4.0, inertia=(1, 1, 3, 0, 0, 0))))
+    assert model.nv == 1
+    assert any("base" in line and "triangle" in line for line in model.report.ignored)
