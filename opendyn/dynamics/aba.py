@@ -20,8 +20,8 @@ import numpy as np
 from numba import njit
 
 from ._kernels import (JIT, add_inertia_to_parent, add_neg_ad_transpose, add_wrench_to_parent,
-                       ad_twist, all_finite, dot6, joint_transform, mat6_vec, twist_to_child,
-                       unpack)
+                       ad_twist, all_finite, dot6, joint_transform, mat6_vec, spatial_inertias,
+                       tree, twist_to_child)
 
 SINGULAR_PIVOT = 1e-14  # D_i below this times the largest body inertia: nothing moves with i
 
@@ -37,7 +37,8 @@ def aba_kernel(ibuf, fbuf, q, qd, tau, loads, qdd):
         return 2
     if not all_finite(tau):
         return 4
-    parent, jtype, coord, mult, offset, A, G, mass, h, I_o, R_home, p_home = unpack(ibuf, fbuf)
+    parent, jtype, coord, mult, offset, A, R_home, p_home = tree(ibuf, fbuf)
+    G = spatial_inertias(ibuf, fbuf)
     nb = parent.shape[0]
     R = np.empty((nb, 3, 3))
     p = np.empty((nb, 3))

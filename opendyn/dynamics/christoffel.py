@@ -21,8 +21,9 @@ import numpy as np
 from numba import njit, prange
 
 from . import _args
-from ._kernels import JIT, ad_twist, add_inertia_to_parent, all_finite, dot6, mat6_vec, unpack
-from .kinematics import fk_kernel
+from ._kernels import (JIT, ad_twist, add_inertia_to_parent, all_finite, dot6, mat6_vec,
+                       spatial_inertias, tree)
+from .kinematics import forward_kinematics
 
 
 @njit(**JIT)
@@ -30,11 +31,13 @@ def christoffel_kernel(ibuf, fbuf, q, Gamma):
     """Gamma (nv, nv, nv) <- Christoffel symbols at q. Status 1: q not finite."""
     if not all_finite(q):
         return 1
-    parent, jtype, coord, mult, offset, A, G, mass, h, I_o, R_home, p_home = unpack(ibuf, fbuf)
+    body_tree = tree(ibuf, fbuf)
+    parent, jtype, coord, mult, offset, A, R_home, p_home = body_tree
+    G = spatial_inertias(ibuf, fbuf)
     nb, nv = parent.shape[0], Gamma.shape[0]
     R_s = np.empty((nb, 3, 3))
     p_s = np.empty((nb, 3))
-    fk_kernel(ibuf, fbuf, q, R_s, p_s)
+    forward_kinematics(body_tree, q, R_s, p_s)
 
     # space screw axes S_i and space inertias, accumulated into composite inertias Gc_i
     S = np.empty((nb, 6))

@@ -14,8 +14,8 @@ import numpy as np
 from numba import njit, prange
 
 from . import _args
-from ._kernels import (JIT, add_rigid_inertia_to_parent, add_wrench_to_parent, all_finite, dot6,
-                       joint_transform, rigid_inertia_times, unpack)
+from ._kernels import (JIT, add_rigid_inertia_to_parent, all_finite, dot6, joint_transform,
+                       rigid_inertia_times, rigid_inertias, tree, wrench_to_parent)
 
 
 @njit(**JIT)
@@ -23,13 +23,14 @@ def crba_kernel(ibuf, fbuf, q, M):
     """M (nv, nv) <- CRBA at one configuration. Returns 1 if q is not finite, else 0."""
     if not all_finite(q):
         return 1
-    parent, jtype, coord, mult, offset, A, G, mass, h, I_o, R_home, p_home = unpack(ibuf, fbuf)
+    parent, jtype, coord, mult, offset, A, R_home, p_home = tree(ibuf, fbuf)
+    mass, h, I_o = rigid_inertias(ibuf, fbuf)
     nb = parent.shape[0]
     R = np.empty((nb, 3, 3))
     p = np.empty((nb, 3))
     mass_c, h_c, I_c = mass.copy(), h.copy(), I_o.copy()
+    S = np.empty((3, 3))
     F = np.empty(6)
-    F_up = np.empty(6)
     for i in range(nb):
         joint_transform(jtype[i], A[i], R_home[i], p_home[i], mult[i] * q[coord[i]] + offset[i],
                         R[i], p[i])
@@ -38,7 +39,7 @@ def crba_kernel(ibuf, fbuf, q, M):
         lam = parent[i]
         if lam >= 0:
             add_rigid_inertia_to_parent(R[i], p[i], mass_c[i], h_c[i], I_c[i],
-                                        mass_c[lam:lam + 1], h_c[lam], I_c[lam])
+                                        mass_c[lam:lam + 1], h_c[lam], I_c[lam], S)
     # M_ij = (Ad^T ... Ic_i A_i)^T A_j along the path from i to the root
     M[:, :] = 0.0
     for i in range(nb):
@@ -47,9 +48,7 @@ def crba_kernel(ibuf, fbuf, q, M):
         M[ci, ci] += mult[i] * mult[i] * dot6(F, A[i])
         j = i
         while parent[j] >= 0:
-            F_up[:] = 0.0
-            add_wrench_to_parent(R[j], p[j], F, F_up)
-            F[:] = F_up
+            wrench_to_parent(R[j], p[j], F)
             j = parent[j]
             m_ij = mult[i] * mult[j] * dot6(F, A[j])
             M[ci, coord[j]] += m_ij

@@ -12,8 +12,8 @@ import numpy as np
 from numba import njit, prange
 
 from . import _args
-from ._kernels import JIT, all_finite, rigid_inertia_times, unpack
-from .kinematics import fk_kernel
+from ._kernels import JIT, all_finite, rigid_inertia_times, rigid_inertias, tree
+from .kinematics import forward_kinematics
 from .rnea import forward_pass
 
 
@@ -24,14 +24,15 @@ def kinetic_kernel(ibuf, fbuf, q, qd, out):
         return 1
     if not all_finite(qd):
         return 2
-    parent, jtype, coord, mult, offset, A, G, mass, h, I_o, R_home, p_home = unpack(ibuf, fbuf)
-    nb = parent.shape[0]
+    body_tree = tree(ibuf, fbuf)
+    mass, h, I_o = rigid_inertias(ibuf, fbuf)
+    nb = mass.shape[0]
     R = np.empty((nb, 3, 3))
     p = np.empty((nb, 3))
     V = np.empty((nb, 6))
     dV = np.empty((nb, 6))
     s = np.empty(6)
-    forward_pass(ibuf, fbuf, q, qd, np.zeros_like(qd), np.zeros(6), R, p, V, dV, s)
+    forward_pass(body_tree, q, qd, np.zeros_like(qd), np.zeros(6), R, p, V, dV, s)
     K = 0.0
     for i in range(nb):
         rigid_inertia_times(mass[i], h[i], I_o[i], V[i], s)
@@ -46,11 +47,11 @@ def potential_kernel(ibuf, fbuf, q, gravity, out):
     """out[0] <- -sum_i g . (R_si h_i + m_i p_si), h_i = m_i c_i. Status 1: q not finite."""
     if not all_finite(q):
         return 1
-    parent, jtype, coord, mult, offset, A, G, mass, h, I_o, R_home, p_home = unpack(ibuf, fbuf)
-    nb = parent.shape[0]
+    mass, h, I_o = rigid_inertias(ibuf, fbuf)
+    nb = mass.shape[0]
     R_s = np.empty((nb, 3, 3))
     p_s = np.empty((nb, 3))
-    fk_kernel(ibuf, fbuf, q, R_s, p_s)
+    forward_kinematics(tree(ibuf, fbuf), q, R_s, p_s)
     U = 0.0
     for i in range(nb):
         for r in range(3):

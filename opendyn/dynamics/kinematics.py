@@ -14,13 +14,14 @@ import numpy as np
 from numba import njit, prange
 
 from . import _args
-from ._kernels import JIT, all_finite, joint_transform, twist_to_child, unpack
+from ._kernels import INLINE, JIT, all_finite, joint_transform, tree, twist_to_child
 
 
-@njit(**JIT)
-def fk_kernel(ibuf, fbuf, q, R_s, p_s):
-    """R_s[i], p_s[i] <- T_{s,i}(q) for every body (world frame = the root link)."""
-    parent, jtype, coord, mult, offset, A, G, mass, h, I_o, R_home, p_home = unpack(ibuf, fbuf)
+@njit(**INLINE)
+def forward_kinematics(body_tree, q, R_s, p_s):
+    """R_s[i], p_s[i] <- T_{s,i}(q) for every body (world frame = the root link); body_tree is
+    _kernels.tree(ibuf, fbuf)."""
+    parent, jtype, coord, mult, offset, A, R_home, p_home = body_tree
     R = np.empty((3, 3))
     p = np.empty(3)
     for i in range(parent.shape[0]):
@@ -61,7 +62,7 @@ def frame_pose_kernel(ibuf, fbuf, q, body, T_bf, T_sf):
     nb = ibuf[0]
     R_s = np.empty((nb, 3, 3))
     p_s = np.empty((nb, 3))
-    fk_kernel(ibuf, fbuf, q, R_s, p_s)
+    forward_kinematics(tree(ibuf, fbuf), q, R_s, p_s)
     compose_frame(R_s, p_s, body, T_bf, T_sf)
     return 0
 
@@ -71,11 +72,12 @@ def jacobian_kernel(ibuf, fbuf, q, body, T_bf, body_frame, J):
     """J (6, nv) <- J_s, or J_b of the frame when body_frame. Status 1: q not finite."""
     if not all_finite(q):
         return 1
-    parent, jtype, coord, mult, offset, A, G, mass, h, I_o, R_home, p_home = unpack(ibuf, fbuf)
+    body_tree = tree(ibuf, fbuf)
+    parent, jtype, coord, mult, offset, A, R_home, p_home = body_tree
     nb = parent.shape[0]
     R_s = np.empty((nb, 3, 3))
     p_s = np.empty((nb, 3))
-    fk_kernel(ibuf, fbuf, q, R_s, p_s)
+    forward_kinematics(body_tree, q, R_s, p_s)
     T_sf = np.empty((4, 4))
     compose_frame(R_s, p_s, body, T_bf, T_sf)
     S = np.empty(6)

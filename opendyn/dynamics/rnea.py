@@ -19,17 +19,18 @@ from numba import njit, prange
 
 from . import _args
 from ._kernels import (INLINE, JIT, add_neg_ad_transpose, add_wrench_to_parent, ad_twist, all_finite,
-                       dot6, joint_transform, rigid_inertia_times, twist_to_child, unpack)
+                       dot6, joint_transform, rigid_inertia_times, rigid_inertias, tree,
+                       twist_to_child)
 
 
 @njit(**INLINE)
-def forward_pass(ibuf, fbuf, q, qd, qdd, dV_0, R, p, V, dV, s):
+def forward_pass(body_tree, q, qd, qdd, dV_0, R, p, V, dV, s):
     """Forward pass of RNEA: R[i], p[i] = T_{lambda,i}; V[i], dV[i] twist and its rate in {i}.
 
-    dV_0 is the base's acceleration, (0, -g) for gravity. s is (6,) scratch. Also used for
-    energies and frame accelerations.
+    body_tree is _kernels.tree(ibuf, fbuf); dV_0 is the base's acceleration, (0, -g) for
+    gravity. s is (6,) scratch. Also used for energies and frame accelerations.
     """
-    parent, jtype, coord, mult, offset, A, G, mass, h, I_o, R_home, p_home = unpack(ibuf, fbuf)
+    parent, jtype, coord, mult, offset, A, R_home, p_home = body_tree
     zero = np.zeros(6)
     for i in range(parent.shape[0]):
         j = coord[i]
@@ -58,14 +59,16 @@ def rnea_kernel(ibuf, fbuf, q, qd, qdd, loads, tau):
         return 2
     if not all_finite(qdd):
         return 3
-    parent, jtype, coord, mult, offset, A, G, mass, h, I_o, R_home, p_home = unpack(ibuf, fbuf)
+    body_tree = tree(ibuf, fbuf)
+    parent, jtype, coord, mult, offset, A, R_home, p_home = body_tree
+    mass, h, I_o = rigid_inertias(ibuf, fbuf)
     nb = parent.shape[0]
     work = np.empty((3, nb, 6))
     V, dV, F = work[0], work[1], work[2]
     R = np.empty((nb, 3, 3))
     p = np.empty((nb, 3))
     s = np.empty(6)
-    forward_pass(ibuf, fbuf, q, qd, qdd, loads[0], R, p, V, dV, s)
+    forward_pass(body_tree, q, qd, qdd, loads[0], R, p, V, dV, s)
 
     # backward pass: F_i = G_i dV_i - ad_{V_i}^T G_i V_i + F_tip,i + sum_children Ad^T F_c,
     # tau_i = F_i^T A_i
@@ -99,17 +102,14 @@ _NO_GRAVITY = np.zeros(3)
 
 def run_rnea(model, q, qd, qdd, f_tip, gravity, what):
     """Checked RNEA for single states (nv,) or batches (N, nv); the public functions' core."""
-    if _args.is_single(model, q, qd, qdd):
+    (q, qd, qdd), batch = _args.as_states(model, ("q", q), ("qd", qd), ("qdd", qdd))
+    if not batch:
         tau = np.empty(model._vector_shape)
         status = rnea_kernel(model._ibuf, model._fbuf, q, qd, qdd,
-                             model._loads if gravity is None and f_tip is None
-                             else _args.loads(model, gravity, f_tip), tau)
+                             _args.loads(model, gravity, f_tip), tau)
         if status:
             _args.raise_status(status, model, what)
         return tau
-    (q, qd, qdd), batch = _args.as_states(model, ("q", q), ("qd", qd), ("qdd", qdd))
-    if not batch:
-        return run_rnea(model, q, qd, qdd, f_tip, gravity, what)
     n = q.shape[0]
     tau = np.empty((n, model.nv))
     status = np.zeros(n, dtype=np.int64)
@@ -129,6 +129,13 @@ def inverse_dynamics(model, q, qd, qdd, f_tip=None, gravity=None):
       gravity: optional (3,) world-frame gravity (m/s^2), default model.gravity.
     Returns tau, (nv,) or (N, nv): joint torques (N m) or forces (N).
     """
+    if gravity is None and f_tip is None and _args.is_single(model, q, qd, qdd):
+        # the common call, with nothing to convert: straight to the kernel
+        tau = np.empty(model._vector_shape)
+        status = rnea_kernel(model._ibuf, model._fbuf, q, qd, qdd, model._loads, tau)
+        if status:
+            _args.raise_status(status, model, "inverse_dynamics")
+        return tau
     return run_rnea(model, q, qd, qdd, f_tip, gravity, "inverse_dynamics")
 
 

@@ -12,11 +12,23 @@ from __future__ import annotations
 
 import numpy as np
 import scipy.linalg
+from numba import njit
 
 from . import _args
+from ._kernels import JIT, tree
 from .crba import mass_matrix
 from .kinematics import jacobian
 from .rnea import bias_forces, forward_pass
+
+
+@njit(**JIT)
+def body_accelerations(ibuf, fbuf, q, qd, qdd, dV_0):
+    """dV (nb, 6): every body's twist rate in its own frame, from the RNEA forward pass."""
+    nb = ibuf[0]
+    R, p = np.empty((nb, 3, 3)), np.empty((nb, 3))
+    V, dV = np.empty((nb, 6)), np.empty((nb, 6))
+    forward_pass(tree(ibuf, fbuf), q, qd, qdd, dV_0, R, p, V, dV, np.empty(6))
+    return dV
 
 
 class SingularTaskSpaceError(ValueError):
@@ -62,28 +74,22 @@ def task_space_mass_matrix(model, q, frame, damping=0.0):
     return np.linalg.inv(Lambda_inv)
 
 
-def frame_acceleration(model, q, qd, qdd, frame, gravity=None):
-    """dV_b = J_b qdd + Jdot_b qd (+ the gravity term when gravity is given): (6,) rate of the
-    frame's body twist, angular first, in the frame's coordinates.
+def frame_acceleration(model, q, qd, qdd, frame):
+    """dV_b = J_b qdd + Jdot_b qd: (6,) rate of the frame's body twist V_b = J_b qd, angular
+    first, in the frame's coordinates (rad/s^2, m/s^2); a kinematic quantity, no gravity.
 
-    With gravity=None the base does not accelerate (pure kinematics); otherwise dV_0 = (0, -g).
+    q, qd, qdd: (nv,) single states; frame: a frame name.
     """
     (q, qd, qdd), batch = _args.as_states(model, ("q", q), ("qd", qd), ("qdd", qdd))
     if batch:
         raise ValueError("frame_acceleration: q, qd, qdd must be single states (nv,)")
-    dV_0 = np.zeros(6)
-    if gravity is not None:
-        dV_0[3:] = -_args.as_gravity(model, gravity)
     fr = model.frames[model.frame_index(frame)]
     if fr.body < 0:
         return np.zeros(6)
-    nb = model.nb
-    R, p = np.empty((nb, 3, 3)), np.empty((nb, 3))
-    V, dV = np.empty((nb, 6)), np.empty((nb, 6))
     for name, x in (("q", q), ("qd", qd), ("qdd", qdd)):
         if not np.all(np.isfinite(x)):
             raise ValueError(f"frame_acceleration: {name} must be finite")
-    forward_pass(model._ibuf, model._fbuf, q, qd, qdd, dV_0, R, p, V, dV, np.empty(6))
+    dV = body_accelerations(model._ibuf, model._fbuf, q, qd, qdd, np.zeros(6))
     # dV_frame = Ad_{T_{frame,body}} dV_body (the frame is rigidly attached)
     T = fr.T_body_frame
     R_bf, p_bf = T[:3, :3], T[:3, 3]
