@@ -27,7 +27,7 @@ def is_single(model, x, y=None, z=None):
 
 
 def as_state(model, x, name):
-    """x as a C-contiguous float64 array of shape (nv,) or (N, nv)."""
+    """x as a writeable C-contiguous float64 array of shape (nv,) or (N, nv)."""
     if type(x) is np.ndarray and x.dtype is F64 and x.ndim == 1 and x.shape[0] == model.nv \
             and x.flags.c_contiguous:
         return x
@@ -39,7 +39,8 @@ def as_state(model, x, name):
     if x.ndim not in (1, 2) or x.shape[-1] != model.nv:
         raise ValueError(f"{name} must have shape ({model.nv},) or (N, {model.nv}) for model "
                          f"{model.name!r} (nv={model.nv}), got shape {x.shape}")
-    return x
+    # a read-only array is a different type to numba: copy it rather than compile again
+    return x if x.flags.writeable else x.copy()
 
 
 def as_states(model, *named):
@@ -54,7 +55,7 @@ def as_states(model, *named):
         if a.ndim == 2 and a.shape[0] != n:
             raise ValueError(f"{name} has {a.shape[0]} states but another argument has {n}; "
                              f"a batch must have one N")
-    return [np.ascontiguousarray(np.broadcast_to(a, (n, model.nv))) for a in arrays], True
+    return [a if a.ndim == 2 else np.tile(a, (n, 1)) for a in arrays], True
 
 
 def as_gravity(model, gravity):

@@ -18,11 +18,11 @@ outboard of it: dS/dq_k = ad_{S_k} S, dGc/dq_k = -(ad_{S_k}^T Gc + Gc ad_{S_k}).
 from __future__ import annotations
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
 
 from . import _args
 from ._kernels import (JIT, ad_twist, add_inertia_to_parent, all_finite, dot6, mat6_vec,
-                       spatial_inertias, tree)
+                       run_rows, spatial_inertias, tree)
 from .kinematics import forward_kinematics
 
 
@@ -118,10 +118,10 @@ def coriolis_matrix_kernel(ibuf, fbuf, q, qd, C):
     return 0
 
 
-@njit(parallel=True, cache=True)
-def christoffel_batch_kernel(ibuf, fbuf, q, qd, out, status, matrix):
-    """Christoffel symbols (matrix False) or Coriolis matrices (True) over a batch."""
-    for n in prange(q.shape[0]):
+@njit(**JIT)
+def christoffel_batch_kernel(ibuf, fbuf, q, qd, out, status, matrix, start, stop):
+    """Christoffel symbols (matrix False) or Coriolis matrices (True), rows [start, stop)."""
+    for n in range(start, stop):
         if matrix:
             status[n] = coriolis_matrix_kernel(ibuf, fbuf, q[n], qd[n], out[n, :, :, 0])
         else:
@@ -140,7 +140,8 @@ def _run(model, q, qd, matrix, what):
         return out
     out = np.empty((q.shape[0], nv, nv, 1 if matrix else nv))
     status = np.zeros(q.shape[0], dtype=np.int64)
-    christoffel_batch_kernel(model._ibuf, model._fbuf, q, qd, out, status, matrix)
+    run_rows(christoffel_batch_kernel, q.shape[0], model._ibuf, model._fbuf, q, qd, out, status,
+             matrix)
     _args.raise_batch_status(status, model, what)
     return out[..., 0] if matrix else out
 

@@ -11,11 +11,11 @@ M_ij = F^T A_j. (Featherstone, Rigid Body Dynamics Algorithms, 2008, Section 6.2
 from __future__ import annotations
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
 
 from . import _args
 from ._kernels import (JIT, add_rigid_inertia_to_parent, all_finite, dot6, joint_transform,
-                       rigid_inertia_times, rigid_inertias, tree, wrench_to_parent)
+                       rigid_inertia_times, rigid_inertias, run_rows, tree, wrench_to_parent)
 
 
 @njit(**JIT)
@@ -56,10 +56,10 @@ def crba_kernel(ibuf, fbuf, q, M):
     return 0
 
 
-@njit(parallel=True, cache=True)
-def crba_batch_kernel(ibuf, fbuf, q, M, status):
-    """CRBA over a batch of configurations (N, nv) -> M (N, nv, nv)."""
-    for n in prange(q.shape[0]):
+@njit(**JIT)
+def crba_batch_kernel(ibuf, fbuf, q, M, status, start, stop):
+    """CRBA over rows [start, stop) of a batch of configurations (N, nv) -> M (N, nv, nv)."""
+    for n in range(start, stop):
         status[n] = crba_kernel(ibuf, fbuf, q[n], M[n])
 
 
@@ -79,6 +79,6 @@ def mass_matrix(model, q):
         return M
     M = np.empty((q.shape[0], model.nv, model.nv))
     status = np.zeros(q.shape[0], dtype=np.int64)
-    crba_batch_kernel(model._ibuf, model._fbuf, q, M, status)
+    run_rows(crba_batch_kernel, q.shape[0], model._ibuf, model._fbuf, q, M, status)
     _args.raise_batch_status(status, model, "mass_matrix")
     return M

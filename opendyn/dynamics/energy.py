@@ -9,10 +9,10 @@ so that dU/dq = g(q), the gravity torques (Lynch & Park, Section 8.1).
 from __future__ import annotations
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
 
 from . import _args
-from ._kernels import JIT, all_finite, rigid_inertia_times, rigid_inertias, tree
+from ._kernels import JIT, all_finite, rigid_inertia_times, rigid_inertias, run_rows, tree
 from .kinematics import forward_kinematics
 from .rnea import forward_pass
 
@@ -62,10 +62,10 @@ def potential_kernel(ibuf, fbuf, q, gravity, out):
     return 0
 
 
-@njit(parallel=True, cache=True)
-def energy_batch_kernel(ibuf, fbuf, q, qd, gravity, kinetic, out, status):
-    """Kinetic (when kinetic) or potential energy over a batch of states."""
-    for n in prange(q.shape[0]):
+@njit(**JIT)
+def energy_batch_kernel(ibuf, fbuf, q, qd, gravity, kinetic, out, status, start, stop):
+    """Kinetic (when kinetic) or potential energy over rows [start, stop) of a batch."""
+    for n in range(start, stop):
         if kinetic:
             status[n] = kinetic_kernel(ibuf, fbuf, q[n], qd[n], out[n:n + 1])
         else:
@@ -84,7 +84,8 @@ def _energy(model, q, qd, gravity, kinetic, what):
         return float(out[0])
     out = np.empty(q.shape[0])
     status = np.zeros(q.shape[0], dtype=np.int64)
-    energy_batch_kernel(model._ibuf, model._fbuf, q, qd, g, kinetic, out, status)
+    run_rows(energy_batch_kernel, q.shape[0], model._ibuf, model._fbuf, q, qd, g, kinetic, out,
+             status)
     _args.raise_batch_status(status, model, what)
     return out
 

@@ -10,10 +10,10 @@ Three methods, same answer, different cost:
 from __future__ import annotations
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
 
 from . import _args
-from ._kernels import JIT, all_finite
+from ._kernels import JIT, all_finite, run_rows
 from .aba import SINGULAR_PIVOT, aba_kernel
 from .crba import crba_kernel
 from .rnea import rnea_kernel
@@ -60,8 +60,6 @@ def cholesky_solve(M, b, x):
 @njit(**JIT)
 def mass_matrix_solve(ibuf, fbuf, q, qd, tau, loads, qdd, newton_euler):
     """qdd <- M^-1 (tau - h - J^T F_tip), M by CRBA or by n RNEA calls. Status as aba_kernel."""
-    if not all_finite(tau):
-        return 4
     nv = qdd.shape[0]
     M = np.empty((nv, nv))
     zero = np.zeros(nv)
@@ -69,6 +67,8 @@ def mass_matrix_solve(ibuf, fbuf, q, qd, tau, loads, qdd, newton_euler):
     status = rnea_kernel(ibuf, fbuf, q, qd, zero, loads, b)
     if status:
         return status
+    if not all_finite(tau):
+        return 4
     if newton_euler:
         # column k of M: tau of RNEA with qdd = e_k, qd = 0, gravity = 0, F_tip = 0
         e_k = np.zeros(nv)
@@ -95,11 +95,11 @@ def forward_kernel(ibuf, fbuf, q, qd, tau, loads, qdd, method):
     return mass_matrix_solve(ibuf, fbuf, q, qd, tau, loads, qdd, method == 2)
 
 
-@njit(parallel=True, cache=True)
-def forward_batch_kernel(ibuf, fbuf, q, qd, tau, loads, qdd, method, status):
-    """Forward dynamics over a batch of states (N, nv); loads (1, rows, 6) or (N, rows, 6)."""
+@njit(**JIT)
+def forward_batch_kernel(ibuf, fbuf, q, qd, tau, loads, qdd, method, status, start, stop):
+    """Forward dynamics over rows [start, stop) of a batch (N, nv); loads (1 or N, rows, 6)."""
     shared = loads.shape[0] == 1
-    for n in prange(q.shape[0]):
+    for n in range(start, stop):
         status[n] = forward_kernel(ibuf, fbuf, q[n], qd[n], tau[n],
                                    loads[0] if shared else loads[n], qdd[n], method)
 
@@ -138,7 +138,7 @@ def forward_dynamics(model, q, qd, tau, f_tip=None, gravity=None, method="aba"):
     n = q.shape[0]
     qdd = np.empty((n, model.nv))
     status = np.zeros(n, dtype=np.int64)
-    forward_batch_kernel(model._ibuf, model._fbuf, q, qd, tau, _args.loads(model, gravity, f_tip, n),
-                         qdd, code, status)
+    run_rows(forward_batch_kernel, n, model._ibuf, model._fbuf, q, qd, tau,
+             _args.loads(model, gravity, f_tip, n), qdd, code, status)
     _args.raise_batch_status(status, model, "forward_dynamics")
     return qdd

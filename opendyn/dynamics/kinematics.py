@@ -11,10 +11,10 @@ coordinates (angular first; Lynch & Park, Sections 4.1 and 5.1).
 from __future__ import annotations
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
 
 from . import _args
-from ._kernels import INLINE, JIT, all_finite, joint_transform, tree, twist_to_child
+from ._kernels import INLINE, JIT, all_finite, joint_transform, run_rows, tree, twist_to_child
 
 
 @njit(**INLINE)
@@ -104,17 +104,17 @@ def jacobian_kernel(ibuf, fbuf, q, body, T_bf, body_frame, J):
     return 0
 
 
-@njit(parallel=True, cache=True)
-def jacobian_batch_kernel(ibuf, fbuf, q, body, T_bf, body_frame, J, status):
-    """Jacobians over a batch of configurations (N, nv) -> (N, 6, nv)."""
-    for n in prange(q.shape[0]):
+@njit(**JIT)
+def jacobian_batch_kernel(ibuf, fbuf, q, body, T_bf, body_frame, J, status, start, stop):
+    """Jacobians over rows [start, stop) of a batch of configurations (N, nv) -> (N, 6, nv)."""
+    for n in range(start, stop):
         status[n] = jacobian_kernel(ibuf, fbuf, q[n], body, T_bf, body_frame, J[n])
 
 
-@njit(parallel=True, cache=True)
-def frame_pose_batch_kernel(ibuf, fbuf, q, body, T_bf, T_sf, status):
-    """Frame poses over a batch of configurations (N, nv) -> (N, 4, 4)."""
-    for n in prange(q.shape[0]):
+@njit(**JIT)
+def frame_pose_batch_kernel(ibuf, fbuf, q, body, T_bf, T_sf, status, start, stop):
+    """Frame poses over rows [start, stop) of a batch of configurations (N, nv) -> (N, 4, 4)."""
+    for n in range(start, stop):
         status[n] = frame_pose_kernel(ibuf, fbuf, q[n], body, T_bf, T_sf[n])
 
 
@@ -138,7 +138,8 @@ def frame_pose(model, q, frame):
         return T
     T = np.empty((q.shape[0], 4, 4))
     status = np.zeros(q.shape[0], dtype=np.int64)
-    frame_pose_batch_kernel(model._ibuf, model._fbuf, q, body, T_bf, T, status)
+    run_rows(frame_pose_batch_kernel, q.shape[0], model._ibuf, model._fbuf, q, body, T_bf, T,
+             status)
     _args.raise_batch_status(status, model, "frame_pose")
     return T
 
@@ -162,6 +163,7 @@ def jacobian(model, q, frame, expressed_in="space"):
         return J
     J = np.empty((q.shape[0], 6, model.nv))
     status = np.zeros(q.shape[0], dtype=np.int64)
-    jacobian_batch_kernel(model._ibuf, model._fbuf, q, body, T_bf, body_frame, J, status)
+    run_rows(jacobian_batch_kernel, q.shape[0], model._ibuf, model._fbuf, q, body, T_bf,
+             body_frame, J, status)
     _args.raise_batch_status(status, model, "jacobian")
     return J

@@ -15,12 +15,12 @@ Backward pass, tips to base:
 from __future__ import annotations
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
 
 from . import _args
 from ._kernels import (INLINE, JIT, add_neg_ad_transpose, add_wrench_to_parent, ad_twist, all_finite,
-                       dot6, joint_transform, rigid_inertia_times, rigid_inertias, tree,
-                       twist_to_child)
+                       dot6, joint_transform, rigid_inertia_times, rigid_inertias, run_rows,
+                       tree, twist_to_child)
 
 
 @njit(**INLINE)
@@ -88,11 +88,11 @@ def rnea_kernel(ibuf, fbuf, q, qd, qdd, loads, tau):
     return 0
 
 
-@njit(parallel=True, cache=True)
-def rnea_batch_kernel(ibuf, fbuf, q, qd, qdd, loads, tau, status):
-    """RNEA over a batch of states (N, nv); loads (1, rows, 6) shared or (N, rows, 6)."""
+@njit(**JIT)
+def rnea_batch_kernel(ibuf, fbuf, q, qd, qdd, loads, tau, status, start, stop):
+    """RNEA over rows [start, stop) of a batch (N, nv); loads (1, rows, 6) shared or (N, ...)."""
     shared = loads.shape[0] == 1
-    for n in prange(q.shape[0]):
+    for n in range(start, stop):
         status[n] = rnea_kernel(ibuf, fbuf, q[n], qd[n], qdd[n], loads[0] if shared else loads[n],
                                 tau[n])
 
@@ -113,8 +113,8 @@ def run_rnea(model, q, qd, qdd, f_tip, gravity, what):
     n = q.shape[0]
     tau = np.empty((n, model.nv))
     status = np.zeros(n, dtype=np.int64)
-    rnea_batch_kernel(model._ibuf, model._fbuf, q, qd, qdd, _args.loads(model, gravity, f_tip, n),
-                      tau, status)
+    run_rows(rnea_batch_kernel, n, model._ibuf, model._fbuf, q, qd, qdd,
+             _args.loads(model, gravity, f_tip, n), tau, status)
     _args.raise_batch_status(status, model, what)
     return tau
 
