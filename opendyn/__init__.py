@@ -12,17 +12,39 @@ from .dynamics.energy import kinetic_energy, potential_energy
 from .dynamics.forward import forward_dynamics
 from .dynamics.kinematics import frame_pose, jacobian
 from .dynamics.rnea import bias_forces, coriolis_forces, gravity_forces, inverse_dynamics
-from .dynamics.task_space import (SingularTaskSpaceError, frame_acceleration, task_space_bias,
-                                  task_space_mass_matrix)
+from .dynamics.task_space import (
+    SingularTaskSpaceError,
+    frame_acceleration,
+    task_space_bias,
+    task_space_mass_matrix,
+)
 from .model import Frame, Model
 from .urdf import FidelityReport, URDFError, available_robots, load_urdf
 
 __version__ = "0.1.0"
 
 __all__ = [
-    "Frame", "FidelityReport", "Model", "SingularMassMatrixError", "SingularTaskSpaceError",
-    "URDFError", "available_robots", "bias_forces", "christoffel_symbols", "coriolis_forces",
-    "coriolis_matrix", "forward_dynamics", "frame_acceleration", "frame_pose", "gravity_forces",
-    "inverse_dynamics", "jacobian", "kinetic_energy", "load_urdf", "mass_matrix",
-    "potential_energy", "task_space_bias", "task_space_mass_matrix",
+    "Frame",
+    "FidelityReport",
+    "Model",
+    "SingularMassMatrixError",
+    "SingularTaskSpaceError",
+    "URDFError",
+    "available_robots",
+    "bias_forces",
+    "christoffel_symbols",
+    "coriolis_forces",
+    "coriolis_matrix",
+    "forward_dynamics",
+    "frame_acceleration",
+    "frame_pose",
+    "gravity_forces",
+    "inverse_dynamics",
+    "jacobian",
+    "kinetic_energy",
+    "load_urdf",
+    "mass_matrix",
+    "potential_energy",
+    "task_space_bias",
+    "task_space_mass_matrix",
 ]

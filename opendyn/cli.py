@@ -52,14 +52,19 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(prog="opendyn", description=__doc__)
     sub = parser.add_subparsers(dest="command", required=True)
     demo = sub.add_parser("demo", help="print M(q), g(q) and forward dynamics for a robot")
-    demo.add_argument("robot", nargs="?", default=DEFAULT_ROBOT,
-                      help=f"URDF file or robot name (default: {DEFAULT_ROBOT})")
+    demo.add_argument(
+        "robot",
+        nargs="?",
+        default=DEFAULT_ROBOT,
+        help=f"URDF file or robot name (default: {DEFAULT_ROBOT})",
+    )
     demo.set_defaults(run=_demo)
     info = sub.add_parser("info", help="model summary and URDF fidelity report")
     info.add_argument("robot", help="URDF file or robot name")
     info.add_argument("--mimic", action="store_true", help="couple mimic joints")
-    info.add_argument("--keep-inertia", action="store_true",
-                      help="keep physically invalid inertias as written")
+    info.add_argument(
+        "--keep-inertia", action="store_true", help="keep physically invalid inertias as written"
+    )
     info.set_defaults(run=_info)
     args = parser.parse_args(argv)
     try:

@@ -67,7 +67,7 @@ def _readonly_view(buf, where):
     """A read-only view of one field of a flat buffer (the buffer itself stays writeable, so the
     compiled kernels see one array type)."""
     off, shape = where
-    view = buf[off:off + int(np.prod(shape))].reshape(shape)
+    view = buf[off : off + int(np.prod(shape))].reshape(shape)
     view.flags.writeable = False
     return view
 
@@ -131,9 +131,34 @@ class Model:
     _frame_index: dict = field(default_factory=dict, repr=False)
 
     @classmethod
-    def build(cls, *, name, joint_names, body_names, body_joints, parent, jtype, coord, mult,
-              offset, A, G, R_home, p_home, frames, lower, upper, velocity_limit, effort_limit,
-              damping, friction, continuous, gravity=(0.0, 0.0, -9.81), report=None, source=""):
+    def build(
+        cls,
+        *,
+        name,
+        joint_names,
+        body_names,
+        body_joints,
+        parent,
+        jtype,
+        coord,
+        mult,
+        offset,
+        A,
+        G,
+        R_home,
+        p_home,
+        frames,
+        lower,
+        upper,
+        velocity_limit,
+        effort_limit,
+        damping,
+        friction,
+        continuous,
+        gravity=(0.0, 0.0, -9.81),
+        report=None,
+        source="",
+    ):
         """Pack per-body arrays into the kernels' flat buffers and freeze everything."""
         nb, nv = len(body_names), len(joint_names)
         ilay, flay = _ibuf_layout(nb), _fbuf_layout(nb)
@@ -142,18 +167,26 @@ class Model:
         ibuf[0], ibuf[1] = nb, nv
         for key, arr in (("parent", parent), ("jtype", jtype), ("coord", coord)):
             off, shape = ilay[key]
-            ibuf[off:off + int(np.prod(shape))] = np.asarray(arr, dtype=np.int64).ravel()
+            ibuf[off : off + int(np.prod(shape))] = np.asarray(arr, dtype=np.int64).ravel()
         G = np.reshape(np.asarray(G, dtype=np.float64), (nb, 6, 6))
         # the same inertia in rigid-body form: mass m, first moment h = m c, I_o about {i}'s
         # origin; G = [[I_o, [h]], [[h]^T, m 1]]
         mass = G[:, 3, 3]
         h = np.stack([G[:, 2, 4], G[:, 0, 5], G[:, 1, 3]], axis=-1)
         I_o = G[:, :3, :3]
-        for key, arr in (("mult", mult), ("offset", offset), ("A", A), ("G", G),
-                         ("mass", mass), ("h", h), ("I_o", I_o),
-                         ("R_home", R_home), ("p_home", p_home)):
+        for key, arr in (
+            ("mult", mult),
+            ("offset", offset),
+            ("A", A),
+            ("G", G),
+            ("mass", mass),
+            ("h", h),
+            ("I_o", I_o),
+            ("R_home", R_home),
+            ("p_home", p_home),
+        ):
             off, shape = flay[key]
-            fbuf[off:off + int(np.prod(shape))] = np.asarray(arr, dtype=np.float64).ravel()
+            fbuf[off : off + int(np.prod(shape))] = np.asarray(arr, dtype=np.float64).ravel()
 
         def frozen(x, dtype=np.float64):
             a = np.array(x, dtype=dtype)
@@ -162,12 +195,23 @@ class Model:
 
         frames = tuple(Frame(f.name, f.body, frozen(f.T_body_frame)) for f in frames)
         return cls(
-            name=name, joint_names=tuple(joint_names), body_names=tuple(body_names),
-            body_joints=tuple(body_joints), frames=frames,
-            lower=frozen(lower), upper=frozen(upper), velocity_limit=frozen(velocity_limit),
-            effort_limit=frozen(effort_limit), damping=frozen(damping),
-            friction=frozen(friction), continuous=frozen(continuous, bool),
-            gravity=frozen(gravity), _ibuf=ibuf, _fbuf=fbuf, report=report, source=source,
+            name=name,
+            joint_names=tuple(joint_names),
+            body_names=tuple(body_names),
+            body_joints=tuple(body_joints),
+            frames=frames,
+            lower=frozen(lower),
+            upper=frozen(upper),
+            velocity_limit=frozen(velocity_limit),
+            effort_limit=frozen(effort_limit),
+            damping=frozen(damping),
+            friction=frozen(friction),
+            continuous=frozen(continuous, bool),
+            gravity=frozen(gravity),
+            _ibuf=ibuf,
+            _fbuf=fbuf,
+            report=report,
+            source=source,
             _frame_index={f.name: k for k, f in enumerate(frames)},
         )
 
@@ -217,8 +261,10 @@ class Model:
         except (KeyError, TypeError):
             names = ", ".join(self.frame_names[:12])
             more = "" if len(self.frames) <= 12 else f", ... ({len(self.frames)} in all)"
-            raise KeyError(f"frame {frame!r} is not a frame of model {self.name!r}; "
-                           f"valid frames: {names}{more}") from None
+            raise KeyError(
+                f"frame {frame!r} is not a frame of model {self.name!r}; "
+                f"valid frames: {names}{more}"
+            ) from None
 
     def home_transform(self, i: int) -> np.ndarray:
         """M_{lambda(i), i}: (4, 4) home configuration of body i in its parent's frame."""
@@ -228,19 +274,28 @@ class Model:
         return T
 
     def __repr__(self) -> str:
-        return (f"Model({self.name!r}, nq={self.nq}, nv={self.nv}, bodies={self.nb}, "
-                f"frames={len(self.frames)})")
+        return (
+            f"Model({self.name!r}, nq={self.nq}, nv={self.nv}, bodies={self.nb}, "
+            f"frames={len(self.frames)})"
+        )
 
     def summary(self) -> str:
         """A human-readable table of joints, limits and masses."""
-        lines = [f"robot {self.name!r}: nq={self.nq}, nv={self.nv}, {self.nb} moving bodies, "
-                 f"{len(self.frames)} frames, total moving mass "
-                 f"{float(self.G[:, 3, 3].sum()) if self.nb else 0.0:.4g} kg"]
+        lines = [
+            f"robot {self.name!r}: nq={self.nq}, nv={self.nv}, {self.nb} moving bodies, "
+            f"{len(self.frames)} frames, total moving mass "
+            f"{float(self.G[:, 3, 3].sum()) if self.nb else 0.0:.4g} kg"
+        ]
         for i in range(self.nb):
             j = int(self.coord[i])
-            kind = "prismatic" if self.jtype[i] == PRISMATIC else (
-                "continuous" if self.continuous[j] else "revolute")
+            kind = (
+                "prismatic"
+                if self.jtype[i] == PRISMATIC
+                else ("continuous" if self.continuous[j] else "revolute")
+            )
             parent = self.body_names[self.parent[i]] if self.parent[i] >= 0 else "(world)"
-            lines.append(f"  {self.body_joints[i]:<28} {kind:<10} {parent} -> "
-                         f"{self.body_names[i]}  mass {self.G[i, 3, 3]:.4g} kg")
+            lines.append(
+                f"  {self.body_joints[i]:<28} {kind:<10} {parent} -> "
+                f"{self.body_names[i]}  mass {self.G[i, 3, 3]:.4g} kg"
+            )
         return "\n".join(lines)

@@ -32,7 +32,9 @@ def _as_array(value, name, shape):
         raise ValueError(f"{name} must be a numeric array, got {value!r}") from error
     if shape and shape[0] is Ellipsis:
         trailing = tuple(shape[1:])
-        matches = array.ndim >= len(trailing) and array.shape[array.ndim - len(trailing):] == trailing
+        matches = (
+            array.ndim >= len(trailing) and array.shape[array.ndim - len(trailing) :] == trailing
+        )
     else:
         matches = array.shape == tuple(shape)
     if not matches:
@@ -154,7 +156,8 @@ def unskew(W):
 
 
 def exp_so3(w):
-    """R = exp([w]) = I + (sin t / t) [w] + ((1 - cos t) / t^2) [w]^2, t = |w| (Rodrigues, MR eq. 3.51).
+    """R = exp([w]) = I + (sin t / t) [w] + ((1 - cos t) / t^2) [w]^2, t = |w|
+    (Rodrigues, MR eq. 3.51).
 
     w: (3,) exponential coordinates omega_hat * theta (rad), omega_hat a unit axis.
     Returns the (3, 3) rotation matrix R in SO(3); w = 0 gives the identity.
@@ -203,7 +206,8 @@ def twist_to_matrix(V):
 
 
 def exp_se3(V):
-    """T = exp([V]) = [[exp([w]), (I + ((1 - cos t) / t^2) [w] + ((t - sin t) / t^3) [w]^2) v], [0, 1]], t = |w| (MR eq. 3.88).
+    """T = exp([V]) = [[exp([w]), (I + ((1 - cos t) / t^2) [w] + ((t - sin t) / t^3) [w]^2) v],
+                       [0, 1]],  t = |w|  (MR eq. 3.88).
 
     V: (6,) exponential coordinates V = S * theta = (w, v), with w = omega * theta (rad)
     and v the linear part (m). The coefficients are evaluated by series for small t, so
@@ -221,7 +225,8 @@ def exp_se3(V):
 
 
 def log_se3(T):
-    """V = log(T) = (w, (I - [w] / 2 + ((1 - (t / 2) cot(t / 2)) / t^2) [w]^2) p), w = log_so3(R), t = |w| (MR eqs. 3.91-3.92).
+    """V = log(T) = (w, (I - [w] / 2 + ((1 - (t / 2) cot(t / 2)) / t^2) [w]^2) p),
+    w = log_so3(R), t = |w|  (MR eqs. 3.91-3.92).
 
     T: (4, 4) homogeneous transform [[R, p], [0, 1]] (p in m).
     Returns the (6,) exponential coordinates V = S * theta = (w, v) with exp_se3(V) = T

@@ -51,15 +51,19 @@ class FidelityReport:
 
     def __str__(self) -> str:
         lines = [f"URDF fidelity report for {self.source}"]
-        for title, items in (("honoured", self.honoured), ("transformed", self.transformed),
-                             ("ignored", self.ignored)):
+        for title, items in (
+            ("honoured", self.honoured),
+            ("transformed", self.transformed),
+            ("ignored", self.ignored),
+        ):
             lines.append(f"  {title}: {len(items)}")
             lines.extend(f"    - {item}" for item in items)
         return "\n".join(lines)
 
 
-def load_urdf(path, floating_base: bool = False, mimic: bool = False,
-              check_inertia: bool = True) -> Model:
+def load_urdf(
+    path, floating_base: bool = False, mimic: bool = False, check_inertia: bool = True
+) -> Model:
     """Load a URDF file, or a robot by name, into a frozen Model.
 
     Args:
@@ -76,8 +80,9 @@ def load_urdf(path, floating_base: bool = False, mimic: bool = False,
     Raises URDFError naming the file, the element and the problem for malformed input.
     """
     if floating_base:
-        raise NotImplementedError("load_urdf: floating_base=True is not supported yet; "
-                                  "opendyn models are fixed-base")
+        raise NotImplementedError(
+            "load_urdf: floating_base=True is not supported yet; opendyn models are fixed-base"
+        )
     file = resolve_robot(path)
     root = _parse_xml(file)
     _check_numbers(file, root)
@@ -87,8 +92,10 @@ def load_urdf(path, floating_base: bool = False, mimic: bool = False,
 
 def resolve_robot(path) -> str:
     """The URDF file for a path or a robot name; URDFError listing known names if neither."""
-    if isinstance(path, os.PathLike) or (isinstance(path, str) and (
-            os.sep in path or "/" in path or path.endswith(".urdf") or os.path.exists(path))):
+    if isinstance(path, os.PathLike) or (
+        isinstance(path, str)
+        and (os.sep in path or "/" in path or path.endswith(".urdf") or os.path.exists(path))
+    ):
         if not os.path.isfile(path):
             raise URDFError(f"{path}: no such URDF file")
         return os.fspath(path)
@@ -99,9 +106,11 @@ def resolve_robot(path) -> str:
         return robots[path]
     close = difflib.get_close_matches(path, robots, n=5)
     known = ", ".join(sorted(robots)[:40])
-    raise URDFError(f"{path!r} is neither a URDF file nor a known robot name"
-                    + (f"; closest names: {', '.join(close)}" if close else "")
-                    + f"; known robots: {known}{', ...' if len(robots) > 40 else ''}")
+    raise URDFError(
+        f"{path!r} is neither a URDF file nor a known robot name"
+        + (f"; closest names: {', '.join(close)}" if close else "")
+        + f"; known robots: {known}{', ...' if len(robots) > 40 else ''}"
+    )
 
 
 def available_robots() -> dict[str, str]:
@@ -114,8 +123,9 @@ def available_robots() -> dict[str, str]:
     paths = sorted(str(p) for p in shipped_robots_dir().glob("*.urdf"))
     try:
         dist = importlib.metadata.distribution("example-robot-data")
-        paths += sorted(str(dist.locate_file(f)) for f in (dist.files or [])
-                        if str(f).endswith(".urdf"))
+        paths += sorted(
+            str(dist.locate_file(f)) for f in (dist.files or []) if str(f).endswith(".urdf")
+        )
     except importlib.metadata.PackageNotFoundError:
         pass
     for p in paths:
@@ -180,8 +190,7 @@ def _check_numbers(file, root) -> None:
                 text = el.get(attr)
                 if text is not None:
                     _check_values(file, el, attr, text, count)
-            if el.tag in ("mass", "inertia") and el.getparent().tag == "inertial" \
-                    and not el.attrib:
+            if el.tag in ("mass", "inertia") and el.getparent().tag == "inertial" and not el.attrib:
                 raise URDFError(f"{file}: {_where(el)}: <{el.tag}> has no values")
 
 
@@ -191,8 +200,10 @@ def _check_values(file, el, attr, text, count):
     except ValueError:
         raise URDFError(f"{file}: {_where(el)}: {attr}={text!r} is not a number") from None
     if len(values) != count:
-        raise URDFError(f"{file}: {_where(el)}: {attr}={text!r} must have {count} "
-                        f"value{'s' if count > 1 else ''}")
+        raise URDFError(
+            f"{file}: {_where(el)}: {attr}={text!r} must have {count} "
+            f"value{'s' if count > 1 else ''}"
+        )
     if not all(math.isfinite(v) for v in values):
         raise URDFError(f"{file}: {_where(el)}: {attr}={text!r} is not finite")
 
@@ -210,9 +221,13 @@ def _parse_yourdfpy(file, root):
             if sub is None or not sub.get("link"):
                 raise URDFError(f"{file}: {_where(el)}: missing <{end} link=...>")
     try:
-        return yourdfpy.URDF.load(io.BytesIO(etree.tostring(root)), build_scene_graph=False,
-                                  load_meshes=False, build_collision_scene_graph=False,
-                                  load_collision_meshes=False)
+        return yourdfpy.URDF.load(
+            io.BytesIO(etree.tostring(root)),
+            build_scene_graph=False,
+            load_meshes=False,
+            build_collision_scene_graph=False,
+            load_collision_meshes=False,
+        )
     except Exception as e:  # yourdfpy raises bare KeyError/ValueError on content it rejects
         raise URDFError(f"{file}: yourdfpy could not parse the URDF: {e!r}") from None
 
@@ -256,8 +271,11 @@ class _Builder:
             body_of[j.child], T_body_link[j.child] = len(body_names), np.eye(4)
             parent.append(body_of[plink])
             jtype.append(MOVING_TYPES[j.type])
-            A.append(np.concatenate([axis, np.zeros(3)]) if j.type != "prismatic"
-                     else np.concatenate([np.zeros(3), axis]))
+            A.append(
+                np.concatenate([axis, np.zeros(3)])
+                if j.type != "prismatic"
+                else np.concatenate([np.zeros(3), axis])
+            )
             R_home.append(T_pj[:3, :3])
             p_home.append(T_pj[:3, 3])
             body_names.append(j.child)
@@ -276,11 +294,24 @@ class _Builder:
             offset.append(o)
         limits = self._limits(coords, joints)
         return Model.build(
-            name=self.robot.name, joint_names=coords, body_names=body_names,
-            body_joints=body_joints, parent=parent, jtype=jtype, coord=coord, mult=mult,
-            offset=offset, A=np.reshape(A, (-1, 6)), G=G, R_home=np.reshape(R_home, (-1, 3, 3)),
-            p_home=np.reshape(p_home, (-1, 3)), frames=frames, report=self.report,
-            source=self.file, **limits)
+            name=self.robot.name,
+            joint_names=coords,
+            body_names=body_names,
+            body_joints=body_joints,
+            parent=parent,
+            jtype=jtype,
+            coord=coord,
+            mult=mult,
+            offset=offset,
+            A=np.reshape(A, (-1, 6)),
+            G=G,
+            R_home=np.reshape(R_home, (-1, 3, 3)),
+            p_home=np.reshape(p_home, (-1, 3)),
+            frames=frames,
+            report=self.report,
+            source=self.file,
+            **limits,
+        )
 
     def _links_by_name(self):
         links = {}
@@ -299,10 +330,11 @@ class _Builder:
             if j.name in joints:
                 self.fail(f"{where}: duplicate joint name")
             if j.type not in SUPPORTED_TYPES:
-                hint = (" (a free-flying base is not supported yet)"
-                        if j.type == "floating" else "")
-                self.fail(f"{where}: joint type {j.type!r} is not supported; supported types: "
-                          f"revolute, continuous, prismatic, fixed{hint}")
+                hint = " (a free-flying base is not supported yet)" if j.type == "floating" else ""
+                self.fail(
+                    f"{where}: joint type {j.type!r} is not supported; supported types: "
+                    f"revolute, continuous, prismatic, fixed{hint}"
+                )
             for end, link in (("parent", j.parent), ("child", j.child)):
                 if link not in links:
                     self.fail(f'{where}: {end} link "{link}" is not a <link> of the robot')
@@ -316,19 +348,25 @@ class _Builder:
         parent_joint = {}
         for j in joints.values():
             if j.child in parent_joint:
-                self.fail(f'<link name="{j.child}"> is the child of two joints, '
-                          f'<joint name="{parent_joint[j.child].name}"> and '
-                          f'<joint name="{j.name}"> (a URDF is a tree)')
+                self.fail(
+                    f'<link name="{j.child}"> is the child of two joints, '
+                    f'<joint name="{parent_joint[j.child].name}"> and '
+                    f'<joint name="{j.name}"> (a URDF is a tree)'
+                )
             parent_joint[j.child] = j
             children[j.parent].append(j)
         roots = [name for name in links if name not in parent_joint]
         if not roots:
-            self.fail(f"the joints {self._cycle(parent_joint, next(iter(links)))} form a cycle: "
-                      f"every link is the child of a joint, so there is no root link")
+            self.fail(
+                f"the joints {self._cycle(parent_joint, next(iter(links)))} form a cycle: "
+                f"every link is the child of a joint, so there is no root link"
+            )
         if len(roots) > 1:
             named = ", ".join(f'<link name="{r}">' for r in roots)
-            self.fail(f"the URDF has {len(roots)} root links ({named}); a robot has one root "
-                      f"(link the others to it with a joint)")
+            self.fail(
+                f"the URDF has {len(roots)} root links ({named}); a robot has one root "
+                f"(link the others to it with a joint)"
+            )
         reached, stack = {roots[0]}, [roots[0]]
         while stack:
             for j in children[stack.pop()]:
@@ -336,8 +374,10 @@ class _Builder:
                 stack.append(j.child)
         cut = [name for name in links if name not in reached]
         if cut:
-            self.fail(f"the joints {self._cycle(parent_joint, cut[0])} form a cycle: links "
-                      f"{', '.join(cut)} cannot be reached from the root link {roots[0]!r}")
+            self.fail(
+                f"the joints {self._cycle(parent_joint, cut[0])} form a cycle: links "
+                f"{', '.join(cut)} cannot be reached from the root link {roots[0]!r}"
+            )
         return roots[0], children
 
     @staticmethod
@@ -370,26 +410,35 @@ class _Builder:
             if not self.use_mimic:
                 self.report.ignored.append(
                     f"mimic on joint {j.name!r} (follows {j.mimic.joint!r}): kept as an "
-                    f"independent coordinate (load_urdf(..., mimic=True) couples it)")
+                    f"independent coordinate (load_urdf(..., mimic=True) couples it)"
+                )
                 continue
             if j.mimic.joint not in joints or joints[j.mimic.joint].type == "fixed":
-                self.fail(f'<joint name="{j.name}"> <mimic joint="{j.mimic.joint}">: not a '
-                          f"moving joint of the robot")
-            mimic_of[j.name] = (j.mimic.joint, float(j.mimic.multiplier or 1.0),
-                                float(j.mimic.offset or 0.0))
+                self.fail(
+                    f'<joint name="{j.name}"> <mimic joint="{j.mimic.joint}">: not a '
+                    f"moving joint of the robot"
+                )
+            mimic_of[j.name] = (
+                j.mimic.joint,
+                float(j.mimic.multiplier or 1.0),
+                float(j.mimic.offset or 0.0),
+            )
         for name in list(mimic_of):
             src, m, o = mimic_of[name]
             seen = {name}
             while src in mimic_of:
                 if src in seen:
-                    self.fail(f'<joint name="{name}"> <mimic>: mimic joints form a cycle '
-                              f"through {', '.join(sorted(seen))}")
+                    self.fail(
+                        f'<joint name="{name}"> <mimic>: mimic joints form a cycle '
+                        f"through {', '.join(sorted(seen))}"
+                    )
                 seen.add(src)
                 src, m, o = mimic_of[src][0], m * mimic_of[src][1], m * mimic_of[src][2] + o
             mimic_of[name] = (src, m, o)
             self.report.transformed.append(
                 f"mimic joint {name!r} = {m:g} * {src!r} + {o:g}: not a coordinate of the model "
-                f"(its own <limit> and <dynamics> are not used)")
+                f"(its own <limit> and <dynamics> are not used)"
+            )
         coords = [j.name for j in order if j.type != "fixed" and j.name not in mimic_of]
         return coords, mimic_of
 
@@ -397,11 +446,11 @@ class _Builder:
         axis = np.asarray(j.axis, dtype=float)  # yourdfpy gives (1, 0, 0) for a missing <axis>
         norm = float(np.linalg.norm(axis))
         if norm < 1e-12:
-            self.fail(f'<joint name="{j.name}"> <axis xyz="{" ".join(map(str, axis))}">: '
-                      f"the axis is zero")
+            self.fail(
+                f'<joint name="{j.name}"> <axis xyz="{" ".join(map(str, axis))}">: the axis is zero'
+            )
         if abs(norm - 1.0) > 1e-12:
-            self.report.transformed.append(
-                f"axis of joint {j.name!r} normalised (length {norm:g})")
+            self.report.transformed.append(f"axis of joint {j.name!r} normalised (length {norm:g})")
         return axis / norm
 
     def _body_inertias(self, links, body_of, T_body_link, nb):
@@ -414,34 +463,50 @@ class _Builder:
             mass = float(inertial.mass if inertial.mass is not None else 0.0)
             I = np.zeros((3, 3)) if inertial.inertia is None else inertial.inertia
             T_body_com = T_body_link[name] @ (
-                inertial.origin if inertial.origin is not None else np.eye(4))
+                inertial.origin if inertial.origin is not None else np.eye(4)
+            )
             com, R_com = T_body_com[:3, 3], T_body_com[:3, :3]
             try:
                 G_link = spatial_inertia(mass, com, I, R_com)
             except ValueError as e:
                 if body_of[name] < 0 and mass >= 0:
-                    self.report.ignored.append(f"{where}: not a rigid-body inertia ({e}), but "
-                                               f"welded to the fixed root, so unused")
+                    self.report.ignored.append(
+                        f"{where}: not a rigid-body inertia ({e}), but "
+                        f"welded to the fixed root, so unused"
+                    )
                     continue
                 if self.check_inertia or mass < 0:
-                    self.fail(f"{where}: {e}; no rigid body has it"
-                              + ("" if mass < 0 else
-                                 " (load_urdf(..., check_inertia=False) keeps it as written)"))
+                    self.fail(
+                        f"{where}: {e}; no rigid body has it"
+                        + (
+                            ""
+                            if mass < 0
+                            else " (load_urdf(..., check_inertia=False) keeps it as written)"
+                        )
+                    )
                 self.report.honoured.append(f"{where}: kept as written although {e}")
                 G_link = spatial_inertia(mass, com, I, R_com, physical=False)
             if body_of[name] >= 0:
                 G[body_of[name]] += G_link
             elif mass > 0:
                 self.report.ignored.append(
-                    f"inertia of link {name!r} ({mass:g} kg): welded to the fixed root")
+                    f"inertia of link {name!r} ({mass:g} kg): welded to the fixed root"
+                )
         return G
 
     def _limits(self, coords, joints):
         n = len(coords)
-        out = {k: np.full(n, v) for k, v in (("lower", -np.inf), ("upper", np.inf),
-                                              ("velocity_limit", np.inf),
-                                              ("effort_limit", np.inf), ("damping", 0.0),
-                                              ("friction", 0.0))}
+        out = {
+            k: np.full(n, v)
+            for k, v in (
+                ("lower", -np.inf),
+                ("upper", np.inf),
+                ("velocity_limit", np.inf),
+                ("effort_limit", np.inf),
+                ("damping", 0.0),
+                ("friction", 0.0),
+            )
+        }
         out["continuous"] = np.zeros(n, dtype=bool)
         for k, name in enumerate(coords):
             j = joints[name]
@@ -454,8 +519,10 @@ class _Builder:
                     if lim.upper is not None:
                         out["upper"][k] = float(lim.upper)
                     if out["lower"][k] > out["upper"][k]:
-                        self.fail(f'<joint name="{name}"> <limit>: lower limit '
-                                  f'{out["lower"][k]:g} is above upper limit {out["upper"][k]:g}')
+                        self.fail(
+                            f'<joint name="{name}"> <limit>: lower limit '
+                            f"{out['lower'][k]:g} is above upper limit {out['upper'][k]:g}"
+                        )
                 for key, val in (("velocity_limit", lim.velocity), ("effort_limit", lim.effort)):
                     if val is not None:
                         out[key][k] = float(val)
@@ -467,43 +534,59 @@ class _Builder:
                         continue
                     out[key][k] = float(val)
                     if out[key][k] < 0:
-                        self.fail(f'<joint name="{name}"> <dynamics>: negative {key} '
-                                  f"{out[key][k]:g}")
+                        self.fail(
+                            f'<joint name="{name}"> <dynamics>: negative {key} {out[key][k]:g}'
+                        )
         return out
 
     def _report_content(self, links, joints, body_of):
         r = self.report
         moving = [j for j in joints.values() if j.type != "fixed"]
         fixed = [j for j in joints.values() if j.type == "fixed"]
-        r.honoured.append(f"{len(moving)} moving joints (revolute, continuous, prismatic) with "
-                          f"their origins, axes, limits and <dynamics>")
+        r.honoured.append(
+            f"{len(moving)} moving joints (revolute, continuous, prismatic) with "
+            f"their origins, axes, limits and <dynamics>"
+        )
         r.honoured.append(f"{len(links)} links kept as named frames, with their <inertial>")
         for j in fixed:
             where = "the fixed world" if body_of[j.child] < 0 else "the body above it"
             r.transformed.append(f"fixed joint {j.name!r}: link {j.child!r} merged into {where}")
-        no_axis = [el.get("name") for el in self.root.iterchildren("joint")
-                   if el.get("type") in MOVING_TYPES and el.find("axis") is None]
+        no_axis = [
+            el.get("name")
+            for el in self.root.iterchildren("joint")
+            if el.get("type") in MOVING_TYPES and el.find("axis") is None
+        ]
         if no_axis:
-            r.transformed.append(f"joints without <axis> take the default (1, 0, 0): "
-                                 f"{', '.join(no_axis)}")
-        no_limit = [el.get("name") for el in self.root.iterchildren("joint")
-                    if el.get("type") in ("revolute", "prismatic") and el.find("limit") is None]
+            r.transformed.append(
+                f"joints without <axis> take the default (1, 0, 0): {', '.join(no_axis)}"
+            )
+        no_limit = [
+            el.get("name")
+            for el in self.root.iterchildren("joint")
+            if el.get("type") in ("revolute", "prismatic") and el.find("limit") is None
+        ]
         if no_limit:
-            r.transformed.append(f"revolute/prismatic joints without the required <limit>, "
-                                 f"taken as unlimited: {', '.join(no_limit)}")
+            r.transformed.append(
+                f"revolute/prismatic joints without the required <limit>, "
+                f"taken as unlimited: {', '.join(no_limit)}"
+            )
         massless = [n for n, l in links.items() if l.inertial is None and body_of[n] >= 0]
         if massless:
-            r.transformed.append(f"links without <inertial> taken as massless: "
-                                 f"{', '.join(massless)}")
+            r.transformed.append(
+                f"links without <inertial> taken as massless: {', '.join(massless)}"
+            )
         n_vis = sum(len(l.visuals) for l in links.values())
         n_col = sum(len(l.collisions) for l in links.values())
         if n_vis:
             r.ignored.append(f"{n_vis} <visual> elements (used only for playback)")
         if n_col:
             r.ignored.append(f"{n_col} <collision> elements (no contact model)")
-        for tag, what in (("safety_controller", "soft limits"), ("calibration", "calibration"),
-                          ("transmission", "actuator transmissions"),
-                          ("gazebo", "simulator-specific settings")):
+        for tag, what in (
+            ("safety_controller", "soft limits"),
+            ("calibration", "calibration"),
+            ("transmission", "actuator transmissions"),
+            ("gazebo", "simulator-specific settings"),
+        ):
             count = sum(1 for _ in self.root.iter(tag))
             if count:
                 r.ignored.append(f"{count} <{tag}> elements ({what})")

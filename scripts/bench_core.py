@@ -40,7 +40,7 @@ def pin_state(pmodel, model, q, qd):
     for k, name in enumerate(model.joint_names):
         joint = pmodel.joints[pmodel.getJointId(name)]
         if joint.nq == 2:
-            qp[joint.idx_q:joint.idx_q + 2] = np.cos(q[k]), np.sin(q[k])
+            qp[joint.idx_q : joint.idx_q + 2] = np.cos(q[k]), np.sin(q[k])
         else:
             qp[joint.idx_q] = q[k]
         vp[joint.idx_v] = qd[k]
@@ -64,22 +64,48 @@ def single_state_rows(name, budget):
         return np.linalg.solve(M, ap - h)
 
     cases = [
-        ("inverse_dynamics", lambda: od.inverse_dynamics(model, q, qd, qdd),
-         "rnea", lambda: pin.rnea(pmodel, pdata, qp, vp, ap)),
-        ("mass_matrix", lambda: od.mass_matrix(model, q),
-         "crba", lambda: pin.crba(pmodel, pdata, qp)),
-        ("forward_dynamics aba", lambda: od.forward_dynamics(model, q, qd, qdd),
-         "aba", lambda: pin.aba(pmodel, pdata, qp, vp, ap)),
-        ("forward_dynamics crba", lambda: od.forward_dynamics(model, q, qd, qdd, method="crba"),
-         "crba+nle+np.solve", pin_crba_solve),
-        ("forward_dynamics newton_euler",
-         lambda: od.forward_dynamics(model, q, qd, qdd, method="newton_euler"),
-         "aba", lambda: pin.aba(pmodel, pdata, qp, vp, ap)),
-        ("coriolis_matrix", lambda: od.coriolis_matrix(model, q, qd),
-         "computeCoriolisMatrix", lambda: pin.computeCoriolisMatrix(pmodel, pdata, qp, vp)),
-        ("jacobian (body)", lambda: od.jacobian(model, q, frame, "body"),
-         "computeFrameJacobian", lambda: pin.computeFrameJacobian(pmodel, pdata, qp, fid,
-                                                                    pin.LOCAL)),
+        (
+            "inverse_dynamics",
+            lambda: od.inverse_dynamics(model, q, qd, qdd),
+            "rnea",
+            lambda: pin.rnea(pmodel, pdata, qp, vp, ap),
+        ),
+        (
+            "mass_matrix",
+            lambda: od.mass_matrix(model, q),
+            "crba",
+            lambda: pin.crba(pmodel, pdata, qp),
+        ),
+        (
+            "forward_dynamics aba",
+            lambda: od.forward_dynamics(model, q, qd, qdd),
+            "aba",
+            lambda: pin.aba(pmodel, pdata, qp, vp, ap),
+        ),
+        (
+            "forward_dynamics crba",
+            lambda: od.forward_dynamics(model, q, qd, qdd, method="crba"),
+            "crba+nle+np.solve",
+            pin_crba_solve,
+        ),
+        (
+            "forward_dynamics newton_euler",
+            lambda: od.forward_dynamics(model, q, qd, qdd, method="newton_euler"),
+            "aba",
+            lambda: pin.aba(pmodel, pdata, qp, vp, ap),
+        ),
+        (
+            "coriolis_matrix",
+            lambda: od.coriolis_matrix(model, q, qd),
+            "computeCoriolisMatrix",
+            lambda: pin.computeCoriolisMatrix(pmodel, pdata, qp, vp),
+        ),
+        (
+            "jacobian (body)",
+            lambda: od.jacobian(model, q, frame, "body"),
+            "computeFrameJacobian",
+            lambda: pin.computeFrameJacobian(pmodel, pdata, qp, fid, pin.LOCAL),
+        ),
     ]
     rows = []
     for ours_name, ours, pin_name, theirs in cases:
@@ -134,10 +160,12 @@ def startup_times():
     with tempfile.TemporaryDirectory() as cache:
         env = dict(os.environ, NUMBA_CACHE_DIR=cache)
         run = [sys.executable, "-c", STARTUP]
-        cold = float(subprocess.run(run, env=env, capture_output=True, text=True,
-                                    check=True).stdout)
-        warm = float(subprocess.run(run, env=env, capture_output=True, text=True,
-                                    check=True).stdout)
+        cold = float(
+            subprocess.run(run, env=env, capture_output=True, text=True, check=True).stdout
+        )
+        warm = float(
+            subprocess.run(run, env=env, capture_output=True, text=True, check=True).stdout
+        )
     return cold, warm
 
 
@@ -148,19 +176,25 @@ def main():
     args = parser.parse_args()
     budget = 0.1 if args.quick else 0.5
 
-    print(f"opendyn {od.__version__}, Pinocchio {pin.__version__}, numpy {np.__version__}, "
-          f"{os.cpu_count()} cores\n")
+    print(
+        f"opendyn {od.__version__}, Pinocchio {pin.__version__}, numpy {np.__version__}, "
+        f"{os.cpu_count()} cores\n"
+    )
     print("| robot | nv | opendyn | us | Pinocchio | us | ratio |")
     print("|---|---:|---|---:|---|---:|---:|")
     for name in ROBOTS:
         for robot, nv, ours_name, t_ours, pin_name, t_pin in single_state_rows(name, budget):
-            print(f"| {robot} | {nv} | {ours_name} | {t_ours:.2f} | {pin_name} | {t_pin:.2f} "
-                  f"| {t_ours / t_pin:.2f} |")
+            print(
+                f"| {robot} | {nv} | {ours_name} | {t_ours:.2f} | {pin_name} | {t_pin:.2f} "
+                f"| {t_ours / t_pin:.2f} |"
+            )
 
     n = 10_000
     print(f"\nBatched inverse dynamics, N = {n} states, microseconds per state:\n")
-    print("| robot | opendyn batch | pin.rnea loop | pin.rneaInParallel (2 threads) "
-          "| loop / opendyn |")
+    print(
+        "| robot | opendyn batch | pin.rnea loop | pin.rneaInParallel (2 threads) "
+        "| loop / opendyn |"
+    )
     print("|---|---:|---:|---:|---:|")
     for name in ROBOTS:
         for robot, _, ours, loop, parallel in batch_rows(name, n, budget * 4):
@@ -168,8 +202,10 @@ def main():
 
     if not args.no_startup:
         cold, warm = startup_times()
-        print(f"\nImport + UR5 load + first call of every function: {cold:.1f} s with an empty "
-              f"kernel cache (numba compiles), {warm:.2f} s with the on-disk cache.")
+        print(
+            f"\nImport + UR5 load + first call of every function: {cold:.1f} s with an empty "
+            f"kernel cache (numba compiles), {warm:.2f} s with the on-disk cache."
+        )
 
 
 if __name__ == "__main__":

@@ -16,8 +16,9 @@ import pinocchio as pin
 def swap_halves(x, axis=0):
     """Linear-first <-> angular-first along an axis of length 6."""
     x = np.asarray(x)
-    return np.concatenate([np.take(x, range(3, 6), axis=axis),
-                           np.take(x, range(0, 3), axis=axis)], axis=axis)
+    return np.concatenate(
+        [np.take(x, range(3, 6), axis=axis), np.take(x, range(0, 3), axis=axis)], axis=axis
+    )
 
 
 class PinOracle:
@@ -45,7 +46,7 @@ class PinOracle:
         out = pin.neutral(self.model)
         for k in range(len(q)):
             if self.cos_sin[k]:
-                out[self.idx_q[k]:self.idx_q[k] + 2] = np.cos(q[k]), np.sin(q[k])
+                out[self.idx_q[k] : self.idx_q[k] + 2] = np.cos(q[k]), np.sin(q[k])
             else:
                 out[self.idx_q[k]] = q[k]
         return out

@@ -59,37 +59,45 @@ def _random_inertia(rng, mass):
 def _inertial_xml(rng):
     mass = rng.uniform(0.2, 3.0)
     I = _random_inertia(rng, mass)
-    return (f'    <inertial>\n'
-            f'      <origin xyz="{_fmt(rng.uniform(-0.3, 0.3, 3))}" '
-            f'rpy="{_fmt(_random_rpy(rng))}"/>\n'
-            f'      <mass value="{_num(mass)}"/>\n'
-            f'      <inertia ixx="{_num(I[0, 0])}" ixy="{_num(I[0, 1])}" ixz="{_num(I[0, 2])}" '
-            f'iyy="{_num(I[1, 1])}" iyz="{_num(I[1, 2])}" izz="{_num(I[2, 2])}"/>\n'
-            f'    </inertial>\n')
+    return (
+        f"    <inertial>\n"
+        f'      <origin xyz="{_fmt(rng.uniform(-0.3, 0.3, 3))}" '
+        f'rpy="{_fmt(_random_rpy(rng))}"/>\n'
+        f'      <mass value="{_num(mass)}"/>\n'
+        f'      <inertia ixx="{_num(I[0, 0])}" ixy="{_num(I[0, 1])}" ixz="{_num(I[0, 2])}" '
+        f'iyy="{_num(I[1, 1])}" iyz="{_num(I[1, 2])}" izz="{_num(I[2, 2])}"/>\n'
+        f"    </inertial>\n"
+    )
 
 
 def _joint_xml(rng, name, jtype, parent, child):
-    lines = [f'  <joint name="{name}" type="{jtype}">',
-             f'    <parent link="{parent}"/>',
-             f'    <child link="{child}"/>',
-             f'    <origin xyz="{_fmt(rng.uniform(-0.5, 0.5, 3))}" '
-             f'rpy="{_fmt(_random_rpy(rng))}"/>']
+    lines = [
+        f'  <joint name="{name}" type="{jtype}">',
+        f'    <parent link="{parent}"/>',
+        f'    <child link="{child}"/>',
+        f'    <origin xyz="{_fmt(rng.uniform(-0.5, 0.5, 3))}" rpy="{_fmt(_random_rpy(rng))}"/>',
+    ]
     if jtype in MOVING:
         axis = _random_axis(rng)
         if axis is not None:
             lines.append(f'    <axis xyz="{_fmt(axis)}"/>')
         bound = 0.5 if jtype == "prismatic" else np.pi
         limits = "" if jtype == "continuous" else f'lower="{_num(-bound)}" upper="{_num(bound)}" '
-        lines.append(f'    <limit {limits}effort="{_num(rng.uniform(10, 100))}" '
-                     f'velocity="{_num(rng.uniform(1, 10))}"/>')
-        lines.append(f'    <dynamics damping="{_num(rng.uniform(0, 1))}" '
-                     f'friction="{_num(rng.uniform(0, 0.5))}"/>')
-    lines.append('  </joint>')
+        lines.append(
+            f'    <limit {limits}effort="{_num(rng.uniform(10, 100))}" '
+            f'velocity="{_num(rng.uniform(1, 10))}"/>'
+        )
+        lines.append(
+            f'    <dynamics damping="{_num(rng.uniform(0, 1))}" '
+            f'friction="{_num(rng.uniform(0, 0.5))}"/>'
+        )
+    lines.append("  </joint>")
     return "\n".join(lines) + "\n"
 
 
-def random_tree_urdf(seed, n_links=12, root_branches=3, p_chain=0.5, p_fixed=0.2,
-                     p_massless=0.3, n_flanges=2):
+def random_tree_urdf(
+    seed, n_links=12, root_branches=3, p_chain=0.5, p_fixed=0.2, p_massless=0.3, n_flanges=2
+):
     """URDF XML text of a random kinematic tree.
 
     Args:
@@ -114,8 +122,9 @@ def random_tree_urdf(seed, n_links=12, root_branches=3, p_chain=0.5, p_fixed=0.2
         else:
             parent.append(int(rng.integers(0, k)))
     p_moving = (1.0 - p_fixed) / len(MOVING)
-    jtype = [None] + [str(rng.choice(JOINT_TYPES, p=[p_moving] * 3 + [p_fixed]))
-                      for _ in range(1, n_links)]
+    jtype = [None] + [
+        str(rng.choice(JOINT_TYPES, p=[p_moving] * 3 + [p_fixed])) for _ in range(1, n_links)
+    ]
     massive = [True] + [bool(rng.uniform() >= p_massless) for _ in range(1, n_links)]
 
     # the body of link k is the nearest link at or above k whose joint moves (0: the world)
@@ -130,22 +139,20 @@ def random_tree_urdf(seed, n_links=12, root_branches=3, p_chain=0.5, p_fixed=0.2
 
     names = [f"link{k}" for k in range(n_links)]
     leaves = [k for k in range(1, n_links) if k not in parent]
-    flanges = [int(k) for k in rng.choice(leaves, size=min(n_flanges, len(leaves)),
-                                          replace=False)]
+    flanges = [int(k) for k in rng.choice(leaves, size=min(n_flanges, len(leaves)), replace=False)]
 
     out = [f'<?xml version="1.0"?>\n<robot name="random_tree_{seed}">\n']
     for k in range(n_links):
         out.append(f'  <link name="{names[k]}">\n')
         if massive[k]:
             out.append(_inertial_xml(rng))
-        out.append('  </link>\n')
+        out.append("  </link>\n")
         if k > 0:
             out.append(_joint_xml(rng, f"joint{k}", jtype[k], names[parent[k]], names[k]))
     for k in flanges:
         out.append(f'  <link name="{names[k]}_flange"/>\n')
-        out.append(_joint_xml(rng, f"joint{k}_flange", "fixed", names[k],
-                              f"{names[k]}_flange"))
-    out.append('</robot>\n')
+        out.append(_joint_xml(rng, f"joint{k}_flange", "fixed", names[k], f"{names[k]}_flange"))
+    out.append("</robot>\n")
     return "".join(out)
 
 

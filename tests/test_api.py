@@ -20,8 +20,9 @@ STATE_FUNCTIONS = {
     "christoffel_symbols": lambda m, x: od.christoffel_symbols(m, x),
     "forward_dynamics aba": lambda m, x: od.forward_dynamics(m, x, x, x),
     "forward_dynamics crba": lambda m, x: od.forward_dynamics(m, x, x, x, method="crba"),
-    "forward_dynamics newton_euler":
-        lambda m, x: od.forward_dynamics(m, x, x, x, method="newton_euler"),
+    "forward_dynamics newton_euler": lambda m, x: od.forward_dynamics(
+        m, x, x, x, method="newton_euler"
+    ),
     "frame_pose": lambda m, x: od.frame_pose(m, x, "tool0"),
     "jacobian space": lambda m, x: od.jacobian(m, x, "tool0"),
     "jacobian body": lambda m, x: od.jacobian(m, x, "tool0", expressed_in="body"),
@@ -41,9 +42,16 @@ def states(ur5):
 
 
 @pytest.mark.parametrize("name", STATE_FUNCTIONS)
-@pytest.mark.parametrize("bad, message", [
-    (np.zeros(5), "shape"), (np.zeros((2, 3, 6)), "shape"), ("abc", "array of numbers"),
-    (np.r_[0, 0, np.nan, 0, 0, 0], "finite"), (np.r_[0, np.inf, 0, 0, 0, 0], "finite")])
+@pytest.mark.parametrize(
+    "bad, message",
+    [
+        (np.zeros(5), "shape"),
+        (np.zeros((2, 3, 6)), "shape"),
+        ("abc", "array of numbers"),
+        (np.r_[0, 0, np.nan, 0, 0, 0], "finite"),
+        (np.r_[0, np.inf, 0, 0, 0, 0], "finite"),
+    ],
+)
 def test_bad_state_raises_value_error_naming_the_argument(ur5, name, bad, message):
     with pytest.raises(ValueError, match=message) as info:
         STATE_FUNCTIONS[name](ur5, bad)
@@ -82,8 +90,7 @@ def test_bad_options_are_named(ur5):
 def test_lists_and_integer_arrays_are_accepted(ur5):
     q = [0.1, -0.2, 0.3, 0.0, 0.5, -0.4]
     expected = od.inverse_dynamics(ur5, np.array(q), np.zeros(6), np.zeros(6))
-    np.testing.assert_array_equal(od.inverse_dynamics(ur5, q, [0] * 6, np.zeros(6, int)),
-                                  expected)
+    np.testing.assert_array_equal(od.inverse_dynamics(ur5, q, [0] * 6, np.zeros(6, int)), expected)
 
 
 @pytest.mark.parametrize("name", STATE_FUNCTIONS)
@@ -99,8 +106,9 @@ def test_a_non_contiguous_state_gives_the_same_answer(ur5, states):
     q = states[0]
     q_strided = np.zeros(12)[::2]
     q_strided[:] = q
-    np.testing.assert_array_equal(od.inverse_dynamics(ur5, q_strided, q_strided, q_strided),
-                                  od.inverse_dynamics(ur5, q, q, q))
+    np.testing.assert_array_equal(
+        od.inverse_dynamics(ur5, q_strided, q_strided, q_strided), od.inverse_dynamics(ur5, q, q, q)
+    )
 
 
 def test_batch_f_tip_per_state(ur5, states):
@@ -108,18 +116,31 @@ def test_batch_f_tip_per_state(ur5, states):
     batch = od.inverse_dynamics(ur5, states, states, states, f_tip={"tool0": F})
     for k in range(len(states)):
         np.testing.assert_allclose(
-            batch[k], od.inverse_dynamics(ur5, states[k], states[k], states[k],
-                                          f_tip={"tool0": F[k]}), rtol=1e-13, atol=1e-12)
+            batch[k],
+            od.inverse_dynamics(ur5, states[k], states[k], states[k], f_tip={"tool0": F[k]}),
+            rtol=1e-13,
+            atol=1e-12,
+        )
 
 
 def test_kernel_views_of_the_model_buffers_match_the_documented_fields(ur5):
     parent, jtype, coord, mult, offset, A, R_home, p_home = _kernels.tree(ur5._ibuf, ur5._fbuf)
     mass, h, I_o = _kernels.rigid_inertias(ur5._ibuf, ur5._fbuf)
     G = _kernels.spatial_inertias(ur5._ibuf, ur5._fbuf)
-    for ours, field in ((parent, ur5.parent), (jtype, ur5.jtype), (coord, ur5.coord),
-                        (mult, ur5.mult), (offset, ur5.offset), (A, ur5.A),
-                        (R_home, ur5.R_home), (p_home, ur5.p_home), (mass, ur5.mass),
-                        (h, ur5.h), (I_o, ur5.I_o), (G, ur5.G)):
+    for ours, field in (
+        (parent, ur5.parent),
+        (jtype, ur5.jtype),
+        (coord, ur5.coord),
+        (mult, ur5.mult),
+        (offset, ur5.offset),
+        (A, ur5.A),
+        (R_home, ur5.R_home),
+        (p_home, ur5.p_home),
+        (mass, ur5.mass),
+        (h, ur5.h),
+        (I_o, ur5.I_o),
+        (G, ur5.G),
+    ):
         np.testing.assert_array_equal(ours, field)
     # the rigid-body form is the spatial inertia G = [[I_o, [h]], [[h]^T, m 1]]
     np.testing.assert_array_equal(ur5.G[:, 3, 3], ur5.mass)
@@ -141,8 +162,9 @@ def test_task_space_mass_matrix_is_the_seed_formula_for_a_square_jacobian(ur5, s
         J = od.jacobian(ur5, q, "tool0", expressed_in="body")
         M = od.mass_matrix(ur5, q)
         J_inv = np.linalg.inv(J)
-        np.testing.assert_allclose(od.task_space_mass_matrix(ur5, q, "tool0"),
-                                   J_inv.T @ M @ J_inv, rtol=1e-8, atol=1e-8)
+        np.testing.assert_allclose(
+            od.task_space_mass_matrix(ur5, q, "tool0"), J_inv.T @ M @ J_inv, rtol=1e-8, atol=1e-8
+        )
 
 
 def test_task_space_equation_of_motion_holds(ur5, states):
@@ -167,8 +189,12 @@ def test_frame_acceleration_is_the_derivative_of_the_body_twist(ur5, states):
     def V_b(t):
         return od.jacobian(ur5, q + qd * t + qdd * t * t / 2, "tool0", "body") @ (qd + qdd * t)
 
-    np.testing.assert_allclose(od.frame_acceleration(ur5, q, qd, qdd, "tool0"),
-                               (V_b(h) - V_b(-h)) / (2 * h), rtol=1e-6, atol=1e-6)
+    np.testing.assert_allclose(
+        od.frame_acceleration(ur5, q, qd, qdd, "tool0"),
+        (V_b(h) - V_b(-h)) / (2 * h),
+        rtol=1e-6,
+        atol=1e-6,
+    )
 
 
 def test_task_space_of_a_frame_that_cannot_move_in_six_directions():
@@ -188,4 +214,5 @@ def test_space_and_body_jacobians_are_related_by_the_adjoint(ur5, states):
         np.testing.assert_allclose(
             od.jacobian(ur5, q, "tool0"),
             adjoint(od.frame_pose(ur5, q, "tool0")) @ od.jacobian(ur5, q, "tool0", "body"),
-            atol=1e-12)
+            atol=1e-12,
+        )

@@ -94,7 +94,7 @@ class PlanarArm:
     def pose(self, q, k, dist):
         """T_s(frame) of the frame `dist` along link k: rotated by phi_k about the axis."""
         T = np.eye(4)
-        T[:3, :3] = Rotation.from_rotvec(self.axis * np.sum(q[:k + 1])).as_matrix()
+        T[:3, :3] = Rotation.from_rotvec(self.axis * np.sum(q[: k + 1])).as_matrix()
         T[:3, 3] = np.array(self.origin) + np.array(self.plane) @ self.point(q, k, dist)[0]
         return T
 
@@ -104,13 +104,14 @@ class PlanarArm:
         K = 0.0
         for k in range(self.n):
             v = self.point(q, k, self.r[k])[1] @ qd
-            K += 0.5 * self.m[k] * v @ v + 0.5 * self.I[k] * np.sum(qd[:k + 1]) ** 2
+            K += 0.5 * self.m[k] * v @ v + 0.5 * self.I[k] * np.sum(qd[: k + 1]) ** 2
         return K
 
     def potential_energy(self, q, gravity):
         """U = -sum_k m_k g . c_k, c_k the world centre of mass of link k."""
-        return -sum(self.m[k] * np.dot(gravity, self.pose(q, k, self.r[k])[:3, 3])
-                    for k in range(self.n))
+        return -sum(
+            self.m[k] * np.dot(gravity, self.pose(q, k, self.r[k])[:3, 3]) for k in range(self.n)
+        )
 
     def mass_matrix(self, q):
         """M(q) = M0 + sum_t a_t cos(s_t . q) P_t, the arm's mass matrix written out."""
@@ -147,23 +148,32 @@ class DoublePendulum(PlanarArm):
         M11 = I1 + I2 + m1 r1^2 + m2 (L1^2 + r2^2 + 2 L1 r2 cos q2),
         M12 = I2 + m2 (r2^2 + L1 r2 cos q2), M22 = I2 + m2 r2^2."""
         (m1, m2), (L1, _), (r1, r2), (I1, I2) = self.m, self.L, self.r, self.I
-        M0 = np.array([[I1 + I2 + m1 * r1**2 + m2 * (L1**2 + r2**2), I2 + m2 * r2**2],
-                       [I2 + m2 * r2**2, I2 + m2 * r2**2]])
+        M0 = np.array(
+            [
+                [I1 + I2 + m1 * r1**2 + m2 * (L1**2 + r2**2), I2 + m2 * r2**2],
+                [I2 + m2 * r2**2, I2 + m2 * r2**2],
+            ]
+        )
         return M0, [(m2 * L1 * r2, np.array([0.0, 1.0]), np.array([[2.0, 1.0], [1.0, 0.0]]))]
 
     def coriolis(self, q, qd):
         """Modern Robotics eq. 8.9: c1 = -m2 L1 r2 sin q2 (2 qd1 qd2 + qd2^2),
         c2 = m2 L1 r2 sin q2 qd1^2."""
         a = self.m[1] * self.L[0] * self.r[1]
-        return np.array([-a * np.sin(q[1]) * (2 * qd[0] * qd[1] + qd[1] ** 2),
-                         a * np.sin(q[1]) * qd[0] ** 2])
+        return np.array(
+            [-a * np.sin(q[1]) * (2 * qd[0] * qd[1] + qd[1] ** 2), a * np.sin(q[1]) * qd[0] ** 2]
+        )
 
     def gravity_forces(self, q):
         """Modern Robotics eq. 8.9 with angles from the downward vertical (gravity along phi = 0):
         g1 = g ((m1 r1 + m2 L1) sin q1 + m2 r2 sin(q1 + q2)), g2 = g m2 r2 sin(q1 + q2)."""
         (m1, m2), (L1, _), (r1, r2) = self.m, self.L, self.r
-        return G0 * np.array([(m1 * r1 + m2 * L1) * np.sin(q[0]) + m2 * r2 * np.sin(q[0] + q[1]),
-                              m2 * r2 * np.sin(q[0] + q[1])])
+        return G0 * np.array(
+            [
+                (m1 * r1 + m2 * L1) * np.sin(q[0]) + m2 * r2 * np.sin(q[0] + q[1]),
+                m2 * r2 * np.sin(q[0] + q[1]),
+            ]
+        )
 
 
 @dataclass(frozen=True)
@@ -186,12 +196,21 @@ class Planar3R(PlanarArm):
         M11 = I1 + m1 * r1**2 + m2 * L1**2 + m3 * L1**2 + M22
         M0 = np.array([[M11, M22, M33], [M22, M22, M33], [M33, M33, M33]])
         terms = [
-            (m2 * L1 * r2 + m3 * L1 * L2, np.array([0.0, 1.0, 0.0]),
-             np.array([[2.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 0.0]])),
-            (m3 * L1 * r3, np.array([0.0, 1.0, 1.0]),
-             np.array([[2.0, 1.0, 1.0], [1.0, 0.0, 0.0], [1.0, 0.0, 0.0]])),
-            (m3 * L2 * r3, np.array([0.0, 0.0, 1.0]),
-             np.array([[2.0, 2.0, 1.0], [2.0, 2.0, 1.0], [1.0, 1.0, 0.0]])),
+            (
+                m2 * L1 * r2 + m3 * L1 * L2,
+                np.array([0.0, 1.0, 0.0]),
+                np.array([[2.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 0.0]]),
+            ),
+            (
+                m3 * L1 * r3,
+                np.array([0.0, 1.0, 1.0]),
+                np.array([[2.0, 1.0, 1.0], [1.0, 0.0, 0.0], [1.0, 0.0, 0.0]]),
+            ),
+            (
+                m3 * L2 * r3,
+                np.array([0.0, 0.0, 1.0]),
+                np.array([[2.0, 2.0, 1.0], [2.0, 2.0, 1.0], [1.0, 1.0, 0.0]]),
+            ),
         ]
         return M0, terms
 
@@ -207,14 +226,27 @@ class Planar3R(PlanarArm):
 
 
 DOUBLE_PENDULUM = DoublePendulum(
-    name="double_pendulum", m=(1.0, 2.0), L=(1.0, 0.5), r=(1.0, 0.5), I=(0.0075, 0.015),
-    origin=(0.0, 0.0, 2.0), plane=((0.0, -1.0), (0.0, 0.0), (-1.0, 0.0)),
-    gravity=(0.0, 0.0, -G0), frames=(("link1", 0, 0.0), ("link2", 1, 0.0), ("tip", 1, 0.5)))
+    name="double_pendulum",
+    m=(1.0, 2.0),
+    L=(1.0, 0.5),
+    r=(1.0, 0.5),
+    I=(0.0075, 0.015),
+    origin=(0.0, 0.0, 2.0),
+    plane=((0.0, -1.0), (0.0, 0.0), (-1.0, 0.0)),
+    gravity=(0.0, 0.0, -G0),
+    frames=(("link1", 0, 0.0), ("link2", 1, 0.0), ("tip", 1, 0.5)),
+)
 PLANAR_3R = Planar3R(
-    name="planar_3r", m=(3.0, 2.0, 1.0), L=(1.0, 0.6, 0.3), r=(0.5, 0.3, 0.15),
-    I=(0.25, 0.06, 0.0075), origin=(0.0, 0.0, 0.5), plane=((1.0, 0.0), (0.0, 1.0), (0.0, 0.0)),
+    name="planar_3r",
+    m=(3.0, 2.0, 1.0),
+    L=(1.0, 0.6, 0.3),
+    r=(0.5, 0.3, 0.15),
+    I=(0.25, 0.06, 0.0075),
+    origin=(0.0, 0.0, 0.5),
+    plane=((1.0, 0.0), (0.0, 1.0), (0.0, 0.0)),
     gravity=(0.0, -G0, 0.0),
-    frames=(("link1", 0, 0.0), ("link2", 1, 0.0), ("link3", 2, 0.0), ("tool", 2, 0.3)))
+    frames=(("link1", 0, 0.0), ("link2", 1, 0.0), ("link3", 2, 0.0), ("tool", 2, 0.3)),
+)
 
 # (joint limits lower, upper), damping, friction as written in each URDF
 URDF_JOINT_DATA = {
@@ -287,8 +319,10 @@ def test_energies_match_closed_form(arm, seed):
     form, model = arm
     q, qd, _ = random_state(seed, form.n)
     assert_exact(od.kinetic_energy(model, q, qd), form.kinetic_energy(q, qd))
-    assert_exact(od.potential_energy(model, q, gravity=form.gravity),
-                 form.potential_energy(q, np.array(form.gravity)))
+    assert_exact(
+        od.potential_energy(model, q, gravity=form.gravity),
+        form.potential_energy(q, np.array(form.gravity)),
+    )
 
 
 @pytest.mark.parametrize("seed", SEEDS)

@@ -63,9 +63,15 @@ def random_states(tree):
     rng = np.random.default_rng(1000 + seed)
     lower = np.where(np.isfinite(model.lower), model.lower, -np.pi)
     upper = np.where(np.isfinite(model.upper), model.upper, np.pi)
-    return [(rng.uniform(lower, upper), rng.normal(0.0, 2.0, model.nv),
-             rng.normal(0.0, 3.0, model.nv), rng.normal(0.0, 10.0, model.nv))
-            for _ in range(STATES_PER_TREE)]
+    return [
+        (
+            rng.uniform(lower, upper),
+            rng.normal(0.0, 2.0, model.nv),
+            rng.normal(0.0, 3.0, model.nv),
+            rng.normal(0.0, 10.0, model.nv),
+        )
+        for _ in range(STATES_PER_TREE)
+    ]
 
 
 def random_wrench(tree, salt):
@@ -97,16 +103,16 @@ def test_mass_matrix_derivative_minus_twice_coriolis_matrix_is_skew(tree):
     for q, qd, _, _ in random_states(tree):
         Mdot = central_difference(lambda x: od.mass_matrix(model, x), q, qd)
         N = Mdot - 2.0 * od.coriolis_matrix(model, q, qd)
-        assert_close(N + N.T, np.zeros_like(N), rtol=FD_RTOL,
-                     scale=np.abs(od.mass_matrix(model, q)).max())
+        assert_close(
+            N + N.T, np.zeros_like(N), rtol=FD_RTOL, scale=np.abs(od.mass_matrix(model, q)).max()
+        )
 
 
 def test_coriolis_matrix_times_velocity_is_coriolis_forces(tree):
     _, model = tree
     for q, qd, _, _ in random_states(tree):
         C = od.coriolis_matrix(model, q, qd)
-        assert_close(C @ qd, od.coriolis_forces(model, q, qd),
-                     scale=coriolis_scale(model, q, qd))
+        assert_close(C @ qd, od.coriolis_forces(model, q, qd), scale=coriolis_scale(model, q, qd))
 
 
 def test_christoffel_symbols_are_symmetric_and_give_coriolis_forces(tree):
@@ -114,18 +120,24 @@ def test_christoffel_symbols_are_symmetric_and_give_coriolis_forces(tree):
     for q, qd, _, _ in random_states(tree):
         Gamma = od.christoffel_symbols(model, q)
         assert_close(Gamma, Gamma.transpose(0, 2, 1))
-        assert_close(np.einsum("ijk,j,k->i", Gamma, qd, qd), od.coriolis_forces(model, q, qd),
-                     scale=coriolis_scale(model, q, qd))
+        assert_close(
+            np.einsum("ijk,j,k->i", Gamma, qd, qd),
+            od.coriolis_forces(model, q, qd),
+            scale=coriolis_scale(model, q, qd),
+        )
 
 
 def test_gravity_forces_are_gradient_of_potential_energy(tree):
     _, model = tree
     for q, _, _, _ in random_states(tree):
         g = od.gravity_forces(model, q)
-        dU = [central_difference(lambda x: od.potential_energy(model, x), q, e)
-              for e in np.eye(model.nv)]
-        assert_close(dU, g, rtol=FD_RTOL,
-                     scale=max(np.abs(g).max(), abs(od.potential_energy(model, q))))
+        dU = [
+            central_difference(lambda x: od.potential_energy(model, x), q, e)
+            for e in np.eye(model.nv)
+        ]
+        assert_close(
+            dU, g, rtol=FD_RTOL, scale=max(np.abs(g).max(), abs(od.potential_energy(model, q)))
+        )
 
 
 def test_inverse_dynamics_is_mass_matrix_times_acceleration_plus_bias(tree):
@@ -134,8 +146,11 @@ def test_inverse_dynamics_is_mass_matrix_times_acceleration_plus_bias(tree):
         M = od.mass_matrix(model, q)
         c, g = od.coriolis_forces(model, q, qd), od.gravity_forces(model, q)
         assert_close(od.bias_forces(model, q, qd), c + g)
-        assert_close(od.inverse_dynamics(model, q, qd, qdd), M @ qdd + c + g,
-                     scale=(np.abs(M) @ np.abs(qdd) + np.abs(c) + np.abs(g)).max())
+        assert_close(
+            od.inverse_dynamics(model, q, qd, qdd),
+            M @ qdd + c + g,
+            scale=(np.abs(M) @ np.abs(qdd) + np.abs(c) + np.abs(g)).max(),
+        )
 
 
 @pytest.mark.parametrize("method", METHODS)
@@ -163,8 +178,11 @@ def test_space_jacobian_is_adjoint_of_body_jacobian(tree):
         for frame in model.frame_names:
             J_s = od.jacobian(model, q, frame, expressed_in="space")
             J_b = od.jacobian(model, q, frame, expressed_in="body")
-            assert_close(J_s, adjoint(od.frame_pose(model, q, frame)) @ J_b,
-                         scale=max(np.abs(J_s).max(), 1.0))
+            assert_close(
+                J_s,
+                adjoint(od.frame_pose(model, q, frame)) @ J_b,
+                scale=max(np.abs(J_s).max(), 1.0),
+            )
 
 
 def test_space_jacobian_gives_twist_of_frame_pose(tree):
@@ -174,18 +192,22 @@ def test_space_jacobian_gives_twist_of_frame_pose(tree):
     for q, qd, _, _ in random_states(tree):
         for frame in model.frame_names:
             T_sf = od.frame_pose(model, q, frame)
-            V_s = central_difference(lambda x: od.frame_pose(model, x, frame), q, qd) \
-                @ inverse_transform(T_sf)
+            V_s = central_difference(
+                lambda x: od.frame_pose(model, x, frame), q, qd
+            ) @ inverse_transform(T_sf)
             twist = np.array([V_s[2, 1], V_s[0, 2], V_s[1, 0], *V_s[:3, 3]])
-            assert_close(twist, od.jacobian(model, q, frame) @ qd, rtol=FD_RTOL,
-                         scale=(1.0 + np.abs(T_sf[:3, 3]).max()) ** 2)
+            assert_close(
+                twist,
+                od.jacobian(model, q, frame) @ qd,
+                rtol=FD_RTOL,
+                scale=(1.0 + np.abs(T_sf[:3, 3]).max()) ** 2,
+            )
 
 
 def test_kinetic_energy_is_half_qd_mass_matrix_qd(tree):
     _, model = tree
     for q, qd, _, _ in random_states(tree):
-        assert_close(od.kinetic_energy(model, q, qd),
-                     0.5 * qd @ od.mass_matrix(model, q) @ qd)
+        assert_close(od.kinetic_energy(model, q, qd), 0.5 * qd @ od.mass_matrix(model, q) @ qd)
 
 
 def test_tip_wrench_adds_body_jacobian_transpose_times_wrench(tree):
@@ -195,14 +217,22 @@ def test_tip_wrench_adds_body_jacobian_transpose_times_wrench(tree):
     f_tip = {frame: random_wrench(tree, k) for k, frame in enumerate(model.frame_names)}
     for q, qd, qdd, _ in random_states(tree):
         tau = od.inverse_dynamics(model, q, qd, qdd)
-        forces = {frame: od.jacobian(model, q, frame, expressed_in="body").T @ F
-                  for frame, F in f_tip.items()}
+        forces = {
+            frame: od.jacobian(model, q, frame, expressed_in="body").T @ F
+            for frame, F in f_tip.items()
+        }
         scale = np.abs(tau).max() + sum(np.abs(f).max() for f in forces.values())
         for frame, F in f_tip.items():
-            assert_close(od.inverse_dynamics(model, q, qd, qdd, f_tip={frame: F}),
-                         tau + forces[frame], scale=scale)
-        assert_close(od.inverse_dynamics(model, q, qd, qdd, f_tip=f_tip),
-                     tau + sum(forces.values()), scale=scale)
+            assert_close(
+                od.inverse_dynamics(model, q, qd, qdd, f_tip={frame: F}),
+                tau + forces[frame],
+                scale=scale,
+            )
+        assert_close(
+            od.inverse_dynamics(model, q, qd, qdd, f_tip=f_tip),
+            tau + sum(forces.values()),
+            scale=scale,
+        )
 
 
 @pytest.mark.parametrize("k", [0.0, -1.0, 0.5, 3.0])
@@ -219,8 +249,11 @@ def test_gravity_forces_are_linear_in_the_gravity_vector(tree):
     a, b = np.random.default_rng(seed).normal(0.0, 10.0, (2, 3))
     for q, _, _, _ in random_states(tree):
         g_a, g_b = od.gravity_forces(model, q, gravity=a), od.gravity_forces(model, q, gravity=b)
-        assert_close(od.gravity_forces(model, q, gravity=a + b), g_a + g_b,
-                     scale=np.abs(g_a).max() + np.abs(g_b).max())
+        assert_close(
+            od.gravity_forces(model, q, gravity=a + b),
+            g_a + g_b,
+            scale=np.abs(g_a).max() + np.abs(g_b).max(),
+        )
 
 
 def test_batch_evaluation_matches_row_by_row(tree):
@@ -235,5 +268,4 @@ def test_batch_evaluation_matches_row_by_row(tree):
     for method in METHODS:
         qdd_fd = od.forward_dynamics(model, q, qd, tau, method=method)
         for n in range(len(q)):
-            assert_close(qdd_fd[n], od.forward_dynamics(model, q[n], qd[n], tau[n],
-                                                        method=method))
+            assert_close(qdd_fd[n], od.forward_dynamics(model, q[n], qd[n], tau[n], method=method))

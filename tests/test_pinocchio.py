@@ -72,8 +72,7 @@ def _states(model, seed):
 def _test_frames(model):
     """A frame on the last body, a frame on a fixed joint (when there is one), the root."""
     moving = [f.name for f in model.frames if f.body >= 0]
-    welded = [f.name for f in model.frames if f.body >= 0
-              and f.name not in model.body_names]
+    welded = [f.name for f in model.frames if f.body >= 0 and f.name not in model.body_names]
     return list(dict.fromkeys(moving[-1:] + welded[:1] + [model.frames[0].name]))
 
 
@@ -89,25 +88,36 @@ def test_contract_functions_match_pinocchio(path):
     for q, (qd, qdd, tau) in _states(model, 1):
         assert_close(od.inverse_dynamics(model, q, qd, qdd), P.rnea(q, qd, qdd), "inverse_dynamics")
         f_tip = {name: rng.normal(size=6) for name in frames}
-        assert_close(od.inverse_dynamics(model, q, qd, qdd, f_tip=f_tip),
-                     P.rnea(q, qd, qdd, f_tip=f_tip), "inverse_dynamics with f_tip")
+        assert_close(
+            od.inverse_dynamics(model, q, qd, qdd, f_tip=f_tip),
+            P.rnea(q, qd, qdd, f_tip=f_tip),
+            "inverse_dynamics with f_tip",
+        )
         g_moon = np.array([0.3, -0.2, -1.62])
-        assert_close(od.inverse_dynamics(model, q, qd, qdd, gravity=g_moon),
-                     P.rnea(q, qd, qdd, gravity=g_moon), "inverse_dynamics with gravity")
+        assert_close(
+            od.inverse_dynamics(model, q, qd, qdd, gravity=g_moon),
+            P.rnea(q, qd, qdd, gravity=g_moon),
+            "inverse_dynamics with gravity",
+        )
         M_ref = P.mass_matrix(q)
         assert_close(od.mass_matrix(model, q), M_ref, "mass_matrix")
         assert_close(od.gravity_forces(model, q), P.gravity_forces(q), "gravity_forces")
         zero = np.zeros(model.nv)
-        assert_close(od.coriolis_forces(model, q, qd), P.rnea(q, qd, zero, gravity=(0, 0, 0)),
-                     "coriolis_forces")
+        assert_close(
+            od.coriolis_forces(model, q, qd),
+            P.rnea(q, qd, zero, gravity=(0, 0, 0)),
+            "coriolis_forces",
+        )
         assert_close(od.bias_forces(model, q, qd), P.rnea(q, qd, zero), "bias_forces")
-        assert_close(od.coriolis_matrix(model, q, qd), P.coriolis_matrix(q, qd),
-                     "coriolis_matrix")
+        assert_close(od.coriolis_matrix(model, q, qd), P.coriolis_matrix(q, qd), "coriolis_matrix")
         for name in frames:
             assert_close(od.frame_pose(model, q, name), P.frame_pose(q, name), f"pose {name}")
             for where in ("space", "body"):
-                assert_close(od.jacobian(model, q, name, where), P.jacobian(q, name, where),
-                             f"jacobian {name} {where}")
+                assert_close(
+                    od.jacobian(model, q, name, where),
+                    P.jacobian(q, name, where),
+                    f"jacobian {name} {where}",
+                )
         assert_close(od.kinetic_energy(model, q, qd), P.kinetic_energy(q, qd), "kinetic_energy")
         assert_close(od.potential_energy(model, q), P.potential_energy(q), "potential_energy")
         _check_forward_dynamics(model, P, q, qd, tau, M_ref, f_tip)
@@ -122,8 +132,11 @@ def _check_forward_dynamics(model, P, q, qd, tau, M_ref, f_tip):
         return
     ref = P.aba(q, qd, tau, f_tip=f_tip)
     for method in METHODS:
-        assert_close(od.forward_dynamics(model, q, qd, tau, f_tip=f_tip, method=method), ref,
-                     f"forward_dynamics {method}")
+        assert_close(
+            od.forward_dynamics(model, q, qd, tau, f_tip=f_tip, method=method),
+            ref,
+            f"forward_dynamics {method}",
+        )
 
 
 SMALL = [p for p in URDFS if 0 < MODELS[p].nv <= 16]
@@ -157,11 +170,15 @@ def test_coupled_mimic_joints_match_pinocchio(path):
         M = od.mass_matrix(model, q)
         assert_close(M, P.mass_matrix(q), "mass_matrix (mimic)")
         name = _test_frames(model)[0]
-        assert_close(od.jacobian(model, q, name, "body"), P.jacobian(q, name, "body"),
-                     "jacobian (mimic)")
+        assert_close(
+            od.jacobian(model, q, name, "body"), P.jacobian(q, name, "body"), "jacobian (mimic)"
+        )
         h = P.rnea(q, qd, np.zeros(model.nv))
-        assert_close(od.forward_dynamics(model, q, qd, tau) @ M.T, tau - h,
-                     "forward_dynamics (mimic): M qdd = tau - h")
+        assert_close(
+            od.forward_dynamics(model, q, qd, tau) @ M.T,
+            tau - h,
+            "forward_dynamics (mimic): M qdd = tau - h",
+        )
 
 
 def test_physically_invalid_inertias_are_refused_unless_asked():

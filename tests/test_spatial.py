@@ -143,7 +143,9 @@ def test_log_se3_matches_matrix_logarithm(rng):
     for _ in range(20):
         T = random_transform(rng)
         L = np.real(scipy.linalg.logm(T))
-        np.testing.assert_allclose(log_se3(T), np.concatenate([unskew(L[:3, :3]), L[:3, 3]]), atol=1e-9)
+        np.testing.assert_allclose(
+            log_se3(T), np.concatenate([unskew(L[:3, :3]), L[:3, 3]]), atol=1e-9
+        )
 
 
 @pytest.mark.parametrize("axis", [[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [2.0, -1.0, 0.5]])
@@ -193,7 +195,9 @@ def test_lie_bracket_matches_matrix_commutator(rng):
     for _ in range(10):
         V1, V2 = rng.normal(size=6), rng.normal(size=6)
         M1, M2 = twist_to_matrix(V1), twist_to_matrix(V2)
-        np.testing.assert_allclose(twist_to_matrix(lie_bracket(V1, V2)), M1 @ M2 - M2 @ M1, atol=1e-13)
+        np.testing.assert_allclose(
+            twist_to_matrix(lie_bracket(V1, V2)), M1 @ M2 - M2 @ M1, atol=1e-13
+        )
 
 
 def test_ad_is_derivative_of_adjoint_along_flow(rng):
@@ -228,7 +232,9 @@ def test_spatial_inertia_kinetic_energy_identity(rng):
     for _ in range(10):
         V = rng.normal(size=6)
         w, v = V[:3], V[3:]
-        expected = 0.5 * mass * np.sum((v + np.cross(w, com)) ** 2) + 0.5 * w @ R_com @ I_com @ R_com.T @ w
+        expected = (
+            0.5 * mass * np.sum((v + np.cross(w, com)) ** 2) + 0.5 * w @ R_com @ I_com @ R_com.T @ w
+        )
         assert kinetic_energy_body(G, V) == pytest.approx(expected, rel=1e-12)
 
 
@@ -238,7 +244,9 @@ def test_transform_inertia_preserves_kinetic_energy(rng):
     for _ in range(10):
         V_a = rng.normal(size=6)
         V_b = adjoint(T_ba) @ V_a
-        assert kinetic_energy_body(G_a, V_a) == pytest.approx(kinetic_energy_body(G_b, V_b), rel=1e-12)
+        assert kinetic_energy_body(G_a, V_a) == pytest.approx(
+            kinetic_energy_body(G_b, V_b), rel=1e-12
+        )
 
 
 def test_transform_inertia_from_centre_of_mass_matches_spatial_inertia(rng):
@@ -249,7 +257,9 @@ def test_transform_inertia_from_centre_of_mass_matches_spatial_inertia(rng):
     T_bc[:3, :3], T_bc[:3, 3] = R_com, com
     G_c = spatial_inertia(mass, np.zeros(3), I_com)
     np.testing.assert_allclose(
-        transform_inertia(G_c, np.linalg.inv(T_bc)), spatial_inertia(mass, com, I_com, R_com), atol=1e-12
+        transform_inertia(G_c, np.linalg.inv(T_bc)),
+        spatial_inertia(mass, com, I_com, R_com),
+        atol=1e-12,
     )
 
 
@@ -330,9 +340,7 @@ def test_rigid_body_wrench_is_rate_of_change_of_spatial_momentum(rng):
         X = V0 * t + 0.5 * A * t**2
         T_sb = T0 @ scipy.linalg.expm(twist_to_matrix(X))
         X_dot = V0 + A * t
-        dexp = sum(
-            np.linalg.matrix_power(-ad(X), k) / math.factorial(k + 1) for k in range(20)
-        )
+        dexp = sum(np.linalg.matrix_power(-ad(X), k) / math.factorial(k + 1) for k in range(20))
         return adjoint(np.linalg.inv(T_sb)).T @ G @ (dexp @ X_dot)
 
     F_s = (momentum_s(h) - momentum_s(-h)) / (2 * h)
@@ -405,7 +413,12 @@ def test_kinetic_energy_of_free_body_is_constant_along_integrated_motion(rng):
         (lambda: principal_axes(np.triu(np.ones((3, 3)))), "I"),
         (lambda: rigid_body_wrench(np.eye(6), np.zeros(6), np.zeros(7)), "dV_b"),
         (lambda: rigid_body_acceleration(np.eye(6), np.zeros(6), [np.nan] * 6), "F_b"),
-        (lambda: rigid_body_acceleration(np.diag([1.0, 1.0, 1.0, 0.0, 0.0, 0.0]), np.ones(6), np.ones(6)), "G_b"),
+        (
+            lambda: rigid_body_acceleration(
+                np.diag([1.0, 1.0, 1.0, 0.0, 0.0, 0.0]), np.ones(6), np.ones(6)
+            ),
+            "G_b",
+        ),
         (lambda: kinetic_energy_body(np.eye(6), np.zeros(3)), "V_b"),
     ],
 )

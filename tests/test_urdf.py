@@ -23,6 +23,7 @@ LIMIT = {"lower": -2.0, "upper": 2.0, "effort": 10.0, "velocity": 3.0}
 
 # --- URDF text builders ---------------------------------------------------------------------
 
+
 def _text(value) -> str:
     """An attribute value: strings as written (to inject "nan", "abc"), numbers space-joined."""
     if isinstance(value, str):
@@ -36,27 +37,46 @@ def _element(tag, attrs) -> str:
     return f"<{tag} " + " ".join(f'{k}="{_text(v)}"' for k, v in attrs.items()) + "/>"
 
 
-def link(name, mass=1.0, xyz=(0, 0, 0), rpy=(0, 0, 0), inertia=(0.1, 0.1, 0.1, 0, 0, 0),
-         extra="") -> str:
+def link(
+    name, mass=1.0, xyz=(0, 0, 0), rpy=(0, 0, 0), inertia=(0.1, 0.1, 0.1, 0, 0, 0), extra=""
+) -> str:
     """A <link>; mass=None leaves out <inertial>. inertia = (ixx, iyy, izz, ixy, ixz, iyz)."""
     if mass is None:
         return f'<link name="{name}">{extra}</link>'
     moments = dict(zip(("ixx", "iyy", "izz", "ixy", "ixz", "iyz"), inertia))
-    return (f'<link name="{name}"><inertial>{_element("origin", {"xyz": xyz, "rpy": rpy})}'
-            f'{_element("mass", {"value": mass})}{_element("inertia", moments)}</inertial>'
-            f"{extra}</link>")
+    return (
+        f'<link name="{name}"><inertial>{_element("origin", {"xyz": xyz, "rpy": rpy})}'
+        f"{_element('mass', {'value': mass})}{_element('inertia', moments)}</inertial>"
+        f"{extra}</link>"
+    )
 
 
-def joint(name, parent, child, type="revolute", xyz=(0, 0, 0), rpy=(0, 0, 0), axis=(0, 0, 1),
-          limit=LIMIT, dynamics=None, mimic=None, extra="") -> str:
+def joint(
+    name,
+    parent,
+    child,
+    type="revolute",
+    xyz=(0, 0, 0),
+    rpy=(0, 0, 0),
+    axis=(0, 0, 1),
+    limit=LIMIT,
+    dynamics=None,
+    mimic=None,
+    extra="",
+) -> str:
     """A <joint>; parent, child, axis, limit = None leave that element out."""
-    return (f'<joint name="{name}" type="{type}">'
-            + _element("parent", None if parent is None else {"link": parent})
-            + _element("child", None if child is None else {"link": child})
-            + _element("origin", {"xyz": xyz, "rpy": rpy})
-            + _element("axis", None if axis is None else {"xyz": axis})
-            + _element("limit", limit) + _element("dynamics", dynamics)
-            + _element("mimic", mimic) + extra + "</joint>")
+    return (
+        f'<joint name="{name}" type="{type}">'
+        + _element("parent", None if parent is None else {"link": parent})
+        + _element("child", None if child is None else {"link": child})
+        + _element("origin", {"xyz": xyz, "rpy": rpy})
+        + _element("axis", None if axis is None else {"xyz": axis})
+        + _element("limit", limit)
+        + _element("dynamics", dynamics)
+        + _element("mimic", mimic)
+        + extra
+        + "</joint>"
+    )
 
 
 def robot(*elements) -> str:
@@ -71,13 +91,31 @@ def chain(n=2, joints=None, links=None, extra=()) -> str:
     joints, links = joints or {}, links or {}
     parts = [link("base", mass=4.0)]
     for k in range(1, n + 1):
-        parts.append(link(f"link{k}", **{
-            "mass": 1.0 + 0.5 * k, "xyz": (0.05 * k, -0.1, 0.2), "rpy": (0.1, 0.2 * k, -0.3),
-            "inertia": (0.02 + 0.01 * k, 0.03, 0.04, 0.002, -0.001, 0.003), **links.get(k, {})}))
-        parts.append(joint(**{
-            "name": f"j{k}", "parent": f"link{k - 1}" if k > 1 else "base",
-            "child": f"link{k}", "xyz": (0.1, 0.05 * k, 0.3), "rpy": (0.2 * k, -0.1, 0.4),
-            "axis": ((0, 0, 1), (0, 1, 0), (1, 0, 0))[k % 3], **joints.get(k, {})}))
+        parts.append(
+            link(
+                f"link{k}",
+                **{
+                    "mass": 1.0 + 0.5 * k,
+                    "xyz": (0.05 * k, -0.1, 0.2),
+                    "rpy": (0.1, 0.2 * k, -0.3),
+                    "inertia": (0.02 + 0.01 * k, 0.03, 0.04, 0.002, -0.001, 0.003),
+                    **links.get(k, {}),
+                },
+            )
+        )
+        parts.append(
+            joint(
+                **{
+                    "name": f"j{k}",
+                    "parent": f"link{k - 1}" if k > 1 else "base",
+                    "child": f"link{k}",
+                    "xyz": (0.1, 0.05 * k, 0.3),
+                    "rpy": (0.2 * k, -0.1, 0.4),
+                    "axis": ((0, 0, 1), (0, 1, 0), (1, 0, 0))[k % 3],
+                    **joints.get(k, {}),
+                }
+            )
+        )
     return robot(*parts, *extra)
 
 
@@ -92,6 +130,7 @@ def load(tmp_path, text, name="robot.urdf", **kwargs) -> od.Model:
 
 
 # --- hand computations -----------------------------------------------------------------------
+
 
 def rot(axis, angle):
     """Rotation about a coordinate axis "x", "y" or "z"."""
@@ -121,73 +160,191 @@ def random_state(nv):
 BAD_URDFS = [
     ("malformed_xml", '<robot name="r"><link name="base"></robot>', ["malformed XML", "link"], {}),
     ("root_not_robot", '<model name="m"/>', ["<model>", "expected <robot>"], {}),
-    ("unknown_parent_link", chain(joints={2: {"parent": "ghost"}}),
-     ['<joint name="j2">', 'parent link "ghost"', "not a <link>"], {}),
-    ("unknown_child_link", chain(joints={2: {"child": "ghost"}}),
-     ['<joint name="j2">', 'child link "ghost"', "not a <link>"], {}),
-    ("missing_parent", chain(joints={2: {"parent": None}}),
-     ['<joint name="j2">', "missing <parent"], {}),
-    ("missing_child", chain(joints={2: {"child": None}}),
-     ['<joint name="j2">', "missing <child"], {}),
-    ("cycle", robot(link("a"), link("b"), link("c"), joint("a_to_b", "a", "b"),
-                    joint("b_to_c", "b", "c"), joint("c_to_a", "c", "a")),
-     ['<joint name="a_to_b">', '<joint name="b_to_c">', '<joint name="c_to_a">', "cycle"], {}),
-    ("cycle_beside_a_tree", chain(extra=[link("a"), link("b"), joint("a_to_b", "a", "b"),
-                                         joint("b_to_a", "b", "a")]),
-     ['<joint name="a_to_b">', '<joint name="b_to_a">', "cycle", "cannot be reached"], {}),
-    ("two_roots", chain(extra=[link("loose_a"), link("loose_b"),
-                               joint("loose", "loose_a", "loose_b")]),
-     ['<link name="base">', '<link name="loose_a">', "2 root links"], {}),
-    ("link_with_two_parents", chain(extra=[joint("j3", "base", "link2")]),
-     ['<link name="link2">', '<joint name="j2">', '<joint name="j3">', "child of two joints"],
-     {}),
-    ("duplicate_link", chain(extra=[link("link1")]),
-     ['<link name="link1">', "duplicate link name"], {}),
-    ("duplicate_joint", chain(extra=[link("link3"), joint("j1", "link2", "link3")]),
-     ['<joint name="j1">', "duplicate joint name"], {}),
-    *[(f"{kind}_joint", chain(joints={2: {"type": kind}}),
-       ['<joint name="j2">', f"'{kind}' is not supported",
-        "supported types: revolute, continuous, prismatic, fixed"], {})
-      for kind in ("planar", "floating", "telescopic")],
-    ("negative_mass", chain(links={2: {"mass": -1.0}}),
-     ['<link name="link2"> <inertial>', "mass must be non-negative"], {}),
-    ("inertia_not_positive_definite", chain(links={2: {"inertia": (-1, 1, 1, 0, 0, 0)}}),
-     ['<link name="link2"> <inertial>', "positive semi-definite", "check_inertia=False"], {}),
-    ("inertia_violates_triangle_inequality", chain(links={2: {"inertia": (1, 1, 3, 0, 0, 0)}}),
-     ['<link name="link2"> <inertial>', "triangle inequality", "check_inertia=False"], {}),
-    ("nan_in_origin_xyz", chain(joints={2: {"xyz": "0 nan 0"}}),
-     ['<joint name="j2"> <origin>', "xyz='0 nan 0'", "not finite"], {}),
-    ("nan_in_axis", chain(joints={2: {"axis": "0 0 NaN"}}),
-     ['<joint name="j2"> <axis>', "xyz='0 0 NaN'", "not finite"], {}),
-    ("nan_mass", chain(links={2: {"mass": "nan"}}),
-     ['<link name="link2"> <mass>', "value='nan'", "not finite"], {}),
-    ("nan_in_inertia", chain(links={2: {"inertia": (0.1, "nan", 0.1, 0, 0, 0)}}),
-     ['<link name="link2"> <inertia>', "iyy='nan'", "not finite"], {}),
-    ("nan_in_limit", chain(joints={2: {"limit": {**LIMIT, "upper": "nan"}}}),
-     ['<joint name="j2"> <limit>', "upper='nan'", "not finite"], {}),
-    ("word_in_rpy", chain(joints={2: {"rpy": "0 abc 0"}}),
-     ['<joint name="j2"> <origin>', "rpy='0 abc 0'", "not a number"], {}),
-    ("two_values_in_xyz", chain(joints={2: {"xyz": "1 2"}}),
-     ['<joint name="j2"> <origin>', "xyz='1 2'", "must have 3 values"], {}),
-    ("zero_axis", chain(joints={2: {"axis": (0, 0, 0)}}),
-     ['<joint name="j2"> <axis', "the axis is zero"], {}),
-    ("lower_limit_above_upper", chain(joints={2: {"limit": {**LIMIT, "lower": 1, "upper": -1}}}),
-     ['<joint name="j2"> <limit>', "lower limit 1 is above upper limit -1"], {}),
-    ("negative_damping", chain(joints={2: {"dynamics": {"damping": -0.5}}}),
-     ['<joint name="j2"> <dynamics>', "negative damping"], {}),
-    ("mimic_of_unknown_joint", chain(joints={2: {"mimic": {"joint": "ghost"}}}),
-     ['<joint name="j2"> <mimic joint="ghost">', "not a moving joint"], {"mimic": True}),
-    ("mimic_cycle", chain(joints={1: {"mimic": {"joint": "j2"}}, 2: {"mimic": {"joint": "j1"}}}),
-     ['<joint name="j1"> <mimic>', "cycle through j1, j2"], {"mimic": True}),
-    ("mimic_of_itself", chain(joints={2: {"mimic": {"joint": "j2"}}}),
-     ['<joint name="j2"> <mimic>', "cycle"], {"mimic": True}),
+    (
+        "unknown_parent_link",
+        chain(joints={2: {"parent": "ghost"}}),
+        ['<joint name="j2">', 'parent link "ghost"', "not a <link>"],
+        {},
+    ),
+    (
+        "unknown_child_link",
+        chain(joints={2: {"child": "ghost"}}),
+        ['<joint name="j2">', 'child link "ghost"', "not a <link>"],
+        {},
+    ),
+    (
+        "missing_parent",
+        chain(joints={2: {"parent": None}}),
+        ['<joint name="j2">', "missing <parent"],
+        {},
+    ),
+    (
+        "missing_child",
+        chain(joints={2: {"child": None}}),
+        ['<joint name="j2">', "missing <child"],
+        {},
+    ),
+    (
+        "cycle",
+        robot(
+            link("a"),
+            link("b"),
+            link("c"),
+            joint("a_to_b", "a", "b"),
+            joint("b_to_c", "b", "c"),
+            joint("c_to_a", "c", "a"),
+        ),
+        ['<joint name="a_to_b">', '<joint name="b_to_c">', '<joint name="c_to_a">', "cycle"],
+        {},
+    ),
+    (
+        "cycle_beside_a_tree",
+        chain(extra=[link("a"), link("b"), joint("a_to_b", "a", "b"), joint("b_to_a", "b", "a")]),
+        ['<joint name="a_to_b">', '<joint name="b_to_a">', "cycle", "cannot be reached"],
+        {},
+    ),
+    (
+        "two_roots",
+        chain(extra=[link("loose_a"), link("loose_b"), joint("loose", "loose_a", "loose_b")]),
+        ['<link name="base">', '<link name="loose_a">', "2 root links"],
+        {},
+    ),
+    (
+        "link_with_two_parents",
+        chain(extra=[joint("j3", "base", "link2")]),
+        ['<link name="link2">', '<joint name="j2">', '<joint name="j3">', "child of two joints"],
+        {},
+    ),
+    (
+        "duplicate_link",
+        chain(extra=[link("link1")]),
+        ['<link name="link1">', "duplicate link name"],
+        {},
+    ),
+    (
+        "duplicate_joint",
+        chain(extra=[link("link3"), joint("j1", "link2", "link3")]),
+        ['<joint name="j1">', "duplicate joint name"],
+        {},
+    ),
+    *[
+        (
+            f"{kind}_joint",
+            chain(joints={2: {"type": kind}}),
+            [
+                '<joint name="j2">',
+                f"'{kind}' is not supported",
+                "supported types: revolute, continuous, prismatic, fixed",
+            ],
+            {},
+        )
+        for kind in ("planar", "floating", "telescopic")
+    ],
+    (
+        "negative_mass",
+        chain(links={2: {"mass": -1.0}}),
+        ['<link name="link2"> <inertial>', "mass must be non-negative"],
+        {},
+    ),
+    (
+        "inertia_not_positive_definite",
+        chain(links={2: {"inertia": (-1, 1, 1, 0, 0, 0)}}),
+        ['<link name="link2"> <inertial>', "positive semi-definite", "check_inertia=False"],
+        {},
+    ),
+    (
+        "inertia_violates_triangle_inequality",
+        chain(links={2: {"inertia": (1, 1, 3, 0, 0, 0)}}),
+        ['<link name="link2"> <inertial>', "triangle inequality", "check_inertia=False"],
+        {},
+    ),
+    (
+        "nan_in_origin_xyz",
+        chain(joints={2: {"xyz": "0 nan 0"}}),
+        ['<joint name="j2"> <origin>', "xyz='0 nan 0'", "not finite"],
+        {},
+    ),
+    (
+        "nan_in_axis",
+        chain(joints={2: {"axis": "0 0 NaN"}}),
+        ['<joint name="j2"> <axis>', "xyz='0 0 NaN'", "not finite"],
+        {},
+    ),
+    (
+        "nan_mass",
+        chain(links={2: {"mass": "nan"}}),
+        ['<link name="link2"> <mass>', "value='nan'", "not finite"],
+        {},
+    ),
+    (
+        "nan_in_inertia",
+        chain(links={2: {"inertia": (0.1, "nan", 0.1, 0, 0, 0)}}),
+        ['<link name="link2"> <inertia>', "iyy='nan'", "not finite"],
+        {},
+    ),
+    (
+        "nan_in_limit",
+        chain(joints={2: {"limit": {**LIMIT, "upper": "nan"}}}),
+        ['<joint name="j2"> <limit>', "upper='nan'", "not finite"],
+        {},
+    ),
+    (
+        "word_in_rpy",
+        chain(joints={2: {"rpy": "0 abc 0"}}),
+        ['<joint name="j2"> <origin>', "rpy='0 abc 0'", "not a number"],
+        {},
+    ),
+    (
+        "two_values_in_xyz",
+        chain(joints={2: {"xyz": "1 2"}}),
+        ['<joint name="j2"> <origin>', "xyz='1 2'", "must have 3 values"],
+        {},
+    ),
+    (
+        "zero_axis",
+        chain(joints={2: {"axis": (0, 0, 0)}}),
+        ['<joint name="j2"> <axis', "the axis is zero"],
+        {},
+    ),
+    (
+        "lower_limit_above_upper",
+        chain(joints={2: {"limit": {**LIMIT, "lower": 1, "upper": -1}}}),
+        ['<joint name="j2"> <limit>', "lower limit 1 is above upper limit -1"],
+        {},
+    ),
+    (
+        "negative_damping",
+        chain(joints={2: {"dynamics": {"damping": -0.5}}}),
+        ['<joint name="j2"> <dynamics>', "negative damping"],
+        {},
+    ),
+    (
+        "mimic_of_unknown_joint",
+        chain(joints={2: {"mimic": {"joint": "ghost"}}}),
+        ['<joint name="j2"> <mimic joint="ghost">', "not a moving joint"],
+        {"mimic": True},
+    ),
+    (
+        "mimic_cycle",
+        chain(joints={1: {"mimic": {"joint": "j2"}}, 2: {"mimic": {"joint": "j1"}}}),
+        ['<joint name="j1"> <mimic>', "cycle through j1, j2"],
+        {"mimic": True},
+    ),
+    (
+        "mimic_of_itself",
+        chain(joints={2: {"mimic": {"joint": "j2"}}}),
+        ['<joint name="j2"> <mimic>', "cycle"],
+        {"mimic": True},
+    ),
 ]
 
 
-@pytest.mark.parametrize("text, fragments, kwargs", [c[1:] for c in BAD_URDFS],
-                         ids=[c[0] for c in BAD_URDFS])
-def test_bad_urdf_raises_urdf_error_naming_file_element_and_problem(tmp_path, text, fragments,
-                                                                      kwargs):
+@pytest.mark.parametrize(
+    "text, fragments, kwargs", [c[1:] for c in BAD_URDFS], ids=[c[0] for c in BAD_URDFS]
+)
+def test_bad_urdf_raises_urdf_error_naming_file_element_and_problem(
+    tmp_path, text, fragments, kwargs
+):
     path = write_urdf(tmp_path, text, "bad_robot.urdf")
     with pytest.raises(od.URDFError) as info:
         od.load_urdf(path, **kwargs)
@@ -199,8 +356,11 @@ def test_bad_urdf_raises_urdf_error_naming_file_element_and_problem(tmp_path, te
 
 
 def test_check_inertia_false_keeps_an_unphysical_inertia_and_reports_it(tmp_path):
-    model = load(tmp_path, chain(links={2: {"inertia": (1, 1, 3, 0, 0, 0), "rpy": (0, 0, 0)}}),
-                 check_inertia=False)
+    model = load(
+        tmp_path,
+        chain(links={2: {"inertia": (1, 1, 3, 0, 0, 0), "rpy": (0, 0, 0)}}),
+        check_inertia=False,
+    )
     assert model.nv == 2
     # G of link2 about its own frame: the inertia as written about the com, shifted by Steiner
     com, m = np.array([0.1, -0.1, 0.2]), 2.0
@@ -237,9 +397,9 @@ def test_floating_base_is_not_implemented(tmp_path):
 # planar arm, both joints about z: shoulder at the mount, elbow at (L, 0, 0) of the upper arm,
 # a tool welded to the forearm at (D, 0, 0) with a rotated frame
 L, D = 0.7, 0.5
-M1, C1, I1 = 2.0, 0.3, 0.05          # upper arm: mass, com on x, izz about the com
-M2, C2, I2 = 1.5, 0.25, 0.02         # forearm
-M_TOOL, I_TOOL = 0.8, 0.01           # tool: com at its origin, isotropic inertia
+M1, C1, I1 = 2.0, 0.3, 0.05  # upper arm: mass, com on x, izz about the com
+M2, C2, I2 = 1.5, 0.25, 0.02  # forearm
+M_TOOL, I_TOOL = 0.8, 0.01  # tool: com at its origin, isotropic inertia
 TOOL_RPY = (0.3, -0.2, 0.9)
 MOUNT_XYZ = (0.1, 0.2, 0.3)
 
@@ -248,25 +408,33 @@ def planar_arm(base_mass=4.0, base_inertia=(1, 1, 1, 0, 0, 0), mount_mass=3.0):
     return robot(
         link("base", mass=base_mass, inertia=base_inertia),
         link("mount", mass=mount_mass),
-        joint("base_to_mount", "base", "mount", type="fixed", xyz=MOUNT_XYZ, axis=None,
-              limit=None),
+        joint("base_to_mount", "base", "mount", type="fixed", xyz=MOUNT_XYZ, axis=None, limit=None),
         link("upper_arm", mass=M1, xyz=(C1, 0, 0), inertia=(0.04, 0.06, I1, 0, 0, 0)),
         joint("shoulder", "mount", "upper_arm"),
         link("forearm", mass=M2, xyz=(C2, 0, 0), inertia=(0.01, 0.015, I2, 0, 0, 0)),
         joint("elbow", "upper_arm", "forearm", xyz=(L, 0, 0)),
         link("tool", mass=M_TOOL, inertia=(I_TOOL,) * 3 + (0, 0, 0)),
-        joint("flange", "forearm", "tool", type="fixed", xyz=(D, 0, 0), rpy=TOOL_RPY, axis=None,
-              limit=None))
+        joint(
+            "flange",
+            "forearm",
+            "tool",
+            type="fixed",
+            xyz=(D, 0, 0),
+            rpy=TOOL_RPY,
+            axis=None,
+            limit=None,
+        ),
+    )
 
 
 def planar_arm_mass_matrix(q2):
     """The 2R arm with the tool lumped into the forearm: mu its mass, s its first moment and b
     its inertia about the elbow axis."""
-    a = I1 + M1 * C1 ** 2
+    a = I1 + M1 * C1**2
     mu, s = M2 + M_TOOL, M2 * C2 + M_TOOL * D
-    b = I2 + M2 * C2 ** 2 + I_TOOL + M_TOOL * D ** 2
+    b = I2 + M2 * C2**2 + I_TOOL + M_TOOL * D**2
     c = L * s * np.cos(q2)
-    return np.array([[a + b + mu * L ** 2 + 2 * c, b + c], [b + c, b]])
+    return np.array([[a + b + mu * L**2 + 2 * c, b + c], [b + c, b]])
 
 
 def test_fixed_joint_child_is_lumped_into_the_body_above(tmp_path):
@@ -274,8 +442,9 @@ def test_fixed_joint_child_is_lumped_into_the_body_above(tmp_path):
     assert (model.nv, model.nb) == (2, 2)
     assert model.joint_names == ("shoulder", "elbow")
     for q in random_state(2):
-        np.testing.assert_allclose(od.mass_matrix(model, q), planar_arm_mass_matrix(q[1]),
-                                   rtol=1e-12)
+        np.testing.assert_allclose(
+            od.mass_matrix(model, q), planar_arm_mass_matrix(q[1]), rtol=1e-12
+        )
     assert any("'flange'" in line and "'tool'" in line for line in model.report.transformed)
 
 
@@ -285,20 +454,27 @@ def test_link_welded_by_fixed_joints_is_a_frame_at_parent_pose_times_offset(tmp_
     for q in random_state(2):
         q12 = q[0] + q[1]
         T_tool = od.frame_pose(model, q, "tool")
-        np.testing.assert_allclose(T_tool, od.frame_pose(model, q, "forearm") @ T_forearm_tool,
-                                   atol=1e-12)
-        p = np.array(MOUNT_XYZ) + [L * np.cos(q[0]) + D * np.cos(q12),
-                                   L * np.sin(q[0]) + D * np.sin(q12), 0]
-        np.testing.assert_allclose(T_tool, transform(p, rot("z", q12) @ rpy_matrix(TOOL_RPY)),
-                                   atol=1e-12)
+        np.testing.assert_allclose(
+            T_tool, od.frame_pose(model, q, "forearm") @ T_forearm_tool, atol=1e-12
+        )
+        p = np.array(MOUNT_XYZ) + [
+            L * np.cos(q[0]) + D * np.cos(q12),
+            L * np.sin(q[0]) + D * np.sin(q12),
+            0,
+        ]
+        np.testing.assert_allclose(
+            T_tool, transform(p, rot("z", q12) @ rpy_matrix(TOOL_RPY)), atol=1e-12
+        )
         # space Jacobian: joints about z through the mount and through the elbow, v = -w x p
         elbow = np.array(MOUNT_XYZ) + [L * np.cos(q[0]), L * np.sin(q[0]), 0]
-        J_s = np.array([[0, 0, 1, MOUNT_XYZ[1], -MOUNT_XYZ[0], 0],
-                        [0, 0, 1, elbow[1], -elbow[0], 0]]).T
+        J_s = np.array(
+            [[0, 0, 1, MOUNT_XYZ[1], -MOUNT_XYZ[0], 0], [0, 0, 1, elbow[1], -elbow[0], 0]]
+        ).T
         np.testing.assert_allclose(od.jacobian(model, q, "tool"), J_s, atol=1e-12)
         # body Jacobian: R J_b is (world angular velocity, velocity of the tool origin) per qd
-        dp_dq = np.array([[-(p - MOUNT_XYZ)[1], (p - MOUNT_XYZ)[0], 0],
-                          [-D * np.sin(q12), D * np.cos(q12), 0]]).T
+        dp_dq = np.array(
+            [[-(p - MOUNT_XYZ)[1], (p - MOUNT_XYZ)[0], 0], [-D * np.sin(q12), D * np.cos(q12), 0]]
+        ).T
         R = T_tool[:3, :3]
         J_b = od.jacobian(model, q, "tool", expressed_in="body")
         np.testing.assert_allclose(R @ J_b[:3], [[0, 0], [0, 0], [1, 1]], atol=1e-12)
@@ -309,10 +485,14 @@ def test_link_welded_by_fixed_joints_is_a_frame_at_parent_pose_times_offset(tmp_
 
 
 def test_root_link_inertia_plays_no_part(tmp_path):
-    variants = [(4.0, (1, 1, 1, 0, 0, 0), 3.0), (None, None, None),
-                (50.0, (9, 8, 7, 0.5, 0, 0), 0.0)]
-    models = [load(tmp_path, planar_arm(b, i, m), f"arm{k}.urdf")
-              for k, (b, i, m) in enumerate(variants)]
+    variants = [
+        (4.0, (1, 1, 1, 0, 0, 0), 3.0),
+        (None, None, None),
+        (50.0, (9, 8, 7, 0.5, 0, 0), 0.0),
+    ]
+    models = [
+        load(tmp_path, planar_arm(b, i, m), f"arm{k}.urdf") for k, (b, i, m) in enumerate(variants)
+    ]
     gravity = (3.0, -9.81, 1.0)  # with a component in the plane, so gravity torques are not 0
     q, qd, qdd = random_state(2)
     taus = [od.inverse_dynamics(m, q, qd, qdd, gravity=gravity) for m in models]
@@ -320,8 +500,9 @@ def test_root_link_inertia_plays_no_part(tmp_path):
     for model, tau in zip(models[1:], taus[1:]):
         np.testing.assert_array_equal(od.mass_matrix(model, q), od.mass_matrix(models[0], q))
         np.testing.assert_array_equal(tau, taus[0])
-    assert any("'base'" in line and "welded to the fixed root" in line
-               for line in models[0].report.ignored)
+    assert any(
+        "'base'" in line and "welded to the fixed root" in line for line in models[0].report.ignored
+    )
 
 
 def test_inertial_origin_rpy_equals_counter_rotated_inertia_tensor(tmp_path):
@@ -332,22 +513,33 @@ def test_inertial_origin_rpy_equals_counter_rotated_inertia_tensor(tmp_path):
     principal = (0.1, 0.2, 0.25, 0, 0, 0)
     rotated, tensor, unrotated = (
         load(tmp_path, chain(links={2: overrides}), f"{name}.urdf")
-        for name, overrides in (("rotated", {"rpy": rpy, "inertia": principal}),
-                                ("tensor", {"rpy": (0, 0, 0), "inertia": as_tensor}),
-                                ("unrotated", {"rpy": (0, 0, 0), "inertia": principal})))
+        for name, overrides in (
+            ("rotated", {"rpy": rpy, "inertia": principal}),
+            ("tensor", {"rpy": (0, 0, 0), "inertia": as_tensor}),
+            ("unrotated", {"rpy": (0, 0, 0), "inertia": principal}),
+        )
+    )
     np.testing.assert_allclose(rotated.G, tensor.G, atol=1e-12)
     q, qd, qdd = random_state(2)
     np.testing.assert_allclose(od.mass_matrix(rotated, q), od.mass_matrix(tensor, q), atol=1e-12)
-    np.testing.assert_allclose(od.inverse_dynamics(rotated, q, qd, qdd),
-                               od.inverse_dynamics(tensor, q, qd, qdd), atol=1e-12)
+    np.testing.assert_allclose(
+        od.inverse_dynamics(rotated, q, qd, qdd),
+        od.inverse_dynamics(tensor, q, qd, qdd),
+        atol=1e-12,
+    )
     assert not np.allclose(od.mass_matrix(rotated, q), od.mass_matrix(unrotated, q))
 
 
 def test_joint_origin_rpy_rotates_the_joint_frame(tmp_path):
     xyz, rpy, m, l, izz = (0.2, -0.1, 0.5), (np.pi / 2, 0.3, -0.6), 2.0, 0.4, 0.03
-    model = load(tmp_path, robot(
-        link("base"), link("arm", mass=m, xyz=(l, 0, 0), inertia=(0.01, 0.02, izz, 0, 0, 0)),
-        joint("hinge", "base", "arm", xyz=xyz, rpy=rpy)))
+    model = load(
+        tmp_path,
+        robot(
+            link("base"),
+            link("arm", mass=m, xyz=(l, 0, 0), inertia=(0.01, 0.02, izz, 0, 0, 0)),
+            joint("hinge", "base", "arm", xyz=xyz, rpy=rpy),
+        ),
+    )
     R0, g = rpy_matrix(rpy), np.array([0, 0, -9.81])
     w = R0[:, 2]  # the joint axis z of the joint frame, in the world
     q, qd, qdd = random_state(1)
@@ -356,28 +548,32 @@ def test_joint_origin_rpy_rotates_the_joint_frame(tmp_path):
     r_com = T[:3, :3] @ [l, 0, 0]
     # tau = (izz + m l^2) qdd + dU/dq, U = -m g . r_com, d r_com/dq = w x r_com (one joint: no
     # Coriolis term)
-    tau = (izz + m * l ** 2) * qdd - m * g @ np.cross(w, r_com)
+    tau = (izz + m * l**2) * qdd - m * g @ np.cross(w, r_com)
     np.testing.assert_allclose(od.inverse_dynamics(model, q, qd, qdd), tau, rtol=1e-12)
 
 
 @pytest.mark.parametrize("kind, axis", [("revolute", (0, 0, 2)), ("prismatic", (0, 3, 4))])
 def test_non_unit_axis_gives_the_unit_axis_dynamics_and_is_reported(tmp_path, kind, axis):
     length = np.linalg.norm(axis)
-    scaled, unit = (load(tmp_path, chain(joints={2: {"type": kind, "axis": a}}), f"{n}.urdf")
-                    for n, a in (("scaled", axis), ("unit", np.divide(axis, length))))
+    scaled, unit = (
+        load(tmp_path, chain(joints={2: {"type": kind, "axis": a}}), f"{n}.urdf")
+        for n, a in (("scaled", axis), ("unit", np.divide(axis, length)))
+    )
     np.testing.assert_allclose(scaled.A, unit.A, atol=1e-15)
     q, qd, qdd = random_state(2)
-    np.testing.assert_allclose(od.inverse_dynamics(scaled, q, qd, qdd),
-                               od.inverse_dynamics(unit, q, qd, qdd), rtol=1e-12)
+    np.testing.assert_allclose(
+        od.inverse_dynamics(scaled, q, qd, qdd), od.inverse_dynamics(unit, q, qd, qdd), rtol=1e-12
+    )
     np.testing.assert_allclose(od.mass_matrix(scaled, q), od.mass_matrix(unit, q), rtol=1e-12)
-    assert any(f"'j2' normalised (length {length:g})" in line
-               for line in scaled.report.transformed)
+    assert any(f"'j2' normalised (length {length:g})" in line for line in scaled.report.transformed)
     assert not any("normalised" in line for line in unit.report.transformed)
 
 
 def test_missing_axis_means_x_axis(tmp_path):
-    missing, x_axis = (load(tmp_path, chain(joints={1: {"axis": axis}}), f"{n}.urdf")
-                       for n, axis in (("missing", None), ("x", (1, 0, 0))))
+    missing, x_axis = (
+        load(tmp_path, chain(joints={1: {"axis": axis}}), f"{n}.urdf")
+        for n, axis in (("missing", None), ("x", (1, 0, 0)))
+    )
     np.testing.assert_array_equal(missing.A[0], [1, 0, 0, 0, 0, 0])
     q = random_state(2)[0]
     np.testing.assert_array_equal(od.mass_matrix(missing, q), od.mass_matrix(x_axis, q))
@@ -395,14 +591,28 @@ def test_link_without_inertial_is_massless(tmp_path):
 
 
 def test_limits_velocity_effort_damping_friction_are_floats_on_the_model(tmp_path):
-    model = load(tmp_path, chain(joints={
-        1: {"limit": {"lower": -1.5, "upper": 2.5, "effort": 40, "velocity": 3},
-            "dynamics": {"damping": 0.7, "friction": 0.2}},
-        2: {"type": "continuous", "limit": {"effort": 12, "velocity": 5}},
-        3: {"type": "prismatic", "limit": None, "dynamics": {"friction": 1.5}}}, n=3))
-    expected = {"lower": [-1.5, -np.inf, -np.inf], "upper": [2.5, np.inf, np.inf],
-                "effort_limit": [40, 12, np.inf], "velocity_limit": [3, 5, np.inf],
-                "damping": [0.7, 0, 0], "friction": [0.2, 0, 1.5]}
+    model = load(
+        tmp_path,
+        chain(
+            joints={
+                1: {
+                    "limit": {"lower": -1.5, "upper": 2.5, "effort": 40, "velocity": 3},
+                    "dynamics": {"damping": 0.7, "friction": 0.2},
+                },
+                2: {"type": "continuous", "limit": {"effort": 12, "velocity": 5}},
+                3: {"type": "prismatic", "limit": None, "dynamics": {"friction": 1.5}},
+            },
+            n=3,
+        ),
+    )
+    expected = {
+        "lower": [-1.5, -np.inf, -np.inf],
+        "upper": [2.5, np.inf, np.inf],
+        "effort_limit": [40, 12, np.inf],
+        "velocity_limit": [3, 5, np.inf],
+        "damping": [0.7, 0, 0],
+        "friction": [0.2, 0, 1.5],
+    }
     for name, values in expected.items():
         array = getattr(model, name)
         assert array.dtype == np.float64, name
@@ -418,11 +628,22 @@ def test_continuous_joint_has_infinite_limits_even_if_the_urdf_gives_some(tmp_pa
 
 
 def test_joint_names_are_depth_first_over_the_tree_not_file_order(tmp_path):
-    model = load(tmp_path, robot(
-        link("base"), link("arm"), link("hand"), link("finger"), link("leg"), link("foot"),
-        joint("wrist", "arm", "hand"), joint("hip", "base", "leg"),
-        joint("knuckle", "hand", "finger"), joint("shoulder", "base", "arm"),
-        joint("ankle", "leg", "foot")))
+    model = load(
+        tmp_path,
+        robot(
+            link("base"),
+            link("arm"),
+            link("hand"),
+            link("finger"),
+            link("leg"),
+            link("foot"),
+            joint("wrist", "arm", "hand"),
+            joint("hip", "base", "leg"),
+            joint("knuckle", "hand", "finger"),
+            joint("shoulder", "base", "arm"),
+            joint("ankle", "leg", "foot"),
+        ),
+    )
     # children of a link in file order: base -> (hip, shoulder)
     assert model.joint_names == ("hip", "ankle", "shoulder", "wrist", "knuckle")
     assert model.body_names == ("leg", "foot", "arm", "hand", "finger")
@@ -431,12 +652,20 @@ def test_joint_names_are_depth_first_over_the_tree_not_file_order(tmp_path):
 
 MIMICS = {
     # j2 = -1.5 j1 + 0.3
-    "single": ({2: {"mimic": {"joint": "j1", "multiplier": -1.5, "offset": 0.3}}},
-               [[1, 0], [-1.5, 0], [0, 1]], [0, 0.3, 0]),
+    "single": (
+        {2: {"mimic": {"joint": "j1", "multiplier": -1.5, "offset": 0.3}}},
+        [[1, 0], [-1.5, 0], [0, 1]],
+        [0, 0.3, 0],
+    ),
     # j2 = -1.5 j1 + 0.3, j3 = 2 j2 - 0.1 = -3 j1 + 0.5
-    "chained": ({2: {"mimic": {"joint": "j1", "multiplier": -1.5, "offset": 0.3}},
-                 3: {"mimic": {"joint": "j2", "multiplier": 2, "offset": -0.1}}},
-                [[1], [-1.5], [-3]], [0, 0.3, 0.5]),
+    "chained": (
+        {
+            2: {"mimic": {"joint": "j1", "multiplier": -1.5, "offset": 0.3}},
+            3: {"mimic": {"joint": "j2", "multiplier": 2, "offset": -0.1}},
+        },
+        [[1], [-1.5], [-3]],
+        [0, 0.3, 0.5],
+    ),
 }
 
 
@@ -448,21 +677,32 @@ def test_mimic_joints_are_coupled_only_on_request(tmp_path, joints, K, o):
     assert free.nv == 3 and free.joint_names == ("j1", "j2", "j3")
     assert any("mimic" in line and "independent" in line for line in free.report.ignored)
     assert coupled.nv == K.shape[1]
-    assert coupled.joint_names == tuple(n for n in ("j1", "j2", "j3")
-                                        if n not in {f"j{k}" for k in joints})
+    assert coupled.joint_names == tuple(
+        n for n in ("j1", "j2", "j3") if n not in {f"j{k}" for k in joints}
+    )
     assert any("mimic joint 'j2'" in line for line in coupled.report.transformed)
     q, qd, qdd = random_state(coupled.nv)
     q_full, qd_full, qdd_full = K @ q + o, K @ qd, K @ qdd
-    np.testing.assert_allclose(od.mass_matrix(coupled, q),
-                               K.T @ od.mass_matrix(free, q_full) @ K, rtol=1e-10, atol=1e-12)
-    np.testing.assert_allclose(od.inverse_dynamics(coupled, q, qd, qdd),
-                               K.T @ od.inverse_dynamics(free, q_full, qd_full, qdd_full),
-                               rtol=1e-10, atol=1e-12)
+    np.testing.assert_allclose(
+        od.mass_matrix(coupled, q), K.T @ od.mass_matrix(free, q_full) @ K, rtol=1e-10, atol=1e-12
+    )
+    np.testing.assert_allclose(
+        od.inverse_dynamics(coupled, q, qd, qdd),
+        K.T @ od.inverse_dynamics(free, q_full, qd_full, qdd_full),
+        rtol=1e-10,
+        atol=1e-12,
+    )
 
 
 def test_model_without_moving_joints_returns_empty_arrays(tmp_path):
-    model = load(tmp_path, robot(link("base"), link("plate", mass=2.0),
-                                 joint("weld", "base", "plate", type="fixed", xyz=(0, 0, 1))))
+    model = load(
+        tmp_path,
+        robot(
+            link("base"),
+            link("plate", mass=2.0),
+            joint("weld", "base", "plate", type="fixed", xyz=(0, 0, 1)),
+        ),
+    )
     assert (model.nq, model.nv, model.joint_names) == (0, 0, ())
     empty = np.zeros(0)
     assert od.inverse_dynamics(model, empty, empty, empty).shape == (0,)
@@ -484,12 +724,19 @@ def test_robot_names_resolve_to_example_robot_data(name, nv):
 def test_fidelity_report_lists_lumped_and_ignored_content(tmp_path):
     text = chain(
         links={1: {"extra": '<collision><geometry><box size="1 1 1"/></geometry></collision>'}},
-        joints={2: {"extra": '<safety_controller soft_lower_limit="-1" soft_upper_limit="1" '
-                             'k_velocity="1"/>'}},
-        extra=[link("flange_link", mass=None),
-               joint("flange", "link2", "flange_link", type="fixed", axis=None, limit=None),
-               '<transmission name="t1"><type>SimpleTransmission</type></transmission>',
-               '<gazebo reference="link1"><material>Gazebo/Grey</material></gazebo>'])
+        joints={
+            2: {
+                "extra": '<safety_controller soft_lower_limit="-1" soft_upper_limit="1" '
+                'k_velocity="1"/>'
+            }
+        },
+        extra=[
+            link("flange_link", mass=None),
+            joint("flange", "link2", "flange_link", type="fixed", axis=None, limit=None),
+            '<transmission name="t1"><type>SimpleTransmission</type></transmission>',
+            '<gazebo reference="link1"><material>Gazebo/Grey</material></gazebo>',
+        ],
+    )
     report = load(tmp_path, text).report
     assert any("'flange'" in line and "merged" in line for line in report.transformed)
     for tag in ("collision", "safety_controller", "transmission", "gazebo"):
@@ -502,6 +749,7 @@ def test_fidelity_report_lists_lumped_and_ignored_content(tmp_path):
 
 
 # --- C. singular mass matrix -----------------------------------------------------------------
+
 
 @pytest.mark.parametrize("method", METHODS)
 def test_joint_with_nothing_massive_below_makes_forward_dynamics_raise(tmp_path, method):
@@ -525,7 +773,11 @@ def test_an_inertia_of_rounding_noise_counts_as_zero(tmp_path):
 def test_an_invalid_inertia_welded_to_the_root_is_reported_not_refused(tmp_path):
     """The root link's inertia plays no part in a fixed-base model (anymal's base states a
     rod-like inertia 3e-6 > 0 + 0): it is listed as ignored, and the model loads."""
-    model = load(tmp_path, chain(1).replace(
-        link("base", mass=4.0), link("base", mass=4.0, inertia=(1, 1, 3, 0, 0, 0))))
+    model = load(
+        tmp_path,
+        chain(1).replace(
+            link("base", mass=4.0), link("base", mass=4.0, inertia=(1, 1, 3, 0, 0, 0))
+        ),
+    )
     assert model.nv == 1
     assert any("base" in line and "triangle" in line for line in model.report.ignored)

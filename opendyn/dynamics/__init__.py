@@ -18,8 +18,9 @@ def _kernel_cache_dir() -> str:
     digest = hashlib.sha1()
     for source in sorted([*here.glob("*.py"), here.parent / "model.py"]):
         digest.update(source.read_bytes())
-    base = pathlib.Path(_numba_config.CACHE_DIR) if _numba_config.CACHE_DIR else (
-        here / "__pycache__")
+    base = (
+        pathlib.Path(_numba_config.CACHE_DIR) if _numba_config.CACHE_DIR else (here / "__pycache__")
+    )
     return str(base / f"opendyn-kernels-{digest.hexdigest()[:16]}")
 
 

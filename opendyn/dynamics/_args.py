@@ -1,7 +1,8 @@
 """Argument checking shared by the public dynamics functions: states, gravity, f_tip.
 
 A state argument is a (nv,) vector or a batch (N, nv); anything else raises a ValueError that
-names the argument. Gravity and f_tip reach the kernels as one array of external loads. Finiteness is checked inside the compiled kernels (it costs nothing there)
+names the argument. Gravity and f_tip reach the kernels as one array of external loads.
+Finiteness is checked inside the compiled kernels (it costs nothing there)
 and reported through a status code that `raise_status` turns into the same kind of error.
 """
 
@@ -28,17 +29,26 @@ def is_single(model, x, y=None, z=None):
 
 def as_state(model, x, name):
     """x as a writeable C-contiguous float64 array of shape (nv,) or (N, nv)."""
-    if type(x) is np.ndarray and x.dtype is F64 and x.ndim == 1 and x.shape[0] == model.nv \
-            and x.flags.c_contiguous:
+    if (
+        type(x) is np.ndarray
+        and x.dtype is F64
+        and x.ndim == 1
+        and x.shape[0] == model.nv
+        and x.flags.c_contiguous
+    ):
         return x
     try:
         x = np.ascontiguousarray(x, dtype=np.float64)
     except (TypeError, ValueError):
-        raise ValueError(f"{name} must be an array of numbers of shape ({model.nv},) or "
-                         f"(N, {model.nv}), got {type(x).__name__}") from None
+        raise ValueError(
+            f"{name} must be an array of numbers of shape ({model.nv},) or "
+            f"(N, {model.nv}), got {type(x).__name__}"
+        ) from None
     if x.ndim not in (1, 2) or x.shape[-1] != model.nv:
-        raise ValueError(f"{name} must have shape ({model.nv},) or (N, {model.nv}) for model "
-                         f"{model.name!r} (nv={model.nv}), got shape {x.shape}")
+        raise ValueError(
+            f"{name} must have shape ({model.nv},) or (N, {model.nv}) for model "
+            f"{model.name!r} (nv={model.nv}), got shape {x.shape}"
+        )
     # a read-only array is a different type to numba: copy it rather than compile again
     return x if x.flags.writeable else x.copy()
 
@@ -53,8 +63,10 @@ def as_states(model, *named):
     n = max(a.shape[0] for a in arrays if a.ndim == 2)
     for (name, _), a in zip(named, arrays):
         if a.ndim == 2 and a.shape[0] != n:
-            raise ValueError(f"{name} has {a.shape[0]} states but another argument has {n}; "
-                             f"a batch must have one N")
+            raise ValueError(
+                f"{name} has {a.shape[0]} states but another argument has {n}; "
+                f"a batch must have one N"
+            )
     return [a if a.ndim == 2 else np.tile(a, (n, 1)) for a in arrays], True
 
 
@@ -88,8 +100,10 @@ def loads(model, gravity, f_tip, n_states=None):
     if not f_tip:
         return dV_0[None] if n_states is None else dV_0[None, None]
     if not isinstance(f_tip, dict):
-        raise ValueError("f_tip must be a dict {frame_name: (6,) wrench (m, f) in that frame}, "
-                         f"got {type(f_tip).__name__}")
+        raise ValueError(
+            "f_tip must be a dict {frame_name: (6,) wrench (m, f) in that frame}, "
+            f"got {type(f_tip).__name__}"
+        )
     per_state = n_states is not None and any(np.ndim(F) == 2 for F in f_tip.values())
     out = np.zeros((n_states, 1 + model.nb, 6) if per_state else (1 + model.nb, 6))
     out[..., 0, :] = dV_0
@@ -98,8 +112,9 @@ def loads(model, gravity, f_tip, n_states=None):
         F = np.asarray(F, dtype=np.float64)
         if F.shape != (6,) and not (per_state and F.shape == (n_states, 6)):
             want = "(6,)" if n_states is None else f"(6,) or ({n_states}, 6)"
-            raise ValueError(f"f_tip[{frame!r}] must have shape {want} (moment, force), got "
-                             f"shape {F.shape}")
+            raise ValueError(
+                f"f_tip[{frame!r}] must have shape {want} (moment, force), got shape {F.shape}"
+            )
         if not np.all(np.isfinite(F)):
             raise ValueError(f"f_tip[{frame!r}] must be finite, got {F}")
         fr = model.frames[k]
@@ -138,4 +153,5 @@ class SingularMassMatrixError(ValueError):
             f"{what}: the mass matrix of {model.name!r} is singular at joint(s) "
             f"{', '.join(repr(j) for j in self.joints)}: nothing with mass or inertia moves with "
             f"that joint, so its acceleration is undetermined (add inertia below it, or "
-            f"armature in a scene)")
+            f"armature in a scene)"
+        )

@@ -19,10 +19,13 @@ from numba import njit
 
 from ..model import PRISMATIC
 
-JIT = dict(cache=True, nogil=True)
+JIT = dict(cache=True)
+# batch loops release the GIL so that threads run them in parallel (see run_rows); single-state
+# kernels keep it, which saves the release and re-acquisition on every call
+BATCH = dict(cache=True, nogil=True)
 # small helpers are inlined into the kernels at the numba IR level (measured: RNEA on a UR5
 # 1.46 -> 1.10 us per call inside a compiled loop)
-INLINE = dict(cache=True, nogil=True, inline="always")
+INLINE = dict(cache=True, inline="always")
 
 _MIN_ROWS_PER_THREAD = 64
 _pool = None
@@ -43,8 +46,9 @@ def run_rows(batch_kernel, n, *args):
     if _pool is None:
         _pool = ThreadPoolExecutor(max_workers=cores, thread_name_prefix="opendyn")
     bounds = np.linspace(0, n, chunks + 1).astype(int)
-    futures = [_pool.submit(batch_kernel, *args, int(a), int(b))
-               for a, b in zip(bounds[:-1], bounds[1:])]
+    futures = [
+        _pool.submit(batch_kernel, *args, int(a), int(b)) for a, b in zip(bounds[:-1], bounds[1:])
+    ]
     for f in futures:
         f.result()
 
@@ -57,28 +61,32 @@ def tree(ibuf, fbuf):
     kernel takes only the views it needs (a reshaped view costs about 20 ns).
     """
     nb = ibuf[0]
-    parent = ibuf[2:2 + nb]
-    jtype = ibuf[2 + nb:2 + 2 * nb]
-    coord = ibuf[2 + 2 * nb:2 + 3 * nb]
-    A = fbuf[2 * nb:8 * nb].reshape((nb, 6))
-    R_home = fbuf[57 * nb:66 * nb].reshape((nb, 3, 3))
-    p_home = fbuf[66 * nb:69 * nb].reshape((nb, 3))
-    return parent, jtype, coord, fbuf[0:nb], fbuf[nb:2 * nb], A, R_home, p_home
+    parent = ibuf[2 : 2 + nb]
+    jtype = ibuf[2 + nb : 2 + 2 * nb]
+    coord = ibuf[2 + 2 * nb : 2 + 3 * nb]
+    A = fbuf[2 * nb : 8 * nb].reshape((nb, 6))
+    R_home = fbuf[57 * nb : 66 * nb].reshape((nb, 3, 3))
+    p_home = fbuf[66 * nb : 69 * nb].reshape((nb, 3))
+    return parent, jtype, coord, fbuf[0:nb], fbuf[nb : 2 * nb], A, R_home, p_home
 
 
 @njit(**INLINE)
 def rigid_inertias(ibuf, fbuf):
-    """Views of the body inertias in rigid-body form: mass (nb,), h = m c (nb, 3), I_o (nb, 3, 3)."""
+    """Views of the body inertias in rigid-body form: mass (nb,), h = m c (nb, 3),
+    I_o (nb, 3, 3)."""
     nb = ibuf[0]
-    return (fbuf[44 * nb:45 * nb], fbuf[45 * nb:48 * nb].reshape((nb, 3)),
-            fbuf[48 * nb:57 * nb].reshape((nb, 3, 3)))
+    return (
+        fbuf[44 * nb : 45 * nb],
+        fbuf[45 * nb : 48 * nb].reshape((nb, 3)),
+        fbuf[48 * nb : 57 * nb].reshape((nb, 3, 3)),
+    )
 
 
 @njit(**INLINE)
 def spatial_inertias(ibuf, fbuf):
     """View of the (nb, 6, 6) spatial inertias G_i."""
     nb = ibuf[0]
-    return fbuf[8 * nb:44 * nb].reshape((nb, 6, 6))
+    return fbuf[8 * nb : 44 * nb].reshape((nb, 6, 6))
 
 
 @njit(**INLINE)
@@ -228,8 +236,7 @@ def add_inertia_to_parent(R, p, I_child, I_parent, S):
             I_parent[3 + r, 3 + c] += S[3 + r, 3 + c]
             K_rc = S[r, c]
             for k in range(3):
-                K_rc += (-S[r, 3 + k] * P[k][c] + P[r][k] * S[c, 3 + k]
-                         - S[6 + r, k] * P[k][c])
+                K_rc += -S[r, 3 + k] * P[k][c] + P[r][k] * S[c, 3 + k] - S[6 + r, k] * P[k][c]
             I_parent[r, c] += K_rc
 
 
@@ -261,15 +268,22 @@ def add_rigid_inertia_to_parent(R, p, mass, h, I_o, mass_p, h_p, I_p, S):
     mass_p[0] += mass
     for r in range(3):
         h_p[r] += u[r] + mass * p[r]
-    diag = 2.0 * (u0 * p[0] + u1 * p[1] + u2 * p[2]) + mass * (p[0] * p[0] + p[1] * p[1]
-                                                               + p[2] * p[2])
+    diag = 2.0 * (u0 * p[0] + u1 * p[1] + u2 * p[2]) + mass * (
+        p[0] * p[0] + p[1] * p[1] + p[2] * p[2]
+    )
     for k in range(3):
         for c in range(3):
             S[k, c] = I_o[k, 0] * R[c, 0] + I_o[k, 1] * R[c, 1] + I_o[k, 2] * R[c, 2]
     for r in range(3):
         for c in range(r, 3):
-            v = (R[r, 0] * S[0, c] + R[r, 1] * S[1, c] + R[r, 2] * S[2, c]
-                 - p[r] * u[c] - u[r] * p[c] - mass * p[r] * p[c])
+            v = (
+                R[r, 0] * S[0, c]
+                + R[r, 1] * S[1, c]
+                + R[r, 2] * S[2, c]
+                - p[r] * u[c]
+                - u[r] * p[c]
+                - mass * p[r] * p[c]
+            )
             if r == c:
                 I_p[r, r] += v + diag
             else:

@@ -9,7 +9,8 @@ Pass 2, tips to base, articulated inertias IA_i (starting from G_i) and bias wre
     Ia = IA_i - U_i U_i^T / D_i,   pa = pA_i + Ia c_i + U_i u_i / D_i
     IA_lambda += Ad^T Ia Ad,       pA_lambda += Ad^T pa
 Pass 3, base to tips, dV_0 = (0, -g):
-    a_i = Ad_{T_{i,lambda}} dV_lambda + c_i,  qdd_i = (u_i - U_i^T a_i) / D_i,  dV_i = a_i + A_i qdd_i
+    a_i = Ad_{T_{i,lambda}} dV_lambda + c_i,   qdd_i = (u_i - U_i^T a_i) / D_i,
+    dV_i = a_i + A_i qdd_i
 (Featherstone, Rigid Body Dynamics Algorithms, 2008, Table 7.1; Lynch & Park, Section 8.5.)
 ABA needs one coordinate per body: models with coupled (mimic) joints use CRBA + Cholesky.
 """
@@ -19,9 +20,20 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from ._kernels import (JIT, add_inertia_to_parent, add_neg_ad_transpose, add_wrench_to_parent,
-                       ad_twist, all_finite, dot6, joint_transform, mat6_vec, spatial_inertias,
-                       tree, twist_to_child)
+from ._kernels import (
+    JIT,
+    add_inertia_to_parent,
+    add_neg_ad_transpose,
+    add_wrench_to_parent,
+    ad_twist,
+    all_finite,
+    dot6,
+    joint_transform,
+    mat6_vec,
+    spatial_inertias,
+    tree,
+    twist_to_child,
+)
 
 SINGULAR_PIVOT = 1e-14  # D_i below this times the largest body inertia: nothing moves with i
 

@@ -11,7 +11,8 @@ i an ancestor of j (or j itself) M_ij = S_i^T Gc_j S_j, and moving joint k turns
 outboard of it: dS/dq_k = ad_{S_k} S, dGc/dq_k = -(ad_{S_k}^T Gc + Gc ad_{S_k}). Hence
     k ancestor of i, or k = i:       dM_ij/dq_k = 0
     i strictly above k, k <= j:      dM_ij/dq_k = (ad_{S_i} S_k)^T Gc_j S_j
-    k strictly below j:              dM_ij/dq_k = -(ad_{S_k} S_i)^T Gc_k S_j - (Gc_k S_i)^T ad_{S_k} S_j
+    k strictly below j:              dM_ij/dq_k = -(ad_{S_k} S_i)^T Gc_k S_j
+                                                  - (Gc_k S_i)^T ad_{S_k} S_j
     otherwise:                       0
 """
 
@@ -21,8 +22,18 @@ import numpy as np
 from numba import njit
 
 from . import _args
-from ._kernels import (JIT, ad_twist, add_inertia_to_parent, all_finite, dot6, mat6_vec,
-                       run_rows, spatial_inertias, tree)
+from ._kernels import (
+    BATCH,
+    JIT,
+    ad_twist,
+    add_inertia_to_parent,
+    all_finite,
+    dot6,
+    mat6_vec,
+    run_rows,
+    spatial_inertias,
+    tree,
+)
 from .kinematics import forward_kinematics
 
 
@@ -46,8 +57,7 @@ def christoffel_kernel(ibuf, fbuf, q, Gamma):
     for i in range(nb):
         for r in range(3):
             S[i, r] = R_s[i, r, 0] * A[i, 0] + R_s[i, r, 1] * A[i, 1] + R_s[i, r, 2] * A[i, 2]
-            S[i, 3 + r] = (R_s[i, r, 0] * A[i, 3] + R_s[i, r, 1] * A[i, 4]
-                           + R_s[i, r, 2] * A[i, 5])
+            S[i, 3 + r] = R_s[i, r, 0] * A[i, 3] + R_s[i, r, 1] * A[i, 4] + R_s[i, r, 2] * A[i, 5]
         ps = p_s[i]
         S[i, 3] += ps[1] * S[i, 2] - ps[2] * S[i, 1]
         S[i, 4] += ps[2] * S[i, 0] - ps[0] * S[i, 2]
@@ -118,7 +128,7 @@ def coriolis_matrix_kernel(ibuf, fbuf, q, qd, C):
     return 0
 
 
-@njit(**JIT)
+@njit(**BATCH)
 def christoffel_batch_kernel(ibuf, fbuf, q, qd, out, status, matrix, start, stop):
     """Christoffel symbols (matrix False) or Coriolis matrices (True), rows [start, stop)."""
     for n in range(start, stop):
@@ -133,15 +143,19 @@ def _run(model, q, qd, matrix, what):
     nv = model.nv
     if not batch:
         out = np.empty((nv, nv) if matrix else (nv, nv, nv))
-        status = (coriolis_matrix_kernel(model._ibuf, model._fbuf, q, qd, out) if matrix
-                  else christoffel_kernel(model._ibuf, model._fbuf, q, out))
+        status = (
+            coriolis_matrix_kernel(model._ibuf, model._fbuf, q, qd, out)
+            if matrix
+            else christoffel_kernel(model._ibuf, model._fbuf, q, out)
+        )
         if status:
             _args.raise_status(status, model, what)
         return out
     out = np.empty((q.shape[0], nv, nv, 1 if matrix else nv))
     status = np.zeros(q.shape[0], dtype=np.int64)
-    run_rows(christoffel_batch_kernel, q.shape[0], model._ibuf, model._fbuf, q, qd, out, status,
-             matrix)
+    run_rows(
+        christoffel_batch_kernel, q.shape[0], model._ibuf, model._fbuf, q, qd, out, status, matrix
+    )
     _args.raise_batch_status(status, model, what)
     return out[..., 0] if matrix else out
 

@@ -14,8 +14,19 @@ import numpy as np
 from numba import njit
 
 from . import _args
-from ._kernels import (JIT, add_rigid_inertia_to_parent, all_finite, dot6, joint_transform,
-                       rigid_inertia_times, rigid_inertias, run_rows, tree, wrench_to_parent)
+from ._kernels import (
+    BATCH,
+    JIT,
+    add_rigid_inertia_to_parent,
+    all_finite,
+    dot6,
+    joint_transform,
+    rigid_inertia_times,
+    rigid_inertias,
+    run_rows,
+    tree,
+    wrench_to_parent,
+)
 
 
 @njit(**JIT)
@@ -32,14 +43,16 @@ def crba_kernel(ibuf, fbuf, q, M):
     S = np.empty((3, 3))
     F = np.empty(6)
     for i in range(nb):
-        joint_transform(jtype[i], A[i], R_home[i], p_home[i], mult[i] * q[coord[i]] + offset[i],
-                        R[i], p[i])
+        joint_transform(
+            jtype[i], A[i], R_home[i], p_home[i], mult[i] * q[coord[i]] + offset[i], R[i], p[i]
+        )
     # backward pass: Ic_lambda += Ad^T Ic_i Ad, in rigid-body form (mass, h, I_o)
     for i in range(nb - 1, -1, -1):
         lam = parent[i]
         if lam >= 0:
-            add_rigid_inertia_to_parent(R[i], p[i], mass_c[i], h_c[i], I_c[i],
-                                        mass_c[lam:lam + 1], h_c[lam], I_c[lam], S)
+            add_rigid_inertia_to_parent(
+                R[i], p[i], mass_c[i], h_c[i], I_c[i], mass_c[lam : lam + 1], h_c[lam], I_c[lam], S
+            )
     # M_ij = (Ad^T ... Ic_i A_i)^T A_j along the path from i to the root
     M[:, :] = 0.0
     for i in range(nb):
@@ -56,7 +69,7 @@ def crba_kernel(ibuf, fbuf, q, M):
     return 0
 
 
-@njit(**JIT)
+@njit(**BATCH)
 def crba_batch_kernel(ibuf, fbuf, q, M, status, start, stop):
     """CRBA over rows [start, stop) of a batch of configurations (N, nv) -> M (N, nv, nv)."""
     for n in range(start, stop):
@@ -69,14 +82,14 @@ def mass_matrix(model, q):
     q: (nv,) joint positions (rad or m), or a batch (N, nv) -> (N, nv, nv).
     Units: kg m^2 (revolute-revolute), kg m (mixed), kg (prismatic-prismatic).
     """
-    if not _args.is_single(model, q):
-        q = _args.as_state(model, q, "q")
-    if q.ndim == 1:
+    if _args.is_single(model, q):
         M = np.empty(model._matrix_shape)
-        status = crba_kernel(model._ibuf, model._fbuf, q, M)
-        if status:
-            _args.raise_status(status, model, "mass_matrix")
+        if crba_kernel(model._ibuf, model._fbuf, q, M):
+            _args.raise_status(1, model, "mass_matrix")
         return M
+    q = _args.as_state(model, q, "q")
+    if q.ndim == 1:
+        return mass_matrix(model, q)
     M = np.empty((q.shape[0], model.nv, model.nv))
     status = np.zeros(q.shape[0], dtype=np.int64)
     run_rows(crba_batch_kernel, q.shape[0], model._ibuf, model._fbuf, q, M, status)

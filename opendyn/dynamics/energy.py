@@ -12,7 +12,7 @@ import numpy as np
 from numba import njit
 
 from . import _args
-from ._kernels import JIT, all_finite, rigid_inertia_times, rigid_inertias, run_rows, tree
+from ._kernels import BATCH, JIT, all_finite, rigid_inertia_times, rigid_inertias, run_rows, tree
 from .kinematics import forward_kinematics
 from .rnea import forward_pass
 
@@ -55,21 +55,25 @@ def potential_kernel(ibuf, fbuf, q, gravity, out):
     U = 0.0
     for i in range(nb):
         for r in range(3):
-            mc = (R_s[i, r, 0] * h[i, 0] + R_s[i, r, 1] * h[i, 1] + R_s[i, r, 2] * h[i, 2]
-                  + mass[i] * p_s[i, r])
+            mc = (
+                R_s[i, r, 0] * h[i, 0]
+                + R_s[i, r, 1] * h[i, 1]
+                + R_s[i, r, 2] * h[i, 2]
+                + mass[i] * p_s[i, r]
+            )
             U -= gravity[r] * mc
     out[0] = U
     return 0
 
 
-@njit(**JIT)
+@njit(**BATCH)
 def energy_batch_kernel(ibuf, fbuf, q, qd, gravity, kinetic, out, status, start, stop):
     """Kinetic (when kinetic) or potential energy over rows [start, stop) of a batch."""
     for n in range(start, stop):
         if kinetic:
-            status[n] = kinetic_kernel(ibuf, fbuf, q[n], qd[n], out[n:n + 1])
+            status[n] = kinetic_kernel(ibuf, fbuf, q[n], qd[n], out[n : n + 1])
         else:
-            status[n] = potential_kernel(ibuf, fbuf, q[n], gravity, out[n:n + 1])
+            status[n] = potential_kernel(ibuf, fbuf, q[n], gravity, out[n : n + 1])
 
 
 def _energy(model, q, qd, gravity, kinetic, what):
@@ -77,15 +81,19 @@ def _energy(model, q, qd, gravity, kinetic, what):
     g = _args.as_gravity(model, gravity)
     if not batch:
         out = np.empty(1)
-        status = (kinetic_kernel(model._ibuf, model._fbuf, q, qd, out) if kinetic
-                  else potential_kernel(model._ibuf, model._fbuf, q, g, out))
+        status = (
+            kinetic_kernel(model._ibuf, model._fbuf, q, qd, out)
+            if kinetic
+            else potential_kernel(model._ibuf, model._fbuf, q, g, out)
+        )
         if status:
             _args.raise_status(status, model, what)
         return float(out[0])
     out = np.empty(q.shape[0])
     status = np.zeros(q.shape[0], dtype=np.int64)
-    run_rows(energy_batch_kernel, q.shape[0], model._ibuf, model._fbuf, q, qd, g, kinetic, out,
-             status)
+    run_rows(
+        energy_batch_kernel, q.shape[0], model._ibuf, model._fbuf, q, qd, g, kinetic, out, status
+    )
     _args.raise_batch_status(status, model, what)
     return out
 

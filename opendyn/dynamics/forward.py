@@ -13,7 +13,7 @@ import numpy as np
 from numba import njit
 
 from . import _args
-from ._kernels import JIT, all_finite, run_rows
+from ._kernels import BATCH, JIT, all_finite, run_rows
 from .aba import SINGULAR_PIVOT, aba_kernel
 from .crba import crba_kernel
 from .rnea import rnea_kernel
@@ -95,13 +95,14 @@ def forward_kernel(ibuf, fbuf, q, qd, tau, loads, qdd, method):
     return mass_matrix_solve(ibuf, fbuf, q, qd, tau, loads, qdd, method == 2)
 
 
-@njit(**JIT)
+@njit(**BATCH)
 def forward_batch_kernel(ibuf, fbuf, q, qd, tau, loads, qdd, method, status, start, stop):
     """Forward dynamics over rows [start, stop) of a batch (N, nv); loads (1 or N, rows, 6)."""
     shared = loads.shape[0] == 1
     for n in range(start, stop):
-        status[n] = forward_kernel(ibuf, fbuf, q[n], qd[n], tau[n],
-                                   loads[0] if shared else loads[n], qdd[n], method)
+        status[n] = forward_kernel(
+            ibuf, fbuf, q[n], qd[n], tau[n], loads[0] if shared else loads[n], qdd[n], method
+        )
 
 
 def forward_dynamics(model, q, qd, tau, f_tip=None, gravity=None, method="aba"):
@@ -120,15 +121,25 @@ def forward_dynamics(model, q, qd, tau, f_tip=None, gravity=None, method="aba"):
     """
     code = _METHOD_CODE.get(method)
     if code is None:
-        raise ValueError(f"forward_dynamics: method must be one of {', '.join(METHODS)}, "
-                         f"got {method!r}")
+        raise ValueError(
+            f"forward_dynamics: method must be one of {', '.join(METHODS)}, got {method!r}"
+        )
     if code == 0 and model.nb != model.nv:
         code = 1
     if _args.is_single(model, q, qd, tau):
         qdd = np.empty(model._vector_shape)
-        status = forward_kernel(model._ibuf, model._fbuf, q, qd, tau,
-                                model._loads if gravity is None and f_tip is None
-                                else _args.loads(model, gravity, f_tip), qdd, code)
+        status = forward_kernel(
+            model._ibuf,
+            model._fbuf,
+            q,
+            qd,
+            tau,
+            model._loads
+            if gravity is None and f_tip is None
+            else _args.loads(model, gravity, f_tip),
+            qdd,
+            code,
+        )
         if status:
             _args.raise_status(status, model, "forward_dynamics")
         return qdd
@@ -138,7 +149,18 @@ def forward_dynamics(model, q, qd, tau, f_tip=None, gravity=None, method="aba"):
     n = q.shape[0]
     qdd = np.empty((n, model.nv))
     status = np.zeros(n, dtype=np.int64)
-    run_rows(forward_batch_kernel, n, model._ibuf, model._fbuf, q, qd, tau,
-             _args.loads(model, gravity, f_tip, n), qdd, code, status)
+    run_rows(
+        forward_batch_kernel,
+        n,
+        model._ibuf,
+        model._fbuf,
+        q,
+        qd,
+        tau,
+        _args.loads(model, gravity, f_tip, n),
+        qdd,
+        code,
+        status,
+    )
     _args.raise_batch_status(status, model, "forward_dynamics")
     return qdd

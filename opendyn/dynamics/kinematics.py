@@ -1,7 +1,8 @@
 """Forward kinematics and Jacobians on the tree, product of exponentials in body frames:
 
-    T_{s,i}(q) = T_{s,lambda(i)} M_{lambda(i), i} exp([A_i] q_i),   T_{s,frame} = T_{s,body} T_{body,frame}
-    J_s(q)[:, k] = sum over bodies i on the frame's path with coordinate k of  mult_i Ad_{T_{s,i}} A_i
+    T_{s,i}(q) = T_{s,lambda(i)} M_{lambda(i), i} exp([A_i] q_i)
+    T_{s,frame} = T_{s,body} T_{body,frame}
+    J_s(q)[:, k] = sum over the frame's path of mult_i Ad_{T_{s,i}} A_i (bodies i with coordinate k)
     J_b(q) = Ad_{T_{frame,s}} J_s(q)
 
 so that V_s = J_s qd and V_b = J_b qd are the frame's twists in the space and the frame's own
@@ -14,7 +15,16 @@ import numpy as np
 from numba import njit
 
 from . import _args
-from ._kernels import INLINE, JIT, all_finite, joint_transform, run_rows, tree, twist_to_child
+from ._kernels import (
+    BATCH,
+    INLINE,
+    JIT,
+    all_finite,
+    joint_transform,
+    run_rows,
+    tree,
+    twist_to_child,
+)
 
 
 @njit(**INLINE)
@@ -25,8 +35,9 @@ def forward_kinematics(body_tree, q, R_s, p_s):
     R = np.empty((3, 3))
     p = np.empty(3)
     for i in range(parent.shape[0]):
-        joint_transform(jtype[i], A[i], R_home[i], p_home[i], mult[i] * q[coord[i]] + offset[i],
-                        R, p)
+        joint_transform(
+            jtype[i], A[i], R_home[i], p_home[i], mult[i] * q[coord[i]] + offset[i], R, p
+        )
         lam = parent[i]
         if lam < 0:
             R_s[i] = R
@@ -34,10 +45,12 @@ def forward_kinematics(body_tree, q, R_s, p_s):
             continue
         for r in range(3):
             for c in range(3):
-                R_s[i, r, c] = R_s[lam, r, 0] * R[0, c] + R_s[lam, r, 1] * R[1, c] + \
-                    R_s[lam, r, 2] * R[2, c]
-            p_s[i, r] = p_s[lam, r] + R_s[lam, r, 0] * p[0] + R_s[lam, r, 1] * p[1] + \
-                R_s[lam, r, 2] * p[2]
+                R_s[i, r, c] = (
+                    R_s[lam, r, 0] * R[0, c] + R_s[lam, r, 1] * R[1, c] + R_s[lam, r, 2] * R[2, c]
+                )
+            p_s[i, r] = (
+                p_s[lam, r] + R_s[lam, r, 0] * p[0] + R_s[lam, r, 1] * p[1] + R_s[lam, r, 2] * p[2]
+            )
 
 
 @njit(**JIT)
@@ -47,9 +60,15 @@ def compose_frame(R_s, p_s, body, T_bf, T_sf):
     T_sf[3, 3] = 1.0
     for r in range(3):
         for c in range(4):
-            T_sf[r, c] = T_bf[r, c] if body < 0 else (
-                R_s[body, r, 0] * T_bf[0, c] + R_s[body, r, 1] * T_bf[1, c]
-                + R_s[body, r, 2] * T_bf[2, c])
+            T_sf[r, c] = (
+                T_bf[r, c]
+                if body < 0
+                else (
+                    R_s[body, r, 0] * T_bf[0, c]
+                    + R_s[body, r, 1] * T_bf[1, c]
+                    + R_s[body, r, 2] * T_bf[2, c]
+                )
+            )
         if body >= 0:
             T_sf[r, 3] += p_s[body, r]
 
@@ -104,14 +123,14 @@ def jacobian_kernel(ibuf, fbuf, q, body, T_bf, body_frame, J):
     return 0
 
 
-@njit(**JIT)
+@njit(**BATCH)
 def jacobian_batch_kernel(ibuf, fbuf, q, body, T_bf, body_frame, J, status, start, stop):
     """Jacobians over rows [start, stop) of a batch of configurations (N, nv) -> (N, 6, nv)."""
     for n in range(start, stop):
         status[n] = jacobian_kernel(ibuf, fbuf, q[n], body, T_bf, body_frame, J[n])
 
 
-@njit(**JIT)
+@njit(**BATCH)
 def frame_pose_batch_kernel(ibuf, fbuf, q, body, T_bf, T_sf, status, start, stop):
     """Frame poses over rows [start, stop) of a batch of configurations (N, nv) -> (N, 4, 4)."""
     for n in range(start, stop):
@@ -138,8 +157,9 @@ def frame_pose(model, q, frame):
         return T
     T = np.empty((q.shape[0], 4, 4))
     status = np.zeros(q.shape[0], dtype=np.int64)
-    run_rows(frame_pose_batch_kernel, q.shape[0], model._ibuf, model._fbuf, q, body, T_bf, T,
-             status)
+    run_rows(
+        frame_pose_batch_kernel, q.shape[0], model._ibuf, model._fbuf, q, body, T_bf, T, status
+    )
     _args.raise_batch_status(status, model, "frame_pose")
     return T
 
@@ -163,7 +183,17 @@ def jacobian(model, q, frame, expressed_in="space"):
         return J
     J = np.empty((q.shape[0], 6, model.nv))
     status = np.zeros(q.shape[0], dtype=np.int64)
-    run_rows(jacobian_batch_kernel, q.shape[0], model._ibuf, model._fbuf, q, body, T_bf,
-             body_frame, J, status)
+    run_rows(
+        jacobian_batch_kernel,
+        q.shape[0],
+        model._ibuf,
+        model._fbuf,
+        q,
+        body,
+        T_bf,
+        body_frame,
+        J,
+        status,
+    )
     _args.raise_batch_status(status, model, "jacobian")
     return J

@@ -18,9 +18,22 @@ import numpy as np
 from numba import njit
 
 from . import _args
-from ._kernels import (INLINE, JIT, add_neg_ad_transpose, add_wrench_to_parent, ad_twist, all_finite,
-                       dot6, joint_transform, rigid_inertia_times, rigid_inertias, run_rows,
-                       tree, twist_to_child)
+from ._kernels import (
+    BATCH,
+    INLINE,
+    JIT,
+    add_neg_ad_transpose,
+    add_wrench_to_parent,
+    ad_twist,
+    all_finite,
+    dot6,
+    joint_transform,
+    rigid_inertia_times,
+    rigid_inertias,
+    run_rows,
+    tree,
+    twist_to_child,
+)
 
 
 @njit(**INLINE)
@@ -34,8 +47,9 @@ def forward_pass(body_tree, q, qd, qdd, dV_0, R, p, V, dV, s):
     zero = np.zeros(6)
     for i in range(parent.shape[0]):
         j = coord[i]
-        joint_transform(jtype[i], A[i], R_home[i], p_home[i], mult[i] * q[j] + offset[i],
-                        R[i], p[i])
+        joint_transform(
+            jtype[i], A[i], R_home[i], p_home[i], mult[i] * q[j] + offset[i], R[i], p[i]
+        )
         lam = parent[i]
         # V_i = Ad_{T_{i,lambda}} V_lambda + A_i qd_i
         twist_to_child(R[i], p[i], zero if lam < 0 else V[lam], V[i])
@@ -88,13 +102,14 @@ def rnea_kernel(ibuf, fbuf, q, qd, qdd, loads, tau):
     return 0
 
 
-@njit(**JIT)
+@njit(**BATCH)
 def rnea_batch_kernel(ibuf, fbuf, q, qd, qdd, loads, tau, status, start, stop):
     """RNEA over rows [start, stop) of a batch (N, nv); loads (1, rows, 6) shared or (N, ...)."""
     shared = loads.shape[0] == 1
     for n in range(start, stop):
-        status[n] = rnea_kernel(ibuf, fbuf, q[n], qd[n], qdd[n], loads[0] if shared else loads[n],
-                                tau[n])
+        status[n] = rnea_kernel(
+            ibuf, fbuf, q[n], qd[n], qdd[n], loads[0] if shared else loads[n], tau[n]
+        )
 
 
 _NO_GRAVITY = np.zeros(3)
@@ -105,16 +120,27 @@ def run_rnea(model, q, qd, qdd, f_tip, gravity, what):
     (q, qd, qdd), batch = _args.as_states(model, ("q", q), ("qd", qd), ("qdd", qdd))
     if not batch:
         tau = np.empty(model._vector_shape)
-        status = rnea_kernel(model._ibuf, model._fbuf, q, qd, qdd,
-                             _args.loads(model, gravity, f_tip), tau)
+        status = rnea_kernel(
+            model._ibuf, model._fbuf, q, qd, qdd, _args.loads(model, gravity, f_tip), tau
+        )
         if status:
             _args.raise_status(status, model, what)
         return tau
     n = q.shape[0]
     tau = np.empty((n, model.nv))
     status = np.zeros(n, dtype=np.int64)
-    run_rows(rnea_batch_kernel, n, model._ibuf, model._fbuf, q, qd, qdd,
-             _args.loads(model, gravity, f_tip, n), tau, status)
+    run_rows(
+        rnea_batch_kernel,
+        n,
+        model._ibuf,
+        model._fbuf,
+        q,
+        qd,
+        qdd,
+        _args.loads(model, gravity, f_tip, n),
+        tau,
+        status,
+    )
     _args.raise_batch_status(status, model, what)
     return tau
 
@@ -147,9 +173,11 @@ def _zeros_like_state(model, q):
 
 
 def gravity_forces(model, q, gravity=None):
-    """g(q) = dU/dq: the joint torques that hold the robot still against gravity (RNEA, qd = qdd = 0).
+    """g(q) = dU/dq: the joint torques that hold the robot still against gravity (RNEA with
+    qd = qdd = 0).
 
-    q: (nv,) or (N, nv); gravity: optional (3,) world-frame vector (m/s^2). Returns (nv,) or (N, nv).
+    q: (nv,) or (N, nv); gravity: optional (3,) world-frame vector (m/s^2).
+    Returns (nv,) or (N, nv).
     """
     q, zero = _zeros_like_state(model, q)
     return run_rnea(model, q, zero, zero, None, gravity, "gravity_forces")

@@ -70,7 +70,8 @@ def task_space_mass_matrix(model, q, frame, damping=0.0):
             f"task_space_mass_matrix: frame {frame!r} of {model.name!r} cannot move in every "
             f"task direction at this q (J_b M^-1 J_b^T has singular values {sv}; rank "
             f"{int(np.sum(sv > 1e-10 * sv[0]))} < 6): Lambda is undefined. Pass damping > 0 "
-            f"for a damped inverse")
+            f"for a damped inverse"
+        )
     return np.linalg.inv(Lambda_inv)
 
 
