@@ -24,6 +24,7 @@ from numba import njit
 from . import _args
 from ._kernels import (
     BATCH,
+    INLINE,
     JIT,
     ad_twist,
     add_inertia_to_parent,
@@ -37,23 +38,19 @@ from ._kernels import (
 from .kinematics import forward_kinematics
 
 
-@njit(**JIT)
-def christoffel_kernel(ibuf, fbuf, q, Gamma):
-    """Gamma (nv, nv, nv) <- Christoffel symbols at q. Status 1: q not finite."""
-    if not all_finite(q):
-        return 1
+@njit(**INLINE)
+def space_axes_and_inertias(ibuf, fbuf, q, S, Gs, Gc):
+    """S[i] = Ad_{T_si} A_i, Gs[i] = Ad_{T_is}^T G_i Ad_{T_is} (space frame) and the composite
+    Gc[i] = sum of Gs over the subtree of i, at q."""
     body_tree = tree(ibuf, fbuf)
     parent, jtype, coord, mult, offset, A, R_home, p_home = body_tree
     G = spatial_inertias(ibuf, fbuf)
-    nb, nv = parent.shape[0], Gamma.shape[0]
+    nb = parent.shape[0]
     R_s = np.empty((nb, 3, 3))
     p_s = np.empty((nb, 3))
-    forward_kinematics(body_tree, q, R_s, p_s)
-
-    # space screw axes S_i and space inertias, accumulated into composite inertias Gc_i
-    S = np.empty((nb, 6))
-    Gc = np.zeros((nb, 6, 6))
+    forward_kinematics(body_tree, q, R_s, p_s, -1)
     scratch = np.empty((9, 6))
+    Gs[:] = 0.0
     for i in range(nb):
         for r in range(3):
             S[i, r] = R_s[i, r, 0] * A[i, 0] + R_s[i, r, 1] * A[i, 1] + R_s[i, r, 2] * A[i, 2]
@@ -62,10 +59,24 @@ def christoffel_kernel(ibuf, fbuf, q, Gamma):
         S[i, 3] += ps[1] * S[i, 2] - ps[2] * S[i, 1]
         S[i, 4] += ps[2] * S[i, 0] - ps[0] * S[i, 2]
         S[i, 5] += ps[0] * S[i, 1] - ps[1] * S[i, 0]
-        add_inertia_to_parent(R_s[i], p_s[i], G[i], Gc[i], scratch)
+        add_inertia_to_parent(R_s[i], p_s[i], G[i], Gs[i], scratch)
+    Gc[:] = Gs
     for i in range(nb - 1, -1, -1):
         if parent[i] >= 0:
             Gc[parent[i]] += Gc[i]
+
+
+@njit(**JIT)
+def christoffel_kernel(ibuf, fbuf, q, Gamma):
+    """Gamma (nv, nv, nv) <- Christoffel symbols at q. Status 1: q not finite."""
+    if not all_finite(q):
+        return 1
+    parent, jtype, coord, mult, offset, A, R_home, p_home = tree(ibuf, fbuf)
+    nb, nv = parent.shape[0], Gamma.shape[0]
+    S = np.empty((nb, 6))
+    Gs = np.empty((nb, 6, 6))
+    Gc = np.empty((nb, 6, 6))
+    space_axes_and_inertias(ibuf, fbuf, q, S, Gs, Gc)
 
     # above[a, b]: a is b or an ancestor of b
     above = np.zeros((nb, nb), dtype=np.bool_)
@@ -111,20 +122,87 @@ def christoffel_kernel(ibuf, fbuf, q, Gamma):
 
 @njit(**JIT)
 def coriolis_matrix_kernel(ibuf, fbuf, q, qd, C):
-    """C (nv, nv) <- sum_k Gamma[:, :, k] qd_k. Status 1/2: q/qd not finite."""
+    """C (nv, nv) <- sum_k Gamma[:, :, k] qd_k in O(n^2), without forming Gamma.
+    Status 1/2: q/qd not finite.
+
+    C = 1/2 (Mdot + P - P^T) with P[a, b] = d(M qd)_a / dq_b. With space twists
+    V_i = V_lambda + S_i qd_i, subtree momenta H_i = sum_{b >= i} Gs_b V_b and
+    B_j = sum over k strictly below j of (ad_{S_k}^T Gc_k + Gc_k ad_{S_k}) qd_k, for i <= j:
+      Mdot_ij = (ad_{S_i} (V_j - V_i))^T Gc_j S_j - S_i^T B_j S_j
+      P[j, i] = (Gc_j S_j)^T ad_{V_i} S_i
+      P[i, j] = (ad_{S_i} S_j)^T H_j + S_i^T Gc_j ad_{V_j} S_j     (i strictly above j)
+    (the dM/dq terms of the module docstring summed against qd).
+    """
+    if not all_finite(q):
+        return 1
     if not all_finite(qd):
         return 2
-    nv = C.shape[0]
-    Gamma = np.empty((nv, nv, nv))
-    status = christoffel_kernel(ibuf, fbuf, q, Gamma)
-    if status:
-        return status
-    for a in range(nv):
-        for b in range(nv):
-            s = 0.0
-            for c in range(nv):
-                s += Gamma[a, b, c] * qd[c]
-            C[a, b] = s
+    parent, jtype, coord, mult, offset, A, R_home, p_home = tree(ibuf, fbuf)
+    nb = parent.shape[0]
+    S = np.empty((nb, 6))
+    Gs = np.empty((nb, 6, 6))
+    Gc = np.empty((nb, 6, 6))
+    space_axes_and_inertias(ibuf, fbuf, q, S, Gs, Gc)
+
+    # forward: space twists V_i; per body Gc_i S_i, ad_{V_i} S_i, Gc_i ad_{V_i} S_i
+    vec = np.zeros((6, nb, 6))
+    V, H, GcS, adVS, GcadVS, BS = vec[0], vec[1], vec[2], vec[3], vec[4], vec[5]
+    qd_b = np.empty(nb)
+    for i in range(nb):
+        qd_b[i] = mult[i] * qd[coord[i]]
+        for k in range(6):
+            V[i, k] = (0.0 if parent[i] < 0 else V[parent[i], k]) + S[i, k] * qd_b[i]
+        mat6_vec(Gc[i], S[i], GcS[i])
+        ad_twist(V[i], S[i], adVS[i])
+        mat6_vec(Gc[i], adVS[i], GcadVS[i])
+    # backward: H_i (subtree momentum) and D_i = X_i + sum_children D_c, with
+    # X_k = (ad_{S_k}^T Gc_k + Gc_k ad_{S_k}) qd_k; B_j = sum over the children c of D_c,
+    # complete when j is reached (children have larger indices)
+    D = np.zeros((nb, 6, 6))
+    B = np.zeros((nb, 6, 6))
+    Y = np.empty((6, 6))
+    e = np.zeros(6)
+    col = np.empty(6)
+    for i in range(nb - 1, -1, -1):
+        mat6_vec(Gs[i], V[i], col)
+        for k in range(6):
+            H[i, k] += col[k]
+        # X_i = Y + Y^T with Y = Gc_i ad_{S_i} (Gc_i is symmetric), column by column
+        for c in range(6):
+            e[:] = 0.0
+            e[c] = 1.0
+            ad_twist(S[i], e, col)
+            mat6_vec(Gc[i], col, Y[:, c])
+        for r in range(6):
+            for c in range(6):
+                D[i, r, c] += (Y[r, c] + Y[c, r]) * qd_b[i]
+        mat6_vec(B[i], S[i], BS[i])
+        lam = parent[i]
+        if lam >= 0:
+            H[lam] += H[i]
+            D[lam] += D[i]
+            B[lam] += D[i]
+
+    C[:, :] = 0.0
+    dV = np.empty(6)
+    adSS = np.empty(6)
+    for j in range(nb):
+        i = j
+        while i >= 0:
+            for k in range(6):
+                dV[k] = V[j, k] - V[i, k]
+            ad_twist(S[i], dV, adSS)
+            Mdot = dot6(adSS, GcS[j]) - dot6(S[i], BS[j])
+            P_ji = dot6(GcS[j], adVS[i])
+            if i == j:
+                C[coord[i], coord[i]] += mult[i] * mult[i] * 0.5 * Mdot
+            else:
+                ad_twist(S[i], S[j], adSS)
+                P_ij = dot6(adSS, H[j]) + dot6(S[i], GcadVS[j])
+                w = mult[i] * mult[j] * 0.5
+                C[coord[i], coord[j]] += w * (Mdot + P_ij - P_ji)
+                C[coord[j], coord[i]] += w * (Mdot + P_ji - P_ij)
+            i = parent[i]
     return 0
 
 

@@ -51,7 +51,7 @@ def potential_kernel(ibuf, fbuf, q, gravity, out):
     nb = mass.shape[0]
     R_s = np.empty((nb, 3, 3))
     p_s = np.empty((nb, 3))
-    forward_kinematics(tree(ibuf, fbuf), q, R_s, p_s)
+    forward_kinematics(tree(ibuf, fbuf), q, R_s, p_s, -1)
     U = 0.0
     for i in range(nb):
         for r in range(3):

@@ -28,13 +28,24 @@ from ._kernels import (
 
 
 @njit(**INLINE)
-def forward_kinematics(body_tree, q, R_s, p_s):
-    """R_s[i], p_s[i] <- T_{s,i}(q) for every body (world frame = the root link); body_tree is
-    _kernels.tree(ibuf, fbuf)."""
+def forward_kinematics(body_tree, q, R_s, p_s, last):
+    """R_s[i], p_s[i] <- T_{s,i}(q) (world frame = the root link) for every body, or, when
+    last >= 0, only for the bodies on the path from the root to body `last`.
+    body_tree is _kernels.tree(ibuf, fbuf)."""
     parent, jtype, coord, mult, offset, A, R_home, p_home = body_tree
+    nb = parent.shape[0]
     R = np.empty((3, 3))
     p = np.empty(3)
-    for i in range(parent.shape[0]):
+    wanted = np.ones(nb, dtype=np.bool_)
+    if last >= 0:
+        wanted[:] = False
+        i = last
+        while i >= 0:
+            wanted[i] = True
+            i = parent[i]
+    for i in range(nb if last < 0 else last + 1):
+        if not wanted[i]:
+            continue
         joint_transform(
             jtype[i], A[i], R_home[i], p_home[i], mult[i] * q[coord[i]] + offset[i], R, p
         )
@@ -81,7 +92,8 @@ def frame_pose_kernel(ibuf, fbuf, q, body, T_bf, T_sf):
     nb = ibuf[0]
     R_s = np.empty((nb, 3, 3))
     p_s = np.empty((nb, 3))
-    forward_kinematics(tree(ibuf, fbuf), q, R_s, p_s)
+    if body >= 0:
+        forward_kinematics(tree(ibuf, fbuf), q, R_s, p_s, body)
     compose_frame(R_s, p_s, body, T_bf, T_sf)
     return 0
 
@@ -96,7 +108,8 @@ def jacobian_kernel(ibuf, fbuf, q, body, T_bf, body_frame, J):
     nb = parent.shape[0]
     R_s = np.empty((nb, 3, 3))
     p_s = np.empty((nb, 3))
-    forward_kinematics(body_tree, q, R_s, p_s)
+    if body >= 0:
+        forward_kinematics(body_tree, q, R_s, p_s, body)
     T_sf = np.empty((4, 4))
     compose_frame(R_s, p_s, body, T_bf, T_sf)
     S = np.empty(6)
@@ -139,7 +152,7 @@ def frame_pose_batch_kernel(ibuf, fbuf, q, body, T_bf, T_sf, status, start, stop
 
 def _frame(model, frame):
     fr = model.frames[model.frame_index(frame)]
-    return fr.body, np.ascontiguousarray(fr.T_body_frame)
+    return fr.body, fr.T_body_frame
 
 
 def frame_pose(model, q, frame):
@@ -148,7 +161,8 @@ def frame_pose(model, q, frame):
     q: (nv,) or (N, nv) -> (4, 4) or (N, 4, 4); translation in metres.
     Raises KeyError naming the frame if it is not a frame of the model.
     """
-    q = _args.as_state(model, q, "q")
+    if not _args.is_single(model, q):
+        q = _args.as_state(model, q, "q")
     body, T_bf = _frame(model, frame)
     if q.ndim == 1:
         T = np.empty((4, 4))
@@ -173,7 +187,8 @@ def jacobian(model, q, frame, expressed_in="space"):
     """
     if expressed_in not in ("space", "body"):
         raise ValueError(f"jacobian: expressed_in must be 'space' or 'body', got {expressed_in!r}")
-    q = _args.as_state(model, q, "q")
+    if not _args.is_single(model, q):
+        q = _args.as_state(model, q, "q")
     body, T_bf = _frame(model, frame)
     body_frame = expressed_in == "body"
     if q.ndim == 1:
