@@ -216,3 +216,21 @@ def test_space_and_body_jacobians_are_related_by_the_adjoint(ur5, states):
             adjoint(od.frame_pose(ur5, q, "tool0")) @ od.jacobian(ur5, q, "tool0", "body"),
             atol=1e-12,
         )
+
+
+@pytest.mark.parametrize("mimic", [False, True])
+def test_coriolis_matrix_is_the_christoffel_contraction(mimic):
+    """C[i, j] = sum_k Gamma[i, j, k] qd_k (C in O(n^2), Gamma in O(n^3): two algorithms),
+    C qd = c, and Mdot - 2C skew, also with coupled mimic joints (the Panda's fingers)."""
+    model = od.load_urdf("panda", mimic=mimic)
+    assert (model.nv < model.nb) == mimic
+    rng = np.random.default_rng(8)
+    for _ in range(3):
+        q, qd = rng.uniform(-1, 1, (2, model.nv))
+        C = od.coriolis_matrix(model, q, qd)
+        np.testing.assert_allclose(C, od.christoffel_symbols(model, q) @ qd, atol=1e-12)
+        np.testing.assert_allclose(C @ qd, od.coriolis_forces(model, q, qd), atol=1e-12)
+        h = 1e-6
+        Mdot = (od.mass_matrix(model, q + h * qd) - od.mass_matrix(model, q - h * qd)) / (2 * h)
+        N = Mdot - 2 * C
+        np.testing.assert_allclose(N, -N.T, atol=1e-8)
