@@ -27,6 +27,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .spatial import linear
+
 REVOLUTE = 0
 PRISMATIC = 1
 
@@ -233,7 +235,7 @@ class Model:
         object.__setattr__(self, "_zero_v", np.zeros(self.nv))
         object.__setattr__(self, "_gravity", np.array(self.gravity))
         loads = np.zeros((1, 6))
-        loads[0, 3:] = -self._gravity  # the kernels' dV_0 = (0, -g), no applied wrenches
+        linear(loads[0])[:] = -self._gravity  # the kernels' dV_0 = (0, -g), no wrenches
         object.__setattr__(self, "_loads", loads)
 
     parent = property(lambda self: self._ifield("parent"), doc="(nb,) parent body, -1 = world")

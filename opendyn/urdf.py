@@ -232,13 +232,6 @@ def _parse_yourdfpy(file, root):
         raise URDFError(f"{file}: yourdfpy could not parse the URDF: {e!r}") from None
 
 
-def _T_inv(T):
-    Ti = np.eye(4)
-    Ti[:3, :3] = T[:3, :3].T
-    Ti[:3, 3] = -T[:3, :3].T @ T[:3, 3]
-    return Ti
-
-
 class _Builder:
     """Walks the URDF tree depth-first and accumulates bodies, frames and the report."""
 

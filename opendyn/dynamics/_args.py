@@ -10,9 +10,11 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..spatial import angular, linear
+
 F64 = np.dtype(np.float64)
 
-STATUS_ARG = {1: "q", 2: "qd", 3: "qdd", 4: "tau", 5: "gravity", 6: "f_tip"}
+STATUS_ARG = {1: "q", 2: "qd", 3: "qdd", 4: "tau"}  # kernel status -> argument not finite
 
 
 def is_single(model, x, y=None, z=None):
@@ -29,14 +31,6 @@ def is_single(model, x, y=None, z=None):
 
 def as_state(model, x, name):
     """x as a writeable C-contiguous float64 array of shape (nv,) or (N, nv)."""
-    if (
-        type(x) is np.ndarray
-        and x.dtype is F64
-        and x.ndim == 1
-        and x.shape[0] == model.nv
-        and x.flags.c_contiguous
-    ):
-        return x
     try:
         x = np.ascontiguousarray(x, dtype=np.float64)
     except (TypeError, ValueError):
@@ -96,7 +90,7 @@ def loads(model, gravity, f_tip, n_states=None):
     if gravity is None and f_tip is None:
         return model._loads if n_states is None else model._loads[None]
     dV_0 = np.zeros(6)
-    dV_0[3:] = -as_gravity(model, gravity)
+    linear(dV_0)[:] = -as_gravity(model, gravity)
     if not f_tip:
         return dV_0[None] if n_states is None else dV_0[None, None]
     if not isinstance(f_tip, dict):
@@ -121,10 +115,10 @@ def loads(model, gravity, f_tip, n_states=None):
         if fr.body < 0:
             continue
         R, p = fr.T_body_frame[:3, :3], fr.T_body_frame[:3, 3]
-        f_b = F[..., 3:] @ R.T
-        m_b = F[..., :3] @ R.T + np.cross(p, f_b)
-        out[..., 1 + fr.body, :3] += m_b
-        out[..., 1 + fr.body, 3:] += f_b
+        f_b = linear(F) @ R.T
+        m_b = angular(F) @ R.T + np.cross(p, f_b)
+        angular(out[..., 1 + fr.body, :])[...] += m_b
+        linear(out[..., 1 + fr.body, :])[...] += f_b
     return out if per_state or n_states is None else out[None]
 
 

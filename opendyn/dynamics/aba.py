@@ -22,10 +22,10 @@ from numba import njit
 
 from ._kernels import (
     JIT,
+    ad_twist,
     add_inertia_to_parent,
     add_neg_ad_transpose,
     add_wrench_to_parent,
-    ad_twist,
     all_finite,
     dot6,
     joint_transform,

@@ -14,6 +14,7 @@ import numpy as np
 import scipy.linalg
 from numba import njit
 
+from ..spatial import angular, linear
 from . import _args
 from ._kernels import JIT, tree
 from .crba import mass_matrix
@@ -94,7 +95,7 @@ def frame_acceleration(model, q, qd, qdd, frame):
     # dV_frame = Ad_{T_{frame,body}} dV_body (the frame is rigidly attached)
     T = fr.T_body_frame
     R_bf, p_bf = T[:3, :3], T[:3, 3]
-    w, v = dV[fr.body, :3], dV[fr.body, 3:]
+    w, v = angular(dV[fr.body]), linear(dV[fr.body])
     return np.concatenate([R_bf.T @ w, R_bf.T @ (v + np.cross(w, p_bf))])
 
 
