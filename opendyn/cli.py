@@ -70,7 +70,10 @@ def main(argv=None) -> int:
     try:
         return args.run(args)
     except (URDFError, ValueError, KeyError) as e:
-        print(f"opendyn {args.command}: {e}", file=sys.stderr)
+        hint = ""
+        if "check_inertia=False" in str(e) and args.command == "info":
+            hint = "\n(opendyn info --keep-inertia ROBOT loads it anyway)"
+        print(f"opendyn {args.command}: {e}{hint}", file=sys.stderr)
         return 2
 
 
