@@ -15,7 +15,10 @@ adjoint of T. Units are SI (m, rad, kg, s, N, N m).
 import numpy as np
 
 _ROTATION_TOLERANCE = 1e-6
-_INERTIA_RELATIVE_TOLERANCE = 1e-9
+# URDF inertias are usually written to about 6 significant digits, and rounding them moves the
+# principal moments by about 1e-6 of the largest: a violation below 1e-5 of it is rounding
+_INERTIA_RELATIVE_TOLERANCE = 1e-5
+_SKEW_RELATIVE_TOLERANCE = 1e-9
 # below this (kg m^2: a milligram a micrometre from its axis) an inertia entry is rounding noise
 _INERTIA_ABSOLUTE_TOLERANCE = 1e-18
 _SERIES_THRESHOLD = 0.1
@@ -150,7 +153,7 @@ def unskew(W):
     Returns the (3,) vector w.
     """
     W = _as_array(W, "W", (3, 3))
-    if np.abs(W + W.T).max() > _INERTIA_RELATIVE_TOLERANCE * np.abs(W).max():
+    if np.abs(W + W.T).max() > _SKEW_RELATIVE_TOLERANCE * np.abs(W).max():
         raise ValueError(f"W must be skew-symmetric, got {W}")
     return np.array([W[2, 1], W[0, 2], W[1, 0]])
 

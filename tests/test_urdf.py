@@ -781,3 +781,26 @@ def test_an_invalid_inertia_welded_to_the_root_is_reported_not_refused(tmp_path)
     )
     assert model.nv == 1
     assert any("base" in line and "triangle" in line for line in model.report.ignored)
+
+
+def test_an_inertia_at_the_triangle_bound_written_to_six_digits_loads(tmp_path):
+    """A thin rod (principal moments I, I, 0: I1 + I2 = I3 exactly) in a rotated frame, written
+    to 6 significant digits as URDFs usually are: rounding moves the moments by about 1e-6 of
+    the largest, which is not a physically invalid inertia."""
+    R = rpy_matrix((0.3, -0.7, 1.1))
+    I = R @ np.diag([0.0, 0.02, 0.02]) @ R.T
+    written = tuple(
+        float(f"{v:.6g}") for v in (I[0, 0], I[1, 1], I[2, 2], I[0, 1], I[0, 2], I[1, 2])
+    )
+    moments = np.linalg.eigvalsh(
+        np.array(
+            [
+                [written[0], written[3], written[4]],
+                [written[3], written[1], written[5]],
+                [written[4], written[5], written[2]],
+            ]
+        )
+    )
+    assert moments[0] < 0 or moments[2] > moments[0] + moments[1]  # rounding broke the bound
+    model = load(tmp_path, chain(1, links={1: {"inertia": written}}))
+    assert model.nv == 1
