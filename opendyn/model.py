@@ -65,6 +65,13 @@ def _layout(fields, start):
     return out
 
 
+def _frame_index(frames, aliases):
+    index = {f.name: k for k, f in enumerate(frames)}
+    for alias, name in aliases.items():
+        index.setdefault(alias, index[name])
+    return index
+
+
 def _readonly_view(buf, where):
     """A read-only view of one field of a flat buffer (the buffer itself stays writeable, so the
     compiled kernels see one array type)."""
@@ -108,7 +115,8 @@ class Model:
       velocity_limit, effort_limit (nv,) (rad/s or m/s, N m or N); +inf where absent
       damping, friction (nv,) from the URDF ``<dynamics>`` (N m s/rad or N s/m; N m or N)
       continuous      (nv,) bool, joint is continuous (unbounded angle)
-      frames          tuple of Frame, one per URDF link (and per extra frame), by name
+      frames          tuple of Frame, one per URDF link, by name; a joint's name also finds the
+                      frame of its child link (the URDF joint frame)
       gravity         (3,) default gravity vector in the world frame (m/s^2)
       report          the loader's FidelityReport (what was honoured, transformed, ignored)
     """
@@ -160,8 +168,13 @@ class Model:
         gravity=(0.0, 0.0, -9.81),
         report=None,
         source="",
+        frame_aliases=None,
     ):
-        """Pack per-body arrays into the kernels' flat buffers and freeze everything."""
+        """Pack per-body arrays into the kernels' flat buffers and freeze everything.
+
+        frame_aliases: {other name: frame name}, e.g. each URDF joint's name for its child link
+        (the URDF joint frame is the child link's frame); a frame's own name always wins.
+        """
         nb, nv = len(body_names), len(joint_names)
         ilay, flay = _ibuf_layout(nb), _fbuf_layout(nb)
         ibuf = np.zeros(ilay["_size"][0], dtype=np.int64)
@@ -214,7 +227,7 @@ class Model:
             _fbuf=fbuf,
             report=report,
             source=source,
-            _frame_index={f.name: k for k, f in enumerate(frames)},
+            _frame_index=_frame_index(frames, frame_aliases or {}),
         )
 
     def _ifield(self, key):
@@ -257,7 +270,8 @@ class Model:
         return tuple(f.name for f in self.frames)
 
     def frame_index(self, frame: str) -> int:
-        """Index of a frame by name; KeyError naming the frame and some valid names if unknown."""
+        """Index of a frame by name (a link, or a joint, which names its child link's frame);
+        KeyError naming the frame and some valid names if unknown."""
         try:
             return self._frame_index[frame]
         except (KeyError, TypeError):

@@ -301,6 +301,7 @@ class _Builder:
             R_home=np.reshape(R_home, (-1, 3, 3)),
             p_home=np.reshape(p_home, (-1, 3)),
             frames=frames,
+            frame_aliases={j.name: j.child for j in joints.values()},
             report=self.report,
             source=self.file,
             **limits,

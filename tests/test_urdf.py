@@ -804,3 +804,36 @@ def test_an_inertia_at_the_triangle_bound_written_to_six_digits_loads(tmp_path):
     assert moments[0] < 0 or moments[2] > moments[0] + moments[1]  # rounding broke the bound
     model = load(tmp_path, chain(1, links={1: {"inertia": written}}))
     assert model.nv == 1
+
+
+def test_a_joint_name_finds_the_frame_of_its_child_link(tmp_path):
+    """The URDF joint frame is its child link's frame (moving and fixed joints alike); a link
+    that shares a joint's name keeps its own frame."""
+    model = load(
+        tmp_path,
+        chain(
+            2,
+            extra=[
+                link("tool", mass=None),
+                joint(
+                    "tool_joint",
+                    "link2",
+                    "tool",
+                    type="fixed",
+                    xyz=(0, 0, 0.2),
+                    axis=None,
+                    limit=None,
+                ),
+            ],
+        ),
+    )
+    q = np.array([0.4, -0.9])
+    for joint_name, child in (("j1", "link1"), ("j2", "link2"), ("tool_joint", "tool")):
+        np.testing.assert_array_equal(
+            od.frame_pose(model, q, joint_name), od.frame_pose(model, q, child)
+        )
+    assert "j1" not in model.frame_names
+    clash = load(tmp_path, chain(2, joints={2: {"name": "link1"}}), name="clash.urdf")
+    T_link1 = od.frame_pose(clash, q, "link1")
+    np.testing.assert_array_equal(T_link1, od.frame_pose(clash, q, "j1"))
+    assert not np.allclose(T_link1, od.frame_pose(clash, q, "link2"))
