@@ -70,10 +70,12 @@ def _states(model, seed):
 
 
 def _test_frames(model):
-    """A frame on the last body, a frame on a fixed joint (when there is one), the root."""
+    """A frame on the last body, a frame on a fixed joint (when there is one), the root, and the
+    last moving joint by its name."""
     moving = [f.name for f in model.frames if f.body >= 0]
     welded = [f.name for f in model.frames if f.body >= 0 and f.name not in model.body_names]
-    return list(dict.fromkeys(moving[-1:] + welded[:1] + [model.frames[0].name]))
+    joints = list(model.body_joints[-1:])  # a joint's name is its child link's frame
+    return list(dict.fromkeys(moving[-1:] + welded[:1] + [model.frames[0].name] + joints))
 
 
 def test_the_oracle_covers_example_robot_data():
