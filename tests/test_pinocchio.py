@@ -19,6 +19,7 @@ from opendyn.dynamics.forward import METHODS
 
 pin = pytest.importorskip("pinocchio")
 from pin_adapter import PinOracle  # noqa: E402
+from randtree import write_random_tree  # noqa: E402
 
 RTOL = 1e-9
 N_STATES = 3
@@ -84,7 +85,21 @@ def test_the_oracle_covers_example_robot_data():
 
 @pytest.mark.parametrize("path", URDFS, ids=[Path(p).stem for p in URDFS])
 def test_contract_functions_match_pinocchio(path):
-    model, P = _load(path)
+    _check_contract_functions(*_load(path))
+
+
+@pytest.mark.parametrize("seed", range(8))
+def test_contract_functions_match_pinocchio_on_random_trees(tmp_path, seed):
+    """Seeded random trees (tests/randtree.py): several branches from the root, all joint types,
+    fixed joints inside chains and as flanges, missing and non-unit axes, inertial and joint
+    origins with any rpy, massless links."""
+    model, P = _load(str(write_random_tree(tmp_path, seed)))
+    _check_contract_functions(model, P)
+    for q, _ in _states(model, 4):
+        assert_close(od.christoffel_symbols(model, q), P.christoffel(q), "christoffel_symbols")
+
+
+def _check_contract_functions(model, P):
     rng = np.random.default_rng(7)
     frames = _test_frames(model)
     for q, (qd, qdd, tau) in _states(model, 1):
