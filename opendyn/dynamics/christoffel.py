@@ -35,7 +35,7 @@ from ._kernels import (
     spatial_inertias,
     tree,
 )
-from .kinematics import forward_kinematics
+from .kinematics import forward_kinematics, space_axis
 
 
 @njit(**INLINE)
@@ -52,13 +52,7 @@ def space_axes_and_inertias(ibuf, fbuf, q, S, Gs, Gc):
     scratch = np.empty((9, 6))
     Gs[:] = 0.0
     for i in range(nb):
-        for r in range(3):
-            S[i, r] = R_s[i, r, 0] * A[i, 0] + R_s[i, r, 1] * A[i, 1] + R_s[i, r, 2] * A[i, 2]
-            S[i, 3 + r] = R_s[i, r, 0] * A[i, 3] + R_s[i, r, 1] * A[i, 4] + R_s[i, r, 2] * A[i, 5]
-        ps = p_s[i]
-        S[i, 3] += ps[1] * S[i, 2] - ps[2] * S[i, 1]
-        S[i, 4] += ps[2] * S[i, 0] - ps[0] * S[i, 2]
-        S[i, 5] += ps[0] * S[i, 1] - ps[1] * S[i, 0]
+        space_axis(R_s[i], p_s[i], A[i], S[i])
         add_inertia_to_parent(R_s[i], p_s[i], G[i], Gs[i], scratch)
     Gc[:] = Gs
     for i in range(nb - 1, -1, -1):

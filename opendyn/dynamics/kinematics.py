@@ -64,6 +64,18 @@ def forward_kinematics(body_tree, q, R_s, p_s, last):
             )
 
 
+@njit(**INLINE)
+def space_axis(R_s, p_s, A_i, S):
+    """S <- Ad_{T_{s,i}} A_i = (R w, p x (R w) + R v), the screw axis of joint i in {s}, with
+    (R, p) = (R_s, p_s) = T_{s,i} and A_i = (w, v)."""
+    for r in range(3):
+        S[r] = R_s[r, 0] * A_i[0] + R_s[r, 1] * A_i[1] + R_s[r, 2] * A_i[2]
+        S[3 + r] = R_s[r, 0] * A_i[3] + R_s[r, 1] * A_i[4] + R_s[r, 2] * A_i[5]
+    S[3] += p_s[1] * S[2] - p_s[2] * S[1]
+    S[4] += p_s[2] * S[0] - p_s[0] * S[2]
+    S[5] += p_s[0] * S[1] - p_s[1] * S[0]
+
+
 @njit(**JIT)
 def compose_frame(R_s, p_s, body, T_bf, T_sf):
     """T_sf (4, 4) <- T_{s,body} T_{body,frame}; body -1 is the world."""
@@ -117,14 +129,7 @@ def jacobian_kernel(ibuf, fbuf, q, body, T_bf, body_frame, J):
     J[:, :] = 0.0
     i = body
     while i >= 0:
-        # S_i = Ad_{T_{s,i}} A_i = (R w, p x (R w) + R v)
-        for r in range(3):
-            S[r] = R_s[i, r, 0] * A[i, 0] + R_s[i, r, 1] * A[i, 1] + R_s[i, r, 2] * A[i, 2]
-            S[3 + r] = R_s[i, r, 0] * A[i, 3] + R_s[i, r, 1] * A[i, 4] + R_s[i, r, 2] * A[i, 5]
-        ps = p_s[i]
-        S[3] += ps[1] * S[2] - ps[2] * S[1]
-        S[4] += ps[2] * S[0] - ps[0] * S[2]
-        S[5] += ps[0] * S[1] - ps[1] * S[0]
+        space_axis(R_s[i], p_s[i], A[i], S)
         if body_frame:
             # Ad_{T_{frame,s}} S = (R^T w, R^T (v + w x p)) with (R, p) = T_sf
             twist_to_child(T_sf[:3, :3], T_sf[:3, 3], S, col)

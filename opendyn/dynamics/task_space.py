@@ -36,15 +36,30 @@ class SingularTaskSpaceError(ValueError):
     """J_b M^-1 J_b^T is singular: the frame cannot move in every task direction."""
 
 
-def _inverse_task_inertia(model, q, frame, what):
-    """J_b (6, nv) and Lambda^-1 = J_b M^-1 J_b^T (6, 6), with M's Cholesky factor."""
-    M = mass_matrix(model, q)
+def _task_space(model, q, frame, damping, what):
+    """Lambda (6, 6), J_b (6, nv) and M's Cholesky factor, each computed once."""
+    q = _args.as_state(model, q, "q")
+    if q.ndim != 1:
+        raise ValueError(f"{what}: q must be a single configuration (nv,)")
+    if damping < 0 or not np.isfinite(damping):
+        raise ValueError(f"{what}: damping must be finite and >= 0, got {damping}")
     J_b = jacobian(model, q, frame, expressed_in="body")
     try:
-        M_chol = scipy.linalg.cho_factor(M)
+        M_chol = scipy.linalg.cho_factor(mass_matrix(model, q))
     except np.linalg.LinAlgError:
         raise _args.SingularMassMatrixError(model, model.joint_names, what) from None
-    return J_b, scipy.linalg.cho_solve(M_chol, J_b.T), M_chol
+    Lambda_inv = J_b @ scipy.linalg.cho_solve(M_chol, J_b.T)
+    if damping > 0:
+        return np.linalg.inv(Lambda_inv + damping * np.eye(6)), J_b, M_chol
+    sv = np.linalg.svd(Lambda_inv, compute_uv=False)
+    if sv[-1] <= 1e-10 * sv[0]:
+        raise SingularTaskSpaceError(
+            f"{what}: frame {frame!r} of {model.name!r} cannot move in every "
+            f"task direction at this q (J_b M^-1 J_b^T has singular values {sv}; rank "
+            f"{int(np.sum(sv > 1e-10 * sv[0]))} < 6): Lambda is undefined. Pass damping > 0 "
+            f"for a damped inverse"
+        )
+    return np.linalg.inv(Lambda_inv), J_b, M_chol
 
 
 def task_space_mass_matrix(model, q, frame, damping=0.0):
@@ -56,24 +71,7 @@ def task_space_mass_matrix(model, q, frame, damping=0.0):
       ill-conditioned (fewer than 6 joints, or a singular configuration); damping > 0 returns
       the damped (J_b M^-1 J_b^T + damping I)^-1, finite everywhere.
     """
-    q = _args.as_state(model, q, "q")
-    if q.ndim != 1:
-        raise ValueError("task_space_mass_matrix: q must be a single configuration (nv,)")
-    J_b, Minv_JT, _ = _inverse_task_inertia(model, q, frame, "task_space_mass_matrix")
-    Lambda_inv = J_b @ Minv_JT
-    if damping < 0 or not np.isfinite(damping):
-        raise ValueError(f"task_space_mass_matrix: damping must be finite and >= 0, got {damping}")
-    if damping > 0:
-        return np.linalg.inv(Lambda_inv + damping * np.eye(6))
-    sv = np.linalg.svd(Lambda_inv, compute_uv=False)
-    if sv[-1] <= 1e-10 * sv[0]:
-        raise SingularTaskSpaceError(
-            f"task_space_mass_matrix: frame {frame!r} of {model.name!r} cannot move in every "
-            f"task direction at this q (J_b M^-1 J_b^T has singular values {sv}; rank "
-            f"{int(np.sum(sv > 1e-10 * sv[0]))} < 6): Lambda is undefined. Pass damping > 0 "
-            f"for a damped inverse"
-        )
-    return np.linalg.inv(Lambda_inv)
+    return _task_space(model, q, frame, damping, "task_space_mass_matrix")[0]
 
 
 def frame_acceleration(model, q, qd, qdd, frame):
@@ -105,8 +103,7 @@ def task_space_bias(model, q, qd, frame, gravity=None):
 
     Raises SingularTaskSpaceError where Lambda is undefined (see task_space_mass_matrix).
     """
-    Lambda = task_space_mass_matrix(model, q, frame)
-    J_b, _, M_chol = _inverse_task_inertia(model, q, frame, "task_space_bias")
+    Lambda, J_b, M_chol = _task_space(model, q, frame, 0.0, "task_space_bias")
     h = bias_forces(model, q, qd, gravity)
     Jdot_qd = frame_acceleration(model, q, qd, np.zeros(model.nv), frame)
     return Lambda @ (J_b @ scipy.linalg.cho_solve(M_chol, h) - Jdot_qd)
