@@ -5,7 +5,7 @@
 Pass 1, base to tips: T_{i,lambda}, V_i = Ad V_lambda + A_i qd_i, the velocity-product
 acceleration c_i = ad_{V_i} A_i qd_i, and the bias wrench pA_i = -ad_{V_i}^T G_i V_i + F_tip,i.
 Pass 2, tips to base, articulated inertias IA_i (starting from G_i) and bias wrenches:
-    U_i = IA_i A_i,  D_i = A_i^T U_i,  u_i = tau_i - A_i^T pA_i
+    U_i = IA_i A_i,  D_i = A_i^T U_i (+ armature_i),  u_i = tau_i - A_i^T pA_i
     Ia = IA_i - U_i U_i^T / D_i,   pa = pA_i + Ia c_i + U_i u_i / D_i
     IA_lambda += Ad^T Ia Ad,       pA_lambda += Ad^T pa
 Pass 3, base to tips, dV_0 = (0, -g):
@@ -39,8 +39,9 @@ SINGULAR_PIVOT = 1e-14  # D_i below this times the largest body inertia: nothing
 
 
 @njit(**JIT)
-def aba_kernel(ibuf, fbuf, q, qd, tau, loads, qdd):
+def aba_kernel(ibuf, fbuf, q, qd, tau, loads, qdd, armature):
     """qdd (nv,) <- ABA at one state; loads as in rnea_kernel (dV_0, then body wrenches).
+    armature: (nv,) rotor inertias added to D_i (M's diagonal), or an empty array for none.
     Status: 0 ok, 1/2/4 q/qd/tau not finite,
     100 + k when joint coordinate k has no inertia moving with it (D_k ~ 0)."""
     if not all_finite(q):
@@ -63,6 +64,7 @@ def aba_kernel(ibuf, fbuf, q, qd, tau, loads, qdd):
     s = np.empty(6)
     zero = np.zeros(6)
     wrenches = loads.shape[0] > 1
+    rotors = armature.shape[0] > 0
     scale = 0.0
     for i in range(nb):
         for k in range(6):
@@ -89,6 +91,8 @@ def aba_kernel(ibuf, fbuf, q, qd, tau, loads, qdd):
     for i in range(nb - 1, -1, -1):
         mat6_vec(IA[i], A[i], U[i])
         D[i] = dot6(A[i], U[i])
+        if rotors:
+            D[i] += armature[i]
         u[i] = tau[i] - dot6(A[i], pA[i])
         if not D[i] > SINGULAR_PIVOT * scale:
             return 100 + i

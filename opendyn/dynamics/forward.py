@@ -19,6 +19,7 @@ from .crba import crba_kernel
 from .rnea import rnea_kernel
 
 METHODS = ("aba", "crba", "newton_euler")
+NO_ARMATURE = np.zeros(0)  # the rigid-body M: no rotor inertias
 _METHOD_CODE = {name: code for code, name in enumerate(METHODS)}
 
 
@@ -58,8 +59,9 @@ def cholesky_solve(M, b, x):
 
 
 @njit(**JIT)
-def mass_matrix_solve(ibuf, fbuf, q, qd, tau, loads, qdd, newton_euler):
-    """qdd <- M^-1 (tau - h - J^T F_tip), M by CRBA or by n RNEA calls. Status as aba_kernel."""
+def mass_matrix_solve(ibuf, fbuf, q, qd, tau, loads, qdd, newton_euler, armature):
+    """qdd <- (M + diag(armature))^-1 (tau - h - J^T F_tip), M by CRBA or by n RNEA calls;
+    armature (nv,) or empty. Status as aba_kernel."""
     nv = qdd.shape[0]
     M = np.empty((nv, nv))
     zero = np.zeros(nv)
@@ -81,6 +83,8 @@ def mass_matrix_solve(ibuf, fbuf, q, qd, tau, loads, qdd, newton_euler):
             e_k[k] = 0.0
     else:
         crba_kernel(ibuf, fbuf, q, M)
+    for k in range(armature.shape[0]):
+        M[k, k] += armature[k]
     for k in range(nv):
         b[k] = tau[k] - b[k]
     k = cholesky_solve(M, b, qdd)
@@ -88,20 +92,30 @@ def mass_matrix_solve(ibuf, fbuf, q, qd, tau, loads, qdd, newton_euler):
 
 
 @njit(**JIT)
-def forward_kernel(ibuf, fbuf, q, qd, tau, loads, qdd, method):
-    """Dispatch one state to method 0 = ABA, 1 = CRBA + Cholesky, 2 = Newton-Euler columns."""
+def forward_kernel(ibuf, fbuf, q, qd, tau, loads, qdd, method, armature):
+    """Dispatch one state to method 0 = ABA, 1 = CRBA + Cholesky, 2 = Newton-Euler columns;
+    armature (nv,) rotor inertias on M's diagonal, or an empty array for none."""
     if method == 0:
-        return aba_kernel(ibuf, fbuf, q, qd, tau, loads, qdd)
-    return mass_matrix_solve(ibuf, fbuf, q, qd, tau, loads, qdd, method == 2)
+        return aba_kernel(ibuf, fbuf, q, qd, tau, loads, qdd, armature)
+    return mass_matrix_solve(ibuf, fbuf, q, qd, tau, loads, qdd, method == 2, armature)
 
 
 @njit(**BATCH)
 def forward_batch_kernel(ibuf, fbuf, q, qd, tau, loads, qdd, method, status, start, stop):
     """Forward dynamics over rows [start, stop) of a batch (N, nv); loads (1 or N, rows, 6)."""
     shared = loads.shape[0] == 1
+    rigid = np.zeros(0)  # no armature
     for n in range(start, stop):
         status[n] = forward_kernel(
-            ibuf, fbuf, q[n], qd[n], tau[n], loads[0] if shared else loads[n], qdd[n], method
+            ibuf,
+            fbuf,
+            q[n],
+            qd[n],
+            tau[n],
+            loads[0] if shared else loads[n],
+            qdd[n],
+            method,
+            rigid,
         )
 
 
@@ -139,6 +153,7 @@ def forward_dynamics(model, q, qd, tau, f_tip=None, gravity=None, method="aba"):
             else _args.loads(model, gravity, f_tip),
             qdd,
             code,
+            NO_ARMATURE,
         )
         if status:
             _args.raise_status(status, model, "forward_dynamics")
