@@ -1,0 +1,869 @@
+"""Scene files: a TOML description of one simulation -> a validated, frozen ``Scene``.
+
+A scene names the robot, its initial state, the run settings, the physical effects that exist
+and the control. An effect that a scene does not name is off: the simulator never computes it.
+Every number is checked here (type, shape, sign, finiteness, joint and frame names), so a scene
+that loads is one the simulator can run; anything else raises ``SceneError`` naming the file,
+the dotted key (``effects.damping.coefficients``), what was expected and what was found.
+
+Conventions (as in the rest of opendyn): SI units (rad or m, N m or N, s); twists (omega, v) and
+wrenches (m, f), moment first; per-joint arrays are ordered as ``model.joint_names``
+(depth-first over the URDF tree); gravity is the world-frame vector g (the acceleration of a
+falling body, default (0, 0, -9.81) m/s^2). The generalized forces of the effects, on the right
+of M(q) qdd + h(q, qd) = tau + ..., are:
+
+    damping      -b * qd                          b >= 0 per joint (N m s/rad or N s/m)
+    friction     -c * tanh(qd / smoothing)        c >= 0 per joint (N m or N), smoothing > 0
+    armature     M(q) + diag(a)                   a >= 0 per joint (kg m^2 or kg)
+    limits       -k (q - upper) - d qd  where q > upper;  -k (q - lower) - d qd  where q < lower
+    wrench       J_b(frame)^T F  (or the world-aligned Jacobian for expressed_in = "world")
+    control      tau of the controller, optionally clipped to +-effort_limit
+
+A wrench F = (m, f) of a scene is the wrench the environment applies TO THE ROBOT at the
+frame's origin (a push), the opposite sign of the dynamics functions' ``f_tip``, which is the
+wrench the frame applies to the environment (so ``f_tip = {frame: -F}`` in frame coordinates).
+``expressed_in = "frame"`` gives m and f in the frame's own axes; ``"world"`` gives them in
+axes parallel to the world's, still about the frame's origin.
+
+The file format (every key optional unless marked required):
+
+    name = "double pendulum swinging"      # default: the file stem
+    description = "..."                    # free text
+
+    [robot]                                # required: exactly one of urdf and name
+    urdf = "double_pendulum.urdf"          # a URDF path, relative to the scene file's folder
+    # name = "ur5"                         # or a robot name that load_urdf resolves
+    mimic = false                          # passed to load_urdf
+    check_inertia = true                   # passed to load_urdf
+
+    [initial]
+    q = { shoulder = 1.0 }                 # a table {joint = value} (others 0) or a list of nv
+    qd = [0.0, 0.0]                        # the same; default zeros
+
+    [run]
+    duration = 10.0                        # s, > 0 (default 5)
+    integrator = "rk4"                     # euler, semi_implicit_euler, rk4, dopri5,
+                                           # implicit_euler (default rk4)
+    dt = 0.001                             # s, > 0: the fixed step, or dopri5's first trial step
+    output_dt = 0.01                       # s: recorded sample interval (default 0.01, or dt if
+                                           # dt > 0.01); a whole multiple of dt for fixed steps
+    rtol = 1e-6                            # dopri5's tolerances
+    atol = 1e-9
+    max_speed = 1e4                        # rad/s or m/s: a faster joint stops the run
+
+    [effects]
+    gravity = true                         # true = the model's gravity; a vector [gx, gy, gz]
+                                           # in m/s^2; false or absent = no gravity
+    [effects.damping]                      # a table that is present switches the effect on
+    coefficients = "urdf"                  # "urdf" (default: <dynamics damping>), a number (every
+                                           # joint), a list of nv, or a table {joint = value}
+    [effects.friction]
+    coefficients = "urdf"                  # as damping, from <dynamics friction>
+    smoothing = 0.01                       # rad/s or m/s, > 0
+    [effects.armature]
+    values = 0.1                           # required: number, list or table
+    [effects.limits]
+    stiffness = 1e4                        # required: number, list or table; acts only on
+                                           # joints with a finite limit (a number is 0 elsewhere)
+    damping = 10.0                         # default 0
+
+    [[effects.wrench]]                     # any number of these
+    frame = "tip"                          # required: a frame (link) or joint name
+    expressed_in = "frame"                 # "frame" (default) or "world"
+    value = [0, 0, 0, 0, 0, -10]           # a constant (m, f) applied to the robot; or
+    # times = [0.0, 1.0, 2.0]              # strictly increasing times (s) and one wrench per
+    # values = [[...], [...], [...]]       # time: linear in between, held outside
+
+    [control]
+    type = "pd"                            # "none" (default), "constant", "pd", "computed_torque"
+    tau = 1.0                              # constant: tau (required)
+    kp = 100.0                             # pd, computed_torque: gains (required)
+    kd = 20.0
+    setpoint = { shoulder = 0.5 }          # pd: tau = kp (setpoint - q) - kd qd; default q0
+    offset = [0.0, 0.0]                    # computed_torque: q_r(t) = offset + amplitude
+    amplitude = 0.1                        #   sin(2 pi frequency t + phase); offset default q0,
+    frequency = 0.5                        #   amplitude and phase 0, frequency 0.5 Hz;
+    phase = 0.0                            #   the torque is M (qdd_r + kd ed + kp e) + h
+    clip = false                           # clip the torque to +-effort_limit
+
+Every per-joint value (gains, coefficients, tau...) is a number for every joint, a list of nv
+numbers, or a table by joint name; joints a table does not name take the key's default (0, or
+q0 for ``setpoint`` and ``offset``).
+"""
+
+from __future__ import annotations
+
+import copy
+import dataclasses
+import difflib
+import math
+import numbers
+import os
+import pathlib
+from dataclasses import dataclass
+
+import numpy as np
+
+from .model import Model
+from .urdf import URDFError, load_urdf, shipped_robots_dir
+
+try:
+    import tomllib
+except ModuleNotFoundError:  # Python 3.10
+    import tomli as tomllib
+
+INTEGRATORS = ("euler", "semi_implicit_euler", "rk4", "dopri5", "implicit_euler")
+EFFECTS = ("gravity", "damping", "friction", "armature", "limits", "wrench", "control")
+CONTROL_TYPES = ("none", "constant", "pd", "computed_torque")
+EXPRESSED_IN = ("frame", "world")
+ADAPTIVE_INTEGRATORS = ("dopri5",)
+DEFAULT_SCENE = "double_pendulum_swing"
+
+_TOP_KEYS = ("name", "description", "robot", "initial", "run", "effects", "control")
+_ROBOT_KEYS = ("urdf", "name", "mimic", "check_inertia")
+_INITIAL_KEYS = ("q", "qd")
+_RUN_KEYS = ("duration", "integrator", "dt", "output_dt", "rtol", "atol", "max_speed")
+_EFFECT_KEYS = ("gravity", "damping", "friction", "armature", "limits", "wrench")
+_CONTROL_KEYS = {
+    "none": ("type",),
+    "constant": ("type", "tau", "clip"),
+    "pd": ("type", "kp", "kd", "setpoint", "clip"),
+    "computed_torque": (
+        "type",
+        "kp",
+        "kd",
+        "offset",
+        "amplitude",
+        "frequency",
+        "phase",
+        "clip",
+    ),
+}
+_OUTPUT_DT_RTOL = 1e-9
+
+
+class SceneError(ValueError):
+    """A scene that cannot be run: the message names the file, the key (dotted path, e.g.
+    'effects.damping.coefficients') and what is wrong, with the valid choices."""
+
+
+@dataclass(frozen=True)
+class Run:
+    """How to advance a scene in time.
+
+    duration: s, > 0. integrator: one of INTEGRATORS. dt: s, the step of fixed-step integrators,
+    the first trial step of "dopri5". rtol, atol: "dopri5"'s tolerances. output_dt: s, the
+    sample interval of the recorded trajectory (a whole multiple of dt for fixed-step
+    integrators). max_speed: rad/s or m/s; any |qd| above it stops the run as diverging.
+    """
+
+    duration: float = 5.0
+    integrator: str = "rk4"
+    dt: float = 1e-3
+    rtol: float = 1e-6
+    atol: float = 1e-9
+    output_dt: float = 0.01
+    max_speed: float = 1e4
+
+
+@dataclass(frozen=True, eq=False)
+class Friction:
+    """Smoothed Coulomb friction: generalized force -coulomb * tanh(qd / smoothing).
+
+    coulomb: (nv,) N m or N, >= 0. smoothing: rad/s or m/s, > 0.
+    """
+
+    coulomb: np.ndarray
+    smoothing: float = 0.01
+
+
+@dataclass(frozen=True, eq=False)
+class Limits:
+    """Joint-limit spring-dampers, acting only beyond a limit:
+    -stiffness (q - upper) - damping qd where q > upper, -stiffness (q - lower) - damping qd
+    where q < lower.
+
+    stiffness: (nv,) N m/rad or N/m, >= 0; damping: (nv,) N m s/rad or N s/m, >= 0; both 0 where
+    the joint has no finite limit. lower, upper: (nv,) rad or m, the model's limits.
+    """
+
+    stiffness: np.ndarray
+    damping: np.ndarray
+    lower: np.ndarray
+    upper: np.ndarray
+
+
+@dataclass(frozen=True, eq=False)
+class Wrench:
+    """A wrench the environment applies TO THE ROBOT at a frame's origin.
+
+    frame: a frame name of the model (a joint name finds its child link's frame).
+    expressed_in: "frame" (the frame's own axes) or "world" (world-aligned axes at the frame's
+    origin). times: (K,) s, strictly increasing. values: (K, 6) (m in N m, f in N); piecewise
+    linear in t between the samples, held constant before the first and after the last.
+    """
+
+    frame: str
+    expressed_in: str
+    times: np.ndarray
+    values: np.ndarray
+
+    def at(self, t: float) -> np.ndarray:
+        """(6,) the wrench (m, f) at time t (s), in the axes of ``expressed_in``."""
+        if len(self.times) == 1:
+            return self.values[0].copy()
+        return np.array([np.interp(t, self.times, self.values[:, k]) for k in range(6)])
+
+
+@dataclass(frozen=True, eq=False)
+class Control:
+    """A joint-space controller; fields that its kind does not use are None.
+
+    kind: "constant", "pd" or "computed_torque". tau: (nv,) N m or N (constant). kp, kd: (nv,)
+    gains (pd, computed_torque). setpoint: (nv,) rad or m (pd: tau = kp (setpoint - q) - kd qd).
+    offset, amplitude: (nv,) rad or m; frequency: (nv,) Hz; phase: (nv,) rad (computed_torque
+    reference q_r(t) = offset + amplitude sin(2 pi frequency t + phase)). clip: clip the torque
+    to +-model.effort_limit.
+    """
+
+    kind: str
+    tau: np.ndarray | None = None
+    kp: np.ndarray | None = None
+    kd: np.ndarray | None = None
+    setpoint: np.ndarray | None = None
+    offset: np.ndarray | None = None
+    amplitude: np.ndarray | None = None
+    frequency: np.ndarray | None = None
+    phase: np.ndarray | None = None
+    clip: bool = False
+
+
+@dataclass(frozen=True, eq=False)
+class Scene:
+    """A robot, its initial state, the effects that exist, the control and the run settings.
+
+    q0: (nq,) = (nv,) rad or m; qd0: (nv,) rad/s or m/s. gravity: (3,) world-frame m/s^2 or
+    None. damping: (nv,) viscous coefficients or None. armature: (nv,) or None. wrenches: ()
+    when none is applied. control: None = zero torque. source: the scene file, "<dict>" or
+    "<robot NAME>". settings: the scene as read (plain TOML types), for provenance records.
+    An effect that is None (or, for wrenches, empty) is never computed.
+    """
+
+    name: str
+    model: Model
+    q0: np.ndarray
+    qd0: np.ndarray
+    run: Run
+    gravity: np.ndarray | None
+    damping: np.ndarray | None
+    friction: Friction | None
+    armature: np.ndarray | None
+    limits: Limits | None
+    wrenches: tuple[Wrench, ...]
+    control: Control | None
+    source: str
+    settings: dict
+
+    @property
+    def effects(self) -> tuple[str, ...]:
+        """The names from EFFECTS that are on, in EFFECTS order."""
+        on = {
+            "gravity": self.gravity is not None,
+            "damping": self.damping is not None,
+            "friction": self.friction is not None,
+            "armature": self.armature is not None,
+            "limits": self.limits is not None,
+            "wrench": len(self.wrenches) > 0,
+            "control": self.control is not None,
+        }
+        return tuple(name for name in EFFECTS if on[name])
+
+    def without(self, *effects: str) -> Scene:
+        """The same scene with these effects (names from EFFECTS) off; ``settings`` follows."""
+        for name in effects:
+            if name not in EFFECTS:
+                raise SceneError(
+                    f"{self.source}: Scene.without: unknown effect {name!r}"
+                    f"{_suggest(name, EFFECTS)}; effects: {', '.join(EFFECTS)}"
+                )
+        changes, settings = {}, copy.deepcopy(self.settings)
+        table = settings.get("effects") if isinstance(settings.get("effects"), dict) else {}
+        for name in effects:
+            if name == "control":
+                changes["control"] = None
+                settings.pop("control", None)
+                continue
+            changes[{"wrench": "wrenches"}.get(name, name)] = () if name == "wrench" else None
+            table.pop(name, None)
+        return dataclasses.replace(self, settings=settings, **changes)
+
+    def replace_run(self, **changes) -> Scene:
+        """The same scene with new Run fields (duration, integrator, dt, output_dt, rtol, atol,
+        max_speed), validated as in a scene file; a value None restores that field's default."""
+        for key in changes:
+            if key not in _RUN_KEYS:
+                raise SceneError(
+                    f"{self.source}: Scene.replace_run: unknown run setting {key!r}"
+                    f"{_suggest(key, _RUN_KEYS)}; valid: {', '.join(_RUN_KEYS)}"
+                )
+        settings = copy.deepcopy(self.settings)
+        table = dict(settings.get("run") or {})
+        for key, value in changes.items():
+            if value is None:
+                table.pop(key, None)
+            else:
+                table[key] = _plain(value)
+        run = _Reader(self.source).run(table)
+        settings["run"] = table
+        return dataclasses.replace(self, run=run, settings=settings)
+
+
+def load_scene(path) -> Scene:
+    """Read a TOML scene file (or a shipped scene by name, e.g. ``"double_pendulum_swing"``).
+
+    A relative ``robot.urdf`` is found from the scene file's folder. Raises SceneError naming
+    the file (and the line, for malformed TOML) on any problem.
+    """
+    file = _resolve_scene(path)
+    try:
+        with open(file, "rb") as f:
+            data = tomllib.load(f)
+    except tomllib.TOMLDecodeError as e:
+        raise SceneError(f"{file}: malformed TOML: {e}") from None
+    except UnicodeDecodeError as e:
+        raise SceneError(f"{file}: not a UTF-8 text file: {e}") from None
+    except OSError as e:
+        raise SceneError(f"{file}: cannot read the scene file: {e.strerror or e}") from None
+    return _build(data, source=str(file), base_dir=file.parent, default_name=file.stem)
+
+
+def scene_from_dict(data: dict, source: str = "<dict>", base_dir=None) -> Scene:
+    """A scene from a dict with the layout of the TOML file (numpy arrays are accepted where
+    the file has lists). ``base_dir`` is the folder a relative ``robot.urdf`` is found from
+    (default: the current directory). Raises SceneError naming ``source`` and the key."""
+    base = pathlib.Path(base_dir) if base_dir is not None else pathlib.Path.cwd()
+    return _build(_plain(data), source=source, base_dir=base, default_name=None)
+
+
+def default_scene(robot, **run) -> Scene:
+    """The plainest scene of a robot: the model's gravity and nothing else, q0 = qd0 = 0, no
+    control. robot: a Model, a URDF path or a robot name; run: Run fields (e.g. duration=2.0).
+    """
+    if isinstance(robot, Model):
+        model = robot
+        spec = {"urdf": model.source} if model.source else {"name": model.name}
+    else:
+        try:
+            model = load_urdf(robot)
+        except (URDFError, TypeError) as e:
+            raise SceneError(f"<robot {robot}>: robot: {e}") from None
+        spec = {"urdf": model.source}
+    data = {"name": model.name, "robot": spec, "effects": {"gravity": True}, "run": _plain(run)}
+    return _build(data, source=f"<robot {model.name}>", base_dir=None, model=model)
+
+
+def shipped_scenes() -> dict[str, pathlib.Path]:
+    """The scenes shipped with opendyn: name (file stem) -> path of each robots/*.toml."""
+    return {p.stem: p for p in sorted(shipped_robots_dir().glob("*.toml"))}
+
+
+# --- reading ---------------------------------------------------------------------------------
+
+
+def _resolve_scene(path) -> pathlib.Path:
+    if not isinstance(path, (str, os.PathLike)):
+        raise TypeError(f"load_scene: path must be a file path or a scene name, not {path!r}")
+    file = pathlib.Path(path)
+    if file.is_file():
+        return file
+    shipped = shipped_scenes()
+    if isinstance(path, str) and path in shipped:
+        return shipped[path]
+    raise SceneError(
+        f"{path}: no such scene file{_suggest(str(path), shipped)}; "
+        f"shipped scenes: {', '.join(shipped) or '(none)'}"
+    )
+
+
+def _build(data, source, base_dir, default_name=None, model=None) -> Scene:
+    r = _Reader(source)
+    r.keys(data, "", _TOP_KEYS)
+    if model is None:
+        model = r.robot(data.get("robot"), base_dir)
+    r.model = model
+    name = data.get("name", default_name if default_name is not None else model.name)
+    r.string(name, "name")
+    if "description" in data:
+        r.string(data["description"], "description")
+    initial = r.table(data.get("initial", {}), "initial")
+    r.keys(initial, "initial", _INITIAL_KEYS)
+    zeros = np.zeros(model.nv)
+    q0 = r.per_joint(initial.get("q"), "initial.q", zeros, scalar=False)
+    qd0 = r.per_joint(initial.get("qd"), "initial.qd", zeros, scalar=False)
+    run = r.run(data.get("run", {}))
+    effects = r.table(data.get("effects", {}), "effects")
+    r.keys(effects, "effects", _EFFECT_KEYS)
+    return Scene(
+        name=name,
+        model=model,
+        q0=q0,
+        qd0=qd0,
+        run=run,
+        gravity=r.gravity(effects.get("gravity")),
+        damping=r.damping(effects.get("damping")),
+        friction=r.friction(effects.get("friction")),
+        armature=r.armature(effects.get("armature")),
+        limits=r.limits(effects.get("limits")),
+        wrenches=r.wrenches(effects.get("wrench")),
+        control=r.control(data.get("control"), q0),
+        source=source,
+        settings=copy.deepcopy(data),
+    )
+
+
+class _Reader:
+    """Checks one scene's values; every error names ``source`` and the dotted key."""
+
+    def __init__(self, source: str):
+        self.source = source
+        self.model: Model | None = None
+
+    def fail(self, key: str, what: str):
+        where = f"{self.source}: {key}: " if key else f"{self.source}: "
+        raise SceneError(where + what)
+
+    # basic values
+
+    def table(self, value, key) -> dict:
+        if not isinstance(value, dict):
+            self.fail(key, f"expected a table, found {_found(value)}")
+        return value
+
+    def keys(self, table, key, valid):
+        self.table(table, key or "(top level)")
+        for k in table:
+            if k not in valid:
+                full = f"{key}.{k}" if key else str(k)
+                level = f"in [{key}]" if key else "at the top level"
+                self.fail(
+                    full,
+                    f"unknown key{_suggest(str(k), valid)}; valid keys {level}: {', '.join(valid)}",
+                )
+
+    def string(self, value, key, choices=None) -> str:
+        if not isinstance(value, str):
+            expected = f"one of {', '.join(choices)}" if choices else "a string"
+            self.fail(key, f"expected {expected}, found {_found(value)}")
+        if choices is not None and value not in choices:
+            self.fail(
+                key, f"{value!r} is not one of {', '.join(choices)}{_suggest(value, choices)}"
+            )
+        return value
+
+    def boolean(self, value, key) -> bool:
+        if not isinstance(value, bool):
+            self.fail(key, f"expected true or false, found {_found(value)}")
+        return value
+
+    def number(self, value, key, minimum=None, positive=False) -> float:
+        if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
+            self.fail(key, f"expected a number, found {_found(value)}")
+        x = float(value)
+        if not math.isfinite(x):
+            self.fail(key, f"expected a finite number, found {x!r}")
+        if positive and not x > 0:
+            self.fail(key, f"expected a number > 0, found {x!r}")
+        if minimum is not None and x < minimum:
+            self.fail(key, f"expected a number >= {minimum:g}, found {x!r}")
+        return x
+
+    def vector(self, value, key, n, minimum=None) -> np.ndarray:
+        if not isinstance(value, list):
+            self.fail(key, f"expected a list of {n} numbers, found {_found(value)}")
+        if len(value) != n:
+            self.fail(key, f"expected a list of {n} numbers, found a list of {len(value)}")
+        return _frozen([self.number(v, f"{key}[{i}]", minimum) for i, v in enumerate(value)])
+
+    def per_joint(self, value, key, default, scalar=True, minimum=None) -> np.ndarray:
+        """(nv,) from a number (every joint; if scalar), a list of nv or a table {joint: value}
+        (joints not named keep ``default``); None -> default."""
+        names = self.model.joint_names
+        nv = len(names)
+        if value is None:
+            return _frozen(default)
+        if isinstance(value, dict):
+            out = np.array(default, dtype=float)
+            for joint, v in value.items():
+                if joint not in names:
+                    self.fail(
+                        f"{key}.{joint}",
+                        f"{joint!r} is not a joint of {self.model.name!r}"
+                        f"{_suggest(str(joint), names)}; joints: {', '.join(names)}",
+                    )
+                out[names.index(joint)] = self.number(v, f"{key}.{joint}", minimum)
+            return _frozen(out)
+        if isinstance(value, list):
+            if len(value) != nv:
+                self.fail(
+                    key,
+                    f"expected a list of {nv} numbers (one per joint: {', '.join(names)}), "
+                    f"found a list of {len(value)}",
+                )
+            return self.vector(value, key, nv, minimum)
+        if scalar and isinstance(value, numbers.Real) and not isinstance(value, bool):
+            return _frozen(np.full(nv, self.number(value, key, minimum)))
+        shapes = "a number (every joint), " if scalar else ""
+        sign = f" >= {minimum:g}" if minimum is not None else ""
+        self.fail(
+            key,
+            f"expected {shapes}a list of {nv} numbers{sign} or a table {{joint = number}}, "
+            f"found {_found(value)}",
+        )
+
+    # sections
+
+    def robot(self, table, base_dir) -> Model:
+        if table is None:
+            self.fail("robot", "missing: a scene needs [robot] with urdf = PATH or name = NAME")
+        self.keys(table, "robot", _ROBOT_KEYS)
+        given = [k for k in ("urdf", "name") if k in table]
+        if len(given) != 1:
+            what = "both" if given else "neither"
+            self.fail(
+                "robot",
+                f"{what} of robot.urdf and robot.name given; give exactly one: urdf = a URDF "
+                f"path (relative to the scene file) or name = a robot name (e.g. 'ur5')",
+            )
+        key = f"robot.{given[0]}"
+        target = self.string(table[given[0]], key)
+        options = {
+            "mimic": self.boolean(table.get("mimic", False), "robot.mimic"),
+            "check_inertia": self.boolean(table.get("check_inertia", True), "robot.check_inertia"),
+        }
+        if given[0] == "urdf":
+            path = pathlib.Path(target)
+            if not path.is_absolute() and base_dir is not None:
+                path = pathlib.Path(base_dir) / path
+            if not path.is_file():
+                self.fail(key, f"no such URDF file: {path}")
+            target = str(path)
+        elif "/" in target or os.sep in target or target.endswith(".urdf"):
+            self.fail(key, f"{target!r} is a path, not a robot name; use robot.urdf for a file")
+        try:
+            return load_urdf(target, **options)
+        except URDFError as e:
+            self.fail(key, str(e))
+
+    def run(self, table) -> Run:
+        table = self.table(table, "run")
+        self.keys(table, "run", _RUN_KEYS)
+        d = Run()
+        duration = self.number(table.get("duration", d.duration), "run.duration", positive=True)
+        integrator = self.string(
+            table.get("integrator", d.integrator), "run.integrator", INTEGRATORS
+        )
+        dt = self.number(table.get("dt", d.dt), "run.dt", positive=True)
+        rtol = self.number(table.get("rtol", d.rtol), "run.rtol", positive=True)
+        atol = self.number(table.get("atol", d.atol), "run.atol", positive=True)
+        output_dt = self.number(
+            table.get("output_dt", max(0.01, dt)), "run.output_dt", positive=True
+        )
+        max_speed = self.number(table.get("max_speed", d.max_speed), "run.max_speed", positive=True)
+        if dt > duration:
+            self.fail("run.dt", f"the step {dt:g} s is longer than run.duration = {duration:g} s")
+        if integrator not in ADAPTIVE_INTEGRATORS:
+            ratio = output_dt / dt
+            steps = round(ratio)
+            if steps < 1 or abs(ratio - steps) > _OUTPUT_DT_RTOL * ratio:
+                self.fail(
+                    "run.output_dt",
+                    f"{output_dt:g} s is not a whole multiple of run.dt = {dt:g} s (it is "
+                    f"{ratio:.6g} steps); the fixed-step integrator {integrator!r} records "
+                    f"every k-th step: choose output_dt = k * dt",
+                )
+        return Run(
+            duration=duration,
+            integrator=integrator,
+            dt=dt,
+            rtol=rtol,
+            atol=atol,
+            output_dt=output_dt,
+            max_speed=max_speed,
+        )
+
+    def gravity(self, value) -> np.ndarray | None:
+        if value is None or value is False:
+            return None
+        if value is True:
+            return _frozen(self.model.gravity)
+        if not isinstance(value, list):
+            self.fail(
+                "effects.gravity",
+                f"expected true, false or a vector [gx, gy, gz] (m/s^2), found {_found(value)}",
+            )
+        return self.vector(value, "effects.gravity", 3)
+
+    def _coefficients(self, table, key, field, urdf_values, element):
+        value = table.get(field, "urdf")
+        full = f"{key}.{field}"
+        if isinstance(value, str):
+            if value != "urdf":
+                self.fail(
+                    full,
+                    f'expected "urdf", a number, a list of {self.model.nv} numbers or a table '
+                    f"{{joint = number}}, found {_found(value)}",
+                )
+            if not np.any(urdf_values > 0):
+                self.fail(
+                    full,
+                    f'"urdf" asks for the URDF\'s <dynamics {element}>, but '
+                    f"{self.model.source or self.model.name} gives none (all joints 0); give "
+                    f"the coefficients: a number, a list of {self.model.nv} or a table "
+                    f"{{joint = number}}",
+                )
+            return _frozen(urdf_values)
+        return self.per_joint(value, full, np.zeros(self.model.nv), minimum=0.0)
+
+    def damping(self, table) -> np.ndarray | None:
+        if table is None:
+            return None
+        key = "effects.damping"
+        self.keys(table, key, ("coefficients",))
+        return self._coefficients(table, key, "coefficients", self.model.damping, "damping")
+
+    def friction(self, table) -> Friction | None:
+        if table is None:
+            return None
+        key = "effects.friction"
+        self.keys(table, key, ("coefficients", "smoothing"))
+        coulomb = self._coefficients(table, key, "coefficients", self.model.friction, "friction")
+        smoothing = self.number(table.get("smoothing", 0.01), f"{key}.smoothing", positive=True)
+        return Friction(coulomb=coulomb, smoothing=smoothing)
+
+    def armature(self, table) -> np.ndarray | None:
+        if table is None:
+            return None
+        key = "effects.armature"
+        self.keys(table, key, ("values",))
+        if "values" not in table:
+            self.fail(f"{key}.values", "missing: give a number, a list or a table {joint = kg m^2}")
+        return self.per_joint(
+            table["values"], f"{key}.values", np.zeros(self.model.nv), minimum=0.0
+        )
+
+    def limits(self, table) -> Limits | None:
+        if table is None:
+            return None
+        key = "effects.limits"
+        self.keys(table, key, ("stiffness", "damping"))
+        m = self.model
+        finite = np.isfinite(m.lower) | np.isfinite(m.upper)
+        if not finite.any():
+            self.fail(
+                key,
+                f"no joint of {m.name!r} has a finite position limit, so limit spring-dampers "
+                f"would never act; remove [effects.limits]",
+            )
+        if "stiffness" not in table:
+            self.fail(
+                f"{key}.stiffness", "missing: give a number, a list or a table {joint = N m/rad}"
+            )
+        out = {}
+        for field in ("stiffness", "damping"):
+            full = f"{key}.{field}"
+            value = table.get(field, 0.0)
+            arr = self.per_joint(value, full, np.zeros(m.nv), minimum=0.0)
+            if isinstance(value, (dict, list)):
+                for j in np.flatnonzero((arr != 0) & ~finite):
+                    name = m.joint_names[j]
+                    self.fail(
+                        f"{full}.{name}" if isinstance(value, dict) else f"{full}[{j}]",
+                        f"joint {name!r} has no finite position limit; limited joints: "
+                        f"{', '.join(n for n, f in zip(m.joint_names, finite) if f)}",
+                    )
+            out[field] = _frozen(np.where(finite, arr, 0.0))
+        return Limits(
+            stiffness=out["stiffness"],
+            damping=out["damping"],
+            lower=_frozen(m.lower),
+            upper=_frozen(m.upper),
+        )
+
+    def wrenches(self, value) -> tuple[Wrench, ...]:
+        if value is None:
+            return ()
+        if isinstance(value, dict):
+            return (self.wrench(value, "effects.wrench"),)
+        if not isinstance(value, list):
+            self.fail(
+                "effects.wrench",
+                f"expected tables [[effects.wrench]] (frame, value or times/values), "
+                f"found {_found(value)}",
+            )
+        return tuple(self.wrench(w, f"effects.wrench[{i}]") for i, w in enumerate(value))
+
+    def wrench(self, table, key) -> Wrench:
+        self.keys(table, key, ("frame", "expressed_in", "value", "times", "values"))
+        m = self.model
+        if "frame" not in table:
+            self.fail(f"{key}.frame", f"missing; frames: {', '.join(m.frame_names)}")
+        frame = self.string(table["frame"], f"{key}.frame")
+        try:
+            m.frame_index(frame)
+        except KeyError:
+            self.fail(
+                f"{key}.frame",
+                f"{frame!r} is not a frame of {m.name!r}{_suggest(frame, m.frame_names)}; "
+                f"frames: {', '.join(m.frame_names)} (a joint name also finds its child link)",
+            )
+        expressed_in = self.string(
+            table.get("expressed_in", "frame"), f"{key}.expressed_in", EXPRESSED_IN
+        )
+        has_value = "value" in table
+        has_table = "times" in table or "values" in table
+        if has_value == has_table:
+            self.fail(
+                key,
+                ("both value and times/values given" if has_value else "no wrench given")
+                + ": give value = [m, f] (6 numbers, constant) or times = [...] with "
+                "values = [[6 numbers], ...]",
+            )
+        if has_value:
+            times = _frozen([0.0])
+            values = _frozen(self.vector(table["value"], f"{key}.value", 6)[None, :])
+        else:
+            for field in ("times", "values"):
+                if field not in table:
+                    self.fail(f"{key}.{field}", "missing: times and values go together")
+            raw_t, raw_v = table["times"], table["values"]
+            if not isinstance(raw_t, list) or not raw_t:
+                self.fail(
+                    f"{key}.times", f"expected a non-empty list of times (s), found {_found(raw_t)}"
+                )
+            times = self.vector(raw_t, f"{key}.times", len(raw_t))
+            bad = np.flatnonzero(np.diff(times) <= 0)
+            if bad.size:
+                k = int(bad[0]) + 1
+                self.fail(
+                    f"{key}.times[{k}]",
+                    f"times must be strictly increasing; {times[k]:g} follows {times[k - 1]:g}",
+                )
+            if not isinstance(raw_v, list) or len(raw_v) != len(times):
+                found = f"a list of {len(raw_v)}" if isinstance(raw_v, list) else _found(raw_v)
+                self.fail(
+                    f"{key}.values",
+                    f"expected one wrench [m, f] of 6 numbers per time ({len(times)} times), "
+                    f"found {found}",
+                )
+            values = _frozen(
+                np.array([self.vector(v, f"{key}.values[{i}]", 6) for i, v in enumerate(raw_v)])
+            )
+        return Wrench(frame=frame, expressed_in=expressed_in, times=times, values=values)
+
+    def control(self, table, q0) -> Control | None:
+        if table is None:
+            return None
+        self.table(table, "control")
+        kind = self.string(table.get("type", "none"), "control.type", CONTROL_TYPES)
+        for k in table:
+            owners = [t for t, keys in _CONTROL_KEYS.items() if k in keys]
+            if owners and kind not in owners:
+                self.fail(
+                    f"control.{k}",
+                    f"not a setting of control type {kind!r} (its keys: "
+                    f"{', '.join(_CONTROL_KEYS[kind])}); {k} belongs to type "
+                    f"{' or '.join(repr(t) for t in owners)}",
+                )
+        self.keys(table, "control", _CONTROL_KEYS[kind])
+        if kind == "none":
+            return None
+        m = self.model
+        zeros = np.zeros(m.nv)
+        clip = self.boolean(table.get("clip", False), "control.clip")
+        if clip and not np.isfinite(m.effort_limit).any():
+            self.fail(
+                "control.clip",
+                f"no joint of {m.name!r} has a finite effort limit (<limit effort>) to clip to; "
+                f"set clip = false",
+            )
+
+        def required(field, minimum=None):
+            if field not in table:
+                self.fail(
+                    f"control.{field}",
+                    f"missing: control type {kind!r} needs {field} (a number, a list of "
+                    f"{m.nv} or a table {{joint = number}})",
+                )
+            return self.per_joint(table[field], f"control.{field}", zeros, minimum=minimum)
+
+        def optional(field, default, minimum=None):
+            return self.per_joint(table.get(field), f"control.{field}", default, minimum=minimum)
+
+        if kind == "constant":
+            return Control(kind=kind, tau=required("tau"), clip=clip)
+        kp, kd = required("kp", 0.0), required("kd", 0.0)
+        if kind == "pd":
+            return Control(kind=kind, kp=kp, kd=kd, setpoint=optional("setpoint", q0), clip=clip)
+        return Control(
+            kind=kind,
+            kp=kp,
+            kd=kd,
+            offset=optional("offset", q0),
+            amplitude=optional("amplitude", zeros),
+            frequency=optional("frequency", np.full(m.nv, 0.5), 0.0),
+            phase=optional("phase", zeros),
+            clip=clip,
+        )
+
+
+# --- helpers ---------------------------------------------------------------------------------
+
+
+def _frozen(x) -> np.ndarray:
+    a = np.array(x, dtype=np.float64)
+    a.flags.writeable = False
+    return a
+
+
+def _suggest(name: str, choices) -> str:
+    close = difflib.get_close_matches(str(name), [str(c) for c in choices], n=1)
+    return f" (did you mean {close[0]!r}?)" if close else ""
+
+
+def _found(value) -> str:
+    """What a TOML value is, for error messages: its text and its TOML type."""
+    if isinstance(value, (bool, np.bool_)):
+        kind = "a boolean"
+    elif isinstance(value, str):
+        kind = "a string"
+    elif isinstance(value, numbers.Integral):
+        kind = "an integer"
+    elif isinstance(value, numbers.Real):
+        kind = "a float"
+    elif isinstance(value, list):
+        kind = f"a list of {len(value)}"
+    elif isinstance(value, dict):
+        kind = "a table"
+    elif value is None:
+        return "nothing"
+    else:
+        kind = f"a {type(value).__name__}"
+    text = repr(value)
+    if len(text) > 60:
+        text = text[:57] + "..."
+    return f"{text} ({kind})"
+
+
+def _plain(value):
+    """A copy of a dict/list/number tree with numpy arrays and scalars as plain Python values."""
+    if isinstance(value, dict):
+        return {k: _plain(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_plain(v) for v in value]
+    if isinstance(value, np.ndarray):
+        return _plain(value.tolist())
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, os.PathLike):
+        return os.fspath(value)
+    return value
