@@ -7,6 +7,7 @@ world-frame vector applied as the base acceleration dV_0 = (0, -g).
 
 from .dynamics._args import SingularMassMatrixError
 from .dynamics.christoffel import christoffel_symbols, coriolis_matrix
+from .dynamics.configuration import integrate
 from .dynamics.crba import mass_matrix
 from .dynamics.energy import kinetic_energy, potential_energy
 from .dynamics.forward import forward_dynamics
@@ -23,7 +24,20 @@ from .urdf import FidelityReport, URDFError, available_robots, load_urdf
 
 __version__ = "0.1.0"
 
+from .scene import Scene, SceneError, default_scene, load_scene, scene_from_dict  # noqa: E402
+from .simulate import SimulationError, simulate  # noqa: E402
+from .trajectory import Trajectory  # noqa: E402
+
 __all__ = [
+    "Scene",
+    "SceneError",
+    "SimulationError",
+    "Trajectory",
+    "default_scene",
+    "integrate",
+    "load_scene",
+    "scene_from_dict",
+    "simulate",
     "Frame",
     "FidelityReport",
     "Model",

@@ -1,0 +1,454 @@
+"""Integrators for x = (q, qd, W) with dq/dt = qd, dqd/dt = qdd(t, q, qd), dW/dt = power, kept
+apart from the dynamics: they see only `evaluate` (opendyn.step) and advance positions only
+through `integrate_kernel(q, v, dt)` (q (+) v dt, opendyn.dynamics.configuration).
+
+  euler                explicit Euler, the seed's: q' = q + qd dt, qd' = qd + qdd(q, qd) dt.
+                       Order 1; gains energy on every oscillation.
+  semi_implicit_euler  symplectic Euler: qd' = qd + qdd(q, qd) dt, then q' = q + qd' dt.
+                       Order 1; energy error bounded (no secular drift) on conservative scenes.
+  rk4                  classical Runge-Kutta, order 4 (the default).
+  dopri5               Dormand-Prince 5(4), adaptive: the local error estimate
+                       err = dt sum_i (b_i - b^_i) k_i is kept below atol + rtol |x| (RMS norm
+                       over q and qd) by choosing the step; FSAL (first same as last).
+  implicit_euler       linearly implicit in velocity: the joint-space effects' stiffness
+                       K = -dtau/dq and damping D = -dtau/dqd are taken at the end of the step,
+                         (M + diag(armature) + dt D + dt^2 K) (qd' - qd) = dt (tau - h - dt K qd),
+                         q' = q + qd' dt,
+                       which is backward Euler for the stiff linear parts (limits, damping, PD)
+                       and stays stable at any step on them. Order 1.
+
+The explicit Runge-Kutta methods are data (Butcher tableaux, Hairer, Norsett & Wanner, Solving
+Ordinary Differential Equations I, 2nd ed., Table 1.2 (RK4) and Table 5.2 (DOPRI5)) run by one
+compiled loop. All loops are compiled: a simulation pays no Python overhead per step.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from numba import njit
+
+from .dynamics._kernels import JIT
+from .dynamics.configuration import integrate_kernel
+from .dynamics.crba import crba_kernel
+from .dynamics.forward import cholesky_solve
+from .dynamics.rnea import rnea_kernel
+from .step import DIVERGED, evaluate, generalized_forces
+
+STEP_UNDERFLOW = 6  # the adaptive step fell below what float64 time can resolve
+EXPLICIT_RK, SEMI_IMPLICIT, IMPLICIT = 0, 1, 2  # fixed-step loop kinds
+
+
+@dataclass(frozen=True)
+class Integrator:
+    """An integrator: its name, order, loop kind and (explicit Runge-Kutta) tableau.
+
+    A (s, s), b (s,), c (s,): Butcher tableau; e (s,): b - b^ of an embedded pair (adaptive)."""
+
+    name: str
+    order: int
+    kind: int
+    adaptive: bool
+    description: str
+    A: np.ndarray = field(default_factory=lambda: np.zeros((1, 1)))
+    b: np.ndarray = field(default_factory=lambda: np.ones(1))
+    c: np.ndarray = field(default_factory=lambda: np.zeros(1))
+    e: np.ndarray = field(default_factory=lambda: np.zeros(1))
+
+
+_RK4 = dict(
+    A=np.array([[0, 0, 0, 0], [0.5, 0, 0, 0], [0, 0.5, 0, 0], [0, 0, 1, 0]], dtype=float),
+    b=np.array([1, 2, 2, 1], dtype=float) / 6,
+    c=np.array([0, 0.5, 0.5, 1]),
+)
+_DOPRI5_B = np.array([35 / 384, 0, 500 / 1113, 125 / 192, -2187 / 6784, 11 / 84, 0])
+_DOPRI5_BHAT = np.array(
+    [5179 / 57600, 0, 7571 / 16695, 393 / 640, -92097 / 339200, 187 / 2100, 1 / 40]
+)
+_DOPRI5 = dict(
+    A=np.array(
+        [
+            [0, 0, 0, 0, 0, 0, 0],
+            [1 / 5, 0, 0, 0, 0, 0, 0],
+            [3 / 40, 9 / 40, 0, 0, 0, 0, 0],
+            [44 / 45, -56 / 15, 32 / 9, 0, 0, 0, 0],
+            [19372 / 6561, -25360 / 2187, 64448 / 6561, -212 / 729, 0, 0, 0],
+            [9017 / 3168, -355 / 33, 46732 / 5247, 49 / 176, -5103 / 18656, 0, 0],
+            list(_DOPRI5_B),
+        ]
+    ),
+    b=_DOPRI5_B,
+    c=np.array([0, 1 / 5, 3 / 10, 4 / 5, 8 / 9, 1, 1]),
+    e=_DOPRI5_B - _DOPRI5_BHAT,
+)
+
+INTEGRATORS = {
+    "euler": Integrator("euler", 1, EXPLICIT_RK, False, "explicit Euler (the seed's)"),
+    "semi_implicit_euler": Integrator(
+        "semi_implicit_euler", 1, SEMI_IMPLICIT, False, "semi-implicit (symplectic) Euler"
+    ),
+    "rk4": Integrator("rk4", 4, EXPLICIT_RK, False, "classical Runge-Kutta 4", **_RK4),
+    "dopri5": Integrator(
+        "dopri5", 5, EXPLICIT_RK, True, "Dormand-Prince 5(4), adaptive", **_DOPRI5
+    ),
+    "implicit_euler": Integrator(
+        "implicit_euler", 1, IMPLICIT, False, "Euler, linearly implicit in velocity"
+    ),
+}
+
+
+@njit(**JIT)
+def state_ok(q, qd, max_speed):
+    """0 when q and qd are finite and every |qd| <= max_speed, else a status code."""
+    for k in range(q.shape[0]):
+        if not np.isfinite(q[k]):
+            return 1
+    for k in range(qd.shape[0]):
+        if not np.isfinite(qd[k]):
+            return 2
+        if abs(qd[k]) > max_speed:
+            return DIVERGED
+    return 0
+
+
+@njit(**JIT)
+def rk_stages(
+    ibuf, fbuf, rows, params, method, armature, A, c, t, dt, q, qd, kq, kv, kw, qs, qds, v, tau
+):
+    """The s stages of an explicit Runge-Kutta step from (t, q, qd): stage i at
+    q_i = q (+) dt sum_l A_il kq_l, qd_i = qd + dt sum_l A_il kv_l, kq_i = qd_i,
+    kv_i = qdd(t + c_i dt, q_i, qd_i), kw_i = power there. tau <- the control torque at stage 0.
+    Returns (status, evaluations)."""
+    nv = qd.shape[0]
+    stage_tau = np.empty(nv)
+    for i in range(A.shape[0]):
+        for j in range(nv):
+            dv = 0.0
+            dq = 0.0
+            for m in range(i):
+                dq += A[i, m] * kq[m, j]
+                dv += A[i, m] * kv[m, j]
+            v[j] = dq
+            qds[j] = qd[j] + dt * dv
+        integrate_kernel(ibuf, q, v, dt, qs)
+        kq[i] = qds
+        status = evaluate(
+            ibuf,
+            fbuf,
+            rows,
+            params,
+            method,
+            armature,
+            t + c[i] * dt,
+            qs,
+            qds,
+            kv[i],
+            stage_tau,
+            kw[i],
+        )
+        if i == 0:
+            tau[:] = stage_tau
+        if status:
+            return status, i + 1
+    return 0, A.shape[0]
+
+
+@njit(**JIT)
+def rk_combine(ibuf, weights, dt, q, qd, w, kq, kv, kw, q1, qd1, w1, v):
+    """x1 = x (+) dt sum_i weights_i k_i for q (through integrate), qd and the work W."""
+    nv = qd.shape[0]
+    for j in range(nv):
+        dq = 0.0
+        dv = 0.0
+        for i in range(weights.shape[0]):
+            dq += weights[i] * kq[i, j]
+            dv += weights[i] * kv[i, j]
+        v[j] = dq
+        qd1[j] = qd[j] + dt * dv
+    integrate_kernel(ibuf, q, v, dt, q1)
+    for k in range(2):
+        dw = 0.0
+        for i in range(weights.shape[0]):
+            dw += weights[i] * kw[i, k]
+        w1[k] = w[k] + dt * dw
+
+
+@njit(**JIT)
+def implicit_velocity_step(
+    ibuf, fbuf, rows, params, armature, t, dt, q, qd, w, q1, qd1, w1, tau_ctrl
+):
+    """One linearly implicit Euler step (module docstring). Returns a status."""
+    nv = qd.shape[0]
+    tau = np.empty(nv)
+    K = np.empty(nv)
+    D = np.empty(nv)
+    power = np.empty(2)
+    loads = np.empty((1, 6))
+    status = generalized_forces(
+        ibuf, fbuf, rows, params, armature, t, q, qd, loads[0], tau, tau_ctrl, power, K, D, True
+    )
+    if status:
+        return status
+    h = np.empty(nv)
+    status = rnea_kernel(ibuf, fbuf, q, qd, np.zeros(nv), loads, h)
+    if status:
+        return status
+    M = np.empty((nv, nv))
+    crba_kernel(ibuf, fbuf, q, M)
+    rhs = np.empty(nv)
+    for j in range(nv):
+        M[j, j] += dt * D[j] + dt * dt * K[j]
+        if armature.shape[0]:
+            M[j, j] += armature[j]
+        rhs[j] = tau[j] - h[j] - dt * K[j] * qd[j]
+    qdd = np.empty(nv)
+    k = cholesky_solve(M, rhs, qdd)
+    if k >= 0:
+        return 100 + k
+    for j in range(nv):
+        qd1[j] = qd[j] + dt * qdd[j]
+    integrate_kernel(ibuf, q, qd1, dt, q1)
+    w1[0] = w[0] + dt * power[0]
+    w1[1] = w[1] + dt * power[1]
+    return 0
+
+
+@njit(**JIT)
+def run_fixed(
+    kind,
+    A,
+    b,
+    c,
+    ibuf,
+    fbuf,
+    rows,
+    params,
+    method,
+    armature,
+    t0,
+    dt,
+    step0,
+    nsteps,
+    every,
+    max_speed,
+    q,
+    qd,
+    w,
+    out_t,
+    out_q,
+    out_qd,
+    out_tau,
+    out_w,
+    counters,
+):
+    """Advance (q, qd, w) in place by up to nsteps fixed steps of dt from global step step0,
+    at time t0 + step0 dt (t0: the time of global step 0). The state at the start of every
+    step whose global index is a multiple of `every` is recorded in row index // every, with
+    the control torque there. Stops at the first step whose result is not finite, faster than
+    max_speed, or whose dynamics fail; the state stays the last good one, the start of the
+    failed step.
+    Returns (status, steps done); counters[0] += dynamics evaluations."""
+    nv = qd.shape[0]
+    s = A.shape[0]
+    kq = np.empty((s, nv))
+    kv = np.empty((s, nv))
+    kw = np.empty((s, 2))
+    qs, qds, v = np.empty(q.shape[0]), np.empty(nv), np.empty(nv)
+    q1, qd1, w1 = np.empty(q.shape[0]), np.empty(nv), np.empty(2)
+    tau = np.empty(nv)
+    for n in range(nsteps):
+        g = step0 + n
+        t = t0 + g * dt
+        if kind == IMPLICIT:
+            status = implicit_velocity_step(
+                ibuf, fbuf, rows, params, armature, t, dt, q, qd, w, q1, qd1, w1, tau
+            )
+            counters[0] += 1
+        else:
+            status, evaluations = rk_stages(
+                ibuf,
+                fbuf,
+                rows,
+                params,
+                method,
+                armature,
+                A,
+                c,
+                t,
+                dt,
+                q,
+                qd,
+                kq,
+                kv,
+                kw,
+                qs,
+                qds,
+                v,
+                tau,
+            )
+            counters[0] += evaluations
+            if status == 0:
+                if kind == SEMI_IMPLICIT:
+                    # qd' = qd + dt qdd(q, qd), then q' = q (+) qd' dt
+                    for j in range(nv):
+                        qd1[j] = qd[j] + dt * kv[0, j]
+                    integrate_kernel(ibuf, q, qd1, dt, q1)
+                    w1[0] = w[0] + dt * kw[0, 0]
+                    w1[1] = w[1] + dt * kw[0, 1]
+                else:
+                    rk_combine(ibuf, b, dt, q, qd, w, kq, kv, kw, q1, qd1, w1, v)
+        if status == 0:
+            status = state_ok(q1, qd1, max_speed)
+        if status:
+            return status, n
+        if g % every == 0:
+            r = g // every
+            out_t[r] = t
+            out_q[r] = q
+            out_qd[r] = qd
+            out_tau[r] = tau
+            out_w[r] = w
+        q[:] = q1
+        qd[:] = qd1
+        w[:] = w1
+    return 0, nsteps
+
+
+@njit(**JIT)
+def run_adaptive(
+    A,
+    b,
+    c,
+    e,
+    ibuf,
+    fbuf,
+    rows,
+    params,
+    method,
+    armature,
+    t,
+    t_stop,
+    t_end,
+    h,
+    rtol,
+    atol,
+    output_dt,
+    row,
+    max_speed,
+    q,
+    qd,
+    w,
+    k_first,
+    power_first,
+    tau_first,
+    out_t,
+    out_q,
+    out_qd,
+    out_tau,
+    out_w,
+    counters,
+):
+    """Advance (q, qd, w) in place from t to t_stop with an embedded explicit Runge-Kutta pair
+    (FSAL: the last stage is the first of the next step), recording row r at
+    t = min(r output_dt, t_end).
+
+    Steps are cut so that they land on the output times. k_first (2, nv) holds (qd, qdd),
+    power_first (2,) the power and tau_first (nv,) the control torque of the first stage, at the
+    current state (the FSAL stage).
+    Returns (status, t, h, row); counters += (evaluations, accepted, rejected)."""
+    nv = qd.shape[0]
+    s = A.shape[0]
+    kq = np.empty((s, nv))
+    kv = np.empty((s, nv))
+    kw = np.empty((s, 2))
+    qs, qds, v = np.empty(q.shape[0]), np.empty(nv), np.empty(nv)
+    q1, qd1, w1 = np.empty(q.shape[0]), np.empty(nv), np.empty(2)
+    stage_tau = np.empty(nv)
+    while t < t_stop:
+        t_out = min(row * output_dt, t_end)
+        # land on the output time when the step reaches it or would leave a sliver before it
+        last_before_output = h >= 0.99 * (t_out - t)
+        dt = t_out - t if last_before_output else h
+        if dt <= 1e-14 * max(1.0, abs(t)):
+            return STEP_UNDERFLOW, t, h, row
+        # stage 0 is the FSAL stage; stages 1..s-1 as in rk_stages
+        kq[0] = k_first[0]
+        kv[0] = k_first[1]
+        kw[0] = power_first
+        status = 0
+        for i in range(1, s):
+            for j in range(nv):
+                dv = 0.0
+                dq = 0.0
+                for m in range(i):
+                    dq += A[i, m] * kq[m, j]
+                    dv += A[i, m] * kv[m, j]
+                v[j] = dq
+                qds[j] = qd[j] + dt * dv
+            integrate_kernel(ibuf, q, v, dt, qs)
+            kq[i] = qds
+            status = evaluate(
+                ibuf,
+                fbuf,
+                rows,
+                params,
+                method,
+                armature,
+                t + c[i] * dt,
+                qs,
+                qds,
+                kv[i],
+                stage_tau,
+                kw[i],
+            )
+            counters[0] += 1
+            if status:
+                break
+        if status == 0:
+            rk_combine(ibuf, b, dt, q, qd, w, kq, kv, kw, q1, qd1, w1, v)
+            status = state_ok(q1, qd1, max_speed)
+        if status >= 100:
+            return status, t, h, row  # singular mass matrix: a smaller step will not help
+        if status:
+            # a failed trial is a rejected step: retry smaller, give up when the step underflows
+            counters[2] += 1
+            h = 0.25 * dt
+            continue
+        # RMS of the error estimate dt sum_i e_i k_i relative to atol + rtol |x|
+        err = 0.0
+        for j in range(nv):
+            eq = 0.0
+            ev = 0.0
+            for i in range(s):
+                eq += e[i] * kq[i, j]
+                ev += e[i] * kv[i, j]
+            sq = atol + rtol * max(abs(q[j]), abs(q1[j]))
+            sv = atol + rtol * max(abs(qd[j]), abs(qd1[j]))
+            err += (dt * eq / sq) ** 2 + (dt * ev / sv) ** 2
+        err = np.sqrt(err / max(1, 2 * nv))
+        if err > 1.0:
+            counters[2] += 1
+            h = dt * max(0.2, 0.9 * err**-0.2)
+            continue
+        counters[1] += 1
+        t = t_out if last_before_output else t + dt
+        q[:] = q1
+        qd[:] = qd1
+        w[:] = w1
+        # FSAL: the last stage was evaluated at the new state (c = 1, A's last row = b)
+        k_first[0] = kq[s - 1]
+        k_first[1] = kv[s - 1]
+        power_first[:] = kw[s - 1]
+        tau_first[:] = stage_tau
+        if last_before_output:
+            out_t[row] = t
+            out_q[row] = q
+            out_qd[row] = qd
+            out_tau[row] = tau_first
+            out_w[row] = w
+            row += 1
+        h = dt * min(5.0, 0.9 * err**-0.2) if err > 0 else 5.0 * dt
+        if last_before_output and h < dt:
+            h = dt
+    return 0, t, h, row

@@ -1,0 +1,608 @@
+"""simulate(scene) -> Trajectory: the scene's step, a short list of named stages, advanced by its
+integrator in compiled loops.
+
+    step = [effect stages the scene names] -> forward dynamics -> integrate(q, v, dt)
+
+The loops run in chunks of about a tenth of a second of wall time, so that a progress bar moves,
+Ctrl-C is answered, and a failure keeps everything computed before it. A failure (a state that is
+not finite or faster than the run's max_speed, a singular mass matrix, an adaptive step that
+underflows) stops the run with a message naming the time, the step and the likely cause.
+"""
+
+from __future__ import annotations
+
+import datetime
+import platform
+import signal
+import sys
+import threading
+import time
+
+import numpy as np
+
+from . import __version__
+from ._kernel_cache import kernel_cache
+from .dynamics.energy import kinetic_energy, potential_energy
+
+with kernel_cache():
+    from . import effects, integrators, step
+
+_CHUNK_SECONDS = 0.1  # wall time of one compiled chunk: progress and Ctrl-C granularity
+_FIRST_CHUNK = 64  # steps in the first chunk (it may include loading the compiled kernels)
+INTERRUPTED = -1  # status of a run stopped by Ctrl-C
+
+
+class _Interrupt:
+    """While a run is on (in the main thread), Ctrl-C sets `requested` instead of raising; the
+    loops stop after the current chunk, so that the record stays consistent."""
+
+    requested = False
+
+    def __enter__(self):
+        self._previous = None
+        if threading.current_thread() is threading.main_thread():
+            self._previous = signal.signal(signal.SIGINT, self._handler)
+        return self
+
+    def _handler(self, signum, frame):
+        self.requested = True
+
+    def __exit__(self, *exc):
+        if self._previous is not None:
+            signal.signal(signal.SIGINT, self._previous)
+
+
+class SimulationError(RuntimeError):
+    """A run that stopped early. `trajectory` holds everything computed up to the failure
+    (complete=False); the message names the time, the step and the likely cause."""
+
+    def __init__(self, message, trajectory):
+        super().__init__(message)
+        self.trajectory = trajectory
+
+
+def simulate(scene, *, progress=False, raise_on_failure=True):
+    """Run `scene` (opendyn.scene.Scene) and return its Trajectory.
+
+    progress: show a progress bar (tqdm, on stderr) once the run has taken more than a second.
+    raise_on_failure: on a failure or Ctrl-C raise SimulationError carrying the partial
+      trajectory; with False, return it with complete=False and the message.
+    The trajectory is sampled every scene.run.output_dt seconds and at the end; its stats give
+    steps, rejected steps, dynamics evaluations, the wall time (s) and, apart from it, the time
+    taken to load the compiled loop (kernel_load_s: from the on-disk cache, or compiling it
+    once per machine).
+    """
+    run = scene.run
+    model = scene.model
+    integ = integrators.INTEGRATORS[run.integrator]
+    table = effects.stage_table(scene)
+    if integ.adaptive:
+        rows = int(np.ceil(run.duration / run.output_dt - 1e-9)) + 1
+        nsteps = every = 0
+    else:
+        nsteps = max(1, int(round(run.duration / run.dt)))
+        every = max(1, int(round(run.output_dt / run.dt)))
+        rows = nsteps // every + 1 + (nsteps % every != 0)
+    out = _Samples(rows, model.nq, model.nv)
+    q = np.array(scene.q0, dtype=np.float64)
+    qd = np.array(scene.qd0, dtype=np.float64)
+    w = np.zeros(2)
+    counters = np.zeros(3, dtype=np.int64)  # evaluations, accepted, rejected (adaptive)
+    bar = _progress_bar(run.duration) if progress else None
+    start = time.perf_counter()
+    _load_kernels(scene, integ, table, q, qd, w, out, counters)
+    load = time.perf_counter() - start
+    start = time.perf_counter()
+    with _Interrupt() as stop:
+        if integ.adaptive:
+            status, t = _run_adaptive(scene, integ, table, q, qd, w, out, counters, bar, stop)
+        else:
+            status, t = _run_fixed(
+                scene, integ, table, nsteps, every, q, qd, w, out, counters, bar, stop
+            )
+    wall = time.perf_counter() - start
+    if bar is not None:
+        bar.close()
+    steps = int(counters[1]) if integ.adaptive else int(round(t / run.dt))
+    message = ""
+    if status == INTERRUPTED:
+        message = f"interrupted (Ctrl-C) at t = {t:.6g} s (step {steps})"
+    elif status:
+        message = failure_message(scene, status, t, steps, q, qd)
+    if status:
+        # the last good state ends the partial record, unless it is already its last row
+        if not out.filled or out.t[out.filled - 1] < t:
+            _record_state(scene, table, t, q, qd, w, out)
+    stats = {
+        "integrator": integ.name,
+        "steps": steps,
+        "rejected_steps": int(counters[2]),
+        "evaluations": int(counters[0]),
+        "wall_s": wall,
+        "kernel_load_s": load,
+        "simulated_s": float(out.t[out.filled - 1]) if out.filled else 0.0,
+    }
+    traj = _trajectory(scene, table, out, status == 0, message, stats)
+    if status and raise_on_failure:
+        raise SimulationError(message, traj)
+    return traj
+
+
+def _load_kernels(scene, integ, table, q, qd, w, out, counters):
+    """Call the run's compiled loop for zero steps: numba loads it from its on-disk cache (or
+    compiles it, once per machine) here, so that the run's wall time is the simulation's."""
+    model = scene.model
+    if integ.adaptive:
+        integrators.run_adaptive(
+            integ.A,
+            integ.b,
+            integ.c,
+            integ.e,
+            model._ibuf,
+            model._fbuf,
+            table.rows,
+            table.params,
+            table.method,
+            table.armature,
+            0.0,
+            0.0,
+            0.0,
+            scene.run.dt,
+            1.0,
+            1.0,
+            1.0,
+            1,
+            1.0,
+            q,
+            qd,
+            w,
+            np.zeros((2, model.nv)),
+            np.zeros(2),
+            np.zeros(model.nv),
+            out.t,
+            out.q,
+            out.qd,
+            out.tau,
+            out.w,
+            counters,
+        )
+    else:
+        integrators.run_fixed(
+            integ.kind,
+            integ.A,
+            integ.b,
+            integ.c,
+            model._ibuf,
+            model._fbuf,
+            table.rows,
+            table.params,
+            table.method,
+            table.armature,
+            0.0,
+            scene.run.dt,
+            0,
+            0,
+            1,
+            1.0,
+            q,
+            qd,
+            w,
+            out.t,
+            out.q,
+            out.qd,
+            out.tau,
+            out.w,
+            counters,
+        )
+
+
+class _Samples:
+    """The recorded rows: t, q, qd, tau and the work (applied, passive) of each sample."""
+
+    def __init__(self, rows, nq, nv):
+        self.t = np.full(rows, np.nan)
+        self.q = np.full((rows, nq), np.nan)
+        self.qd = np.full((rows, nv), np.nan)
+        self.tau = np.full((rows, nv), np.nan)
+        self.w = np.full((rows, 2), np.nan)
+        self.filled = 0
+
+
+def _progress_bar(duration):
+    from tqdm import tqdm
+
+    return tqdm(
+        total=duration,
+        unit="s",
+        unit_scale=False,
+        delay=1.0,
+        desc="simulating",
+        file=sys.stderr,
+        bar_format="{desc}: {percentage:3.0f}%|{bar}| {n:.2f}/{total:.2f} s simulated "
+        "[{elapsed}<{remaining}]",
+    )
+
+
+def _chunk_steps(steps, seconds, current):
+    """The next chunk's size: enough steps for about _CHUNK_SECONDS at the measured rate."""
+    if seconds <= 0:
+        return current * 4
+    return int(min(current * 8, max(16, steps / seconds * _CHUNK_SECONDS)))
+
+
+def _run_fixed(scene, integ, table, nsteps, every, q, qd, w, out, counters, bar, stop):
+    """Fixed steps in compiled chunks. Returns (status, time reached)."""
+    run = scene.run
+    model = scene.model
+    done, chunk = 0, _FIRST_CHUNK
+    while done < nsteps:
+        n = min(chunk, nsteps - done)
+        tic = time.perf_counter()
+        status, steps = integrators.run_fixed(
+            integ.kind,
+            integ.A,
+            integ.b,
+            integ.c,
+            model._ibuf,
+            model._fbuf,
+            table.rows,
+            table.params,
+            table.method,
+            table.armature,
+            0.0,
+            run.dt,
+            done,
+            n,
+            every,
+            run.max_speed,
+            q,
+            qd,
+            w,
+            out.t,
+            out.q,
+            out.qd,
+            out.tau,
+            out.w,
+            counters,
+        )
+        done += steps
+        out.filled = (done - 1) // every + 1 if done else 0
+        if bar is not None:
+            bar.update(steps * run.dt)
+        if status:
+            return status, done * run.dt
+        if stop.requested and done < nsteps:
+            return INTERRUPTED, done * run.dt
+        chunk = _chunk_steps(steps, time.perf_counter() - tic, chunk)
+    t_end = nsteps * run.dt
+    if out.filled < len(out.t):
+        _record_state(scene, table, t_end, q, qd, w, out)
+    return 0, t_end
+
+
+def _run_adaptive(scene, integ, table, q, qd, w, out, counters, bar, stop):
+    """Adaptive steps in compiled chunks of simulated time. Returns (status, time reached)."""
+    run = scene.run
+    model = scene.model
+    nv = model.nv
+    k_first = np.empty((2, nv))
+    power_first = np.empty(2)
+    tau_first = np.empty(nv)
+    status = _first_stage(scene, table, 0.0, q, qd, k_first, power_first, tau_first)
+    counters[0] += 1
+    if status:
+        return status, 0.0
+    out.t[0], out.q[0], out.qd[0], out.tau[0], out.w[0] = 0.0, q, qd, tau_first, w
+    out.filled = 1
+    t, h, row = 0.0, run.dt, 1
+    span = max(run.output_dt, run.duration / 1000)
+    while t < run.duration:
+        t_stop = min(run.duration, t + span)
+        tic = time.perf_counter()
+        t_before = t
+        status, t, h, row = integrators.run_adaptive(
+            integ.A,
+            integ.b,
+            integ.c,
+            integ.e,
+            model._ibuf,
+            model._fbuf,
+            table.rows,
+            table.params,
+            table.method,
+            table.armature,
+            t,
+            t_stop,
+            run.duration,
+            h,
+            run.rtol,
+            run.atol,
+            run.output_dt,
+            row,
+            run.max_speed,
+            q,
+            qd,
+            w,
+            k_first,
+            power_first,
+            tau_first,
+            out.t,
+            out.q,
+            out.qd,
+            out.tau,
+            out.w,
+            counters,
+        )
+        out.filled = row
+        if bar is not None:
+            bar.update(t - t_before)
+        if status:
+            return status, t
+        if stop.requested and t < run.duration:
+            return INTERRUPTED, t
+        elapsed = time.perf_counter() - tic
+        if elapsed > 0:
+            span = min(
+                run.duration, max(span * 0.5, min(span * 4, span * _CHUNK_SECONDS / elapsed))
+            )
+    return 0, t
+
+
+def _first_stage(scene, table, t, q, qd, k_first, power, tau):
+    """k_first (2, nv) <- (qd, qdd), power (2,) <- (applied, passive) power and tau <- the
+    control torque, at (t, q, qd). Returns the dynamics' status."""
+    model = scene.model
+    k_first[0] = qd
+    return step.evaluate(
+        model._ibuf,
+        model._fbuf,
+        table.rows,
+        table.params,
+        table.method,
+        table.armature,
+        t,
+        q,
+        qd,
+        k_first[1],
+        tau,
+        power,
+    )
+
+
+def _record_state(scene, table, t, q, qd, w, out):
+    """Append (t, q, qd, w) with the control torque there (NaN when the dynamics fail there)."""
+    k = np.empty((2, scene.model.nv))
+    tau = np.empty(scene.model.nv)
+    if _first_stage(scene, table, t, q, qd, k, np.empty(2), tau):
+        tau[:] = np.nan
+    r = out.filled
+    if r == len(out.t):
+        for name in ("t", "q", "qd", "tau", "w"):
+            arr = getattr(out, name)
+            setattr(out, name, np.concatenate([arr, np.full_like(arr[:1], np.nan)]))
+    out.t[r], out.q[r], out.qd[r], out.tau[r], out.w[r] = t, q, qd, tau, w
+    out.filled = r + 1
+
+
+def _trajectory(scene, table, out, complete, message, stats):
+    from .trajectory import Trajectory
+
+    model = scene.model
+    n = out.filled
+    t, q, qd, tau, w = out.t[:n], out.q[:n], out.qd[:n], out.tau[:n], out.w[:n]
+    kinetic = kinetic_energy(model, q, qd) if n else np.zeros(0)
+    if scene.armature is not None and n:
+        kinetic = kinetic + 0.5 * (qd**2) @ scene.armature
+    potential = (
+        potential_energy(model, q, gravity=scene.gravity)
+        if scene.gravity is not None and n
+        else np.zeros(n)
+    )
+    return Trajectory(
+        t=t,
+        q=q,
+        qd=qd,
+        tau=tau,
+        kinetic=np.atleast_1d(kinetic),
+        potential=np.atleast_1d(potential),
+        work_applied=w[:, 0].copy(),
+        work_passive=w[:, 1].copy(),
+        joint_names=tuple(model.joint_names),
+        complete=complete,
+        message=message,
+        stats=stats,
+        provenance=_provenance(scene, table),
+    )
+
+
+def _provenance(scene, table):
+    import numba
+
+    run = scene.run
+    return {
+        "scene": {
+            "name": scene.name,
+            "source": scene.source,
+            "settings": scene.settings,
+            "effects": list(scene.effects),
+            "stages": list(table.names) + (["armature"] if scene.armature is not None else []),
+        },
+        "robot": {"name": scene.model.name, "urdf": scene.model.source, "nv": scene.model.nv},
+        "run": {
+            "integrator": run.integrator,
+            "duration": run.duration,
+            "dt": run.dt,
+            "output_dt": run.output_dt,
+            "rtol": run.rtol,
+            "atol": run.atol,
+            "max_speed": run.max_speed,
+        },
+        "versions": {
+            "opendyn": __version__,
+            "python": platform.python_version(),
+            "numpy": np.__version__,
+            "numba": numba.__version__,
+        },
+        "platform": platform.platform(),
+        "created": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
+    }
+
+
+def failure_message(scene, status, t, steps, q, qd):
+    """Why a run stopped at time t after `steps` steps, from the kernel's status and the last
+    good state: what failed, and the likely cause."""
+    model = scene.model
+    run = scene.run
+    where = f"at t = {t:.6g} s (step {steps})"
+    if status >= 100:
+        joint = model.joint_names[status - 100]
+        return (
+            f"singular mass matrix {where}: nothing with mass or inertia moves with joint "
+            f"{joint!r}. Give the links below it inertia, or name the armature effect for it."
+        )
+    if status == integrators.STEP_UNDERFLOW:
+        return (
+            f"adaptive step underflow {where}: no step down to 1e-14 s met the tolerances. "
+            "The dynamics are likely discontinuous or singular here."
+        )
+    what = {
+        1: "the positions q became non-finite",
+        2: "the velocities qd became non-finite",
+        4: "a generalized force became non-finite",
+        step.DIVERGED: f"a joint velocity exceeded max_speed = {run.max_speed:g}",
+    }.get(status, f"the dynamics failed (status {status})")
+    fastest = int(np.argmax(np.abs(qd))) if model.nv else 0
+    state = (
+        f"the last good state has |qd| up to {np.abs(qd).max():.3g} on joint "
+        f"{model.joint_names[fastest]!r}"
+        if model.nv
+        else ""
+    )
+    cause = _stiffness_cause(scene, q)
+    if cause is None:
+        if run.integrator == "euler":
+            cause = (
+                "explicit Euler adds energy on every oscillation and diverges; "
+                "use semi_implicit_euler, rk4 or a smaller step"
+            )
+        elif integrators.INTEGRATORS[run.integrator].adaptive:
+            cause = "the motion became too fast to follow; check the scene's forces"
+        else:
+            cause = (
+                f"the integrator is unstable at dt = {run.dt:g} s for this motion; "
+                "use a smaller step or dopri5"
+            )
+    return f"simulation stopped {where}: {what}; {state}.\nLikely cause: {cause}."
+
+
+def _stiffness_cause(scene, q):
+    """The stiffest joint-space effect against the step: for each joint the natural frequency
+    w = sqrt(k / M_jj) of its springs (limits, PD) and the rate d / M_jj of its dampers. Explicit
+    methods need dt w below about 2 (Euler) to 2.8 (RK4): above, the step is too large."""
+    from .dynamics.crba import mass_matrix
+
+    run = scene.run
+    if run.integrator == "implicit_euler" or not scene.model.nv:
+        return None
+    try:
+        m = np.diag(mass_matrix(scene.model, q)).copy()
+    except ValueError:
+        return None
+    if scene.armature is not None:
+        m += scene.armature
+    candidates = []
+    if scene.limits is not None:
+        lim = scene.limits
+        candidates += [
+            ("joint-limit stiffness", np.sqrt(lim.stiffness / m)),
+            ("joint-limit damping", lim.damping / m),
+        ]
+    if scene.damping is not None:
+        candidates.append(("viscous damping", scene.damping / m))
+    if scene.friction is not None:
+        candidates.append(
+            ("friction smoothing", scene.friction.coulomb / scene.friction.smoothing / m)
+        )
+    control = scene.control
+    if control is not None and control.kind == "pd":
+        candidates += [("PD stiffness", np.sqrt(control.kp / m)), ("PD damping", control.kd / m)]
+    worst = None
+    for name, rate in candidates:
+        j = int(np.argmax(rate))
+        if worst is None or rate[j] > worst[1]:
+            worst = (name, rate[j], j)
+    if worst is None or worst[1] * run.dt < 2.0:
+        return None
+    name, rate, j = worst
+    return (
+        f"the step is too large for a stiff effect: {name} on joint "
+        f"{scene.model.joint_names[j]!r} has rate {rate:.3g} 1/s, and dt x rate = "
+        f"{rate * run.dt:.3g} > 2. Use dt below {2.0 / rate:.2g} s, or integrator "
+        "implicit_euler"
+    )
+
+
+def profile(scene, *, steps=2000, evaluations=20000):
+    """What each stage of the scene's step costs, as a text table.
+
+    The whole loop is timed on up to `steps` steps of the scene (best of three runs after a
+    warm-up); then each stage alone, forward dynamics alone and the whole evaluation are timed
+    (best of three) in a compiled loop over the states of that run, repeated to about
+    `evaluations` calls. Per step = per call x
+    the integrator's evaluations per step; the rest of the step is the integrator itself.
+    """
+    run = scene.run
+    if not integrators.INTEGRATORS[run.integrator].adaptive:
+        short = scene.replace_run(duration=min(run.duration, steps * run.dt), output_dt=run.dt)
+    else:
+        short = scene.replace_run(duration=min(run.duration, 10.0))
+    runs = [simulate(short, raise_on_failure=False) for _ in range(4)]  # the first warms up
+    traj = runs[0]
+    stats = traj.stats
+    n_steps = max(1, stats["steps"])
+    per_step = min(r.stats["wall_s"] for r in runs[1:]) / n_steps
+    evals_per_step = stats["evaluations"] / n_steps
+    model = scene.model
+    table = effects.stage_table(scene)
+    reps = max(1, evaluations // max(1, len(traj.t)))
+    t = np.tile(traj.t, reps)
+    q = np.ascontiguousarray(np.tile(traj.q, (reps, 1)))
+    qd = np.ascontiguousarray(np.tile(traj.qd, (reps, 1)))
+
+    def cost(which):
+        args = (model._ibuf, model._fbuf, table.rows, table.params, table.method)
+        step.stage_cost_kernel(*args, table.armature, which, t[:1], q[:1], qd[:1])
+        best = np.inf
+        for _ in range(3):
+            tic = time.perf_counter()
+            step.stage_cost_kernel(*args, table.armature, which, t, q, qd)
+            best = min(best, time.perf_counter() - tic)
+        return best / len(t)
+
+    implicit = run.integrator == "implicit_euler"
+    lines = [
+        f"profile: {scene.name}, {run.integrator}, {n_steps} steps, "
+        f"{evals_per_step:.3g} evaluations per step",
+        f"{'stage':<34}{'us/call':>10}{'us/step':>10}{'share':>8}",
+    ]
+
+    def line(name, seconds, calls_per_step):
+        us = seconds * 1e6
+        lines.append(
+            f"{name:<34}{us:>10.3f}{us * calls_per_step:>10.3f}"
+            f"{seconds * calls_per_step / per_step:>8.0%}"
+        )
+
+    for s, name in enumerate(table.names):
+        line(name, cost(s), evals_per_step)
+    if not implicit:
+        dynamics = "forward dynamics (ABA" if table.method == 0 else "forward dynamics (CRBA"
+        dynamics += ", with armature)" if scene.armature is not None else ")"
+        line(dynamics, cost(-1), evals_per_step)
+    evaluation = cost(-2) if not implicit else 0.0
+    line("whole evaluation" if not implicit else "stages", evaluation, evals_per_step)
+    rest = per_step - evaluation * evals_per_step
+    rest_name = "implicit solve + integrator" if implicit else "integrator and loop"
+    lines.append(f"{rest_name:<34}{'':>10}{rest * 1e6:>10.3f}{rest / per_step:>8.0%}")
+    lines.append(f"{'step (measured)':<34}{'':>10}{per_step * 1e6:>10.3f}{1:>8.0%}")
+    return "\n".join(lines)

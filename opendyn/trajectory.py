@@ -1,0 +1,162 @@
+"""A simulated trajectory: samples of (t, q, qd, tau) with the energy balance, saved with its
+provenance.
+
+    E(t) = T(q, qd) + U_gravity(q),   T = 1/2 qd^T (M(q) + diag(armature)) qd
+    E(t) - E(0) = W_applied(t) + W_passive(t) + (integration error)
+
+W_applied is the work of the control torques and applied wrenches, W_passive that of damping,
+friction and the joint-limit spring-dampers, each integrated with the state by the same
+integrator; the residual `energy_error` measures how well the integrator keeps the balance.
+"""
+
+from __future__ import annotations
+
+import json
+import pathlib
+from dataclasses import dataclass, field
+
+import numpy as np
+
+_ARRAYS = ("t", "q", "qd", "tau", "kinetic", "potential", "work_applied", "work_passive")
+
+
+@dataclass
+class Trajectory:
+    """Samples of a simulation.
+
+    t (K,) s; q (K, nq) rad or m; qd (K, nv) rad/s or m/s; tau (K, nv) the control torque
+    (N m or N; zero without control); kinetic, potential (K,) J; work_applied, work_passive (K,) J,
+    the work done since t = 0 by control and applied wrenches, and by damping, friction and limits.
+    complete: False when the run stopped early (failure or interrupt); message says why.
+    stats: steps, rejected steps, dynamics evaluations, wall time (s), kernel load time (s).
+    provenance: the scene, integrator, versions and timing, as plain JSON types.
+    """
+
+    t: np.ndarray
+    q: np.ndarray
+    qd: np.ndarray
+    tau: np.ndarray
+    kinetic: np.ndarray
+    potential: np.ndarray
+    work_applied: np.ndarray
+    work_passive: np.ndarray
+    joint_names: tuple[str, ...]
+    complete: bool = True
+    message: str = ""
+    stats: dict = field(default_factory=dict)
+    provenance: dict = field(default_factory=dict)
+
+    @property
+    def energy(self) -> np.ndarray:
+        """(K,) mechanical energy T + U_gravity (J)."""
+        return self.kinetic + self.potential
+
+    @property
+    def energy_error(self) -> np.ndarray:
+        """(K,) E(t) - E(0) - W_applied(t) - W_passive(t) (J): zero for exact integration."""
+        return self.energy - self.energy[0] - self.work_applied - self.work_passive
+
+    def save(self, path) -> pathlib.Path:
+        """Write the arrays to `path` (.npz) with the provenance record as JSON, both inside the
+        .npz (key "provenance") and beside it (same name, .json). Returns the .npz path."""
+        path = pathlib.Path(path)
+        if path.suffix != ".npz":
+            path = path.with_suffix(".npz")
+        record = self.record()
+        arrays = {name: getattr(self, name) for name in _ARRAYS}
+        np.savez_compressed(
+            path,
+            **arrays,
+            joint_names=np.array(self.joint_names, dtype=str),
+            provenance=np.array(json.dumps(record)),
+        )
+        path.with_suffix(".json").write_text(json.dumps(record, indent=2) + "\n")
+        return path
+
+    def record(self) -> dict:
+        """The provenance record: run status, statistics and the scene's provenance."""
+        return {
+            "complete": self.complete,
+            "message": self.message,
+            "samples": len(self.t),
+            "stats": self.stats,
+            **self.provenance,
+        }
+
+    @classmethod
+    def load(cls, path) -> "Trajectory":
+        """Read a trajectory written by `save`."""
+        with np.load(path, allow_pickle=False) as data:
+            record = json.loads(str(data["provenance"]))
+            arrays = {name: data[name] for name in _ARRAYS}
+            names = tuple(str(n) for n in data["joint_names"])
+        stats = record.pop("stats", {})
+        complete = record.pop("complete", True)
+        message = record.pop("message", "")
+        record.pop("samples", None)
+        return cls(
+            **arrays,
+            joint_names=names,
+            complete=complete,
+            message=message,
+            stats=stats,
+            provenance=record,
+        )
+
+    def to_csv(self, path) -> pathlib.Path:
+        """One row per sample: t, q_<joint>..., qd_<joint>..., tau_<joint>..., kinetic,
+        potential, work_applied, work_passive (SI units)."""
+        path = pathlib.Path(path)
+        names = self.joint_names
+        header = ["t", *(f"q_{n}" for n in names), *(f"qd_{n}" for n in names)]
+        header += [*(f"tau_{n}" for n in names), "kinetic", "potential"]
+        header += ["work_applied", "work_passive"]
+        table = np.column_stack(
+            [
+                self.t,
+                self.q,
+                self.qd,
+                self.tau,
+                self.kinetic,
+                self.potential,
+                self.work_applied,
+                self.work_passive,
+            ]
+        )
+        np.savetxt(path, table, delimiter=",", header=",".join(header), comments="", fmt="%.17g")
+        return path
+
+    def plot(self, path) -> pathlib.Path:
+        """A PNG with three panels over time: joint positions, joint velocities, and the energy
+        (E - E(0), the work of the non-conservative forces, and the integration error)."""
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+
+        path = pathlib.Path(path)
+        fig, axes = plt.subplots(3, 1, figsize=(9, 9), sharex=True, constrained_layout=True)
+        for k, name in enumerate(self.joint_names):
+            axes[0].plot(self.t, self.q[:, k], label=name)
+            axes[1].plot(self.t, self.qd[:, k], label=name)
+        axes[0].set_ylabel("q (rad or m)")
+        axes[1].set_ylabel("qd (rad/s or m/s)")
+        if len(self.joint_names) <= 12:
+            axes[0].legend(loc="upper right", fontsize="small", ncol=2)
+        energy = self.energy - self.energy[0]
+        axes[2].plot(self.t, energy, label="E - E(0)")
+        if np.any(self.work_applied):
+            axes[2].plot(self.t, self.work_applied, label="work applied")
+        if np.any(self.work_passive):
+            axes[2].plot(self.t, self.work_passive, label="work passive")
+        axes[2].plot(self.t, self.energy_error, label="balance error", linestyle="--")
+        axes[2].set_ylabel("energy (J)")
+        axes[2].set_xlabel("t (s)")
+        axes[2].legend(loc="best", fontsize="small")
+        title = self.provenance.get("scene", {}).get("name", "")
+        if not self.complete:
+            title += " (partial: " + self.message.split("\n")[0] + ")"
+        fig.suptitle(title)
+        fig.savefig(path, dpi=100)
+        plt.close(fig)
+        return path

@@ -1,0 +1,432 @@
+"""Simulation: scenes run the effects they name and nothing else, integrators converge at their
+order, energy is conserved or balanced, failures stop with a message and keep the record.
+
+Independent references: Pinocchio's `aba` driven by a plain Python RK4 loop; the closed-form
+effect laws of opendyn.effects' docstring evaluated here in numpy; dynamics functions of the
+core (checked against Pinocchio in test_pinocchio.py) at single states.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+import signal
+import threading
+
+import numpy as np
+import pytest
+
+import opendyn as od
+from opendyn import effects, integrators, step
+from opendyn.simulate import SimulationError
+
+pin = pytest.importorskip("pinocchio")
+from pin_adapter import PinOracle  # noqa: E402
+
+
+def ur5_scene(duration=1.0, **effect_tables):
+    return od.scene_from_dict(
+        {
+            "robot": {"name": "ur5"},
+            "initial": {"q": [0.3, -1.2, 1.0, -0.6, 0.9, 0.4], "qd": [0.5, 0, -0.3, 0, 0.2, 1]},
+            "run": {"duration": duration, "dt": 1e-3, "integrator": "rk4", "output_dt": 1e-3},
+            "effects": {"gravity": True, **effect_tables},
+        }
+    )
+
+
+def pinocchio_rk4(oracle, q0, qd0, dt, n, damping):
+    """RK4 over pin.aba with tau = -b qd, q advanced by plain addition (revolute joints)."""
+    pm, pd = oracle.model, oracle.data
+
+    def f(q, v):
+        return oracle.back(pin.aba(pm, pd, oracle.q(q), oracle.v(v), oracle.v(-damping * v)))
+
+    q, v = q0.copy(), qd0.copy()
+    out_q, out_v = [q.copy()], [v.copy()]
+    for _ in range(n):
+        k1q, k1v = v, f(q, v)
+        k2q, k2v = v + 0.5 * dt * k1v, f(q + 0.5 * dt * k1q, v + 0.5 * dt * k1v)
+        k3q, k3v = v + 0.5 * dt * k2v, f(q + 0.5 * dt * k2q, v + 0.5 * dt * k2v)
+        k4q, k4v = v + dt * k3v, f(q + dt * k3q, v + dt * k3v)
+        q = q + dt / 6 * (k1q + 2 * k2q + 2 * k3q + k4q)
+        v = v + dt / 6 * (k1v + 2 * k2v + 2 * k3v + k4v)
+        out_q.append(q)
+        out_v.append(v)
+    return np.array(out_q), np.array(out_v)
+
+
+def test_ur5_rk4_matches_pinocchio_rk4_loop():
+    scene = ur5_scene(duration=1.0, damping={"coefficients": 0.5})
+    traj = od.simulate(scene)
+    oracle = PinOracle(scene.model.source, scene.model)
+    q, v = pinocchio_rk4(oracle, scene.q0, scene.qd0, 1e-3, 1000, scene.damping)
+    assert traj.complete and len(traj.t) == 1001
+    np.testing.assert_allclose(traj.t, np.arange(1001) * 1e-3, rtol=0, atol=1e-12)
+    assert np.abs(traj.q - q).max() < 1e-9
+    assert np.abs(traj.qd - v).max() < 1e-9
+
+
+def test_conservative_scene_conserves_energy_at_fourth_order():
+    # RK4's energy error is its global error, O(dt^4): below 1e-7 of the energy scale at 1 ms
+    # over 10 s of the chaotic double pendulum, and 16x (2^4) larger at twice the step.
+    scene = od.load_scene("double_pendulum_swing")
+    assert scene.effects == ("gravity",)
+    fine = od.simulate(scene)
+    coarse = od.simulate(scene.replace_run(dt=2e-3))
+    scale = np.abs(fine.energy).max()
+    err_fine = np.abs(fine.energy - fine.energy[0]).max()
+    err_coarse = np.abs(coarse.energy - coarse.energy[0]).max()
+    assert err_fine < 1e-7 * scale
+    assert 8 < err_coarse / err_fine < 32
+    assert not fine.work_applied.any() and not fine.work_passive.any()
+
+
+def test_damping_dissipates_energy_at_rate_qd_b_qd():
+    scene = ur5_scene(duration=2.0, damping={"coefficients": [0.5, 1.0, 0.8, 0.3, 0.2, 0.1]})
+    traj = od.simulate(scene)
+    b = scene.damping
+    # dE/dt = -qd^T diag(b) qd: the trapezoid rule over the 1 ms samples (error O(dt^2 E''))
+    rate = -np.einsum("kj,j,kj->k", traj.qd, b, traj.qd)
+    dissipated = np.concatenate([[0], np.cumsum(0.5 * (rate[1:] + rate[:-1]) * np.diff(traj.t))])
+    loss = traj.energy - traj.energy[0]
+    assert loss[-1] < -1.0  # a real loss, J
+    assert np.abs(loss - dissipated).max() < 1e-5 * np.abs(loss).max()
+    # the work integrated with the state agrees with E(t) - E(0) to the RK4 error
+    assert np.abs(traj.energy_error).max() < 1e-9 * np.abs(loss).max()
+    np.testing.assert_allclose(traj.work_passive, dissipated, atol=1e-5 * np.abs(loss).max())
+
+
+def _full_scene():
+    """The double pendulum with every effect on."""
+    return od.scene_from_dict(
+        {
+            "robot": {"urdf": str(od.urdf.shipped_robots_dir() / "double_pendulum.urdf")},
+            "initial": {"q": [2.0, 0.5], "qd": [0.3, -0.2]},
+            "run": {"duration": 0.5, "dt": 1e-3, "output_dt": 1e-2},
+            "effects": {
+                "gravity": True,
+                "damping": {"coefficients": 0.3},
+                "friction": {"coefficients": 0.2, "smoothing": 0.05},
+                "armature": {"values": 0.01},
+                "limits": {"stiffness": 1e3, "damping": 5.0},
+                "wrench": [{"frame": "tip", "expressed_in": "world", "value": [0, 0, 0, 1, 0, 2]}],
+            },
+            "control": {"type": "pd", "kp": 5.0, "kd": 1.0, "setpoint": [0.0, 0.0]},
+        }
+    )
+
+
+@pytest.mark.parametrize(
+    "effect", ["gravity", "damping", "friction", "limits", "wrench", "control"]
+)
+def test_disabled_effect_never_runs(effect):
+    """A scene without an effect has no stage for it. And the compiled step reads only its
+    rows' parameters: the same table with the effect's row removed and its parameters poisoned
+    with NaN runs to the same finite result, so a stage that ran anyway would show NaN."""
+    full = _full_scene()
+    off = full.without(effect)
+    table_full = effects.stage_table(full)
+    table_off = effects.stage_table(off)
+    name = {"control": "control (pd)", "wrench": "wrench on tip"}.get(effect, effect)
+    assert name in table_full.names and name not in table_off.names
+    assert len(table_off.rows) == len(table_full.rows) - 1
+
+    k = table_full.names.index(name)
+    start = table_full.rows[k, 1]
+    stop = table_full.rows[k + 1, 1] if k + 1 < len(table_full.rows) else None
+    poisoned = table_full.params.copy()
+    poisoned[start:stop] = np.nan
+    rows = np.delete(table_full.rows, k, axis=0)
+    model = full.model
+
+    def run(rows, params):
+        q, qd, w = full.q0.copy(), full.qd0.copy(), np.zeros(2)
+        out = [np.zeros((501, n)) for n in (1, 2, 2, 2, 2)]
+        integ = integrators.INTEGRATORS["rk4"]
+        status, steps = integrators.run_fixed(
+            integ.kind,
+            integ.A,
+            integ.b,
+            integ.c,
+            model._ibuf,
+            model._fbuf,
+            rows,
+            params,
+            table_full.method,
+            table_full.armature,
+            0.0,
+            1e-3,
+            0,
+            500,
+            1,
+            1e4,
+            q,
+            qd,
+            w,
+            out[0][:, 0],
+            out[1],
+            out[2],
+            out[3],
+            out[4],
+            np.zeros(3, dtype=np.int64),
+        )
+        assert status == 0 and steps == 500
+        return q, qd
+
+    q_poisoned, qd_poisoned = run(rows, poisoned)
+    traj_off = od.simulate(off)
+    assert np.all(np.isfinite(q_poisoned))
+    np.testing.assert_allclose(q_poisoned, traj_off.q[-1], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(qd_poisoned, traj_off.qd[-1], rtol=0, atol=1e-12)
+
+
+def _evaluate(scene, t, q, qd):
+    table = effects.stage_table(scene)
+    model = scene.model
+    qdd, tau_ctrl, power = np.empty(model.nv), np.empty(model.nv), np.empty(2)
+    status = step.evaluate(
+        model._ibuf,
+        model._fbuf,
+        table.rows,
+        table.params,
+        table.method,
+        table.armature,
+        t,
+        q,
+        qd,
+        qdd,
+        tau_ctrl,
+        power,
+    )
+    assert status == 0
+    return qdd, tau_ctrl, power
+
+
+def test_each_effect_is_its_stated_generalized_force():
+    """The step's qdd equals (M + diag(a))^-1 (tau_effects - h), with each effect's law written
+    out here from the documentation and M, h, J_b from the core."""
+    scene = _full_scene()
+    model = scene.model
+    rng = np.random.default_rng(3)
+    for _ in range(5):
+        t = rng.uniform(0, 0.5)
+        q = rng.uniform(-3.5, 3.5, 2)
+        qd = rng.normal(size=2)
+        qdd, tau_ctrl, power = _evaluate(scene, t, q, qd)
+        b, fc, vs = scene.damping, scene.friction.coulomb, scene.friction.smoothing
+        lim = scene.limits
+        depth = np.where(q > lim.upper, q - lim.upper, np.where(q < lim.lower, q - lim.lower, 0))
+        tau_limits = np.where(depth != 0, -lim.stiffness * depth - lim.damping * qd, 0.0)
+        passive = -b * qd - fc * np.tanh(qd / vs) + tau_limits
+        F_world = np.array([0, 0, 0, 1.0, 0, 2.0])
+        R_sf = od.frame_pose(model, q, "tip")[:3, :3]
+        F_tip = np.concatenate([R_sf.T @ F_world[:3], R_sf.T @ F_world[3:]])
+        applied = od.jacobian(model, q, "tip", expressed_in="body").T @ F_tip
+        control = scene.control.kp * (scene.control.setpoint - q) - scene.control.kd * qd
+        M = od.mass_matrix(model, q) + np.diag(scene.armature)
+        h = od.bias_forces(model, q, qd, gravity=scene.gravity)
+        np.testing.assert_allclose(
+            qdd, np.linalg.solve(M, passive + applied + control - h), rtol=1e-10, atol=1e-10
+        )
+        np.testing.assert_allclose(tau_ctrl, control, rtol=1e-12, atol=1e-12)
+        np.testing.assert_allclose(
+            power, [qd @ (control + applied), qd @ passive], rtol=1e-10, atol=1e-12
+        )
+
+
+def test_applied_wrench_is_minus_f_tip():
+    """A wrench applied to the robot at a frame (frame axes) is f_tip = -F of the dynamics
+    functions, whose sign Pinocchio checks in test_pinocchio."""
+    scene = od.scene_from_dict(
+        {
+            "robot": {"name": "ur5"},
+            "effects": {"wrench": {"frame": "tool0", "value": [0.1, -0.2, 0.3, 5, -4, 3]}},
+        }
+    )
+    q, qd = np.linspace(-1, 1, 6), np.linspace(0.5, -0.5, 6)
+    qdd, _, _ = _evaluate(scene, 0.0, q, qd)
+    F = np.array([0.1, -0.2, 0.3, 5, -4, 3])
+    expected = od.forward_dynamics(
+        scene.model, q, qd, np.zeros(6), f_tip={"tool0": -F}, gravity=np.zeros(3)
+    )
+    np.testing.assert_allclose(qdd, expected, rtol=1e-10, atol=1e-12)
+
+
+def test_computed_torque_tracks_the_reference():
+    """With the controller's model equal to the plant (gravity only), computed torque makes
+    e'' + kd e' + kp e = 0: from a start on the reference the error stays at integration level."""
+    scene = od.scene_from_dict(
+        {
+            "robot": {"name": "panda"},
+            "initial": {"q": {"panda_joint2": -0.5, "panda_joint4": -2, "panda_joint6": 1.5}},
+            "run": {"duration": 2.0, "dt": 1e-3},
+            "effects": {"gravity": True},
+            "control": {
+                "type": "computed_torque",
+                "kp": 100.0,
+                "kd": 20.0,
+                "amplitude": 0.3,
+                "frequency": 0.5,
+                "phase": 1.5707963267948966,
+            },
+        }
+    )
+    c = scene.control
+    # start on the reference: q_r(0) = offset + amplitude sin(phase), qd_r(0) = 0
+    scene = dataclasses.replace(scene, q0=c.offset + c.amplitude * np.sin(c.phase))
+    traj = od.simulate(scene)
+    w = 2 * np.pi * c.frequency
+    q_r = c.offset + c.amplitude * np.sin(w * traj.t[:, None] + c.phase)
+    assert np.abs(traj.q - q_r).max() < 1e-8
+    assert np.ptp(traj.q, axis=0).min() > 0.59  # every joint swept its 2 x 0.3 rad
+    # the recorded torque is inverse dynamics along the reference
+    k = 100
+    qdd_r = -c.amplitude * w**2 * np.sin(w * traj.t[k] + c.phase)
+    tau = od.inverse_dynamics(scene.model, traj.q[k], traj.qd[k], qdd_r)
+    np.testing.assert_allclose(traj.tau[k], tau, rtol=1e-5, atol=1e-5)
+
+
+def test_clip_limits_control_torque_to_effort_limits():
+    scene = od.scene_from_dict(
+        {
+            "robot": {"name": "ur5"},
+            "control": {"type": "constant", "tau": 1e6, "clip": True},
+            "run": {"duration": 0.05},
+        }
+    )
+    traj = od.simulate(scene)
+    np.testing.assert_allclose(traj.tau, np.broadcast_to(scene.model.effort_limit, traj.tau.shape))
+
+
+def test_armature_adds_to_the_mass_matrix_diagonal():
+    scene = _full_scene()
+    only = scene.without("gravity", "damping", "friction", "limits", "wrench", "control")
+    assert only.effects == ("armature",)
+    q, qd = np.array([0.4, -0.3]), np.array([1.0, 2.0])
+    qdd, _, _ = _evaluate(only, 0.0, q, qd)
+    M = od.mass_matrix(only.model, q) + np.diag(only.armature)
+    c = od.coriolis_forces(only.model, q, qd)
+    np.testing.assert_allclose(qdd, np.linalg.solve(M, -c), rtol=1e-12)
+
+
+def _reference(scene):
+    return od.simulate(scene.replace_run(integrator="dopri5", rtol=1e-12, atol=1e-12))
+
+
+@pytest.mark.parametrize(
+    "integrator, order",
+    [("euler", 1), ("semi_implicit_euler", 1), ("rk4", 4), ("implicit_euler", 1)],
+)
+def test_fixed_step_integrators_converge_at_their_order(integrator, order):
+    scene = od.load_scene("double_pendulum_swing").replace_run(duration=0.5, output_dt=0.01)
+    ref = _reference(scene)
+    errors = []
+    for dt in (2e-3, 1e-3):
+        traj = od.simulate(scene.replace_run(integrator=integrator, dt=dt))
+        errors.append(np.abs(traj.q[-1] - ref.q[-1]).max())
+    measured = np.log2(errors[0] / errors[1])
+    assert abs(measured - order) < 0.3, (errors, measured)
+
+
+def test_adaptive_integrator_meets_its_tolerance_and_reports_steps():
+    scene = od.load_scene("double_pendulum_swing").replace_run(duration=2.0)
+    ref = _reference(scene)
+    for rtol in (1e-5, 1e-8):
+        traj = od.simulate(scene.replace_run(integrator="dopri5", rtol=rtol, atol=rtol * 1e-2))
+        np.testing.assert_allclose(traj.t, ref.t, atol=1e-12)
+        # global error of a chaotic system: a few hundred times the local tolerance over 2 s
+        assert np.abs(traj.q - ref.q).max() < 1e3 * rtol
+        stats = traj.stats
+        assert stats["steps"] > 0 and stats["evaluations"] >= 6 * stats["steps"]
+    tight = od.simulate(scene.replace_run(integrator="dopri5", rtol=1e-10, atol=1e-12))
+    loose = od.simulate(scene.replace_run(integrator="dopri5", rtol=1e-5, atol=1e-7))
+    assert tight.stats["steps"] > 3 * loose.stats["steps"]
+
+
+def test_implicit_euler_is_stable_where_rk4_diverges():
+    scene = od.load_scene("planar_3r_limits")
+    assert scene.run.integrator == "implicit_euler"
+    stiff = od.simulate(scene)
+    assert stiff.complete and np.all(np.isfinite(stiff.q))
+    lim = scene.limits
+    assert np.all(stiff.q[-1] <= lim.upper + 1e-3) and np.all(stiff.q[-1] >= lim.lower - 1e-3)
+    with pytest.raises(SimulationError) as info:
+        od.simulate(scene.replace_run(integrator="rk4"))
+    message = str(info.value)
+    assert "joint-limit stiffness" in message and "implicit_euler" in message
+    partial = info.value.trajectory
+    assert not partial.complete
+    assert np.all(np.isfinite(partial.q)) and np.all(np.isfinite(partial.qd))
+    assert np.abs(partial.qd).max() <= scene.run.max_speed
+    assert 0 < partial.t[-1] < scene.run.duration
+    assert f"t = {partial.t[-1]:.6g} s" in message
+
+
+def test_singular_mass_matrix_stops_naming_the_joint_and_armature_fixes_it(tmp_path):
+    urdf = tmp_path / "massless.urdf"
+    urdf.write_text(
+        """<robot name="massless">
+  <link name="base"/>
+  <link name="arm"><inertial><mass value="1"/><origin xyz="0.5 0 0"/>
+    <inertia ixx="0.01" iyy="0.01" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial></link>
+  <link name="finger"/>
+  <joint name="shoulder" type="revolute"><parent link="base"/><child link="arm"/>
+    <axis xyz="0 1 0"/><limit lower="-3" upper="3" effort="10" velocity="5"/></joint>
+  <joint name="wrist" type="revolute"><parent link="arm"/><child link="finger"/>
+    <origin xyz="1 0 0"/><axis xyz="0 1 0"/>
+    <limit lower="-3" upper="3" effort="10" velocity="5"/></joint>
+</robot>"""
+    )
+    scene = od.default_scene(str(urdf), duration=0.1)
+    with pytest.raises(SimulationError, match="joint 'wrist'") as info:
+        od.simulate(scene)
+    assert "armature" in str(info.value)
+    assert not info.value.trajectory.complete
+    settings = dict(scene.settings, effects={"gravity": True, "armature": {"values": 1e-3}})
+    traj = od.simulate(od.scene_from_dict(settings))
+    assert traj.complete
+
+
+def test_ctrl_c_stops_the_run_and_keeps_the_record():
+    scene = ur5_scene(duration=600.0)
+    timer = threading.Timer(1.5, os.kill, (os.getpid(), signal.SIGINT))
+    timer.start()
+    try:
+        with pytest.raises(SimulationError, match="interrupted") as info:
+            od.simulate(scene)
+    finally:
+        timer.cancel()
+    partial = info.value.trajectory
+    assert not partial.complete and 0 < partial.t[-1] < 600
+    assert np.all(np.isfinite(partial.q))
+    # the record is consistent up to the stop: evenly sampled, no gap, and its energy balance
+    # holds to the RK4 error (relative to the energy's scale)
+    np.testing.assert_allclose(np.diff(partial.t), 1e-3, rtol=1e-6)
+    assert np.abs(partial.energy_error).max() < 1e-6 * np.abs(partial.energy).max()
+
+
+def test_trajectory_round_trips_with_provenance(tmp_path):
+    traj = od.simulate(od.load_scene("double_pendulum_push").replace_run(duration=1.5))
+    path = traj.save(tmp_path / "run.npz")
+    back = od.Trajectory.load(path)
+    for name in ("t", "q", "qd", "tau", "kinetic", "potential", "work_applied", "work_passive"):
+        np.testing.assert_array_equal(getattr(back, name), getattr(traj, name))
+    assert back.joint_names == traj.joint_names and back.complete
+    record = (tmp_path / "run.json").read_text()
+    for key in ("double pendulum push", "rk4", "numba", "wall_s", "wrench", "settings"):
+        assert key in record
+    csv = traj.to_csv(tmp_path / "run.csv")
+    header = csv.read_text().splitlines()[0].split(",")
+    assert header[:3] == ["t", "q_shoulder", "q_elbow"] and len(header) == 1 + 3 * 2 + 4
+    data = np.loadtxt(csv, delimiter=",", skiprows=1)
+    np.testing.assert_array_equal(data[:, 0], traj.t)
+    png = traj.plot(tmp_path / "run.png")
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_integrate_is_q_plus_v_dt():
+    model = od.load_urdf("double_pendulum")
+    np.testing.assert_allclose(od.integrate(model, [1.0, 2.0], [0.5, -1.0], 0.1), [1.05, 1.9])
+    with pytest.raises(ValueError, match="v must have shape"):
+        od.integrate(model, [1.0, 2.0], [0.5], 0.1)
