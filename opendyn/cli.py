@@ -1,17 +1,40 @@
-"""The `opendyn` command: `opendyn demo [ROBOT]` and `opendyn info ROBOT`."""
+"""The `opendyn` command.
+
+  opendyn simulate [SCENE | URDF | ROBOT]   run a scene (default: the bundled double pendulum)
+  opendyn info ROBOT                        model summary and URDF fidelity report
+  opendyn verify ROBOT                      every contract function against Pinocchio
+  opendyn demo [ROBOT]                      M(q), g(q) and forward dynamics at one state
+
+Exit status: 0 success, 1 a simulation that stopped early (its partial record is written) or a
+failed verification, 2 bad input (the message names the file, key or argument).
+"""
 
 from __future__ import annotations
 
 import argparse
+import copy
+import pathlib
 import sys
 import time
 
 import numpy as np
 
 from . import forward_dynamics, gravity_forces, inverse_dynamics, load_urdf, mass_matrix
+from .scene import (
+    DEFAULT_SCENE,
+    EFFECTS,
+    INTEGRATORS,
+    SceneError,
+    default_scene,
+    load_scene,
+    scene_from_dict,
+    shipped_scenes,
+)
 from .urdf import URDFError
 
 DEFAULT_ROBOT = "double_pendulum"
+# effects that `--enable` can switch on for any robot: their parameters come from the URDF
+ENABLE_FROM_URDF = {"gravity": True, "damping": {}, "friction": {}}
 
 
 def _demo(args) -> int:
@@ -48,9 +71,231 @@ def _info(args) -> int:
     return 0
 
 
+def _verify(args) -> int:
+    from .verify import PinocchioMissingError, format_table, verify
+
+    try:
+        model = load_urdf(args.robot, mimic=args.mimic, check_inertia=not args.keep_inertia)
+        checks = verify(model, states=args.states, seed=args.seed, rtol=args.rtol)
+    except PinocchioMissingError as e:
+        print(e, file=sys.stderr)
+        return 2
+    print(format_table(checks, model))
+    return 0 if all(c.passed for c in checks) else 1
+
+
+def scene_for(target):
+    """The scene a `simulate` target names: a scene file, a shipped scene's name, a URDF file or
+    a robot name (the robot's default scene: gravity only)."""
+    if target is None:
+        return load_scene(DEFAULT_SCENE)
+    path = pathlib.Path(target)
+    if path.suffix == ".toml" or target in shipped_scenes():
+        return load_scene(target)
+    return default_scene(target)
+
+
+def _with_effects(scene, enable, disable):
+    """The scene with `enable` switched on from the URDF's values and `disable` switched off."""
+    if enable:
+        settings = copy.deepcopy(scene.settings)
+        effects = settings.setdefault("effects", {})
+        for name in enable:
+            effects.setdefault(name, ENABLE_FROM_URDF[name])
+        if "robot" not in settings or scene.source.startswith("<"):
+            settings["robot"] = {"urdf": scene.model.source}
+        source = pathlib.Path(scene.source)
+        scene = scene_from_dict(
+            settings, source=scene.source, base_dir=source.parent if source.is_file() else None
+        )
+    return scene.without(*disable) if disable else scene
+
+
+def _simulate(args) -> int:
+    from .simulate import profile, simulate
+
+    scene = scene_for(args.target)
+    run = {
+        "duration": args.duration,
+        "dt": args.dt,
+        "integrator": args.integrator,
+        "rtol": args.rtol,
+        "atol": args.atol,
+        "output_dt": args.output_dt,
+    }
+    run = {k: v for k, v in run.items() if v is not None}
+    if run:
+        scene = scene.replace_run(**run)
+    scene = _with_effects(scene, args.enable, args.disable)
+    if not args.quiet:
+        print(_scene_header(scene))
+    traj = simulate(scene, progress=not args.quiet, raise_on_failure=False)
+    if not args.quiet or not traj.complete:
+        print(summary(scene, traj))
+    if args.profile:
+        print(profile(scene))
+    written = _write_outputs(scene, traj, args)
+    for path in written:
+        print(f"wrote {path}")
+    if not traj.complete:
+        print(f"opendyn simulate: {traj.message}", file=sys.stderr)
+        return 1
+    return 0
+
+
+def _write_outputs(scene, traj, args):
+    """Every output asked for; a run that stopped early is always written (to
+    NAME-partial.npz when no --output was given), marked partial in its record."""
+    written = []
+    output = args.output
+    if output is None and not traj.complete:
+        output = f"{_slug(scene.name)}-partial.npz"
+    if output is not None:
+        written.append(traj.save(output))
+        written.append(pathlib.Path(written[-1]).with_suffix(".json"))
+    if args.csv:
+        written.append(traj.to_csv(args.csv))
+    if args.plot:
+        written.append(traj.plot(args.plot))
+    if args.html or args.view:
+        from . import viz
+
+        if args.html:
+            written.append(viz.write_html(scene.model, traj.t, traj.q, args.html))
+        if args.view:
+            url = viz.view(scene.model, traj.t, traj.q, open_browser=True)
+            print(f"meshcat viewer at {url} (Ctrl-C to quit)")
+            _wait_for_interrupt()
+    return written
+
+
+def _wait_for_interrupt():
+    try:
+        while True:
+            time.sleep(1.0)
+    except KeyboardInterrupt:
+        pass
+
+
+def _slug(name):
+    return "".join(c if c.isalnum() or c in "-_" else "_" for c in name).strip("_") or "scene"
+
+
+def _scene_header(scene):
+    run = scene.run
+    step = (
+        f"rtol = {run.rtol:g}, atol = {run.atol:g}"
+        if run.integrator == "dopri5"
+        else f"dt = {run.dt:g} s"
+    )
+    effects = ", ".join(scene.effects) or "none (free motion)"
+    return (
+        f"scene       {scene.name} ({scene.source})\n"
+        f"robot       {scene.model.name}, nv = {scene.model.nv}\n"
+        f"effects     {effects}\n"
+        f"integrator  {run.integrator}, {step}, {run.duration:g} s"
+    )
+
+
+def summary(scene, traj):
+    """The run in a few lines: time, speed, steps, integrator statistics, energy."""
+    stats = traj.stats
+    wall = stats["wall_s"]
+    simulated = stats["simulated_s"]
+    factor = simulated / wall if wall > 0 else float("inf")
+    status = "complete" if traj.complete else "STOPPED EARLY (partial record)"
+    lines = [
+        f"run         {status}",
+        f"simulated   {simulated:.4g} s in {wall:.3g} s wall ({factor:.3g}x real time; "
+        f"{stats['kernel_load_s']:.2g} s more to load the compiled loop)",
+        f"steps       {stats['steps']} accepted, {stats['rejected_steps']} rejected, "
+        f"{stats['evaluations']} dynamics evaluations",
+    ]
+    if len(traj.t):
+        energy = traj.energy
+        error = np.abs(traj.energy_error)
+        scale = max(np.abs(energy).max(), traj.kinetic.max(), 1e-300)
+        conservative = not np.any(traj.work_applied) and not np.any(traj.work_passive)
+        if conservative:
+            lines.append(
+                f"energy      E(0) = {energy[0]:.6g} J, drift max |E - E(0)| = "
+                f"{error.max():.3g} J ({error.max() / scale:.2g} of max |E|)"
+            )
+        else:
+            lines.append(
+                f"energy      E(0) = {energy[0]:.6g} J, E(end) = {energy[-1]:.6g} J; work "
+                f"applied {traj.work_applied[-1]:.6g} J, passive {traj.work_passive[-1]:.6g} J"
+            )
+            lines.append(
+                f"balance     max |E - E(0) - W| = {error.max():.3g} J "
+                f"({error.max() / scale:.2g} of max |E|): the integration error"
+            )
+    return "\n".join(lines)
+
+
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(prog="opendyn", description=__doc__)
+    parser = argparse.ArgumentParser(
+        prog="opendyn",
+        description=__doc__.split("\n\n")[1] if __doc__ else None,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     sub = parser.add_subparsers(dest="command", required=True)
+
+    sim = sub.add_parser("simulate", help="run a scene, a URDF or a robot and report")
+    sim.add_argument(
+        "target",
+        nargs="?",
+        help=f"scene file (.toml), shipped scene ({', '.join(shipped_scenes())}), URDF file or "
+        f"robot name; default: {DEFAULT_SCENE}",
+    )
+    sim.add_argument("--duration", type=float, help="simulated time (s)")
+    sim.add_argument("--dt", type=float, help="step (s); the first trial step of dopri5")
+    sim.add_argument("--integrator", choices=INTEGRATORS)
+    sim.add_argument("--rtol", type=float, help="dopri5 relative tolerance")
+    sim.add_argument("--atol", type=float, help="dopri5 absolute tolerance")
+    sim.add_argument("--output-dt", type=float, help="sample interval of the record (s)")
+    sim.add_argument(
+        "--enable",
+        action="append",
+        default=[],
+        choices=sorted(ENABLE_FROM_URDF),
+        help="switch an effect on, with the URDF's values (repeatable)",
+    )
+    sim.add_argument(
+        "--disable",
+        action="append",
+        default=[],
+        choices=EFFECTS,
+        help="switch off an effect the scene names (repeatable)",
+    )
+    sim.add_argument("-o", "--output", help="trajectory .npz (and its .json provenance record)")
+    sim.add_argument("--csv", help="trajectory as CSV")
+    sim.add_argument("--plot", help="PNG of joint positions, velocities and energy")
+    sim.add_argument("--html", help="self-contained meshcat playback page (extra viz)")
+    sim.add_argument("--view", action="store_true", help="play in the meshcat viewer (extra viz)")
+    sim.add_argument("--profile", action="store_true", help="time each stage of the step")
+    sim.add_argument("-q", "--quiet", action="store_true", help="print only failures")
+    sim.set_defaults(run=_simulate)
+
+    info = sub.add_parser("info", help="model summary and URDF fidelity report")
+    info.add_argument("robot", help="URDF file or robot name")
+    info.add_argument("--mimic", action="store_true", help="couple mimic joints")
+    info.add_argument(
+        "--keep-inertia", action="store_true", help="keep physically invalid inertias as written"
+    )
+    info.set_defaults(run=_info)
+
+    verify = sub.add_parser("verify", help="compare every dynamics function with Pinocchio")
+    verify.add_argument("robot", help="URDF file or robot name")
+    verify.add_argument("--states", type=int, default=5, help="random states (default 5)")
+    verify.add_argument("--seed", type=int, default=0)
+    verify.add_argument("--rtol", type=float, default=1e-9, help="relative tolerance")
+    verify.add_argument("--mimic", action="store_true", help="couple mimic joints")
+    verify.add_argument(
+        "--keep-inertia", action="store_true", help="keep physically invalid inertias as written"
+    )
+    verify.set_defaults(run=_verify)
+
     demo = sub.add_parser("demo", help="print M(q), g(q) and forward dynamics for a robot")
     demo.add_argument(
         "robot",
@@ -59,20 +304,14 @@ def main(argv=None) -> int:
         help=f"URDF file or robot name (default: {DEFAULT_ROBOT})",
     )
     demo.set_defaults(run=_demo)
-    info = sub.add_parser("info", help="model summary and URDF fidelity report")
-    info.add_argument("robot", help="URDF file or robot name")
-    info.add_argument("--mimic", action="store_true", help="couple mimic joints")
-    info.add_argument(
-        "--keep-inertia", action="store_true", help="keep physically invalid inertias as written"
-    )
-    info.set_defaults(run=_info)
+
     args = parser.parse_args(argv)
     try:
         return args.run(args)
-    except (URDFError, ValueError, KeyError) as e:
+    except (URDFError, SceneError, ValueError, KeyError, ImportError, OSError) as e:
         hint = ""
-        if "check_inertia=False" in str(e) and args.command == "info":
-            hint = "\n(opendyn info --keep-inertia ROBOT loads it anyway)"
+        if "check_inertia=False" in str(e) and args.command in ("info", "verify"):
+            hint = f"\n(opendyn {args.command} --keep-inertia ROBOT loads it anyway)"
         print(f"opendyn {args.command}: {e}{hint}", file=sys.stderr)
         return 2
 

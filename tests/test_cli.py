@@ -47,3 +47,117 @@ def test_invalid_inertia_points_to_the_option_that_keeps_it(capsys):
     assert main(["info", "pr2"]) == 2
     assert "--keep-inertia" in capsys.readouterr().err
     assert main(["info", "--keep-inertia", "pr2"]) == 0
+
+
+def test_simulate_without_argument_runs_the_default_scene(capsys, tmp_path):
+    out_npz = tmp_path / "dp.npz"
+    assert main(["simulate", "-o", str(out_npz), "--plot", str(tmp_path / "dp.png")]) == 0
+    out = capsys.readouterr().out
+    assert "double pendulum" in out and "complete" in out
+    for key in (
+        "simulated   10 s",
+        "real time",
+        "10000 accepted",
+        "40000 dynamics evaluations",
+        "drift max |E - E(0)|",
+    ):
+        assert key in out
+    traj = od.Trajectory.load(out_npz)
+    assert traj.complete and traj.t[-1] == 10.0 and traj.q.shape == (1001, 2)
+    assert (tmp_path / "dp.json").exists() and (tmp_path / "dp.png").stat().st_size > 10_000
+
+
+def test_simulate_options_change_the_run(capsys, tmp_path):
+    csv = tmp_path / "run.csv"
+    args = [
+        "simulate",
+        "ur5_falling",
+        "--duration",
+        "0.5",
+        "--integrator",
+        "dopri5",
+        "--disable",
+        "damping",
+        "--csv",
+        str(csv),
+    ]
+    assert main(args) == 0
+    out = capsys.readouterr().out
+    assert "effects     gravity\n" in out and "dopri5, rtol = 1e-06" in out
+    assert "rejected" in out and len(csv.read_text().splitlines()) == 1 + 51
+
+
+def test_simulate_profile_prints_each_stage_cost(capsys):
+    assert main(["simulate", "double_pendulum_push", "--duration", "0.5", "--profile"]) == 0
+    out = capsys.readouterr().out
+    table = out[out.index("profile:") :]
+    for stage in (
+        "gravity",
+        "damping",
+        "wrench on tip",
+        "forward dynamics (ABA)",
+        "step (measured)",
+    ):
+        assert stage in table
+    assert "friction" not in table and "control" not in table
+
+
+def test_simulate_failure_writes_the_partial_record_and_exits_1(capsys, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    assert main(["simulate", "planar_3r_limits", "--integrator", "rk4"]) == 1
+    captured = capsys.readouterr()
+    assert "STOPPED EARLY" in captured.out
+    assert "t = 0.275 s (step 55)" in captured.err and "implicit_euler" in captured.err
+    (partial,) = tmp_path.glob("*-partial.npz")
+    traj = od.Trajectory.load(partial)
+    assert not traj.complete and "joint-limit stiffness" in traj.message
+    assert np.all(np.isfinite(traj.q)) and traj.t[-1] == 0.275
+
+
+def test_simulate_bad_input_is_exit_2_naming_the_problem(capsys, tmp_path):
+    bad = tmp_path / "bad.toml"
+    bad.write_text('[robot]\nname = "double_pendulum"\n[run]\nintegrater = "rk4"\n')
+    assert main(["simulate", str(bad)]) == 2
+    err = capsys.readouterr().err
+    assert "bad.toml" in err and "run.integrater" in err and "integrator" in err
+
+
+def test_ctrl_c_on_the_command_line_saves_the_partial_record(tmp_path):
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    out = tmp_path / "long.npz"
+    proc = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "opendyn.cli",
+            "simulate",
+            "ur5_falling",
+            "--duration",
+            "3600",
+            "-o",
+            str(out),
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    # wait for the run to start (the scene header is printed just before it), then interrupt
+    header = "".join(proc.stdout.readline() for _ in range(4))
+    assert "integrator" in header
+    time.sleep(3.0)
+    proc.send_signal(signal.SIGINT)
+    stdout, stderr = proc.communicate(timeout=60)
+    assert proc.returncode == 1, stderr
+    assert "interrupted (Ctrl-C)" in stderr
+    traj = od.Trajectory.load(out)
+    assert not traj.complete and 0 < traj.t[-1] < 3600
+
+
+def test_verify_prints_a_table_against_pinocchio(capsys):
+    assert main(["verify", "double_pendulum", "--states", "2"]) == 0
+    out = capsys.readouterr().out
+    assert "mass_matrix" in out and "forward_dynamics[aba]" in out and "PASS" in out
