@@ -88,10 +88,10 @@ def simulate(scene, *, progress=False, raise_on_failure=True):
     qd = np.array(scene.qd0, dtype=np.float64)
     w = np.zeros(2)
     counters = np.zeros(3, dtype=np.int64)  # evaluations, accepted, rejected (adaptive)
-    bar = _progress_bar(run.duration) if progress else None
     start = time.perf_counter()
     _load_kernels(scene, integ, table, q, qd, w, out, counters)
     load = time.perf_counter() - start
+    bar = _progress_bar(run.duration) if progress else None
     start = time.perf_counter()
     with _Interrupt() as stop:
         if integ.adaptive:
@@ -129,9 +129,11 @@ def simulate(scene, *, progress=False, raise_on_failure=True):
 
 
 def _load_kernels(scene, integ, table, q, qd, w, out, counters):
-    """Call the run's compiled loop for zero steps: numba loads it from its on-disk cache (or
-    compiles it, once per machine) here, so that the run's wall time is the simulation's."""
+    """Call the run's compiled loop for zero steps, and one evaluation (used for the first and
+    last samples): numba loads them from its on-disk cache (or compiles them, once per machine)
+    here, so that the run's wall time is the simulation's."""
     model = scene.model
+    _first_stage(scene, table, 0.0, q, qd, np.empty((2, model.nv)), np.empty(2), np.empty(model.nv))
     if integ.adaptive:
         integrators.run_adaptive(
             integ.A,
