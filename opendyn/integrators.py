@@ -114,15 +114,36 @@ def state_ok(q, qd, max_speed):
 
 @njit(**JIT)
 def rk_stages(
-    ibuf, fbuf, rows, params, method, armature, A, c, t, dt, q, qd, kq, kv, kw, qs, qds, v, tau
+    ibuf,
+    fbuf,
+    rows,
+    params,
+    method,
+    armature,
+    A,
+    c,
+    t,
+    dt,
+    q,
+    qd,
+    kq,
+    kv,
+    kw,
+    qs,
+    qds,
+    v,
+    first,
+    tau_stage,
+    tau,
 ):
-    """The s stages of an explicit Runge-Kutta step from (t, q, qd): stage i at
+    """Stages first..s-1 of an explicit Runge-Kutta step from (t, q, qd): stage i at
     q_i = q (+) dt sum_l A_il kq_l, qd_i = qd + dt sum_l A_il kv_l, kq_i = qd_i,
-    kv_i = qdd(t + c_i dt, q_i, qd_i), kw_i = power there. tau <- the control torque at stage 0.
+    kv_i = qdd(t + c_i dt, q_i, qd_i), kw_i = power there. first = 1 when stage 0 is already
+    in kq, kv, kw (FSAL). tau <- the control torque at stage tau_stage.
     Returns (status, evaluations)."""
     nv = qd.shape[0]
     stage_tau = np.empty(nv)
-    for i in range(A.shape[0]):
+    for i in range(first, A.shape[0]):
         for j in range(nv):
             dv = 0.0
             dq = 0.0
@@ -147,11 +168,11 @@ def rk_stages(
             stage_tau,
             kw[i],
         )
-        if i == 0:
+        if i == tau_stage:
             tau[:] = stage_tau
         if status:
-            return status, i + 1
-    return 0, A.shape[0]
+            return status, i - first + 1
+    return 0, A.shape[0] - first
 
 
 @njit(**JIT)
@@ -285,6 +306,8 @@ def run_fixed(
                 qs,
                 qds,
                 v,
+                0,
+                0,
                 tau,
             )
             counters[0] += evaluations
@@ -372,39 +395,34 @@ def run_adaptive(
         dt = t_out - t if last_before_output else h
         if dt <= 1e-14 * max(1.0, abs(t)):
             return STEP_UNDERFLOW, t, h, row
-        # stage 0 is the FSAL stage; stages 1..s-1 as in rk_stages
+        # stage 0 is the FSAL stage, evaluated at the end of the previous step
         kq[0] = k_first[0]
         kv[0] = k_first[1]
         kw[0] = power_first
-        status = 0
-        for i in range(1, s):
-            for j in range(nv):
-                dv = 0.0
-                dq = 0.0
-                for m in range(i):
-                    dq += A[i, m] * kq[m, j]
-                    dv += A[i, m] * kv[m, j]
-                v[j] = dq
-                qds[j] = qd[j] + dt * dv
-            integrate_kernel(ibuf, q, v, dt, qs)
-            kq[i] = qds
-            status = evaluate(
-                ibuf,
-                fbuf,
-                rows,
-                params,
-                method,
-                armature,
-                t + c[i] * dt,
-                qs,
-                qds,
-                kv[i],
-                stage_tau,
-                kw[i],
-            )
-            counters[0] += 1
-            if status:
-                break
+        status, evaluations = rk_stages(
+            ibuf,
+            fbuf,
+            rows,
+            params,
+            method,
+            armature,
+            A,
+            c,
+            t,
+            dt,
+            q,
+            qd,
+            kq,
+            kv,
+            kw,
+            qs,
+            qds,
+            v,
+            1,
+            s - 1,
+            stage_tau,
+        )
+        counters[0] += evaluations
         if status == 0:
             rk_combine(ibuf, b, dt, q, qd, w, kq, kv, kw, q1, qd1, w1, v)
             status = state_ok(q1, qd1, max_speed)

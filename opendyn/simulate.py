@@ -132,70 +132,86 @@ def _load_kernels(scene, integ, table, q, qd, w, out, counters):
     """Call the run's compiled loop for zero steps, and one evaluation (used for the first and
     last samples): numba loads them from its on-disk cache (or compiles them, once per machine)
     here, so that the run's wall time is the simulation's."""
-    model = scene.model
-    _first_stage(scene, table, 0.0, q, qd, np.empty((2, model.nv)), np.empty(2), np.empty(model.nv))
+    nv = scene.model.nv
+    first = (np.zeros((2, nv)), np.zeros(2), np.zeros(nv))
+    _first_stage(scene, table, 0.0, q, qd, *first)
     if integ.adaptive:
-        integrators.run_adaptive(
-            integ.A,
-            integ.b,
-            integ.c,
-            integ.e,
-            model._ibuf,
-            model._fbuf,
-            table.rows,
-            table.params,
-            table.method,
-            table.armature,
-            0.0,
-            0.0,
-            0.0,
-            scene.run.dt,
-            1.0,
-            1.0,
-            1.0,
-            1,
-            1.0,
-            q,
-            qd,
-            w,
-            np.zeros((2, model.nv)),
-            np.zeros(2),
-            np.zeros(model.nv),
-            out.t,
-            out.q,
-            out.qd,
-            out.tau,
-            out.w,
-            counters,
+        _adaptive_chunk(
+            scene, integ, table, 0.0, 0.0, scene.run.dt, 1, q, qd, w, first, out, counters
         )
     else:
-        integrators.run_fixed(
-            integ.kind,
-            integ.A,
-            integ.b,
-            integ.c,
-            model._ibuf,
-            model._fbuf,
-            table.rows,
-            table.params,
-            table.method,
-            table.armature,
-            0.0,
-            scene.run.dt,
-            0,
-            0,
-            1,
-            1.0,
-            q,
-            qd,
-            w,
-            out.t,
-            out.q,
-            out.qd,
-            out.tau,
-            out.w,
-            counters,
-        )
+        _fixed_chunk(scene, integ, table, 0, 0, 1, q, qd, w, out, counters)
+
+
+def _fixed_chunk(scene, integ, table, step0, nsteps, every, q, qd, w, out, counters):
+    """integrators.run_fixed on the run's arrays: up to nsteps steps from global step step0,
+    recording every `every`-th. Returns (status, steps done)."""
+    model, run = scene.model, scene.run
+    return integrators.run_fixed(
+        integ.kind,
+        integ.A,
+        integ.b,
+        integ.c,
+        model._ibuf,
+        model._fbuf,
+        table.rows,
+        table.params,
+        table.method,
+        table.armature,
+        0.0,
+        run.dt,
+        step0,
+        nsteps,
+        every,
+        run.max_speed,
+        q,
+        qd,
+        w,
+        out.t,
+        out.q,
+        out.qd,
+        out.tau,
+        out.w,
+        counters,
+    )
+
+
+def _adaptive_chunk(scene, integ, table, t, t_stop, h, row, q, qd, w, first, out, counters):
+    """integrators.run_adaptive on the run's arrays from t to t_stop, first step h, next
+    output row `row`; first = (k_first, power_first, tau_first), the FSAL stage.
+    Returns (status, t, h, row)."""
+    model, run = scene.model, scene.run
+    return integrators.run_adaptive(
+        integ.A,
+        integ.b,
+        integ.c,
+        integ.e,
+        model._ibuf,
+        model._fbuf,
+        table.rows,
+        table.params,
+        table.method,
+        table.armature,
+        t,
+        t_stop,
+        run.duration,
+        h,
+        run.rtol,
+        run.atol,
+        run.output_dt,
+        row,
+        run.max_speed,
+        q,
+        qd,
+        w,
+        *first,
+        out.t,
+        out.q,
+        out.qd,
+        out.tau,
+        out.w,
+        counters,
+    )
 
 
 class _Samples:
@@ -235,38 +251,11 @@ def _chunk_steps(steps, seconds, current):
 def _run_fixed(scene, integ, table, nsteps, every, q, qd, w, out, counters, bar, stop):
     """Fixed steps in compiled chunks. Returns (status, time reached)."""
     run = scene.run
-    model = scene.model
     done, chunk = 0, _FIRST_CHUNK
     while done < nsteps:
         n = min(chunk, nsteps - done)
         tic = time.perf_counter()
-        status, steps = integrators.run_fixed(
-            integ.kind,
-            integ.A,
-            integ.b,
-            integ.c,
-            model._ibuf,
-            model._fbuf,
-            table.rows,
-            table.params,
-            table.method,
-            table.armature,
-            0.0,
-            run.dt,
-            done,
-            n,
-            every,
-            run.max_speed,
-            q,
-            qd,
-            w,
-            out.t,
-            out.q,
-            out.qd,
-            out.tau,
-            out.w,
-            counters,
-        )
+        status, steps = _fixed_chunk(scene, integ, table, done, n, every, q, qd, w, out, counters)
         done += steps
         out.filled = (done - 1) // every + 1 if done else 0
         if bar is not None:
@@ -287,14 +276,12 @@ def _run_adaptive(scene, integ, table, q, qd, w, out, counters, bar, stop):
     run = scene.run
     model = scene.model
     nv = model.nv
-    k_first = np.empty((2, nv))
-    power_first = np.empty(2)
-    tau_first = np.empty(nv)
-    status = _first_stage(scene, table, 0.0, q, qd, k_first, power_first, tau_first)
+    first = (np.empty((2, nv)), np.empty(2), np.empty(nv))  # the FSAL stage: k, power, tau
+    status = _first_stage(scene, table, 0.0, q, qd, *first)
     counters[0] += 1
     if status:
         return status, 0.0
-    out.t[0], out.q[0], out.qd[0], out.tau[0], out.w[0] = 0.0, q, qd, tau_first, w
+    out.t[0], out.q[0], out.qd[0], out.tau[0], out.w[0] = 0.0, q, qd, first[2], w
     out.filled = 1
     t, h, row = 0.0, run.dt, 1
     span = max(run.output_dt, run.duration / 1000)
@@ -302,38 +289,8 @@ def _run_adaptive(scene, integ, table, q, qd, w, out, counters, bar, stop):
         t_stop = min(run.duration, t + span)
         tic = time.perf_counter()
         t_before = t
-        status, t, h, row = integrators.run_adaptive(
-            integ.A,
-            integ.b,
-            integ.c,
-            integ.e,
-            model._ibuf,
-            model._fbuf,
-            table.rows,
-            table.params,
-            table.method,
-            table.armature,
-            t,
-            t_stop,
-            run.duration,
-            h,
-            run.rtol,
-            run.atol,
-            run.output_dt,
-            row,
-            run.max_speed,
-            q,
-            qd,
-            w,
-            k_first,
-            power_first,
-            tau_first,
-            out.t,
-            out.q,
-            out.qd,
-            out.tau,
-            out.w,
-            counters,
+        status, t, h, row = _adaptive_chunk(
+            scene, integ, table, t, t_stop, h, row, q, qd, w, first, out, counters
         )
         out.filled = row
         if bar is not None:

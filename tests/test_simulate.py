@@ -17,8 +17,8 @@ import numpy as np
 import pytest
 
 import opendyn as od
-from opendyn import effects, integrators, step
-from opendyn.simulate import SimulationError
+from opendyn import effects, integrators
+from opendyn.simulate import SimulationError, _first_stage, _fixed_chunk, _Samples
 
 pin = pytest.importorskip("pinocchio")
 from pin_adapter import PinOracle  # noqa: E402
@@ -137,44 +137,24 @@ def test_disabled_effect_never_runs(effect):
     stop = table_full.rows[k + 1, 1] if k + 1 < len(table_full.rows) else None
     poisoned = table_full.params.copy()
     poisoned[start:stop] = np.nan
-    rows = np.delete(table_full.rows, k, axis=0)
-    model = full.model
-
-    def run(rows, params):
-        q, qd, w = full.q0.copy(), full.qd0.copy(), np.zeros(2)
-        out = [np.zeros((501, n)) for n in (1, 2, 2, 2, 2)]
-        integ = integrators.INTEGRATORS["rk4"]
-        status, steps = integrators.run_fixed(
-            integ.kind,
-            integ.A,
-            integ.b,
-            integ.c,
-            model._ibuf,
-            model._fbuf,
-            rows,
-            params,
-            table_full.method,
-            table_full.armature,
-            0.0,
-            1e-3,
-            0,
-            500,
-            1,
-            1e4,
-            q,
-            qd,
-            w,
-            out[0][:, 0],
-            out[1],
-            out[2],
-            out[3],
-            out[4],
-            np.zeros(3, dtype=np.int64),
-        )
-        assert status == 0 and steps == 500
-        return q, qd
-
-    q_poisoned, qd_poisoned = run(rows, poisoned)
+    table_poisoned = dataclasses.replace(
+        table_full, rows=np.delete(table_full.rows, k, axis=0), params=poisoned
+    )
+    q_poisoned, qd_poisoned, w = full.q0.copy(), full.qd0.copy(), np.zeros(2)
+    status, steps = _fixed_chunk(
+        full,
+        integrators.INTEGRATORS["rk4"],
+        table_poisoned,
+        0,
+        500,
+        1,
+        q_poisoned,
+        qd_poisoned,
+        w,
+        _Samples(501, full.model.nq, full.model.nv),
+        np.zeros(3, dtype=np.int64),
+    )
+    assert status == 0 and steps == 500
     traj_off = od.simulate(off)
     assert np.all(np.isfinite(q_poisoned))
     np.testing.assert_allclose(q_poisoned, traj_off.q[-1], rtol=0, atol=1e-12)
@@ -182,25 +162,11 @@ def test_disabled_effect_never_runs(effect):
 
 
 def _evaluate(scene, t, q, qd):
-    table = effects.stage_table(scene)
-    model = scene.model
-    qdd, tau_ctrl, power = np.empty(model.nv), np.empty(model.nv), np.empty(2)
-    status = step.evaluate(
-        model._ibuf,
-        model._fbuf,
-        table.rows,
-        table.params,
-        table.method,
-        table.armature,
-        t,
-        q,
-        qd,
-        qdd,
-        tau_ctrl,
-        power,
-    )
-    assert status == 0
-    return qdd, tau_ctrl, power
+    """(qdd, control torque, (applied, passive) power) of the scene's step at one state."""
+    nv = scene.model.nv
+    k, power, tau_ctrl = np.empty((2, nv)), np.empty(2), np.empty(nv)
+    assert _first_stage(scene, effects.stage_table(scene), t, q, qd, k, power, tau_ctrl) == 0
+    return k[1], tau_ctrl, power
 
 
 def test_each_effect_is_its_stated_generalized_force():
