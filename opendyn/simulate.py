@@ -501,14 +501,15 @@ def _stiffness_cause(scene, q):
     )
 
 
-def profile(scene, *, steps=2000, evaluations=20000):
-    """What each stage of the scene's step costs, as a text table.
+def stage_costs(scene, *, steps=2000, evaluations=20000):
+    """What each stage of the scene's step costs: a list of (name, us per call, us per step).
 
     The whole loop is timed on up to `steps` steps of the scene (best of three runs after a
     warm-up); then each stage alone, forward dynamics alone and the whole evaluation are timed
     (best of three) in a compiled loop over the states of that run, repeated to about
-    `evaluations` calls. Per step = per call x
-    the integrator's evaluations per step; the rest of the step is the integrator itself.
+    `evaluations` calls. Per step = per call x the integrator's evaluations per step; the last
+    two rows are the rest of the step (the integrator itself, or the implicit solve) and the
+    measured step, with no per-call time (None).
     """
     run = scene.run
     if not integrators.INTEGRATORS[run.integrator].adaptive:
@@ -536,32 +537,35 @@ def profile(scene, *, steps=2000, evaluations=20000):
             tic = time.perf_counter()
             step.stage_cost_kernel(*args, table.armature, which, t, q, qd)
             best = min(best, time.perf_counter() - tic)
-        return best / len(t)
+        return best / len(t) * 1e6
 
     implicit = run.integrator == "implicit_euler"
-    lines = [
-        f"profile: {scene.name}, {run.integrator}, {n_steps} steps, "
-        f"{evals_per_step:.3g} evaluations per step",
-        f"{'stage':<34}{'us/call':>10}{'us/step':>10}{'share':>8}",
-    ]
-
-    def line(name, seconds, calls_per_step):
-        us = seconds * 1e6
-        lines.append(
-            f"{name:<34}{us:>10.3f}{us * calls_per_step:>10.3f}"
-            f"{seconds * calls_per_step / per_step:>8.0%}"
-        )
-
-    for s, name in enumerate(table.names):
-        line(name, cost(s), evals_per_step)
+    rows = [(name, cost(s)) for s, name in enumerate(table.names)]
     if not implicit:
         dynamics = "forward dynamics (ABA" if table.method == 0 else "forward dynamics (CRBA"
         dynamics += ", with armature)" if scene.armature is not None else ")"
-        line(dynamics, cost(-1), evals_per_step)
-    evaluation = cost(-2) if not implicit else 0.0
-    line("whole evaluation" if not implicit else "stages", evaluation, evals_per_step)
-    rest = per_step - evaluation * evals_per_step
+        rows.append((dynamics, cost(-1)))
+    # the implicit step runs the stages and then its own solve; the others a whole evaluation
+    evaluation = sum(us for _, us in rows) if implicit else cost(-2)
+    rows.append(("stages" if implicit else "whole evaluation", evaluation))
+    costs = [(name, us, us * evals_per_step) for name, us in rows]
+    per_step_us = per_step * 1e6
     rest_name = "implicit solve + integrator" if implicit else "integrator and loop"
-    lines.append(f"{rest_name:<34}{'':>10}{rest * 1e6:>10.3f}{rest / per_step:>8.0%}")
-    lines.append(f"{'step (measured)':<34}{'':>10}{per_step * 1e6:>10.3f}{1:>8.0%}")
+    costs.append((rest_name, None, per_step_us - evaluation * evals_per_step))
+    costs.append(("step (measured)", None, per_step_us))
+    return costs, n_steps, evals_per_step
+
+
+def profile(scene, *, steps=2000, evaluations=20000):
+    """stage_costs(scene) as a text table: us per call, us per step and share of the step."""
+    costs, n_steps, evals_per_step = stage_costs(scene, steps=steps, evaluations=evaluations)
+    per_step = costs[-1][2]
+    lines = [
+        f"profile: {scene.name}, {scene.run.integrator}, {n_steps} steps, "
+        f"{evals_per_step:.3g} evaluations per step",
+        f"{'stage':<34}{'us/call':>10}{'us/step':>10}{'share':>8}",
+    ]
+    for name, per_call, step_us in costs:
+        call = f"{per_call:>10.3f}" if per_call is not None else f"{'':>10}"
+        lines.append(f"{name:<34}{call}{step_us:>10.3f}{step_us / per_step:>8.0%}")
     return "\n".join(lines)

@@ -1,0 +1,679 @@
+"""What accuracy costs in time: integrators and steps, forward-dynamics algorithms, effects.
+
+    python scripts/accuracy_vs_time.py             # the full study (about 10 min on 2 cores)
+    python scripts/accuracy_vs_time.py --quick     # the same pipeline on small sweeps (< 2 min)
+
+1. Integrators. Each scene runs with every integrator over a sweep of steps (tolerances for the
+   adaptive dopri5). The error of a run is max_j |q_j - q_ref,j| (rad or m) at the final time and
+   the maximum over the recorded samples, against a reference run: dopri5 at rtol = atol = 1e-12,
+   whose own error is bounded by its distance to dopri5 at 1e-11 (a run ten times less accurate).
+   Reported with it: the energy error max_t |E - E(0) - W_applied - W_passive| (the drift, on a
+   conservative scene), the dynamics evaluations and the wall time (best of a few runs, kernels
+   loaded). The convergence order is the slope of log(final error) against log(step) (against
+   log(rtol) for dopri5) over the four smallest steps whose error lies between 100x the
+   reference's and 0.1.
+2. Algorithms. Forward dynamics by ABA, CRBA + Cholesky and n RNEA calls + Cholesky (the seed's
+   method) on random serial chains of n links: time per call inside a compiled loop (what a
+   simulation step pays), time per call of od.forward_dynamics and of Pinocchio's aba from
+   Python, and the growth exponent p of time ~ n^p. Then accuracy as M(q) becomes
+   ill-conditioned: the residual ||M qdd + h - tau|| / ||tau|| on chains whose links alternate
+   between 1 kg and a lighter mass.
+3. Effects. The cost of every stage of the step (as `opendyn simulate --profile` reports it) on
+   scenes that switch every effect on.
+
+Writes into --out (default docs/study): accuracy_vs_time.png (error against wall time, one curve
+per integrator: the Pareto plot), convergence.png (error against step), algorithms.png, study.md
+(every table) and study.json (every number).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import pathlib
+import sys
+import time
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+from tqdm import tqdm  # noqa: E402
+
+import opendyn as od  # noqa: E402
+from opendyn import effects, step  # noqa: E402
+from opendyn.dynamics.forward import METHODS, NO_ARMATURE  # noqa: E402
+from opendyn.simulate import stage_costs  # noqa: E402
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "tests"))
+from randtree import random_tree_urdf  # noqa: E402
+
+OUTPUT_DT = 0.02  # s: every fixed step below divides it, so all runs share the sample times
+FIXED = ("euler", "semi_implicit_euler", "implicit_euler", "rk4")
+LABEL = {
+    "euler": "explicit Euler",
+    "semi_implicit_euler": "semi-implicit Euler",
+    "implicit_euler": "implicit Euler",
+    "rk4": "RK4",
+    "dopri5": "DOPRI5 (adaptive)",
+}
+STEPS = {
+    "full": {
+        "first_order": [1e-2, 5e-3, 2e-3, 1e-3, 5e-4, 2e-4, 1e-4, 5e-5, 2e-5, 1e-5],
+        "rk4": [2e-2, 1e-2, 5e-3, 2e-3, 1e-3, 5e-4, 2e-4, 1e-4],
+        "dopri5": [1e-2, 1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10],
+    },
+    "quick": {
+        "first_order": [1e-2, 2e-3, 5e-4, 1e-4],
+        "rk4": [1e-2, 5e-3, 2e-3, 1e-3],
+        "dopri5": [1e-3, 1e-5, 1e-7, 1e-9],
+    },
+}
+# (key, shipped scene, title, conservative, duration full, duration quick)
+SCENES = [
+    ("double_pendulum", "double_pendulum_swing", "double pendulum (chaotic)", True, 3.0, 1.0),
+    ("ur5", "ur5_falling", "UR5 falling (gravity, damping)", False, 2.0, 0.5),
+    ("panda", "panda_computed_torque", "Panda (computed torque, friction)", False, 2.0, 0.5),
+    ("limits", "planar_3r_limits", "planar 3R on stiff limits (k = 1e5)", False, 2.0, 0.5),
+]
+REFERENCE_TOL, CHECK_TOL = 1e-12, 1e-11
+TARGETS = (1e-2, 1e-4, 1e-6, 1e-8)  # rad: max error over the run, for the recommendations
+
+
+# ---------------------------------------------------------------- 1. integrators
+
+
+def timed_run(scene, repeats):
+    """The trajectory of `scene` and its best wall time (s) over `repeats` runs (one when the
+    first takes longer than a second)."""
+    traj = od.simulate(scene, raise_on_failure=False)
+    wall = traj.stats["wall_s"]
+    for _ in range(repeats - 1):
+        if wall > 1.0:
+            break
+        wall = min(wall, od.simulate(scene, raise_on_failure=False).stats["wall_s"])
+    return traj, wall
+
+
+def state_error(traj, ref):
+    """(final, max over samples) of max_j |q_j - q_ref,j| on the shared sample times."""
+    n = min(len(traj.t), len(ref.t))
+    assert np.allclose(traj.t[:n], ref.t[:n], atol=1e-9), "sample times differ"
+    err = np.max(np.abs(traj.q[:n] - ref.q[:n]), axis=1)
+    return float(err[-1]), float(err.max())
+
+
+def fit_order(x, err, floor):
+    """Slope of log(err) against log(x) over the (up to) four smallest x whose error lies in
+    100 floor < err < 0.1 (the asymptotic range, clear of the reference's own error), or None
+    when fewer than three points lie there."""
+    x, err = np.asarray(x, float), np.asarray(err, float)
+    keep = np.flatnonzero(np.isfinite(err) & (err > 100 * floor) & (err < 0.1))
+    keep = keep[np.argsort(x[keep])][:4]
+    if len(keep) < 3:
+        return None
+    return float(np.polyfit(np.log(x[keep]), np.log(err[keep]), 1)[0])
+
+
+def integrator_study(mode, repeats):
+    """Every scene x integrator x step: errors, energy error, evaluations, wall time."""
+    results = []
+    sweeps = STEPS[mode]
+    for key, shipped, title, conservative, full_T, quick_T in SCENES:
+        duration = full_T if mode == "full" else quick_T
+        base = od.load_scene(shipped).replace_run(duration=duration, output_dt=OUTPUT_DT)
+        ref = od.simulate(
+            base.replace_run(integrator="dopri5", rtol=REFERENCE_TOL, atol=REFERENCE_TOL)
+        )
+        check = od.simulate(base.replace_run(integrator="dopri5", rtol=CHECK_TOL, atol=CHECK_TOL))
+        ref_bound = state_error(check, ref)[1]
+        runs = []
+        plan = [(name, dt) for name in FIXED for dt in sweeps[_sweep(name)]]
+        plan += [("dopri5", tol) for tol in sweeps["dopri5"]]
+        for name, x in tqdm(plan, desc=title, leave=False):
+            settings = dict(integrator=name)
+            settings.update(dt=x) if name != "dopri5" else settings.update(rtol=x, atol=x)
+            traj, wall = timed_run(base.replace_run(**settings), repeats)
+            row = dict(integrator=name, step=x, wall_s=wall, complete=traj.complete)
+            row.update(evaluations=int(traj.stats["evaluations"]), steps=int(traj.stats["steps"]))
+            if traj.complete:
+                final, worst = state_error(traj, ref)
+                energy = float(np.max(np.abs(traj.energy_error)))
+                row.update(error_final=final, error_max=worst, energy_error=energy)
+            else:
+                row.update(failed_at=float(traj.t[-1]) if len(traj.t) else 0.0)
+            runs.append(row)
+        orders = {}
+        for name in LABEL:
+            done = [r for r in runs if r["integrator"] == name and r["complete"]]
+            orders[name] = fit_order(
+                [r["step"] for r in done], [r["error_final"] for r in done], ref_bound
+            )
+        results.append(
+            dict(
+                key=key,
+                scene=shipped,
+                title=title,
+                conservative=conservative,
+                duration=duration,
+                reference=dict(
+                    rtol=REFERENCE_TOL,
+                    error_bound=ref_bound,
+                    steps=int(ref.stats["steps"]),
+                    energy_error=float(np.max(np.abs(ref.energy_error))),
+                ),
+                runs=runs,
+                orders=orders,
+                pareto=pareto_front(runs),
+                recommendations=recommend(runs),
+            )
+        )
+    return results
+
+
+def _sweep(integrator):
+    return "rk4" if integrator == "rk4" else "first_order"
+
+
+def pareto_front(runs):
+    """The runs that no other run beats on both wall time and max error, fastest first."""
+    done = sorted((r for r in runs if r["complete"]), key=lambda r: (r["wall_s"], r["error_max"]))
+    front, best = [], np.inf
+    for r in done:
+        if r["error_max"] < best:
+            front.append(r)
+            best = r["error_max"]
+    return front
+
+
+def recommend(runs):
+    """For each target max error: the fastest run that meets it (None when none does)."""
+    out = {}
+    for target in TARGETS:
+        ok = [r for r in runs if r["complete"] and r["error_max"] <= target]
+        out[target] = min(ok, key=lambda r: r["wall_s"]) if ok else None
+    return out
+
+
+# ---------------------------------------------------------------- 2. algorithms
+
+
+def chain_model(n, tmp):
+    """A random serial chain of n moving joints (revolute, continuous, prismatic; random axes,
+    offsets and inertias): the seeded generator of the test suite."""
+    path = tmp / f"chain_{n}.urdf"
+    path.write_text(
+        random_tree_urdf(
+            1000 + n,
+            n_links=n + 1,
+            root_branches=1,
+            p_chain=1.0,
+            p_fixed=0.0,
+            p_massless=0.0,
+            n_flanges=1,
+        )
+    )
+    return od.load_urdf(path), path
+
+
+def kernel_time(model, method, q, qd, budget):
+    """Seconds per forward-dynamics call of `method` inside a compiled loop over the states
+    (q, qd): the stage-cost loop of the simulation step, with no stage rows and zero torque."""
+    table = effects.StageTable(
+        rows=np.zeros((0, 5), np.int64),
+        params=np.zeros(0),
+        names=(),
+        method=METHODS.index(method),
+        armature=NO_ARMATURE,
+    )
+    args = (model._ibuf, model._fbuf, table.rows, table.params, table.method, table.armature, -1)
+    t = np.zeros(len(q))
+    step.stage_cost_kernel(*args, t[:1], q[:1], qd[:1])
+    tic = time.perf_counter()
+    step.stage_cost_kernel(*args, t[:1], q[:1], qd[:1])
+    once = max(time.perf_counter() - tic, 1e-7)
+    calls = int(np.clip(budget / once, 1, len(q)))
+    best = np.inf
+    for _ in range(3):
+        tic = time.perf_counter()
+        step.stage_cost_kernel(*args, t[:calls], q[:calls], qd[:calls])
+        best = min(best, (time.perf_counter() - tic) / calls)
+    return best
+
+
+def python_call_time(fn, states, budget):
+    """Seconds per call of fn(*state) from Python, best of three passes over the states."""
+    fn(*states[0])
+    tic = time.perf_counter()
+    fn(*states[0])
+    calls = int(np.clip(budget / max(time.perf_counter() - tic, 1e-7), 1, len(states)))
+    best = np.inf
+    for _ in range(3):
+        tic = time.perf_counter()
+        for s in states[:calls]:
+            fn(*s)
+        best = min(best, (time.perf_counter() - tic) / calls)
+    return best
+
+
+def pinocchio_aba(path, model):
+    """fn(q, qd, tau) -> Pinocchio's aba on the same URDF, states converted, or None without
+    Pinocchio."""
+    try:
+        from opendyn.verify import PinocchioOracle
+    except ImportError:
+        return None
+    try:
+        oracle = PinocchioOracle(str(path), model)
+    except ImportError:
+        return None
+    import pinocchio as pin
+
+    def fn(q, qd, tau):
+        return pin.aba(oracle.model, oracle.data, q, qd, tau)
+
+    return fn, oracle
+
+
+def growth_exponent(n, t, n_min):
+    n, t = np.asarray(n, float), np.asarray(t, float)
+    keep = n >= n_min
+    return float(np.polyfit(np.log(n[keep]), np.log(t[keep]), 1)[0])
+
+
+def algorithm_study(mode, tmp):
+    sizes = [2, 3, 5, 7, 10, 15, 20, 30, 50, 70, 100, 150, 200] if mode == "full" else [2, 10, 50]
+    budget = 0.2 if mode == "full" else 0.01
+    rng = np.random.default_rng(0)
+    rows = []
+    for n in tqdm(sizes, desc="chains", leave=False):
+        model, path = chain_model(n, tmp)
+        q = rng.uniform(-1.0, 1.0, (2000, n))
+        qd = rng.normal(size=(2000, n))
+        tau = rng.normal(size=(2000, n))
+        row = dict(n=n)
+        for method in METHODS:
+            row[f"{method}_kernel_us"] = kernel_time(model, method, q, qd, budget) * 1e6
+        states = list(zip(q[:500], qd[:500], tau[:500]))
+        row["aba_public_us"] = (
+            python_call_time(
+                lambda q_, qd_, tau_: od.forward_dynamics(model, q_, qd_, tau_), states, budget
+            )
+            * 1e6
+        )
+        pin_fn = pinocchio_aba(path, model)
+        if pin_fn is not None:
+            fn, oracle = pin_fn
+            pin_states = [(oracle.q(a), oracle.v(b), oracle.v(c)) for a, b, c in states]
+            row["pinocchio_aba_us"] = python_call_time(fn, pin_states, budget) * 1e6
+        rows.append(row)
+    n_min = 20 if mode == "full" else 10
+    exponents = {
+        m: growth_exponent([r["n"] for r in rows], [r[f"{m}_kernel_us"] for r in rows], n_min)
+        for m in METHODS
+    }
+    return dict(chains=rows, exponents=exponents, fit_from_n=n_min)
+
+
+AXES = ("0 0 1", "0 1 0", "1 0 0")
+STATES = 20  # random states per conditioning level
+
+
+def ratio_chain_urdf(n, light):
+    """A serial chain of n revolute joints (axes alternating z, y, x; links 0.3 m along x) whose
+    links alternate between 1 kg and `light` kg, each a slender rod of its mass."""
+    parts = ['<?xml version="1.0"?>\n<robot name="mass_ratio_chain">\n<link name="base"/>\n']
+    parent = "base"
+    for k in range(n):
+        m = 1.0 if k % 2 == 0 else light
+        i_rod = m * 0.3**2 / 12.0  # slender rod about its centre, m L^2 / 12
+        i_axis = m * 1e-4
+        parts.append(
+            f'<link name="l{k}"><inertial><origin xyz="0.15 0 0"/><mass value="{m!r}"/>'
+            f'<inertia ixx="{i_axis!r}" ixy="0" ixz="0" iyy="{i_rod!r}" iyz="0" '
+            f'izz="{i_rod!r}"/></inertial></link>\n'
+            f'<joint name="j{k}" type="revolute"><parent link="{parent}"/>'
+            f'<child link="l{k}"/><origin xyz="{0.3 if k else 0.0} 0 0"/>'
+            f'<axis xyz="{AXES[k % 3]}"/>'
+            f'<limit lower="-3" upper="3" effort="10" velocity="10"/></joint>\n'
+        )
+        parent = f"l{k}"
+    parts.append("</robot>\n")
+    return "".join(parts)
+
+
+def conditioning_study(mode, tmp):
+    """Residual ||M qdd + h - tau|| / ||tau|| of each method as cond(M) grows."""
+    n = 8
+    lights = [1.0, 1e-2, 1e-4, 1e-6, 1e-8, 1e-10, 1e-12]
+    if mode == "quick":
+        lights = lights[::2]
+    rng = np.random.default_rng(1)
+    rows = []
+    for light in lights:
+        path = tmp / f"ratio_{light:g}.urdf"
+        path.write_text(ratio_chain_urdf(n, light))
+        model = od.load_urdf(path, check_inertia=False)
+        conds, residuals = [], {m: [] for m in METHODS}
+        singular = {m: 0 for m in METHODS}
+        for _ in range(STATES):
+            q, qd, tau = rng.uniform(-1, 1, n), rng.normal(size=n), rng.normal(size=n)
+            M = od.mass_matrix(model, q)
+            h = od.bias_forces(model, q, qd)
+            conds.append(np.linalg.cond(M))
+            for m in METHODS:
+                try:
+                    qdd = od.forward_dynamics(model, q, qd, tau, method=m)
+                except od.SingularMassMatrixError:
+                    singular[m] += 1
+                    continue
+                residuals[m].append(np.linalg.norm(M @ qdd + h - tau) / np.linalg.norm(tau))
+        row = dict(light_kg=light, cond_median=float(np.median(conds)))
+        for m in METHODS:
+            row[f"{m}_residual_max"] = float(max(residuals[m])) if residuals[m] else None
+            row[f"{m}_singular"] = singular[m]
+        rows.append(row)
+    return rows
+
+
+# ---------------------------------------------------------------- 3. effects
+
+
+def effect_scenes():
+    """Scenes that switch every effect on: the double pendulum, the UR5 and the Panda."""
+    common = {
+        "run": {"duration": 1.0, "dt": 1e-3},
+        "effects": {
+            "gravity": True,
+            "damping": {"coefficients": 0.1},
+            "friction": {"coefficients": 0.2, "smoothing": 0.01},
+            "armature": {"values": 0.01},
+            "limits": {"stiffness": 1e4, "damping": 10.0},
+        },
+    }
+    robots = [
+        ("double pendulum", {"urdf": str(ROOT / "robots" / "double_pendulum.urdf")}, "tip"),
+        ("UR5", {"name": "ur5"}, "tool0"),
+        ("Panda", {"name": "panda"}, "panda_hand"),
+    ]
+    scenes = []
+    for title, robot, frame in robots:
+        for control in ({"type": "pd", "kp": 50.0, "kd": 5.0}, {"type": "computed_torque"}):
+            data = json.loads(json.dumps(common))
+            data["robot"] = robot
+            data["effects"]["wrench"] = [{"frame": frame, "value": [0, 0, 0.1, 0, 0, -5.0]}]
+            data["control"] = dict(control, clip=True)
+            if control["type"] == "computed_torque":
+                data["control"].update(kp=100.0, kd=20.0, amplitude=0.2)
+            scenes.append((title, od.scene_from_dict(data, source=f"<{title} study>")))
+    return scenes
+
+
+def effect_study(mode):
+    evaluations = 20000 if mode == "full" else 4000
+    out = {}
+    for title, scene in tqdm(effect_scenes(), desc="effects", leave=False):
+        costs, _, evals_per_step = stage_costs(scene, steps=1000, evaluations=evaluations)
+        table = out.setdefault(title, {"evaluations_per_step": evals_per_step})
+        for name, per_call, per_step in costs:
+            if name.startswith("wrench on "):
+                name = "wrench"  # one applied wrench, at the robot's tool frame
+            elif name in ("step (measured)", "whole evaluation"):
+                name = f"{name}, {scene.control.kind.replace('_', ' ')}"
+            elif name == "integrator and loop":
+                continue  # the difference of two timings: left to --profile
+            table.setdefault(name, dict(per_call_us=per_call, per_step_us=per_step))
+    return out
+
+
+# ---------------------------------------------------------------- output
+
+
+def plot_pareto(results, path):
+    fig, axes = plt.subplots(2, 2, figsize=(12, 9))
+    for ax, res in zip(axes.ravel(), results):
+        for name in LABEL:
+            done = [r for r in res["runs"] if r["integrator"] == name and r["complete"]]
+            if done:
+                x = [r["wall_s"] for r in done]
+                y = [max(r["error_max"], 1e-16) for r in done]
+                ax.loglog(x, y, "o-", label=LABEL[name], ms=4)
+        front = res["pareto"]
+        ax.loglog(
+            [r["wall_s"] for r in front],
+            [max(r["error_max"], 1e-16) for r in front],
+            "k--",
+            lw=1,
+            label="Pareto front",
+        )
+        ax.axhline(res["reference"]["error_bound"], color="grey", lw=0.8, ls=":")
+        ax.set_title(f"{res['title']}, {res['duration']:g} s")
+        ax.set_xlabel("wall time (s)")
+        ax.set_ylabel("max |q - q_ref| over the run (rad)")
+        ax.grid(True, which="major", alpha=0.3)
+    axes[0, 0].legend(fontsize=8)
+    fig.suptitle("Error against wall time (dotted: the reference's own error bound)")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def plot_convergence(results, path):
+    fig, axes = plt.subplots(2, 2, figsize=(12, 9))
+    for ax, res in zip(axes.ravel(), results):
+        for name in FIXED:
+            done = [r for r in res["runs"] if r["integrator"] == name and r["complete"]]
+            if done:
+                order = res["orders"][name]
+                label = LABEL[name] + (f" (order {order:.2f})" if order is not None else "")
+                ax.loglog(
+                    [r["step"] for r in done],
+                    [max(r["error_final"], 1e-16) for r in done],
+                    "o-",
+                    ms=4,
+                    label=label,
+                )
+        ax.axhline(res["reference"]["error_bound"], color="grey", lw=0.8, ls=":")
+        ax.set_title(res["title"])
+        ax.set_xlabel("step dt (s)")
+        ax.set_ylabel("final |q - q_ref| (rad)")
+        ax.grid(True, which="major", alpha=0.3)
+        ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def plot_algorithms(algo, cond_rows, path):
+    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(12, 4.5))
+    n = [r["n"] for r in algo["chains"]]
+    for m in METHODS:
+        p = algo["exponents"][m]
+        ax1.loglog(n, [r[f"{m}_kernel_us"] for r in algo["chains"]], "o-", label=f"{m} (n^{p:.2f})")
+    if "pinocchio_aba_us" in algo["chains"][0]:
+        ax1.loglog(
+            n,
+            [r["pinocchio_aba_us"] for r in algo["chains"]],
+            "k--",
+            label="pinocchio aba (Python)",
+        )
+    ax1.set_xlabel("links n")
+    ax1.set_ylabel("us per forward-dynamics call")
+    ax1.set_title("Forward dynamics on random serial chains")
+    ax1.legend(fontsize=8)
+    ax1.grid(True, alpha=0.3)
+    cond = [r["cond_median"] for r in cond_rows]
+    for m in METHODS:
+        y = [r[f"{m}_residual_max"] for r in cond_rows]
+        ax2.loglog(cond, [v if v is not None else np.nan for v in y], "o-", label=m)
+    ax2.set_xlabel("cond(M)")
+    ax2.set_ylabel("max ||M qdd + h - tau|| / ||tau||")
+    ax2.set_title("Residual as M becomes ill-conditioned (8 links)")
+    ax2.legend(fontsize=8)
+    ax2.grid(True, alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def _e(x):
+    return "-" if x is None else f"{x:.1e}"
+
+
+def _step(r):
+    return f"rtol {r['step']:.0e}" if r["integrator"] == "dopri5" else f"dt {r['step'] * 1e3:g} ms"
+
+
+def markdown(results, algo, cond_rows, effect_rows, mode, elapsed):
+    out = [f"# Accuracy versus time ({mode} run, {elapsed:.0f} s)\n"]
+    out.append("## Recommendations: the fastest run that meets each max error\n")
+    out.append("| scene | " + " | ".join(f"error <= {t:.0e} rad" for t in TARGETS) + " |")
+    out.append("|---" * (len(TARGETS) + 1) + "|")
+    for res in results:
+        cells = []
+        for target in TARGETS:
+            r = res["recommendations"][target]
+            cells.append(
+                "none"
+                if r is None
+                else f"{LABEL[r['integrator']]}, {_step(r)}: {r['wall_s'] * 1e3:.3g} ms"
+            )
+        out.append(f"| {res['title']} | " + " | ".join(cells) + " |")
+    out.append(
+        "\n## Convergence orders\n\nThe slope of log(final error) against log(step); for DOPRI5 "
+        "against log(rtol) (1: the error is proportional to the tolerance). '-': fewer than "
+        "three runs in the asymptotic range.\n"
+    )
+    out.append("| scene | " + " | ".join(LABEL[n] for n in LABEL) + " |")
+    out.append("|---" * (len(LABEL) + 1) + "|")
+    for res in results:
+        cells = [f"{o:.2f}" if o is not None else "-" for o in res["orders"].values()]
+        out.append(f"| {res['title']} | " + " | ".join(cells) + " |")
+    for res in results:
+        ref = res["reference"]
+        out.append(
+            f"\n## {res['title']}, {res['duration']:g} s\n\nReference: dopri5 at rtol = atol = "
+            f"{ref['rtol']:.0e} ({ref['steps']} steps); its distance to the run at "
+            f"{CHECK_TOL:.0e} bounds its error: {ref['error_bound']:.1e} rad. "
+            + ("Energy drift" if res["conservative"] else "Energy-balance residual")
+            + f" of the reference: {ref['energy_error']:.1e} J.\n"
+        )
+        out.append(
+            "| integrator | step | final error (rad) | max error (rad) | energy error (J) "
+            "| evaluations | wall (ms) |"
+        )
+        out.append("|---|---|---|---|---|---|---|")
+        for r in res["runs"]:
+            if r["complete"]:
+                cells = [_e(r["error_final"]), _e(r["error_max"]), _e(r["energy_error"])]
+            else:
+                cells = [f"diverged at t = {r['failed_at']:.3g} s", "-", "-"]
+            out.append(
+                f"| {LABEL[r['integrator']]} | {_step(r)} | " + " | ".join(cells) + f" | "
+                f"{r['evaluations']} | {r['wall_s'] * 1e3:.3g} |"
+            )
+        front = ", ".join(
+            f"{LABEL[r['integrator']]} {_step(r)} ({r['wall_s'] * 1e3:.3g} ms, "
+            f"{r['error_max']:.1e} rad)"
+            for r in res["pareto"]
+        )
+        out.append(f"\nPareto front (fastest first): {front}.")
+    out.append("\n## Forward dynamics: time per call on random serial chains\n")
+    has_pin = "pinocchio_aba_us" in algo["chains"][0]
+    head = (
+        "| n | ABA (us) | CRBA + Cholesky (us) | n-RNEA + Cholesky (us) | od.forward_dynamics (us)"
+    )
+    out.append(head + (" | pin.aba (us) | ratio |" if has_pin else " |"))
+    out.append("|---" * (7 if has_pin else 5) + "|")
+    for r in algo["chains"]:
+        cells = [f"{r[f'{m}_kernel_us']:.3g}" for m in METHODS] + [f"{r['aba_public_us']:.3g}"]
+        if has_pin:
+            cells += [
+                f"{r['pinocchio_aba_us']:.3g}",
+                f"{r['aba_public_us'] / r['pinocchio_aba_us']:.2f}",
+            ]
+        out.append(f"| {r['n']} | " + " | ".join(cells) + " |")
+    exps = ", ".join(f"{m} n^{p:.2f}" for m, p in algo["exponents"].items())
+    out.append(
+        f"\nThe first three columns are per call inside a compiled loop (what a simulation step "
+        f"pays); od.forward_dynamics and pin.aba are called from Python (ratio = opendyn / "
+        f"Pinocchio). Growth fitted for n >= {algo['fit_from_n']}: {exps}."
+    )
+    out.append("\n## Residual ||M qdd + h - tau|| / ||tau|| as M becomes ill-conditioned\n")
+    out.append(
+        f"8 revolute links alternating 1 kg and a lighter mass; {STATES} random states each.\n"
+    )
+    out.append("| light link (kg) | median cond(M) | " + " | ".join(METHODS) + " |")
+    out.append("|---" * (len(METHODS) + 2) + "|")
+    for r in cond_rows:
+        cells = []
+        for m in METHODS:
+            v, s = r[f"{m}_residual_max"], r[f"{m}_singular"]
+            cell = _e(v) if v is not None else "-"
+            cells.append(cell + (f" ({s}/{STATES} reported singular)" if s else ""))
+        out.append(f"| {r['light_kg']:.0e} | {r['cond_median']:.1e} | " + " | ".join(cells) + " |")
+    out.append("\n## What each effect costs per step (us; RK4, 4 evaluations per step)\n")
+    titles = list(effect_rows)
+    names = []
+    for title in titles:
+        names += [k for k in effect_rows[title] if k != "evaluations_per_step" and k not in names]
+    out.append("| stage | " + " | ".join(titles) + " |")
+    out.append("|---" * (len(titles) + 1) + "|")
+    for name in names:
+        cells = []
+        for title in titles:
+            c = effect_rows[title].get(name)
+            cells.append("-" if c is None else f"{c['per_step_us']:.3g}")
+        out.append(f"| {name} | " + " | ".join(cells) + " |")
+    return "\n".join(out) + "\n"
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--quick", action="store_true", help="small sweeps, under 2 minutes")
+    parser.add_argument("--out", default=str(ROOT / "docs" / "study"), help="output folder")
+    args = parser.parse_args(argv)
+    mode = "quick" if args.quick else "full"
+    out = pathlib.Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    tmp = out / "urdf"
+    tmp.mkdir(exist_ok=True)
+    tic = time.perf_counter()
+    results = integrator_study(mode, repeats=5 if mode == "full" else 1)
+    algo = algorithm_study(mode, tmp)
+    cond_rows = conditioning_study(mode, tmp)
+    effect_rows = effect_study(mode)
+    elapsed = time.perf_counter() - tic
+    plot_pareto(results, out / "accuracy_vs_time.png")
+    plot_convergence(results, out / "convergence.png")
+    plot_algorithms(algo, cond_rows, out / "algorithms.png")
+    text = markdown(results, algo, cond_rows, effect_rows, mode, elapsed)
+    (out / "study.md").write_text(text)
+    record = dict(
+        mode=mode,
+        elapsed_s=elapsed,
+        integrators=results,
+        algorithms=algo,
+        conditioning=cond_rows,
+        effects=effect_rows,
+        versions=dict(opendyn=od.__version__, numpy=np.__version__),
+    )
+    (out / "study.json").write_text(json.dumps(record, indent=1, default=_json_default))
+    for path in sorted(tmp.iterdir()):
+        path.unlink()
+    tmp.rmdir()
+    print(text)
+    print(f"wrote {out}/: accuracy_vs_time.png convergence.png algorithms.png study.md study.json")
+    return 0
+
+
+def _json_default(x):
+    if isinstance(x, (np.floating, np.integer)):
+        return x.item()
+    raise TypeError(f"not JSON: {type(x)}")
+
+
+if __name__ == "__main__":
+    sys.exit(main())
