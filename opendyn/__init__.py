@@ -5,6 +5,8 @@ the wrench that frame applies to the environment, in its own coordinates; gravit
 world-frame vector applied as the base acceleration dV_0 = (0, -g).
 """
 
+from ._kernel_cache import kernel_cache
+from .constraints import FixedPose, JointCoupling, PointOnPlane, PointToPoint, PointToWorld
 from .dynamics._args import SingularMassMatrixError
 from .dynamics.christoffel import christoffel_symbols, coriolis_matrix
 from .dynamics.configuration import integrate
@@ -22,6 +24,17 @@ from .dynamics.task_space import (
 from .model import Frame, Model
 from .urdf import FidelityReport, URDFError, available_robots, load_urdf
 
+with kernel_cache():  # compiled kernels cache in the folder named by the sources' hash
+    from .dynamics.constraints import (
+        constrained_forward_dynamics,
+        constrained_inverse_dynamics,
+        constraint_drift,
+        constraint_error,
+        constraint_jacobian,
+        constraint_projection,
+        constraint_wrench,
+    )
+
 __version__ = "0.1.0"
 
 from .scene import Scene, SceneError, default_scene, load_scene, scene_from_dict  # noqa: E402
@@ -38,7 +51,19 @@ __all__ = [
     "load_scene",
     "scene_from_dict",
     "simulate",
+    "FixedPose",
     "Frame",
+    "JointCoupling",
+    "PointOnPlane",
+    "PointToPoint",
+    "PointToWorld",
+    "constrained_forward_dynamics",
+    "constrained_inverse_dynamics",
+    "constraint_drift",
+    "constraint_error",
+    "constraint_jacobian",
+    "constraint_projection",
+    "constraint_wrench",
     "FidelityReport",
     "Model",
     "SingularMassMatrixError",

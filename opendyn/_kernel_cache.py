@@ -16,7 +16,14 @@ import pathlib
 from numba.core import config as _numba_config
 
 _HERE = pathlib.Path(__file__).parent
-_SOURCES = ("model.py", "effects.py", "step.py", "integrators.py", "dynamics/*.py")
+_SOURCES = (
+    "model.py",
+    "constraints.py",
+    "effects.py",
+    "step.py",
+    "integrators.py",
+    "dynamics/*.py",
+)
 
 
 def _cache_dir() -> str:

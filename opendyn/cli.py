@@ -189,12 +189,16 @@ def _scene_header(scene):
         else f"dt = {run.dt:g} s"
     )
     effects = ", ".join(scene.effects) or "none (free motion)"
-    return (
-        f"scene       {scene.name} ({scene.source})\n"
-        f"robot       {scene.model.name}, nv = {scene.model.nv}\n"
-        f"effects     {effects}\n"
-        f"integrator  {run.integrator}, {step}, {run.duration:g} s"
-    )
+    lines = [
+        f"scene       {scene.name} ({scene.source})",
+        f"robot       {scene.model.name}, nv = {scene.model.nv}",
+        f"effects     {effects}",
+    ]
+    if scene.constraints:
+        kinds = ", ".join(type(c).__name__ for c in scene.constraints)
+        lines.append(f"constraints {kinds}")
+    lines.append(f"integrator  {run.integrator}, {step}, {run.duration:g} s")
+    return "\n".join(lines)
 
 
 def summary(scene, traj):
@@ -230,6 +234,18 @@ def summary(scene, traj):
                 f"balance     max |E - E(0) - W| = {error.max():.3g} J "
                 f"({error.max() / scale:.2g} of max |E|): the integration error"
             )
+    if len(traj.violation_position):
+        gains = scene.baumgarte
+        how = (
+            f"Baumgarte alpha = {gains[0]:g}, beta = {gains[1]:g} 1/s"
+            if gains is not None
+            else "no stabilisation"
+        )
+        lines.append(
+            f"constraints {len(scene.constraints)} ({how}): max |phi| = "
+            f"{traj.violation_position.max():.3g} (end {traj.violation_position[-1]:.3g}) m or "
+            f"rad, max |A qd| = {traj.violation_velocity.max():.3g} m/s or rad/s"
+        )
     return "\n".join(lines)
 
 

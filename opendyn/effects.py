@@ -44,6 +44,7 @@ import numpy as np
 from numba import njit
 
 from .dynamics._kernels import INLINE
+from .dynamics.constraints import constraint_table
 from .dynamics.forward import NO_ARMATURE
 from .dynamics.kinematics import frame_pose_kernel, jacobian_kernel
 from .dynamics.rnea import rnea_kernel
@@ -207,6 +208,9 @@ class StageTable:
     method: forward dynamics by 0 = ABA, 1 = CRBA + Cholesky (coupled mimic joints).
     armature: (nv,) rotor inertias that forward dynamics adds to M's diagonal, or empty: armature
       is not a force but a change of M, so it has no row.
+    constraints: (rows (n_c, 5) int64, params float64, gains (2,)): the scene's constraints as
+      opendyn.dynamics.constraints.constraint_table gives them and the Baumgarte gains
+      (alpha, beta); no rows when the scene has none (forward dynamics is then unconstrained).
     """
 
     rows: np.ndarray
@@ -214,6 +218,7 @@ class StageTable:
     names: tuple[str, ...]
     method: int
     armature: np.ndarray
+    constraints: tuple = (np.zeros((0, 5), np.int64), np.zeros(0), np.zeros(2))
 
 
 def stage_table(scene) -> StageTable:
@@ -259,10 +264,16 @@ def stage_table(scene) -> StageTable:
             add(COMPUTED_TORQUE, params, name="control (computed torque)")
         if control.clip:
             add(CLIP, model.effort_limit)
+    constraints = StageTable.constraints
+    if scene.constraints:
+        c_rows, c_params = constraint_table(model, scene.constraints, scene.q0)
+        gains = np.array(scene.baumgarte if scene.baumgarte is not None else (0.0, 0.0))
+        constraints = (c_rows, c_params, gains)
     return StageTable(
         rows=np.array(rows, dtype=np.int64).reshape(-1, 5),
         params=np.concatenate(chunks) if chunks else np.zeros(0),
         names=tuple(names),
         method=0 if model.nb == model.nv else 1,
         armature=NO_ARMATURE if scene.armature is None else np.array(scene.armature, float),
+        constraints=constraints,
     )

@@ -31,6 +31,7 @@ from numba import njit
 
 from .dynamics._kernels import JIT
 from .dynamics.configuration import integrate_kernel
+from .dynamics.constraints import constrained_solve_at
 from .dynamics.crba import crba_kernel
 from .dynamics.forward import cholesky_solve
 from .dynamics.rnea import rnea_kernel
@@ -120,6 +121,7 @@ def rk_stages(
     params,
     method,
     armature,
+    con,
     A,
     c,
     t,
@@ -161,6 +163,7 @@ def rk_stages(
             params,
             method,
             armature,
+            con,
             t + c[i] * dt,
             qs,
             qds,
@@ -197,7 +200,7 @@ def rk_combine(ibuf, weights, dt, q, qd, w, kq, kv, kw, q1, qd1, w1, v):
 
 @njit(**JIT)
 def implicit_velocity_step(
-    ibuf, fbuf, rows, params, armature, t, dt, q, qd, w, q1, qd1, w1, tau_ctrl
+    ibuf, fbuf, rows, params, armature, con, t, dt, q, qd, w, q1, qd1, w1, tau_ctrl
 ):
     """One linearly implicit Euler step (module docstring). Returns a status."""
     nv = qd.shape[0]
@@ -224,9 +227,16 @@ def implicit_velocity_step(
             M[j, j] += armature[j]
         rhs[j] = tau[j] - h[j] - dt * K[j] * qd[j]
     qdd = np.empty(nv)
-    k = cholesky_solve(M, rhs, qdd)
-    if k >= 0:
-        return 100 + k
+    if con[0].shape[0]:
+        c_rows, c_params, gains = con
+        lam = np.empty(c_rows[:, 2].sum())
+        status = constrained_solve_at(ibuf, fbuf, c_rows, c_params, gains, q, qd, M, rhs, qdd, lam)
+        if status:
+            return status
+    else:
+        k = cholesky_solve(M, rhs, qdd)
+        if k >= 0:
+            return 100 + k
     for j in range(nv):
         qd1[j] = qd[j] + dt * qdd[j]
     integrate_kernel(ibuf, q, qd1, dt, q1)
@@ -247,6 +257,7 @@ def run_fixed(
     params,
     method,
     armature,
+    con,
     t0,
     dt,
     step0,
@@ -283,7 +294,7 @@ def run_fixed(
         t = t0 + g * dt
         if kind == IMPLICIT:
             status = implicit_velocity_step(
-                ibuf, fbuf, rows, params, armature, t, dt, q, qd, w, q1, qd1, w1, tau
+                ibuf, fbuf, rows, params, armature, con, t, dt, q, qd, w, q1, qd1, w1, tau
             )
             counters[0] += 1
         else:
@@ -294,6 +305,7 @@ def run_fixed(
                 params,
                 method,
                 armature,
+                con,
                 A,
                 c,
                 t,
@@ -350,6 +362,7 @@ def run_adaptive(
     params,
     method,
     armature,
+    con,
     t,
     t_stop,
     t_end,
@@ -406,6 +419,7 @@ def run_adaptive(
             params,
             method,
             armature,
+            con,
             A,
             c,
             t,

@@ -86,9 +86,35 @@ The file format (every key optional unless marked required):
     phase = 0.0                            #   the torque is M (qdd_r + kd ed + kp e) + h
     clip = false                           # clip the torque to +-effort_limit
 
+    [[constraints]]                        # any number of these: A(q) qd = 0 (see below)
+    type = "point_to_point"                # loop closure: two points coincide
+    frame_a = "rocker"                     # required: frames (link or joint names)
+    point_a = [0.4, 0.0, 0.0]              # m, in frame_a's coordinates (default the origin)
+    frame_b = "base_link"                  # a frame of the fixed world is fine
+    point_b = [0.8, 0.0, 0.0]
+    # type = "point_to_world": frame, point, target ([x, y, z] world; default: where the
+    #                          point is at the initial state)
+    # type = "point_on_plane": frame, point, normal (required, world), offset (n . x = offset;
+    #                          default: the plane through the point at the initial state)
+    # type = "fixed_pose":     frame_a, frame_b, xyz, rpy (frame_b's pose in frame_a; default
+    #                          the initial relative pose)
+    # type = "joint_coupling": coefficients = {joint = c} (sum c_j qd_j = 0) or
+    #                          matrix = [[nv numbers], ...] (rows of a constant A)
+
+    [baumgarte]                            # optional drift stabilisation of the constraints:
+    alpha = 10.0                           # 1/s   A qdd + Adot qd + 2 alpha A qd
+    beta = 10.0                            # 1/s                 + beta^2 phi = 0
+
 Every per-joint value (gains, coefficients, tau...) is a number for every joint, a list of nv
 numbers, or a table by joint name; joints a table does not name take the key's default (0, or
 q0 for ``setpoint`` and ``offset``).
+
+Constraints (the seed's Pfaffian constraints A(q) qd = 0) add the forces A^T lambda that keep
+them, lambda solved with the accelerations at every evaluation (opendyn.dynamics.constraints).
+The initial state must satisfy them (position and velocity within CONSTRAINT_TOLERANCE).
+Integrating A qdd + Adot qd = 0 lets the position error phi drift; [baumgarte] pulls it back
+(alpha = beta = w: a critically damped error at rate w). The trajectory records the largest
+|phi| and |A qd| of every sample.
 """
 
 from __future__ import annotations
@@ -103,7 +129,9 @@ import pathlib
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
+from .constraints import FixedPose, JointCoupling, PointOnPlane, PointToPoint, PointToWorld
 from .model import Model
 from .urdf import URDFError, load_urdf, shipped_robots_dir
 
@@ -115,11 +143,37 @@ except ModuleNotFoundError:  # Python 3.10
 INTEGRATORS = ("euler", "semi_implicit_euler", "rk4", "dopri5", "implicit_euler")
 EFFECTS = ("gravity", "damping", "friction", "armature", "limits", "wrench", "control")
 CONTROL_TYPES = ("none", "constant", "pd", "computed_torque")
+CONSTRAINT_TYPES = (
+    "point_to_world",
+    "point_on_plane",
+    "point_to_point",
+    "fixed_pose",
+    "joint_coupling",
+)
+_CONSTRAINT_KEYS = {
+    "point_to_world": ("type", "frame", "point", "target"),
+    "point_on_plane": ("type", "frame", "normal", "point", "offset"),
+    "point_to_point": ("type", "frame_a", "frame_b", "point_a", "point_b"),
+    "fixed_pose": ("type", "frame_a", "frame_b", "xyz", "rpy"),
+    "joint_coupling": ("type", "coefficients", "matrix"),
+}
+# an initial state farther than this from the constraints (m or rad; m/s or rad/s) is refused
+CONSTRAINT_TOLERANCE = 1e-6
 EXPRESSED_IN = ("frame", "world")
 ADAPTIVE_INTEGRATORS = ("dopri5",)
 DEFAULT_SCENE = "double_pendulum_swing"
 
-_TOP_KEYS = ("name", "description", "robot", "initial", "run", "effects", "control")
+_TOP_KEYS = (
+    "name",
+    "description",
+    "robot",
+    "initial",
+    "run",
+    "effects",
+    "control",
+    "constraints",
+    "baumgarte",
+)
 _ROBOT_KEYS = ("urdf", "name", "mimic", "check_inertia")
 _INITIAL_KEYS = ("q", "qd")
 _RUN_KEYS = ("duration", "integrator", "dt", "output_dt", "rtol", "atol", "max_speed")
@@ -247,6 +301,9 @@ class Scene:
     when none is applied. control: None = zero torque. source: the scene file, "<dict>" or
     "<robot NAME>". settings: the scene as read (plain TOML types), for provenance records.
     An effect that is None (or, for wrenches, empty) is never computed.
+    constraints: Pfaffian constraints A(q) qd = 0 (opendyn.constraints objects), () for none;
+    baumgarte: (alpha, beta) 1/s, the stabilisation A qdd + Adot qd + 2 alpha A qd +
+    beta^2 phi = 0 of their drift, or None (A qdd + Adot qd = 0: the drift is left alone).
     """
 
     name: str
@@ -263,6 +320,8 @@ class Scene:
     control: Control | None
     source: str
     settings: dict
+    constraints: tuple = ()
+    baumgarte: tuple[float, float] | None = None
 
     @property
     def effects(self) -> tuple[str, ...]:
@@ -418,6 +477,8 @@ def _build(data, source, base_dir, default_name=None, model=None) -> Scene:
         control=r.control(data.get("control"), q0),
         source=source,
         settings=copy.deepcopy(data),
+        constraints=r.constraints(data.get("constraints"), q0, qd0),
+        baumgarte=r.baumgarte(data.get("baumgarte"), "constraints" in data),
     )
 
 
@@ -759,6 +820,142 @@ class _Reader:
                 np.array([self.vector(v, f"{key}.values[{i}]", 6) for i, v in enumerate(raw_v)])
             )
         return Wrench(frame=frame, expressed_in=expressed_in, times=times, values=values)
+
+    def constraints(self, value, q0, qd0) -> tuple:
+        """[[constraints]] -> constraint objects (opendyn.constraints), checked at (q0, qd0)."""
+        if value is None:
+            return ()
+        if isinstance(value, dict):
+            value = [value]
+        if not isinstance(value, list) or not value:
+            self.fail(
+                "constraints",
+                f"expected tables [[constraints]] with type = one of "
+                f"{', '.join(CONSTRAINT_TYPES)}, found {_found(value)}",
+            )
+        out = tuple(self.constraint(c, f"constraints[{i}]") for i, c in enumerate(value))
+        self._check_initial_state(out, q0, qd0)
+        return out
+
+    def constraint(self, table, key):
+        table = self.table(table, key)
+        if "type" not in table:
+            self.fail(f"{key}.type", f"missing: one of {', '.join(CONSTRAINT_TYPES)}")
+        kind = self.string(table["type"], f"{key}.type", CONSTRAINT_TYPES)
+        self.keys(table, key, _CONSTRAINT_KEYS[kind])
+
+        def frame(field):
+            if field not in table:
+                self.fail(f"{key}.{field}", f"missing; frames: {', '.join(self.model.frame_names)}")
+            return self.frame(table[field], f"{key}.{field}")
+
+        def point(field):
+            if field not in table:
+                return (0.0, 0.0, 0.0)
+            return tuple(self.vector(table[field], f"{key}.{field}", 3))
+
+        try:
+            if kind == "point_to_world":
+                target = table.get("target")
+                return PointToWorld(
+                    frame("frame"),
+                    point("point"),
+                    None if target is None else tuple(self.vector(target, f"{key}.target", 3)),
+                )
+            if kind == "point_on_plane":
+                if "normal" not in table:
+                    self.fail(f"{key}.normal", "missing: the plane's normal, 3 numbers (world)")
+                normal = self.vector(table["normal"], f"{key}.normal", 3)
+                offset = table.get("offset")
+                return PointOnPlane(
+                    frame("frame"),
+                    tuple(normal),
+                    point("point"),
+                    None if offset is None else self.number(offset, f"{key}.offset"),
+                )
+            if kind == "point_to_point":
+                return PointToPoint(
+                    frame("frame_a"), frame("frame_b"), point("point_a"), point("point_b")
+                )
+            if kind == "fixed_pose":
+                T_ab = None
+                if "xyz" in table or "rpy" in table:
+                    T_ab = np.eye(4)
+                    T_ab[:3, :3] = Rotation.from_euler("xyz", point("rpy")).as_matrix()
+                    T_ab[:3, 3] = point("xyz")
+                return FixedPose(frame("frame_a"), frame("frame_b"), T_ab)
+            return JointCoupling(self.coupling(table, key))
+        except ValueError as e:
+            if isinstance(e, SceneError):
+                raise
+            self.fail(key, str(e))
+
+    def frame(self, value, key) -> str:
+        name = self.string(value, key)
+        try:
+            self.model.frame_index(name)
+        except KeyError:
+            frames = self.model.frame_names
+            self.fail(
+                key,
+                f"{name!r} is not a frame of {self.model.name!r}{_suggest(name, frames)}; "
+                f"frames: {', '.join(frames)}",
+            )
+        return name
+
+    def coupling(self, table, key) -> np.ndarray:
+        """joint_coupling: one row as a table {joint = coefficient}, or matrix = k lists of nv."""
+        if ("coefficients" in table) == ("matrix" in table):
+            self.fail(
+                key,
+                "give exactly one of coefficients = {joint = number} (one row: the sum of "
+                "coefficient x joint velocity is 0) and matrix = [[nv numbers], ...]",
+            )
+        nv = self.model.nv
+        if "coefficients" in table:
+            row = self.per_joint(
+                table["coefficients"], f"{key}.coefficients", np.zeros(nv), scalar=False
+            )
+            return row[None, :]
+        rows = table["matrix"]
+        if not isinstance(rows, list) or not rows:
+            self.fail(f"{key}.matrix", f"expected a list of rows, found {_found(rows)}")
+        return np.array([self.vector(r, f"{key}.matrix[{i}]", nv) for i, r in enumerate(rows)])
+
+    def _check_initial_state(self, constraints, q0, qd0):
+        """Refuse an initial state that breaks a constraint: simulating it would start off the
+        constraint manifold (and, without stabilisation, stay off it)."""
+        from .dynamics.constraints import constraint_error, constraint_jacobian
+
+        try:
+            phi = constraint_error(self.model, q0, constraints, q_bound=q0)
+        except ValueError as e:
+            self.fail("constraints", str(e))
+        velocity = constraint_jacobian(self.model, q0, constraints) @ qd0
+        row = 0
+        for i, c in enumerate(constraints):
+            k = c.n_rows(self.model.nv)
+            for what, values, unit in (("position", phi, "m or rad"), ("velocity", velocity, "")):
+                worst = float(np.max(np.abs(values[row : row + k])))
+                if not worst <= CONSTRAINT_TOLERANCE:
+                    self.fail(
+                        f"constraints[{i}]",
+                        f"the initial state breaks this {type(c).__name__} constraint: its "
+                        f"{what} error is {worst:.3g} (tolerance {CONSTRAINT_TOLERANCE:g}); give "
+                        f"[initial] q and qd that satisfy it",
+                    )
+            row += k
+
+    def baumgarte(self, table, has_constraints) -> tuple[float, float] | None:
+        if table is None:
+            return None
+        self.keys(table, "baumgarte", ("alpha", "beta"))
+        if not has_constraints:
+            self.fail("baumgarte", "stabilises constraints, but the scene has no [[constraints]]")
+        return (
+            self.number(table.get("alpha", 0.0), "baumgarte.alpha", minimum=0.0),
+            self.number(table.get("beta", 0.0), "baumgarte.beta", minimum=0.0),
+        )
 
     def control(self, table, q0) -> Control | None:
         if table is None:

@@ -26,6 +26,7 @@ from .dynamics.energy import kinetic_energy, potential_energy
 
 with kernel_cache():
     from . import effects, integrators, step
+    from .dynamics.constraints import constraint_terms_kernel
 
 _CHUNK_SECONDS = 0.1  # wall time of one compiled chunk: progress and Ctrl-C granularity
 _FIRST_CHUNK = 64  # steps in the first chunk (it may include loading the compiled kernels)
@@ -158,6 +159,7 @@ def _fixed_chunk(scene, integ, table, step0, nsteps, every, q, qd, w, out, count
         table.params,
         table.method,
         table.armature,
+        table.constraints,
         0.0,
         run.dt,
         step0,
@@ -192,6 +194,7 @@ def _adaptive_chunk(scene, integ, table, t, t_stop, h, row, q, qd, w, first, out
         table.params,
         table.method,
         table.armature,
+        table.constraints,
         t,
         t_stop,
         run.duration,
@@ -319,6 +322,7 @@ def _first_stage(scene, table, t, q, qd, k_first, power, tau):
         table.params,
         table.method,
         table.armature,
+        table.constraints,
         t,
         q,
         qd,
@@ -357,7 +361,10 @@ def _trajectory(scene, table, out, complete, message, stats):
         if scene.gravity is not None and n
         else np.zeros(n)
     )
+    violation = _violation(model, table, q, qd) if scene.constraints else (np.zeros(0),) * 2
     return Trajectory(
+        violation_position=violation[0],
+        violation_velocity=violation[1],
         t=t,
         q=q,
         qd=qd,
@@ -372,6 +379,22 @@ def _trajectory(scene, table, out, complete, message, stats):
         stats=stats,
         provenance=_provenance(scene, table),
     )
+
+
+def _violation(model, table, q, qd):
+    """(max_i |phi_i|, max_i |(A qd)_i|) at each sample (K,): how far the samples are off the
+    constraints, in position (m or rad) and velocity (m/s or rad/s)."""
+    rows, params, _ = table.constraints
+    k = int(rows[:, 2].sum())
+    A, Adot_qd, phi = np.empty((k, model.nv)), np.empty(k), np.empty(k)
+    position, velocity = np.empty(len(q)), np.empty(len(q))
+    for i in range(len(q)):
+        constraint_terms_kernel(
+            model._ibuf, model._fbuf, rows, params, q[i], qd[i], A, Adot_qd, phi
+        )
+        position[i] = np.abs(phi).max()
+        velocity[i] = np.abs(A @ qd[i]).max()
+    return position, velocity
 
 
 def _provenance(scene, table):
@@ -531,18 +554,22 @@ def stage_costs(scene, *, steps=2000, evaluations=20000):
 
     def cost(which):
         args = (model._ibuf, model._fbuf, table.rows, table.params, table.method)
-        step.stage_cost_kernel(*args, table.armature, which, t[:1], q[:1], qd[:1])
+        args += (table.armature, table.constraints, which)
+        step.stage_cost_kernel(*args, t[:1], q[:1], qd[:1])
         best = np.inf
         for _ in range(3):
             tic = time.perf_counter()
-            step.stage_cost_kernel(*args, table.armature, which, t, q, qd)
+            step.stage_cost_kernel(*args, t, q, qd)
             best = min(best, time.perf_counter() - tic)
         return best / len(t) * 1e6
 
     implicit = run.integrator == "implicit_euler"
     rows = [(name, cost(s)) for s, name in enumerate(table.names)]
     if not implicit:
-        dynamics = "forward dynamics (ABA" if table.method == 0 else "forward dynamics (CRBA"
+        if scene.constraints:
+            dynamics = "constrained forward dynamics (CRBA"
+        else:
+            dynamics = "forward dynamics (ABA" if table.method == 0 else "forward dynamics (CRBA"
         dynamics += ", with armature)" if scene.armature is not None else ")"
         rows.append((dynamics, cost(-1)))
     # the implicit step runs the stages and then its own solve; the others a whole evaluation

@@ -4,8 +4,14 @@
     qdd = (M(q) + diag(armature))^-1 (tau - c(q, qd) - g(q))         (forward dynamics, ABA)
 
 with g(q) present only when the table has a gravity row (it sets dV_0 = (0, -g); without it the
-base does not accelerate). Alongside, the power of the non-conservative forces for the energy
-balance dE/dt = qd . tau_applied + qd . tau_passive, where E = T + U_gravity:
+base does not accelerate). With constraints A(q) qd = 0 the forward dynamics is instead
+
+    (M + diag(armature)) qdd + A^T lambda = tau - c - g,
+    A qdd = -(Adot qd + 2 alpha A qd + beta^2 phi)                  (Baumgarte gains alpha, beta)
+
+(M by CRBA, the multipliers as in opendyn.dynamics.constraints). Alongside, the power of the
+non-conservative forces for the energy balance dE/dt = qd . tau_applied + qd . tau_passive,
+where E = T + U_gravity:
   applied = control torques and applied wrenches (work put in),
   passive = damping, friction and joint-limit spring-dampers (work taken out, mostly).
 
@@ -19,6 +25,7 @@ import numpy as np
 from numba import njit
 
 from .dynamics._kernels import INLINE, JIT
+from .dynamics.constraints import constrained_forward_kernel
 from .dynamics.forward import forward_kernel
 from .effects import (
     CLIP,
@@ -122,9 +129,23 @@ def generalized_forces(
 
 
 @njit(**INLINE)
-def evaluate(ibuf, fbuf, rows, params, method, armature, t, q, qd, qdd, tau_ctrl, power):
+def dynamics(ibuf, fbuf, q, qd, tau, loads, qdd, method, armature, con):
+    """qdd (nv,) <- forward dynamics under tau (nv,) and the base acceleration loads[0]: ABA or
+    CRBA (`method`) without constraints, the constrained solve with them. Returns a status."""
+    if con[0].shape[0] == 0:
+        return forward_kernel(ibuf, fbuf, q, qd, tau, loads, qdd, method, armature)
+    rows, cparams, gains = con
+    lam = np.empty(rows[:, 2].sum())
+    return constrained_forward_kernel(
+        ibuf, fbuf, rows, cparams, gains, q, qd, tau, loads, armature, qdd, lam
+    )
+
+
+@njit(**INLINE)
+def evaluate(ibuf, fbuf, rows, params, method, armature, con, t, q, qd, qdd, tau_ctrl, power):
     """qdd (nv,) <- the scene's forward dynamics at (t, q, qd); tau_ctrl (nv,) <- the control
-    torque; power (2,) <- (applied, passive) power. Returns 0, or the dynamics' status code."""
+    torque; power (2,) <- (applied, passive) power. con: the constraints, (rows, params,
+    (alpha, beta)), with no rows for none. Returns 0, or the dynamics' status code."""
     nv = q.shape[0]
     tau = np.empty(nv)
     loads = np.empty((1, 6))
@@ -148,11 +169,11 @@ def evaluate(ibuf, fbuf, rows, params, method, armature, t, q, qd, qdd, tau_ctrl
     )
     if status:
         return status
-    return forward_kernel(ibuf, fbuf, q, qd, tau, loads, qdd, method, armature)
+    return dynamics(ibuf, fbuf, q, qd, tau, loads, qdd, method, armature, con)
 
 
 @njit(**JIT)
-def stage_cost_kernel(ibuf, fbuf, rows, params, method, armature, which, t, q, qd):
+def stage_cost_kernel(ibuf, fbuf, rows, params, method, armature, con, which, t, q, qd):
     """Run one part of the step at every state (t[n], q[n], qd[n]), for timing it:
     which >= 0 the stage table's row `which`, -1 forward dynamics alone (with the table's
     gravity, zero torque), -2 the whole evaluation. Returns a checksum of the outputs."""
@@ -194,11 +215,23 @@ def stage_cost_kernel(ibuf, fbuf, rows, params, method, armature, which, t, q, q
                 total += tau_ctrl[j] + tau_app[j] + tau_pas[j]
         elif which == -1:
             tau_ctrl[:] = 0.0
-            forward_kernel(ibuf, fbuf, q[n], qd[n], tau_ctrl, loads, qdd, method, armature)
+            dynamics(ibuf, fbuf, q[n], qd[n], tau_ctrl, loads, qdd, method, armature, con)
             total += qdd.sum()
         else:
             evaluate(
-                ibuf, fbuf, rows, params, method, armature, t[n], q[n], qd[n], qdd, tau_ctrl, power
+                ibuf,
+                fbuf,
+                rows,
+                params,
+                method,
+                armature,
+                con,
+                t[n],
+                q[n],
+                qd[n],
+                qdd,
+                tau_ctrl,
+                power,
             )
             total += qdd.sum()
     return total

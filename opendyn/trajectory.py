@@ -7,6 +7,8 @@ provenance.
 W_applied is the work of the control torques and applied wrenches, W_passive that of damping,
 friction and the joint-limit spring-dampers, each integrated with the state by the same
 integrator; the residual `energy_error` measures how well the integrator keeps the balance.
+Ideal constraint forces A^T lambda do no work while A qd = 0; their work through the drift and
+the Baumgarte terms is left in `energy_error`, beside the recorded constraint violation.
 """
 
 from __future__ import annotations
@@ -18,6 +20,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 _ARRAYS = ("t", "q", "qd", "tau", "kinetic", "potential", "work_applied", "work_passive")
+_VIOLATION = ("violation_position", "violation_velocity")  # empty without constraints
 
 
 @dataclass
@@ -29,6 +32,8 @@ class Trajectory:
     the work done since t = 0 by control and applied wrenches, and by damping, friction and limits.
     complete: False when the run stopped early (failure or interrupt); message says why.
     stats: steps, rejected steps, dynamics evaluations, wall time (s), kernel load time (s).
+    violation_position, violation_velocity: (K,) max_i |phi_i(q)| (m or rad) and max_i |(A qd)_i|
+    (m/s or rad/s) over the scene's constraints at each sample; empty (0,) without constraints.
     provenance: the scene, integrator, versions and timing, as plain JSON types.
     """
 
@@ -45,6 +50,8 @@ class Trajectory:
     message: str = ""
     stats: dict = field(default_factory=dict)
     provenance: dict = field(default_factory=dict)
+    violation_position: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    violation_velocity: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
     @property
     def energy(self) -> np.ndarray:
@@ -63,7 +70,7 @@ class Trajectory:
         if path.suffix != ".npz":
             path = path.with_suffix(".npz")
         record = self.record()
-        arrays = {name: getattr(self, name) for name in _ARRAYS}
+        arrays = {name: getattr(self, name) for name in _ARRAYS + _VIOLATION}
         np.savez_compressed(
             path,
             **arrays,
@@ -89,6 +96,7 @@ class Trajectory:
         with np.load(path, allow_pickle=False) as data:
             record = json.loads(str(data["provenance"]))
             arrays = {name: data[name] for name in _ARRAYS}
+            arrays.update({name: data[name] for name in _VIOLATION if name in data})
             names = tuple(str(n) for n in data["joint_names"])
         stats = record.pop("stats", {})
         complete = record.pop("complete", True)
@@ -105,24 +113,19 @@ class Trajectory:
 
     def to_csv(self, path) -> pathlib.Path:
         """One row per sample: t, q_<joint>..., qd_<joint>..., tau_<joint>..., kinetic,
-        potential, work_applied, work_passive (SI units)."""
+        potential, work_applied, work_passive (SI units), and with constraints
+        violation_position, violation_velocity."""
         path = pathlib.Path(path)
         names = self.joint_names
         header = ["t", *(f"q_{n}" for n in names), *(f"qd_{n}" for n in names)]
         header += [*(f"tau_{n}" for n in names), "kinetic", "potential"]
         header += ["work_applied", "work_passive"]
-        table = np.column_stack(
-            [
-                self.t,
-                self.q,
-                self.qd,
-                self.tau,
-                self.kinetic,
-                self.potential,
-                self.work_applied,
-                self.work_passive,
-            ]
-        )
+        columns = [self.t, self.q, self.qd, self.tau, self.kinetic, self.potential]
+        columns += [self.work_applied, self.work_passive]
+        if len(self.violation_position):
+            header += list(_VIOLATION)
+            columns += [self.violation_position, self.violation_velocity]
+        table = np.column_stack(columns)
         np.savetxt(path, table, delimiter=",", header=",".join(header), comments="", fmt="%.17g")
         return path
 
@@ -135,7 +138,11 @@ class Trajectory:
         import matplotlib.pyplot as plt
 
         path = pathlib.Path(path)
-        fig, axes = plt.subplots(3, 1, figsize=(9, 9), sharex=True, constrained_layout=True)
+        constrained = len(self.violation_position) > 0
+        panels = 4 if constrained else 3
+        fig, axes = plt.subplots(
+            panels, 1, figsize=(9, 3 * panels), sharex=True, constrained_layout=True
+        )
         for k, name in enumerate(self.joint_names):
             axes[0].plot(self.t, self.q[:, k], label=name)
             axes[1].plot(self.t, self.qd[:, k], label=name)
@@ -151,8 +158,13 @@ class Trajectory:
             axes[2].plot(self.t, self.work_passive, label="work passive")
         axes[2].plot(self.t, self.energy_error, label="balance error", linestyle="--")
         axes[2].set_ylabel("energy (J)")
-        axes[2].set_xlabel("t (s)")
         axes[2].legend(loc="best", fontsize="small")
+        if constrained:
+            axes[3].semilogy(self.t, self.violation_position, label="max |phi| (m or rad)")
+            axes[3].semilogy(self.t, self.violation_velocity, label="max |A qd| (m/s or rad/s)")
+            axes[3].set_ylabel("constraint violation")
+            axes[3].legend(loc="best", fontsize="small")
+        axes[-1].set_xlabel("t (s)")
         title = self.provenance.get("scene", {}).get("name", "")
         if not self.complete:
             title += " (partial: " + self.message.split("\n")[0] + ")"

@@ -228,7 +228,8 @@ def kernel_time(model, method, q, qd, budget):
         method=METHODS.index(method),
         armature=NO_ARMATURE,
     )
-    args = (model._ibuf, model._fbuf, table.rows, table.params, table.method, table.armature, -1)
+    args = (model._ibuf, model._fbuf, table.rows, table.params, table.method, table.armature)
+    args += (table.constraints, -1)
     t = np.zeros(len(q))
     step.stage_cost_kernel(*args, t[:1], q[:1], qd[:1])
     tic = time.perf_counter()

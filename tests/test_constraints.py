@@ -1,0 +1,828 @@
+"""Constrained dynamics: A(q) qd = 0, tau = M qdd + h + A^T lam (opendyn.constraints and
+opendyn.dynamics.constraints).
+
+Against independent truths:
+- Pinocchio: constraint rows against its frame Jacobians (LOCAL_WORLD_ALIGNED linear rows at the
+  point; LOCAL for a weld), drifts against its classical (points) and spatial (weld) frame
+  accelerations at a = 0, and qdd and lam against its constrained dynamics (constraintDynamics
+  with CONTACT_3D / CONTACT_6D and zero regularisation; its KKT forwardDynamics for a plane).
+  Pinocchio writes M a = tau - h + J^T lambda_pin, the force ON the robot: lam = -lambda_pin.
+  Tolerance 1e-9 relative to the largest entry of the reference (or 1 when that is smaller).
+- the seed's equations: A qdd + Adot qd = 0, P A^T = 0, P^2 = P, P tau = P (M qdd + h),
+  constrained inverse then forward dynamics, J^T F_tip = A^T lam;
+- finite differences along a trajectory: d/dt phi = A qd and d/dt (A qd) = A qdd + Adot qd,
+  by the five-point central difference (error O(h^4));
+- rank-deficient constraints against numpy's pseudo-inverse;
+- the four-bar's loop-closure equations in Freudenstein's closed form.
+"""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pytest
+
+import opendyn as od
+from opendyn.dynamics import constraints as dc
+
+RTOL = 1e-9
+FD_STEP = 1e-3  # five-point stencil: truncation ~ h^4 |f^(5)| / 30, rounding ~ 1e-16 / h
+
+
+def assert_close(ours, ref, what, rtol=RTOL):
+    ours, ref = np.asarray(ours, dtype=float), np.asarray(ref, dtype=float)
+    assert ours.shape == ref.shape, f"{what}: shape {ours.shape} != {ref.shape}"
+    scale = max(1.0, float(np.abs(ref).max())) if ref.size else 1.0
+    err = float(np.abs(ours - ref).max()) / scale if ref.size else 0.0
+    assert err <= rtol, f"{what}: relative error {err:.3e} > {rtol:g}"
+
+
+@pytest.fixture(scope="module")
+def ur5():
+    return od.load_urdf("ur5")
+
+
+@pytest.fixture(scope="module")
+def four_bar():
+    return od.load_urdf("four_bar")
+
+
+def _state(model, seed):
+    rng = np.random.default_rng(seed)
+    return rng.uniform(-2.0, 2.0, model.nv), rng.normal(size=model.nv), rng.normal(size=model.nv)
+
+
+# ------------------------------------------------------------------------------------------
+# the four-bar: Freudenstein's closed form (Norton, Design of Machinery, Section 4.5)
+
+GROUND, CRANK, COUPLER, ROCKER = 0.8, 0.2, 0.7, 0.5  # d, a, b, c (m), as robots/four_bar.urdf
+
+
+def four_bar_angles(theta2, a=CRANK, b=COUPLER, c=ROCKER, d=GROUND):
+    """Open-branch theta3 (coupler) and theta4 (rocker, from the ground pivot O4) of a four-bar
+    with the crank at theta2, from the vector loop a e^{i theta2} + b e^{i theta3} -
+    c e^{i theta4} - d = 0 (Norton, eqs. 4.10 and 4.13):
+      K1 = d/a, K2 = d/c, K3 = (a^2 - b^2 + c^2 + d^2) / (2 a c)
+      A = cos t2 - K1 - K2 cos t2 + K3, B = -2 sin t2, C = K1 - (K2 + 1) cos t2 + K3
+      theta4 = 2 atan2(-B - sqrt(B^2 - 4 A C), 2 A)
+      K4 = d/b, K5 = (c^2 - d^2 - a^2 - b^2) / (2 a b)
+      D = cos t2 - K1 + K4 cos t2 + K5, E = -2 sin t2, F = K1 + (K4 - 1) cos t2 + K5
+      theta3 = 2 atan2(-E - sqrt(E^2 - 4 D F), 2 D)"""
+    K1, K2, K3 = d / a, d / c, (a * a - b * b + c * c + d * d) / (2 * a * c)
+    K4, K5 = d / b, (c * c - d * d - a * a - b * b) / (2 * a * b)
+    ct, st = np.cos(theta2), np.sin(theta2)
+    A, B, C = ct - K1 - K2 * ct + K3, -2 * st, K1 - (K2 + 1) * ct + K3
+    D, E, F = ct - K1 + K4 * ct + K5, -2 * st, K1 + (K4 - 1) * ct + K5
+    theta4 = 2 * np.arctan2(-B - np.sqrt(B * B - 4 * A * C), 2 * A)
+    theta3 = 2 * np.arctan2(-E - np.sqrt(E * E - 4 * D * F), 2 * D)
+    return _wrap(theta3), _wrap(theta4)
+
+
+def _wrap(angle):
+    """The angle in [-pi, pi)."""
+    return (angle + np.pi) % (2 * np.pi) - np.pi
+
+
+def four_bar_q(theta2):
+    """Joint angles (crank_joint, coupler_joint, rocker_joint) that close the loop: the rocker
+    link points from the coupler's end to O4, at theta4 + pi."""
+    theta3, theta4 = four_bar_angles(theta2)
+    return _wrap(np.array([theta2, theta3 - theta2, theta4 + np.pi - theta3]))
+
+
+CLOSURE = od.PointToPoint("rocker_tip", "ground_pivot")
+
+
+def test_four_bar_is_a_grashof_crank_rocker(four_bar):
+    lengths = [np.linalg.norm(four_bar.p_home[i]) for i in (1, 2)]  # crank, coupler
+    T_tip = four_bar.frames[four_bar.frame_index("rocker_tip")].T_body_frame
+    T_pivot = four_bar.frames[four_bar.frame_index("ground_pivot")].T_body_frame
+    a, b, c, d = lengths[0], lengths[1], np.linalg.norm(T_tip[:3, 3]), T_pivot[0, 3]
+    assert np.allclose([a, b, c, d], [CRANK, COUPLER, ROCKER, GROUND], atol=0, rtol=1e-15)
+    s, ell = min(a, b, c, d), max(a, b, c, d)
+    assert s == a and s + ell < (a + b + c + d) - s - ell  # Grashof, shortest link the crank
+    assert four_bar.frames[four_bar.frame_index("ground_pivot")].body == -1
+
+
+def test_four_bar_closed_form_closes_the_loop_at_every_crank_angle(four_bar):
+    for theta2 in np.linspace(0.0, 2 * np.pi, 25):
+        phi = od.constraint_error(four_bar, four_bar_q(theta2), CLOSURE)
+        assert np.abs(phi).max() < 1e-14, f"crank {theta2}: rocker_tip misses O4 by {phi} m"
+
+
+def test_four_bar_closed_configuration_at_crank_zero_is_the_documented_one(four_bar):
+    q = four_bar_q(0.0)
+    theta3, theta4 = np.arccos(5 / 7), np.arctan2(np.sqrt(0.24), -0.1)
+    assert_close(four_bar_angles(0.0), (theta3, theta4), "theta3, theta4 at crank 0")
+    assert np.allclose(q, [0.0, 0.7751934, -2.1446318], atol=1e-7, rtol=0)  # URDF comment
+
+
+# ------------------------------------------------------------------------------------------
+# rank deficiency: the planar closure (a zero row) and a duplicated constraint
+
+
+def _pinv_solution(model, q, qd, tau, A, Adot_qd):
+    """lam = pinv(A M^-1 A^T) (A M^-1 (tau - h) + Adot qd), qdd = M^-1 (tau - h - A^T lam)."""
+    M = od.mass_matrix(model, q)
+    h = od.bias_forces(model, q, qd)
+    Minv_At = np.linalg.solve(M, A.T)
+    G = A @ Minv_At
+    lam = np.linalg.pinv(G, rcond=dc.RANK_RTOL, hermitian=True) @ (Minv_At.T @ (tau - h) + Adot_qd)
+    return np.linalg.solve(M, tau - h - A.T @ lam), lam
+
+
+def test_planar_closure_has_a_zero_row_and_rank_two(four_bar):
+    q = four_bar_q(0.7)
+    A = od.constraint_jacobian(four_bar, q, CLOSURE)
+    assert A.shape == (3, 3) and np.all(A[2] == 0.0)  # out of the plane: identically zero
+    M = od.mass_matrix(four_bar, q)
+    qdd, lam, rank = np.empty(3), np.empty(3), np.zeros(1, dtype=np.int64)
+    assert dc.constrained_solve_rank_kernel(M, np.ones(3), A, np.zeros(3), qdd, lam, rank) == -1
+    assert rank[0] == 2
+
+
+@pytest.mark.parametrize("theta2", [0.0, 0.7, 2.0, 4.0])
+def test_four_bar_dynamics_are_finite_and_minimum_norm(four_bar, theta2):
+    q = four_bar_q(theta2)
+    rng = np.random.default_rng(int(theta2 * 10))
+    A = od.constraint_jacobian(four_bar, q, CLOSURE)
+    # a consistent velocity: along the one-dimensional null space of A
+    qd = np.linalg.svd(A)[2][-1] * rng.uniform(1.0, 5.0)
+    tau = rng.normal(size=3)
+    g = np.array([0.0, -9.81, 0.0])  # in the plane of motion
+    with warnings.catch_warnings(), np.errstate(all="raise"):
+        warnings.simplefilter("error")
+        qdd, lam = od.constrained_forward_dynamics(four_bar, q, qd, tau, CLOSURE, gravity=g)
+    Adot_qd = od.constraint_drift(four_bar, q, qd, CLOSURE)
+    assert np.all(np.isfinite(qdd)) and np.all(np.isfinite(lam))
+    assert_close(A @ qdd + Adot_qd, np.zeros(3), "A qdd + Adot qd")
+    assert lam[2] == 0.0  # the minimum-norm solution puts no force on the zero row
+    M = od.mass_matrix(four_bar, q)
+    h = od.bias_forces(four_bar, q, qd, gravity=g)
+    G = A @ np.linalg.solve(M, A.T)
+    lam_pinv = np.linalg.pinv(G, rcond=dc.RANK_RTOL, hermitian=True) @ (
+        A @ np.linalg.solve(M, tau - h) + Adot_qd
+    )
+    assert_close(lam, lam_pinv, "lam = pinv(G) b")
+    assert_close(qdd, np.linalg.solve(M, tau - h - A.T @ lam_pinv), "qdd")
+
+
+def test_duplicated_constraint_shares_the_force_equally(ur5):
+    q, qd, tau = _state(ur5, 11)
+    c = od.PointToWorld("tool0", (0.0, 0.05, 0.1))
+    qdd_1, lam_1 = od.constrained_forward_dynamics(ur5, q, qd, tau, c)
+    with warnings.catch_warnings(), np.errstate(all="raise"):
+        warnings.simplefilter("error")
+        qdd_2, lam_2 = od.constrained_forward_dynamics(ur5, q, qd, tau, [c, c])
+    A = od.constraint_jacobian(ur5, q, [c, c])
+    Adot_qd = od.constraint_drift(ur5, q, qd, [c, c])
+    assert np.all(np.isfinite(qdd_2)) and np.all(np.isfinite(lam_2))
+    assert_close(A @ qdd_2 + Adot_qd, np.zeros(6), "A qdd + Adot qd")
+    assert_close(qdd_2, qdd_1, "qdd with the duplicate")
+    assert_close(lam_2, np.r_[lam_1, lam_1] / 2, "lam split between the two copies")
+    qdd_ref, lam_ref = _pinv_solution(ur5, q, qd, tau, A, Adot_qd)
+    assert_close(lam_2, lam_ref, "lam = numpy pinv solution")
+    assert_close(qdd_2, qdd_ref, "qdd = numpy pinv solution")
+
+
+def test_redundant_general_A_gives_the_pinv_solution(ur5):
+    """A general A with a row that is a combination of two others, and a zero row."""
+    q, qd, tau = _state(ur5, 12)
+    rng = np.random.default_rng(12)
+    A = rng.normal(size=(4, 6))
+    A[2] = 0.3 * A[0] - 2.0 * A[1]
+    A = np.vstack([A, np.zeros(6)])
+    Adot_qd = rng.normal(size=5)
+    Adot_qd[2] = 0.3 * Adot_qd[0] - 2.0 * Adot_qd[1]  # consistent
+    Adot_qd[4] = 0.0
+    with warnings.catch_warnings(), np.errstate(all="raise"):
+        warnings.simplefilter("error")
+        qdd, lam = od.constrained_forward_dynamics(ur5, q, qd, tau, A=A, Adot_qd=Adot_qd)
+    qdd_ref, lam_ref = _pinv_solution(ur5, q, qd, tau, A, Adot_qd)
+    assert_close(lam, lam_ref, "lam")
+    assert_close(qdd, qdd_ref, "qdd")
+    assert_close(A @ qdd + Adot_qd, np.zeros(5), "A qdd + Adot qd")
+    P = od.constraint_projection(ur5, q, A)
+    assert_close(P @ A.T, np.zeros((6, 5)), "P A^T")
+    assert_close(P @ P, P, "P^2")
+
+
+def test_solve_kernel_reports_the_singular_pivot_of_M():
+    M = np.diag([2.0, 0.0, 1.0])
+    qdd, lam = np.empty(3), np.empty(1)
+    status = dc.constrained_solve_kernel(M, np.ones(3), np.ones((1, 3)), np.zeros(1), qdd, lam)
+    assert status == 1
+
+
+def test_solve_kernel_without_constraints_is_plain_forward_dynamics(ur5):
+    q, qd, tau = _state(ur5, 13)
+    M = od.mass_matrix(ur5, q)
+    rhs = tau - od.bias_forces(ur5, q, qd)
+    qdd, lam = np.empty(6), np.empty(0)
+    assert dc.constrained_solve_kernel(M, rhs, np.zeros((0, 6)), np.zeros(0), qdd, lam) == -1
+    assert_close(qdd, od.forward_dynamics(ur5, q, qd, tau), "qdd")
+
+
+# ------------------------------------------------------------------------------------------
+# identities of the seed's equations
+
+UR5_SETS = {
+    "point": [od.PointToWorld("tool0", (0.02, -0.03, 0.1))],
+    "plane+loop": [
+        od.PointOnPlane("wrist_2_link", (0.2, -1.0, 0.5), (0.05, 0.0, 0.1)),
+        od.PointToPoint("tool0", "upper_arm_link", (0.0, 0.1, 0.0), (0.2, 0.0, 0.05)),
+    ],
+    "weld": [od.FixedPose("base_link", "tool0")],
+    "weld, world as frame b": [od.FixedPose("tool0", "world")],
+    "coupling+plane": [
+        od.JointCoupling([[1.0, -1.0, 0.0, 0.0, 0.0, 0.0]]),
+        od.PointOnPlane("tool0", (0.0, 0.0, 1.0)),
+    ],
+}
+
+
+@pytest.mark.parametrize("name", UR5_SETS)
+def test_forward_dynamics_satisfies_the_constraint_accelerations(ur5, name):
+    cs = UR5_SETS[name]
+    for seed in range(3):
+        q, qd, tau = _state(ur5, seed)
+        qdd, lam = od.constrained_forward_dynamics(ur5, q, qd, tau, cs)
+        A = od.constraint_jacobian(ur5, q, cs)
+        Adot_qd = od.constraint_drift(ur5, q, qd, cs)
+        assert_close(A @ qdd + Adot_qd, np.zeros(len(lam)), "A qdd + Adot qd")
+        # the equation of motion itself: tau = M qdd + h + A^T lam
+        tau_back = od.inverse_dynamics(ur5, q, qd, qdd) + A.T @ lam
+        assert_close(tau_back, tau, "M qdd + h + A^T lam")
+        # the general-A form gives the same answer
+        qdd_A, lam_A = od.constrained_forward_dynamics(ur5, q, qd, tau, A=A, Adot_qd=Adot_qd)
+        assert_close(qdd_A, qdd, "qdd from A")
+        assert_close(lam_A, lam, "lam from A")
+
+
+@pytest.mark.parametrize("name", UR5_SETS)
+def test_projection_removes_constraint_forces_and_gives_constrained_inverse_dynamics(ur5, name):
+    cs = UR5_SETS[name]
+    q, qd, tau = _state(ur5, 5)
+    A = od.constraint_jacobian(ur5, q, cs)
+    P = od.constraint_projection(ur5, q, A)
+    M = od.mass_matrix(ur5, q)
+    k = A.shape[0]
+    assert_close(P @ A.T, np.zeros((6, k)), "P A^T")
+    assert_close(P @ P, P, "P^2 = P")
+    assert_close(A @ np.linalg.solve(M, P), np.zeros((k, 6)), "A M^-1 P")
+    assert_close(P @ M, (P @ M).T, "P M symmetric")
+    # the seed's constrained inverse dynamics: P tau = P (M qdd + h) along the motion
+    qdd, lam = od.constrained_forward_dynamics(ur5, q, qd, tau, cs)
+    assert_close(P @ tau, P @ od.inverse_dynamics(ur5, q, qd, qdd), "P tau = P (M qdd + h)")
+
+
+@pytest.mark.parametrize("name", UR5_SETS)
+def test_constrained_inverse_then_forward_dynamics_gives_back_qdd_and_lam(ur5, name):
+    cs = UR5_SETS[name]
+    q, qd, tau = _state(ur5, 6)
+    A = od.constraint_jacobian(ur5, q, cs)
+    qdd, _ = od.constrained_forward_dynamics(ur5, q, qd, tau, cs)  # a consistent qdd
+    lam = np.random.default_rng(6).normal(size=A.shape[0]) * 10
+    g = np.array([0.5, 1.0, -9.0])
+    tau_lam = od.constrained_inverse_dynamics(ur5, q, qd, qdd, A, lam, gravity=g)
+    qdd_back, lam_back = od.constrained_forward_dynamics(ur5, q, qd, tau_lam, cs, gravity=g)
+    assert_close(qdd_back, qdd, "qdd")
+    assert_close(lam_back, lam, "lam")
+    # without lam: the projected torque P (M qdd + h); the constraints carry
+    # lam_P = -(A M^-1 A^T)^-1 A M^-1 (M qdd + h), and A M^-1 tau = 0
+    tau_P = od.constrained_inverse_dynamics(ur5, q, qd, qdd, A, gravity=g)
+    M = od.mass_matrix(ur5, q)
+    tau_free = od.inverse_dynamics(ur5, q, qd, qdd, gravity=g)
+    P = od.constraint_projection(ur5, q, A)
+    assert_close(tau_P, P @ tau_free, "tau = P (M qdd + h)")
+    assert_close(A @ np.linalg.solve(M, tau_P), np.zeros(A.shape[0]), "A M^-1 tau")
+    qdd_back, lam_back = od.constrained_forward_dynamics(ur5, q, qd, tau_P, cs, gravity=g)
+    G = A @ np.linalg.solve(M, A.T)
+    assert_close(qdd_back, qdd, "qdd from P (M qdd + h)")
+    assert_close(lam_back, -np.linalg.solve(G, A @ np.linalg.solve(M, tau_free)), "lam_P")
+
+
+def test_gravity_and_tip_wrenches_enter_as_in_forward_dynamics(ur5):
+    cs = UR5_SETS["plane+loop"]
+    q, qd, tau = _state(ur5, 7)
+    F = np.array([0.3, -0.2, 0.1, 5.0, -3.0, 2.0])
+    g = np.array([1.0, 0.0, -3.0])
+    qdd, lam = od.constrained_forward_dynamics(
+        ur5, q, qd, tau, cs, gravity=g, f_tip={"wrist_1_link": F}
+    )
+    J_b = od.jacobian(ur5, q, "wrist_1_link", expressed_in="body")
+    tau_eff = tau - J_b.T @ F
+    A = od.constraint_jacobian(ur5, q, cs)
+    Adot_qd = od.constraint_drift(ur5, q, qd, cs)
+    h = od.bias_forces(ur5, q, qd, gravity=g)
+    qdd_ref, lam_ref = _pinv_solution_with_h(ur5, q, tau_eff - h, A, Adot_qd)
+    assert_close(qdd, qdd_ref, "qdd")
+    assert_close(lam, lam_ref, "lam")
+
+
+def _pinv_solution_with_h(model, q, rhs, A, Adot_qd):
+    M = od.mass_matrix(model, q)
+    G = A @ np.linalg.solve(M, A.T)
+    lam = np.linalg.solve(G, A @ np.linalg.solve(M, rhs) + Adot_qd)
+    return np.linalg.solve(M, rhs - A.T @ lam), lam
+
+
+def test_tip_wrench_reproduces_the_constraint_torques(ur5):
+    q, qd, tau = _state(ur5, 8)
+    J_b = od.jacobian(ur5, q, "tool0", expressed_in="body")
+    R_sb = od.frame_pose(ur5, q, "tool0")[:3, :3]
+    for c in (od.PointToWorld("tool0"), od.FixedPose("world", "tool0")):
+        qdd, lam = od.constrained_forward_dynamics(ur5, q, qd, tau, c)
+        A = od.constraint_jacobian(ur5, q, c)
+        F_tip = od.constraint_wrench(ur5, q, "tool0", A, lam)
+        assert_close(J_b.T @ F_tip, A.T @ lam, f"J_b^T F_tip = A^T lam ({type(c).__name__})")
+        if isinstance(c, od.FixedPose):  # rows = the body twist of tool0: F_tip = lam
+            assert_close(F_tip, lam, "weld: F_tip = lam")
+        else:  # a force at the origin, world axes: no moment, force R^T lam
+            assert_close(F_tip, np.r_[0.0, 0.0, 0.0, R_sb.T @ lam], "point: F_tip = (0, R^T lam)")
+
+
+def test_tip_wrench_refuses_non_square_and_singular_jacobians(ur5):
+    panda = od.load_urdf("panda")
+    q = np.zeros(panda.nv)
+    A = od.constraint_jacobian(panda, q, od.PointToWorld("panda_hand"))
+    with pytest.raises(ValueError, match="not square.*nv=9"):
+        od.constraint_wrench(panda, q, "panda_hand", A, np.ones(3))
+    q = np.zeros(6)  # the UR5 stretched out: a singular configuration
+    A = od.constraint_jacobian(ur5, q, od.PointToWorld("tool0"))
+    with pytest.raises(ValueError, match="not invertible at this q"):
+        od.constraint_wrench(ur5, q, "tool0", A, np.ones(3))
+
+
+# ------------------------------------------------------------------------------------------
+# finite differences along a trajectory, every kind
+
+FD_CASES = {
+    "point_to_world": ("ur5", od.PointToWorld("tool0", (0.05, 0.1, -0.02))),
+    "point_on_plane": ("ur5", od.PointOnPlane("wrist_2_link", (1.0, 2.0, 3.0), (0.1, 0, 0.05))),
+    "point_to_point": ("ur5", od.PointToPoint("tool0", "upper_arm_link", (0.02, 0, 0.1))),
+    "point_to_world_point": ("ur5", od.PointToPoint("base_link", "tool0", (0.3, 0.2, 0.1))),
+    "fixed_pose_to_world": ("ur5", od.FixedPose("world", "tool0")),
+    "fixed_pose_between_links": ("ur5", od.FixedPose("upper_arm_link", "tool0")),
+    "fixed_pose_world_as_b": ("ur5", od.FixedPose("wrist_1_link", "base_link")),
+    "joint_coupling": ("ur5", od.JointCoupling([[1, -1, 0, 0, 0, 0], [0, 0, 0.5, 0, 0, -2]])),
+    "mimic_fingers_point": (
+        "panda_mimic",
+        od.PointToPoint("panda_leftfinger", "panda_rightfinger", (0, 0.01, 0.05)),
+    ),
+    "mimic_finger_weld": ("panda_mimic", od.FixedPose("panda_link2", "panda_leftfinger")),
+    "four_bar_closure": ("four_bar", CLOSURE),
+}
+
+
+def _five_point(f, h):
+    return (8 * (f(h) - f(-h)) - (f(2 * h) - f(-2 * h))) / (12 * h)
+
+
+@pytest.fixture(scope="module")
+def fd_models(ur5, four_bar):
+    return {"ur5": ur5, "panda_mimic": od.load_urdf("panda", mimic=True), "four_bar": four_bar}
+
+
+@pytest.mark.parametrize("case", FD_CASES)
+def test_phi_and_A_qd_have_the_derivatives_A_qd_and_A_qdd_plus_drift(fd_models, case):
+    model_name, c = FD_CASES[case]
+    model = fd_models[model_name]
+    for seed in range(2):
+        q0, qd0, qdd0 = _state(model, 100 + seed)
+
+        def q_at(t):
+            return q0 + t * qd0 + 0.5 * t * t * qdd0
+
+        def qd_at(t):
+            return qd0 + t * qdd0
+
+        # bound at q0: phi(0) = 0 (needed for the weld's log only)
+        dphi = _five_point(lambda t: od.constraint_error(model, q_at(t), c, q_bound=q0), FD_STEP)
+        A = od.constraint_jacobian(model, q0, c)
+        assert_close(dphi, A @ qd0, f"{case}: d/dt phi = A qd")
+        dAqd = _five_point(lambda t: od.constraint_jacobian(model, q_at(t), c) @ qd_at(t), FD_STEP)
+        drift = od.constraint_drift(model, q0, qd0, c)
+        assert_close(dAqd, A @ qdd0 + drift, f"{case}: d/dt (A qd) = A qdd + Adot qd")
+
+
+# ------------------------------------------------------------------------------------------
+# the compiled interface
+
+
+def test_table_resolves_defaults_at_q0_and_lays_out_rows(ur5):
+    q0 = np.random.default_rng(9).uniform(-2, 2, 6)
+    cs = [
+        od.PointToWorld("tool0", (0.1, 0, 0)),
+        od.PointOnPlane("wrist_3_link", (0, 0, 2.0)),
+        od.PointToPoint("tool0", "base_link"),
+        od.FixedPose("shoulder_link", "tool0"),
+        od.JointCoupling([[1, 0, 0, 0, 0, -1]]),
+    ]
+    rows, params = dc.constraint_table(ur5, cs, q0)
+    assert rows.dtype == np.int64 and params.dtype == np.float64
+    tool = ur5.frames[ur5.frame_index("tool0")].body
+    shoulder = ur5.frames[ur5.frame_index("shoulder_link")].body
+    wrist3 = ur5.frames[ur5.frame_index("wrist_3_link")].body
+    kinds = [dc.POINT_TO_WORLD, dc.POINT_ON_PLANE, dc.POINT_TO_POINT, dc.FIXED_POSE]
+    assert rows[:, 0].tolist() == kinds + [dc.JOINT_COUPLING]
+    assert rows[:, 1].tolist() == [0, 6, 13, 19, 55] and params.shape == (55 + 6 + 6,)
+    assert rows[:, 2].tolist() == [3, 1, 3, 6, 1]
+    assert rows[:, 3].tolist() == [tool, wrist3, tool, shoulder, -1]
+    assert rows[:, 4].tolist() == [-1, -1, -1, tool, -1]
+    T = od.frame_pose(ur5, q0, "tool0")
+    assert_close(params[3:6], T[:3, :3] @ [0.1, 0, 0] + T[:3, 3], "target bound at q0")
+    assert_close(params[9:12], [0, 0, 1.0], "normal normalised")
+    assert_close(params[12], od.frame_pose(ur5, q0, "wrist_3_link")[2, 3], "offset bound at q0")
+    T_ab = np.linalg.solve(od.frame_pose(ur5, q0, "shoulder_link"), T)
+    assert_close(params[19 + 24 : 19 + 33].reshape(3, 3), T_ab[:3, :3], "T_ab rotation")
+    assert_close(params[19 + 33 : 19 + 36], T_ab[:3, 3], "T_ab translation")
+    assert_close(params[61:67], q0, "q_ref bound at q0")
+    # the kernel fills A, Adot qd, phi as the public functions do, phi = 0 at q0
+    qd = np.ones(6)
+    k = int(rows[:, 2].sum())
+    A, Adot_qd, phi = np.empty((k, 6)), np.empty(k), np.empty(k)
+    status = dc.constraint_terms_kernel(ur5._ibuf, ur5._fbuf, rows, params, q0, qd, A, Adot_qd, phi)
+    assert status == 0
+    assert_close(A, od.constraint_jacobian(ur5, q0, cs), "A")
+    assert_close(Adot_qd, od.constraint_drift(ur5, q0, qd, cs), "Adot qd")
+    assert_close(phi[[0, 1, 2, 3, 7, 8, 9, 10, 11, 12, 13]], np.zeros(11), "phi = 0 where bound")
+
+
+def test_terms_kernel_reports_non_finite_state(ur5):
+    rows, params = dc.constraint_table(ur5, od.PointToWorld("tool0"), np.zeros(6))
+    A, Adot_qd, phi = np.empty((3, 6)), np.empty(3), np.empty(3)
+    bad = np.r_[0, 0, np.nan, 0, 0, 0]
+    good = np.zeros(6)
+    args = (ur5._ibuf, ur5._fbuf, rows, params)
+    assert dc.constraint_terms_kernel(*args, bad, good, A, Adot_qd, phi) == 1
+    assert dc.constraint_terms_kernel(*args, good, bad, A, Adot_qd, phi) == 2
+
+
+# ------------------------------------------------------------------------------------------
+# bad input
+
+
+def test_unknown_frame_is_named_with_its_constraint(ur5):
+    with pytest.raises(KeyError, match=r"constraints\[1\] PointToPoint.*'no_such_link'"):
+        od.constraint_jacobian(
+            ur5, np.zeros(6), [od.PointToWorld("tool0"), od.PointToPoint("tool0", "no_such_link")]
+        )
+
+
+def test_constraint_between_two_world_frames_is_refused(ur5):
+    for c in (od.PointToPoint("base_link", "world"), od.FixedPose("world", "base")):
+        with pytest.raises(ValueError, match="two world frames"):
+            od.constraint_jacobian(ur5, np.zeros(6), c)
+    with pytest.raises(ValueError, match="belongs to the fixed world"):
+        od.constraint_jacobian(ur5, np.zeros(6), od.PointToWorld("base_link"))
+
+
+@pytest.mark.parametrize(
+    "build, message",
+    [
+        (lambda: od.PointToWorld("tool0", (1.0, 2.0)), "PointToWorld: point must have shape"),
+        (lambda: od.PointToWorld("tool0", target=(0, np.nan, 0)), "target must be finite"),
+        (lambda: od.PointToWorld(""), "PointToWorld: frame must be a frame name"),
+        (lambda: od.PointOnPlane("tool0", (0, 0, 0)), "normal must be a non-zero vector"),
+        (lambda: od.PointOnPlane("tool0", (0, 0, 1), offset="x"), "offset must be"),
+        (lambda: od.PointToPoint("tool0", 3), "frame_b must be a frame name"),
+        (lambda: od.FixedPose("a", "b", np.eye(3)), r"T_ab must be a \(4, 4\)"),
+        (lambda: od.FixedPose("a", "b", 2 * np.eye(4)), "T_ab must be a rigid transform"),
+        (lambda: od.JointCoupling(np.zeros((0, 6))), "JointCoupling: A must be a"),
+        (lambda: od.JointCoupling([[1, np.inf]]), "A must be finite"),
+        (lambda: od.JointCoupling([[1, -1]], q_ref=(0, 0, 0)), "q_ref must have shape"),
+    ],
+)
+def test_bad_constraint_fields_are_named(build, message):
+    with pytest.raises(ValueError, match=message):
+        build()
+
+
+def test_coupling_of_the_wrong_width_is_named(ur5):
+    with pytest.raises(ValueError, match=r"constraints\[0\] JointCoupling.*nv=6 columns"):
+        od.constraint_jacobian(ur5, np.zeros(6), od.JointCoupling([[1, -1, 0]]))
+
+
+def test_unbound_defaults_need_q_bound_for_the_error(ur5):
+    q = np.zeros(6)
+    with pytest.raises(ValueError, match="target is None.*pass q_bound"):
+        od.constraint_error(ur5, q, od.PointToWorld("tool0"))
+    assert od.constraint_error(ur5, q, od.PointToWorld("tool0"), q_bound=q).tolist() == [0, 0, 0]
+    assert od.constraint_error(ur5, q, od.PointToWorld("tool0", target=(0, 0, 0))).shape == (3,)
+    with pytest.raises(ValueError, match="q0 is None|T_ab is None.*pass q0"):
+        dc.constraint_table(ur5, od.FixedPose("world", "tool0"), None)
+
+
+def test_exactly_one_of_constraints_and_A(ur5):
+    q = np.zeros(6)
+    c = od.PointToWorld("tool0")
+    A = od.constraint_jacobian(ur5, q, c)
+    with pytest.raises(ValueError, match="exactly one of `constraints`.*got both"):
+        od.constrained_forward_dynamics(ur5, q, q, q, c, A=A, Adot_qd=np.zeros(3))
+    with pytest.raises(ValueError, match="exactly one of `constraints`.*got neither"):
+        od.constrained_forward_dynamics(ur5, q, q, q)
+    with pytest.raises(ValueError, match="A needs its drift Adot_qd"):
+        od.constrained_forward_dynamics(ur5, q, q, q, A=A)
+    with pytest.raises(ValueError, match="Adot_qd goes with A"):
+        od.constrained_forward_dynamics(ur5, q, q, q, c, Adot_qd=np.zeros(3))
+    with pytest.raises(ValueError, match="constraints must be a constraint"):
+        od.constrained_forward_dynamics(ur5, q, q, q, "tool0")
+    with pytest.raises(ValueError, match=r"constraints\[1\] must be one of"):
+        od.constraint_jacobian(ur5, q, [c, "tool0"])
+
+
+def test_wrong_shapes_and_non_finite_numbers_are_named(ur5):
+    q = np.zeros(6)
+    c = od.PointToWorld("tool0")
+    A = od.constraint_jacobian(ur5, q, c)
+    cases = [
+        (lambda: od.constraint_jacobian(ur5, np.zeros(5), c), "q must have shape"),
+        (lambda: od.constraint_jacobian(ur5, np.zeros((2, 6)), c), "q must be a single state"),
+        (lambda: od.constraint_drift(ur5, q, np.r_[0, 0, np.nan, 0, 0, 0], c), "qd must be finite"),
+        (
+            lambda: od.constrained_forward_dynamics(ur5, q, q, q, A=A[:, :5], Adot_qd=np.zeros(3)),
+            r"A must have shape \(k, nv=6\)",
+        ),
+        (
+            lambda: od.constrained_forward_dynamics(ur5, q, q, q, A=A, Adot_qd=np.zeros(2)),
+            r"Adot_qd must have shape \(3,\)",
+        ),
+        (
+            lambda: od.constrained_forward_dynamics(ur5, q, q, np.r_[q[:5], np.inf], c),
+            "tau must be finite",
+        ),
+        (lambda: od.constraint_projection(ur5, q, A * np.nan), "A must be finite"),
+        (
+            lambda: od.constrained_inverse_dynamics(ur5, q, q, q, A, lam=np.zeros(4)),
+            r"lam must have shape \(3,\)",
+        ),
+        (lambda: od.constrained_inverse_dynamics(ur5, q, q, q[:4], A), "qdd must have shape"),
+        (lambda: od.constraint_wrench(ur5, q, "tool0", A, np.zeros(6)), "lam must have shape"),
+    ]
+    for call, message in cases:
+        with pytest.raises(ValueError, match=message):
+            call()
+    with pytest.raises(KeyError, match="no_such_link"):
+        od.constraint_wrench(ur5, np.full(6, 0.3), "no_such_link", A, np.zeros(3))
+
+
+# ------------------------------------------------------------------------------------------
+# against Pinocchio
+
+
+@pytest.fixture(scope="module")
+def pin():
+    return pytest.importorskip("pinocchio")
+
+
+def _oracle(model, mimic=False):
+    from pin_adapter import PinOracle
+
+    return PinOracle(model.source, model, mimic=mimic)
+
+
+def _pin_point_frame(P, frame, point):
+    """Pinocchio's frame id of a frame at `point` (frame coordinates) of `frame`, added once."""
+    pin = P.pin
+    name = f"{frame}@{tuple(float(x) for x in point)}"
+    if P.model.existFrame(name):
+        return P.model.getFrameId(name)
+    parent = P.frame_id(frame)
+    placement = P.model.frames[parent].placement * pin.SE3(np.eye(3), np.asarray(point, float))
+    joint = P.model.frames[parent].parentJoint
+    fid = P.model.addFrame(pin.Frame(name, joint, parent, placement, pin.FrameType.OP_FRAME))
+    P.data = P.model.createData()
+    return fid
+
+
+def _pin_point(P, frame, point, q, qd):
+    """Pinocchio's (J (3, nv) LOCAL_WORLD_ALIGNED linear rows, classical acceleration at a = 0,
+    world position) of a point of a frame."""
+    pin = P.pin
+    fid = _pin_point_frame(P, frame, point)
+    qp, vp = P.q(q), P.v(qd)
+    J = pin.computeFrameJacobian(P.model, P.data, qp, fid, pin.LOCAL_WORLD_ALIGNED)
+    pin.forwardKinematics(P.model, P.data, qp, vp, np.zeros(P.model.nv))
+    pin.updateFramePlacements(P.model, P.data)
+    a = pin.getFrameClassicalAcceleration(P.model, P.data, fid, pin.LOCAL_WORLD_ALIGNED)
+    return J[:3][:, P.idx_v], a.linear.copy(), P.data.oMf[fid].translation.copy()
+
+
+def _pin_frame_local(P, frame, q, qd):
+    """Pinocchio's LOCAL frame Jacobian (angular first) and spatial acceleration at a = 0."""
+    pin = P.pin
+    fid = P.frame_id(frame)
+    qp, vp = P.q(q), P.v(qd)
+    J = pin.computeFrameJacobian(P.model, P.data, qp, fid, pin.LOCAL)
+    pin.forwardKinematics(P.model, P.data, qp, vp, np.zeros(P.model.nv))
+    pin.updateFramePlacements(P.model, P.data)
+    a = pin.getFrameAcceleration(P.model, P.data, fid, pin.LOCAL)
+    return np.r_[J[3:], J[:3]][:, P.idx_v], np.r_[a.angular, a.linear]
+
+
+def _pin_constraint_dynamics(P, q, qd, tau, constraint_models, gravity=None):
+    """Pinocchio's constraintDynamics (no regularisation: mu = 0): qdd and lambda_pin."""
+    pin = P.pin
+    models, datas = pin.StdVec_RigidConstraintModel(), pin.StdVec_RigidConstraintData()
+    for cm in constraint_models:
+        models.append(cm)
+        datas.append(cm.createData())
+    pin.initConstraintDynamics(P.model, P.data, models, datas)
+    P.set_gravity(gravity)
+    settings = pin.ProximalSettings(1e-14, 0.0, 1)
+    a = pin.constraintDynamics(P.model, P.data, P.q(q), P.v(qd), P.v(tau), models, datas, settings)
+    P.set_gravity(None)
+    return P.back(a), P.data.lambda_c.copy()
+
+
+def _pin_contact_3d(P, frame_a, point_a, frame_b=None, point_b=(0, 0, 0)):
+    """CONTACT_3D between a point of frame_a and a point of frame_b (None: the world origin),
+    velocity difference in world axes (LOCAL_WORLD_ALIGNED)."""
+    pin = P.pin
+
+    def placement(frame, point):
+        fr = P.model.frames[P.frame_id(frame)]
+        return fr.parentJoint, fr.placement * pin.SE3(np.eye(3), np.asarray(point, float))
+
+    j1, M1 = placement(frame_a, point_a)
+    j2, M2 = (0, pin.SE3.Identity()) if frame_b is None else placement(frame_b, point_b)
+    return pin.RigidConstraintModel(
+        pin.ContactType.CONTACT_3D, P.model, j1, M1, j2, M2, pin.LOCAL_WORLD_ALIGNED
+    )
+
+
+def _pin_contact_6d(P, frame_a, frame_b, q):
+    """CONTACT_6D: frame_b (joint 1) welded to frame_a (joint 2; None = world) at their relative
+    pose at q, relative twist in frame b (LOCAL)."""
+    pin = P.pin
+    pin.framesForwardKinematics(P.model, P.data, P.q(q))
+    fb = P.model.frames[P.frame_id(frame_b)]
+    oMb = P.data.oMf[P.frame_id(frame_b)]
+    if frame_a is None:
+        j2, M2 = 0, oMb
+    else:
+        fa = P.model.frames[P.frame_id(frame_a)]
+        j2 = fa.parentJoint
+        M2 = fa.placement * (P.data.oMf[P.frame_id(frame_a)].inverse() * oMb)
+    return pin.RigidConstraintModel(
+        pin.ContactType.CONTACT_6D, P.model, fb.parentJoint, fb.placement, j2, M2, pin.LOCAL
+    )
+
+
+ARMS = {"ur5": "tool0", "panda": "panda_hand"}
+
+
+@pytest.mark.parametrize("robot", ARMS)
+def test_point_rows_and_drifts_match_pinocchio(pin, robot):
+    model = od.load_urdf(robot)
+    P = _oracle(model)
+    tip = ARMS[robot]
+    mid = model.body_names[2]
+    n = np.array([0.3, -0.5, 0.8]) / np.linalg.norm([0.3, -0.5, 0.8])
+    r_tip, r_mid = np.array([0.02, 0.03, 0.1]), np.array([-0.05, 0.1, 0.02])
+    for seed in range(3):
+        q, qd, _ = _state(model, 20 + seed)
+        J_tip, a_tip, p_tip = _pin_point(P, tip, r_tip, q, qd)
+        J_mid, a_mid, p_mid = _pin_point(P, mid, r_mid, q, qd)
+        cases = [
+            (
+                od.PointToWorld(tip, r_tip, target=(0.1, 0.2, 0.3)),
+                J_tip,
+                a_tip,
+                p_tip - [0.1, 0.2, 0.3],
+            ),
+            (od.PointOnPlane(tip, n, r_tip, offset=0.25), n @ J_tip, n @ a_tip, n @ p_tip - 0.25),
+            (od.PointToPoint(tip, mid, r_tip, r_mid), J_tip - J_mid, a_tip - a_mid, p_tip - p_mid),
+        ]
+        for c, J, a, phi in cases:
+            what = f"{robot} {type(c).__name__}"
+            assert_close(od.constraint_jacobian(model, q, c), np.atleast_2d(J), f"{what} A")
+            assert_close(od.constraint_drift(model, q, qd, c), np.atleast_1d(a), f"{what} drift")
+            assert_close(od.constraint_error(model, q, c), np.atleast_1d(phi), f"{what} phi")
+
+
+@pytest.mark.parametrize("robot", ARMS)
+def test_weld_rows_and_drift_match_pinocchio_local_jacobian_and_acceleration(pin, robot):
+    model = od.load_urdf(robot)
+    P = _oracle(model)
+    tip = ARMS[robot]
+    for seed in range(3):
+        q, qd, _ = _state(model, 30 + seed)
+        J_b, dV_b = _pin_frame_local(P, tip, q, qd)
+        c = od.FixedPose(model.frames[0].name, tip)
+        assert_close(od.constraint_jacobian(model, q, c), J_b, f"{robot} weld A = J_b")
+        assert_close(od.constraint_drift(model, q, qd, c), dV_b, f"{robot} weld drift = dV_b")
+
+
+@pytest.mark.parametrize("robot", ARMS)
+def test_point_and_weld_dynamics_match_pinocchio_constraint_dynamics(pin, robot):
+    model = od.load_urdf(robot)
+    P = _oracle(model)
+    tip = ARMS[robot]
+    base = model.frames[0].name
+    link1 = model.body_names[0]
+    r = np.array([0.05, -0.1, 0.2])
+    g_moon = np.array([0.3, -0.2, -1.62])
+    for seed in range(3):
+        q, qd, tau = _state(model, 40 + seed)
+        cases = [
+            (od.PointToWorld(tip, r), [_pin_contact_3d(P, tip, r)], None, False),
+            (od.PointToWorld(tip, r), [_pin_contact_3d(P, tip, r)], g_moon, False),
+            (od.FixedPose(base, tip), [_pin_contact_6d(P, None, tip, q)], None, True),
+        ]
+        if robot == "panda":  # joints 2-7 move the hand relative to link 1: rank 6
+            cases.append(
+                (od.FixedPose(link1, tip), [_pin_contact_6d(P, link1, tip, q)], None, True)
+            )
+        for c, cms, gravity, six in cases:
+            what = f"{robot} {type(c).__name__} gravity={gravity}"
+            qdd_ref, lam_pin = _pin_constraint_dynamics(P, q, qd, tau, cms, gravity)
+            lam_ref = -(np.r_[lam_pin[3:], lam_pin[:3]] if six else lam_pin)
+            qdd, lam = od.constrained_forward_dynamics(model, q, qd, tau, c, gravity=gravity)
+            assert_close(qdd, qdd_ref, f"{what} qdd")
+            assert_close(lam, lam_ref, f"{what} lam")
+
+
+@pytest.mark.parametrize("robot", ARMS)
+def test_plane_dynamics_match_pinocchio_kkt_forward_dynamics(pin, robot):
+    model = od.load_urdf(robot)
+    P = _oracle(model)
+    tip = ARMS[robot]
+    n = np.array([0.3, -0.5, 0.8]) / np.linalg.norm([0.3, -0.5, 0.8])
+    r = np.array([0.02, 0.03, 0.1])
+    for seed in range(3):
+        q, qd, tau = _state(model, 50 + seed)
+        J, a, _ = _pin_point(P, tip, r, q, qd)
+        J_pin, gamma = (n @ J)[None], np.array([n @ a])
+        J_pin_order = np.zeros((1, P.model.nv))
+        J_pin_order[:, P.idx_v] = J_pin
+        P.set_gravity(None)
+        qdd_ref = P.back(
+            pin.forwardDynamics(P.model, P.data, P.q(q), P.v(qd), P.v(tau), J_pin_order, gamma, 0.0)
+        )
+        lam_ref = -P.data.lambda_c.copy()
+        c = od.PointOnPlane(tip, n, r)
+        qdd, lam = od.constrained_forward_dynamics(model, q, qd, tau, c)
+        assert_close(qdd, qdd_ref, f"{robot} plane qdd")
+        assert_close(lam, lam_ref, f"{robot} plane lam")
+        # a general A: Pinocchio's own row and drift
+        qdd_A, lam_A = od.constrained_forward_dynamics(model, q, qd, tau, A=J_pin, Adot_qd=gamma)
+        assert_close(qdd_A, qdd_ref, f"{robot} general A qdd")
+        assert_close(lam_A, lam_ref, f"{robot} general A lam")
+
+
+def _depth(model, body):
+    d = 0
+    while body >= 0:
+        body, d = model.parent[body], d + 1
+    return d
+
+
+def _root_branch(model, body):
+    while model.parent[body] >= 0:
+        body = model.parent[body]
+    return body
+
+
+@pytest.mark.parametrize("seed", range(8))
+def test_loop_closure_on_random_trees_matches_pinocchio(pin, tmp_path, seed):
+    """A PointToPoint between the deepest frames of two different branches from the root."""
+    from pin_adapter import PinOracle
+    from randtree import write_random_tree
+
+    path = write_random_tree(tmp_path, seed)
+    model = od.load_urdf(str(path))
+    P = PinOracle(path, model)
+    frames = sorted((f for f in model.frames if f.body >= 0), key=lambda f: -_depth(model, f.body))
+    fa = frames[0]
+    fb = next(f for f in frames if _root_branch(model, f.body) != _root_branch(model, fa.body))
+    rng = np.random.default_rng(seed)
+    r_a, r_b = rng.uniform(-0.2, 0.2, (2, 3))
+    c = od.PointToPoint(fa.name, fb.name, r_a, r_b)
+    cm = _pin_contact_3d(P, fa.name, r_a, fb.name, r_b)
+    for k in range(3):
+        q, qd, tau = _state(model, 60 + 10 * seed + k)
+        J_a, acc_a, _ = _pin_point(P, fa.name, r_a, q, qd)
+        J_b, acc_b, _ = _pin_point(P, fb.name, r_b, q, qd)
+        assert_close(od.constraint_jacobian(model, q, c), J_a - J_b, "loop A")
+        assert_close(od.constraint_drift(model, q, qd, c), acc_a - acc_b, "loop drift")
+        qdd_ref, lam_pin = _pin_constraint_dynamics(P, q, qd, tau, [cm])
+        qdd, lam = od.constrained_forward_dynamics(model, q, qd, tau, c)
+        assert_close(qdd, qdd_ref, "loop qdd")
+        assert_close(lam, -lam_pin, "loop lam")
+
+
+def test_mimic_finger_rows_match_pinocchio(pin):
+    """Coupled mimic joints (the Panda's fingers, nv = 8 < nb = 9): a point on each finger."""
+    model = od.load_urdf("panda", mimic=True)
+    P = _oracle(model, mimic=True)
+    r = (0.0, 0.01, 0.05)
+    c = od.PointToPoint("panda_leftfinger", "panda_rightfinger", r, r)
+    for seed in range(3):
+        q, qd, _ = _state(model, 70 + seed)
+        J_l, a_l, _ = _pin_point(P, "panda_leftfinger", r, q, qd)
+        J_r, a_r, _ = _pin_point(P, "panda_rightfinger", r, q, qd)
+        assert_close(od.constraint_jacobian(model, q, c), J_l - J_r, "mimic A")
+        assert_close(od.constraint_drift(model, q, qd, c), a_l - a_r, "mimic drift")
