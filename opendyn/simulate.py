@@ -23,6 +23,7 @@ import numpy as np
 from . import __version__
 from ._kernel_cache import kernel_cache
 from .dynamics.energy import kinetic_energy, potential_energy
+from .scene import SceneError
 
 with kernel_cache():
     from . import effects, integrators, step
@@ -76,6 +77,11 @@ def simulate(scene, *, progress=False, raise_on_failure=True):
     run = scene.run
     model = scene.model
     integ = integrators.INTEGRATORS[run.integrator]
+    if scene.constraints and integ.kind == integrators.SEMI_IMPLICIT:
+        raise SceneError(
+            f"{scene.source}: run.integrator: semi_implicit_euler (symplectic, in momentum form) "
+            "does not support constraints; use rk4, dopri5, euler or implicit_euler"
+        )
     table = effects.stage_table(scene)
     if integ.adaptive:
         rows = int(np.ceil(run.duration / run.output_dt - 1e-9)) + 1
@@ -442,6 +448,12 @@ def failure_message(scene, status, t, steps, q, qd):
             f"singular mass matrix {where}: nothing with mass or inertia moves with joint "
             f"{joint!r}. Give the links below it inertia, or name the armature effect for it."
         )
+    if status == integrators.NO_CONVERGENCE:
+        return (
+            f"semi-implicit Euler's momentum update did not converge {where}: the step is too "
+            f"large for the velocities here (|qd| up to {np.abs(qd).max():.3g}); use a smaller "
+            "step"
+        )
     if status == integrators.STEP_UNDERFLOW:
         return (
             f"adaptive step underflow {where}: no step down to 1e-14 s met the tolerances. "
@@ -563,7 +575,8 @@ def stage_costs(scene, *, steps=2000, evaluations=20000):
             best = min(best, time.perf_counter() - tic)
         return best / len(t) * 1e6
 
-    implicit = run.integrator == "implicit_euler"
+    # implicit and semi-implicit Euler run the stages, then their own solve, not an evaluation
+    implicit = integrators.INTEGRATORS[run.integrator].kind != integrators.EXPLICIT_RK
     rows = [(name, cost(s)) for s, name in enumerate(table.names)]
     if not implicit:
         if scene.constraints:
@@ -572,12 +585,11 @@ def stage_costs(scene, *, steps=2000, evaluations=20000):
             dynamics = "forward dynamics (ABA" if table.method == 0 else "forward dynamics (CRBA"
         dynamics += ", with armature)" if scene.armature is not None else ")"
         rows.append((dynamics, cost(-1)))
-    # the implicit step runs the stages and then its own solve; the others a whole evaluation
     evaluation = sum(us for _, us in rows) if implicit else cost(-2)
     rows.append(("stages" if implicit else "whole evaluation", evaluation))
     costs = [(name, us, us * evals_per_step) for name, us in rows]
     per_step_us = per_step * 1e6
-    rest_name = "implicit solve + integrator" if implicit else "integrator and loop"
+    rest_name = "own solve + integrator" if implicit else "integrator and loop"
     costs.append((rest_name, None, per_step_us - evaluation * evals_per_step))
     costs.append(("step (measured)", None, per_step_us))
     return costs, n_steps, evals_per_step

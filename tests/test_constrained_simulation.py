@@ -262,3 +262,8 @@ def test_initial_velocity_must_satisfy_the_constraints():
             },
             base_dir=od.scene.shipped_robots_dir(),
         )
+
+
+def test_semi_implicit_euler_refuses_constraints(four_bar):
+    with pytest.raises(od.SceneError, match="semi_implicit_euler .* does not support constraints"):
+        od.simulate(four_bar.replace_run(integrator="semi_implicit_euler"))

@@ -115,9 +115,10 @@ HEAVY_DAMPING_END_TOL = 1e-7
 # 7. Long horizon: the double pendulum swing (chaotic, conservative) for LONG_DURATION at 1 ms.
 # A symplectic first-order method keeps |E - E(0)| bounded: the max over the last 20 s is at
 # most SEMI_IMPLICIT_GROWTH times that over the first 20 s, and everywhere below
-# SEMI_IMPLICIT_ENERGY_RTOL of max K (symplectic Euler in momentum form, p = M(q) qd, measured
-# 0.99, 0.86, 0.97 J in the three 20 s windows: 1.7 % of max K; opendyn's semi_implicit_euler,
-# velocity form, measured 14.6, 21.2, 31.3 J: expected to fail, see the test). RK4's drift over
+# SEMI_IMPLICIT_ENERGY_RTOL of max K (semi_implicit_euler, symplectic Euler in momentum form,
+# p = M(q) qd: measured 0.99, 0.92, 0.93 J in the three 20 s windows, 1.7 % of max K; the
+# velocity form qd' = qd + qdd dt, q' = q + qd' dt, symplectic only for a constant M, lost
+# energy secularly here: 14.6, 21.2, 31.3 J). RK4's drift over
 # 60 s: <= RK4_LONG_ENERGY_RTOL of max K (measured 8.5e-8, growing 3.4e-8, 7.1e-8, 8.5e-8).
 LONG_DURATION = 60.0
 LONG_DT = 1e-3
@@ -625,14 +626,6 @@ def energy_error_by_window(traj, width=20.0):
     return [error[(traj.t >= a) & (traj.t <= a + width)].max() for a in edges[:-1]]
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="opendyn/integrators.py semi_implicit_euler advances qd' = qd + qdd(q, qd) dt, "
-    "q' = q + qd' dt: symplectic only for a constant mass matrix. On the double pendulum "
-    "(M depends on q) it loses energy secularly: max |E - E(0)| 14.6, 21, 31 J in the three "
-    "20 s windows at 1 ms (E(0) = 79 J), and -5 J a minute for ten minutes at 0.1 ms. "
-    "Symplectic Euler in momentum form (p = M(q) qd) keeps it at 0.99, 0.86, 0.97 J.",
-)
 def test_semi_implicit_euler_energy_error_stays_bounded_over_60_s():
     """No secular growth: max |E - E(0)| over the last 20 s <= SEMI_IMPLICIT_GROWTH x over the
     first 20 s, and everywhere <= SEMI_IMPLICIT_ENERGY_RTOL max K."""

@@ -13,6 +13,7 @@ import pytest
 from randtree import write_random_tree
 
 import opendyn as od
+from opendyn.dynamics.energy import kinetic_gradient_kernel
 from opendyn.spatial import adjoint, inverse_transform
 
 SEEDS = range(20)
@@ -208,6 +209,20 @@ def test_kinetic_energy_is_half_qd_mass_matrix_qd(tree):
     _, model = tree
     for q, qd, _, _ in random_states(tree):
         assert_close(od.kinetic_energy(model, q, qd), 0.5 * qd @ od.mass_matrix(model, q) @ qd)
+
+
+def test_kinetic_energy_gradient_is_coriolis_matrix_transpose_times_velocity(tree):
+    """dK/dq at fixed qd (1/2 qd^T (dM/dq) qd) equals C^T qd: Mdot = C + C^T, and
+    c = C qd = Mdot qd - dK/dq (Lagrange's equations), so dK/dq = (C + C^T) qd - C qd."""
+    _, model = tree
+    for q, qd, _, _ in random_states(tree):
+        dK_dq = np.empty(model.nv)
+        assert kinetic_gradient_kernel(model._ibuf, model._fbuf, q, qd, dK_dq) == 0
+        expected = od.coriolis_matrix(model, q, qd).T @ qd
+        # relative to the size of the terms: |qd|^2 |M| (dK/dq may vanish, e.g. on a chain's
+        # first joint, where nothing depends on q_1)
+        scale = np.abs(qd).max() ** 2 * np.abs(od.mass_matrix(model, q)).max()
+        assert np.abs(dK_dq - expected).max() <= 1e-12 * scale
 
 
 def test_tip_wrench_adds_body_jacobian_transpose_times_wrench(tree):

@@ -3,7 +3,14 @@
     K(q, qd) = 1/2 qd^T M(q) qd = sum_i 1/2 V_i^T G_i V_i          (V_i: body twist in {i})
     U(q)     = - sum_i m_i g . c_i(q)                               (c_i: centre of mass in {s})
 
-so that dU/dq = g(q), the gravity torques (Lynch & Park, Section 8.1).
+so that dU/dq = g(q), the gravity torques (Lynch & Park, Section 8.1). The gradient of K in q
+at fixed qd, the force term of the momentum form of the equations of motion
+(d/dt (M qd) = dK/dq - g + tau), takes one forward and one backward pass:
+
+    dV_i/dq_j = Ad_{T_ij} ad_{V_j} A_j     (i in the subtree of j; 0 elsewhere)
+    dK/dq_j   = (ad_{V_j} A_j)^T P_j,      P_j = G_j V_j + sum_children Ad_{T_cj}^T P_c
+
+with P_j the momentum of the subtree of j in {j}.
 """
 
 from __future__ import annotations
@@ -12,7 +19,18 @@ import numpy as np
 from numba import njit
 
 from . import _args
-from ._kernels import BATCH, JIT, all_finite, rigid_inertia_times, rigid_inertias, run_rows, tree
+from ._kernels import (
+    BATCH,
+    JIT,
+    add_neg_ad_transpose,
+    add_wrench_to_parent,
+    all_finite,
+    dot6,
+    rigid_inertia_times,
+    rigid_inertias,
+    run_rows,
+    tree,
+)
 from .kinematics import forward_kinematics
 from .rnea import forward_pass
 
@@ -39,6 +57,38 @@ def kinetic_kernel(ibuf, fbuf, q, qd, out):
         for k in range(6):
             K += 0.5 * V[i, k] * s[k]
     out[0] = K
+    return 0
+
+
+@njit(**JIT)
+def kinetic_gradient_kernel(ibuf, fbuf, q, qd, dK_dq):
+    """dK_dq (nv,) <- dK/dq at fixed qd (N m or N). Status 1/2: q/qd not finite."""
+    if not all_finite(q):
+        return 1
+    if not all_finite(qd):
+        return 2
+    body_tree = tree(ibuf, fbuf)
+    parent, jtype, coord, mult, offset, A, R_home, p_home = body_tree
+    mass, h, I_o = rigid_inertias(ibuf, fbuf)
+    nb = mass.shape[0]
+    R = np.empty((nb, 3, 3))
+    p = np.empty((nb, 3))
+    V = np.empty((nb, 6))
+    dV = np.empty((nb, 6))
+    P = np.empty((nb, 6))
+    s = np.empty(6)
+    forward_pass(body_tree, q, qd, np.zeros_like(qd), np.zeros(6), R, p, V, dV, s)
+    # backward pass: P_j = G_j V_j + sum_children Ad_{T_cj}^T P_c
+    for i in range(nb):
+        rigid_inertia_times(mass[i], h[i], I_o[i], V[i], P[i])
+    dK_dq[:] = 0.0
+    for j in range(nb - 1, -1, -1):
+        # dK/dq_j = (ad_{V_j} A_j)^T P_j = -A_j . (-ad_{V_j}^T P_j)
+        s[:] = 0.0
+        add_neg_ad_transpose(V[j], P[j], s)
+        dK_dq[coord[j]] -= mult[j] * dot6(A[j], s)
+        if parent[j] >= 0:
+            add_wrench_to_parent(R[j], p[j], P[j], P[parent[j]])
     return 0
 
 

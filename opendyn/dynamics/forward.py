@@ -24,9 +24,9 @@ _METHOD_CODE = {name: code for code, name in enumerate(METHODS)}
 
 
 @njit(**JIT)
-def cholesky_solve(M, b, x):
-    """x = M^-1 b by M = L L^T, in place in M. Returns -1, or the first index k whose pivot is
-    not positive (M singular there)."""
+def cholesky_factor(M):
+    """M = L L^T, L in place in M's lower triangle. Returns -1, or the first index k whose
+    pivot is not positive (M singular there)."""
     n = M.shape[0]
     scale = 0.0
     for k in range(n):
@@ -44,18 +44,33 @@ def cholesky_solve(M, b, x):
             for m in range(k):
                 s -= M[r, m] * M[k, m]
             M[r, k] = s / d
-    # L y = b, then L^T x = y
+    return -1
+
+
+@njit(**JIT)
+def cholesky_substitute(L, b, x):
+    """x = (L L^T)^-1 b for L from cholesky_factor: L y = b, then L^T x = y."""
+    n = L.shape[0]
     for r in range(n):
         s = b[r]
         for m in range(r):
-            s -= M[r, m] * x[m]
-        x[r] = s / M[r, r]
+            s -= L[r, m] * x[m]
+        x[r] = s / L[r, r]
     for r in range(n - 1, -1, -1):
         s = x[r]
         for m in range(r + 1, n):
-            s -= M[m, r] * x[m]
-        x[r] = s / M[r, r]
-    return -1
+            s -= L[m, r] * x[m]
+        x[r] = s / L[r, r]
+
+
+@njit(**JIT)
+def cholesky_solve(M, b, x):
+    """x = M^-1 b by M = L L^T, in place in M. Returns -1, or the first index k whose pivot is
+    not positive (M singular there)."""
+    k = cholesky_factor(M)
+    if k < 0:
+        cholesky_substitute(M, b, x)
+    return k
 
 
 @njit(**JIT)
