@@ -1,6 +1,6 @@
 """What accuracy costs in time: integrators and steps, forward-dynamics algorithms, effects.
 
-    python scripts/accuracy_vs_time.py             # the full study (about 10 min on 2 cores)
+    python scripts/accuracy_vs_time.py             # the full study (about 3 min on 2 cores)
     python scripts/accuracy_vs_time.py --quick     # the same pipeline on small sweeps (< 2 min)
 
 1. Integrators. Each scene runs with every integrator over a sweep of steps (tolerances for the
@@ -12,23 +12,34 @@
    loaded). The convergence order is the slope of log(final error) against log(step) (against
    log(rtol) for dopri5) over the four smallest steps whose error lies between 100x the
    reference's and 0.1.
-2. Algorithms. Forward dynamics by ABA, CRBA + Cholesky and n RNEA calls + Cholesky (the seed's
+2. The constrained scene. The shipped four-bar linkage (one loop closure; 5 s, quick 2 s) with
+   every integrator over the same sweeps, with the scene's Baumgarte stabilisation and without
+   it (baumgarte = None): the loop-closure violation (max and final |phi| (m), max |A qd| (m/s)
+   over the samples), the state error against dopri5 at 1e-12 with Baumgarte, evaluations and
+   wall time; the convergence order of max |phi| against step (fitted as for the errors, above
+   100x the reference's own violation); the fastest run with max |phi| <= 1e-6 m and 1e-9 m.
+   An integrator the simulator refuses on a constrained scene (SceneError) is recorded as not
+   supported.
+3. Algorithms. Forward dynamics by ABA, CRBA + Cholesky and n RNEA calls + Cholesky (the seed's
    method) on random serial chains of n links: time per call inside a compiled loop (what a
    simulation step pays), time per call of od.forward_dynamics and of Pinocchio's aba from
    Python, and the growth exponent p of time ~ n^p. Then accuracy as M(q) becomes
    ill-conditioned: the residual ||M qdd + h - tau|| / ||tau|| on chains whose links alternate
    between 1 kg and a lighter mass.
-3. Effects. The cost of every stage of the step (as `opendyn simulate --profile` reports it) on
+4. Effects. The cost of every stage of the step (as `opendyn simulate --profile` reports it) on
    scenes that switch every effect on.
 
 Writes into --out (default docs/study): accuracy_vs_time.png (error against wall time, one curve
-per integrator: the Pareto plot), convergence.png (error against step), algorithms.png, study.md
-(every table) and study.json (every number).
+per integrator: the Pareto plot), convergence.png (error against step), constraint.png (the
+four-bar's max violation against step and wall time; solid with Baumgarte, dashed without),
+algorithms.png, study.md (every table) and study.json (every number; the four-bar under
+"constrained").
 """
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import pathlib
 import sys
@@ -197,7 +208,111 @@ def recommend(runs):
     return out
 
 
-# ---------------------------------------------------------------- 2. algorithms
+# ---------------------------------------------------------------- 2. the constrained scene
+
+# (key, shipped scene, title, duration full, duration quick). The quick run lasts 2 s, about two
+# crank revolutions: the stabilised violation peaks on the first revolution, and before its end
+# (1 s) RK4 without stabilisation has not yet drifted past RK4 with it.
+CONSTRAINED = ("four_bar", "four_bar", "four-bar linkage (one loop closure)", 5.0, 2.0)
+STABILISATION = {"baumgarte": "with Baumgarte", "none": "without stabilisation"}
+VIOLATION_TARGETS = (1e-6, 1e-9)  # m: max |phi| over the run, for the recommendations
+
+
+def _run_settings(integrator, x):
+    """replace_run arguments for a fixed step x (s), or dopri5 at rtol = atol = x."""
+    if integrator == "dopri5":
+        return dict(integrator=integrator, rtol=x, atol=x)
+    return dict(integrator=integrator, dt=x)
+
+
+def constrained_study(mode, repeats):
+    """The four-bar (one loop closure) with every integrator x step, with the scene's Baumgarte
+    stabilisation and without it: constraint violation (max and final |phi|, max |A qd|), state
+    error against the reference, evaluations and wall time. A combination the simulator refuses
+    (SceneError) is recorded as not supported, with its message."""
+    key, shipped, title, full_T, quick_T = CONSTRAINED
+    duration = full_T if mode == "full" else quick_T
+    base = od.load_scene(shipped).replace_run(duration=duration, output_dt=OUTPUT_DT)
+    scenes = {"baumgarte": base, "none": dataclasses.replace(base, baumgarte=None)}
+    ref = od.simulate(base.replace_run(**_run_settings("dopri5", REFERENCE_TOL)))
+    check = od.simulate(base.replace_run(**_run_settings("dopri5", CHECK_TOL)))
+    ref_bound = state_error(check, ref)[1]
+    ref_violation = float(ref.violation_position.max())
+    sweeps = STEPS[mode]
+    plan = [
+        (stab, name, x)
+        for stab in STABILISATION
+        for name in LABEL
+        for x in sweeps["dopri5" if name == "dopri5" else _sweep(name)]
+    ]
+    runs = []
+    for stab, name, x in tqdm(plan, desc=title, leave=False):
+        row = dict(stabilisation=stab, integrator=name, step=x)
+        try:
+            traj, wall = timed_run(scenes[stab].replace_run(**_run_settings(name, x)), repeats)
+        except od.SceneError as e:
+            row.update(supported=False, complete=False, reason=str(e))
+            runs.append(row)
+            continue
+        row.update(supported=True, complete=traj.complete, wall_s=wall)
+        row.update(evaluations=int(traj.stats["evaluations"]), steps=int(traj.stats["steps"]))
+        if traj.complete:
+            final, worst = state_error(traj, ref)
+            row.update(
+                violation_max=float(traj.violation_position.max()),
+                violation_final=float(traj.violation_position[-1]),
+                velocity_violation_max=float(traj.violation_velocity.max()),
+                error_final=final,
+                error_max=worst,
+            )
+        else:
+            row.update(failed_at=float(traj.t[-1]) if len(traj.t) else 0.0, reason=traj.message)
+        runs.append(row)
+    orders = {}
+    for stab in STABILISATION:
+        orders[stab] = {}
+        for name in LABEL:
+            done = [
+                r
+                for r in runs
+                if r["stabilisation"] == stab and r["integrator"] == name and r["complete"]
+            ]
+            orders[stab][name] = fit_order(
+                [r["step"] for r in done], [r["violation_max"] for r in done], ref_violation
+            )
+    recommendations = {
+        stab: recommend_violation([r for r in runs if r["stabilisation"] == stab])
+        for stab in STABILISATION
+    }
+    return dict(
+        key=key,
+        scene=shipped,
+        title=title,
+        duration=duration,
+        baumgarte=list(base.baumgarte),
+        reference=dict(
+            rtol=REFERENCE_TOL,
+            error_bound=ref_bound,
+            steps=int(ref.stats["steps"]),
+            violation_max=ref_violation,
+            velocity_violation_max=float(ref.violation_velocity.max()),
+        ),
+        runs=runs,
+        orders=orders,
+        recommendations=recommendations,
+    )
+
+
+def recommend_violation(runs):
+    """For each target max |phi| (m): the fastest complete run that meets it (None if none)."""
+    out = {}
+    for target in VIOLATION_TARGETS:
+        ok = [r for r in runs if r["complete"] and r["violation_max"] <= target]
+        out[target] = min(ok, key=lambda r: r["wall_s"]) if ok else None
+    return out
+
+
+# ---------------------------------------------------------------- 3. algorithms
 
 
 def chain_model(n, tmp):
@@ -284,6 +399,32 @@ def growth_exponent(n, t, n_min):
     return float(np.polyfit(np.log(n[keep]), np.log(t[keep]), 1)[0])
 
 
+def method_times(model, path, rng, budget):
+    """Per-call times (us) of the three forward-dynamics methods in a compiled loop, of
+    od.forward_dynamics from Python and, with Pinocchio, of pin.aba from Python."""
+    nv = model.nv
+    q = rng.uniform(-1.0, 1.0, (2000, nv))
+    qd = rng.normal(size=(2000, nv))
+    tau = rng.normal(size=(2000, nv))
+    row = {f"{m}_kernel_us": kernel_time(model, m, q, qd, budget) * 1e6 for m in METHODS}
+    states = list(zip(q[:500], qd[:500], tau[:500]))
+    row["aba_public_us"] = (
+        python_call_time(
+            lambda q_, qd_, tau_: od.forward_dynamics(model, q_, qd_, tau_), states, budget
+        )
+        * 1e6
+    )
+    pin_fn = pinocchio_aba(path, model)
+    if pin_fn is not None:
+        fn, oracle = pin_fn
+        pin_states = [(oracle.q(a), oracle.v(b), oracle.v(c)) for a, b, c in states]
+        row["pinocchio_aba_us"] = python_call_time(fn, pin_states, budget) * 1e6
+    return row
+
+
+BUNDLED = ("double_pendulum", "planar_3r", "four_bar", "ur5", "panda")  # the last two: ERD
+
+
 def algorithm_study(mode, tmp):
     sizes = [2, 3, 5, 7, 10, 15, 20, 30, 50, 70, 100, 150, 200] if mode == "full" else [2, 10, 50]
     budget = 0.2 if mode == "full" else 0.01
@@ -291,31 +432,22 @@ def algorithm_study(mode, tmp):
     rows = []
     for n in tqdm(sizes, desc="chains", leave=False):
         model, path = chain_model(n, tmp)
-        q = rng.uniform(-1.0, 1.0, (2000, n))
-        qd = rng.normal(size=(2000, n))
-        tau = rng.normal(size=(2000, n))
-        row = dict(n=n)
-        for method in METHODS:
-            row[f"{method}_kernel_us"] = kernel_time(model, method, q, qd, budget) * 1e6
-        states = list(zip(q[:500], qd[:500], tau[:500]))
-        row["aba_public_us"] = (
-            python_call_time(
-                lambda q_, qd_, tau_: od.forward_dynamics(model, q_, qd_, tau_), states, budget
-            )
-            * 1e6
+        rows.append(dict(n=n, **method_times(model, path, rng, budget)))
+    robots = []
+    for name in tqdm(BUNDLED, desc="robots", leave=False):
+        try:
+            model = od.load_urdf(name)
+        except od.URDFError:
+            continue  # example-robot-data not installed
+        robots.append(
+            dict(robot=name, nv=model.nv, **method_times(model, model.source, rng, budget))
         )
-        pin_fn = pinocchio_aba(path, model)
-        if pin_fn is not None:
-            fn, oracle = pin_fn
-            pin_states = [(oracle.q(a), oracle.v(b), oracle.v(c)) for a, b, c in states]
-            row["pinocchio_aba_us"] = python_call_time(fn, pin_states, budget) * 1e6
-        rows.append(row)
     n_min = 20 if mode == "full" else 10
     exponents = {
         m: growth_exponent([r["n"] for r in rows], [r[f"{m}_kernel_us"] for r in rows], n_min)
         for m in METHODS
     }
-    return dict(chains=rows, exponents=exponents, fit_from_n=n_min)
+    return dict(chains=rows, robots=robots, exponents=exponents, fit_from_n=n_min)
 
 
 AXES = ("0 0 1", "0 1 0", "1 0 0")
@@ -379,7 +511,7 @@ def conditioning_study(mode, tmp):
     return rows
 
 
-# ---------------------------------------------------------------- 3. effects
+# ---------------------------------------------------------------- 4. effects
 
 
 def effect_scenes():
@@ -487,6 +619,55 @@ def plot_convergence(results, path):
     plt.close(fig)
 
 
+def plot_constraint(res, path):
+    """Max |phi| against step (DOPRI5 against its mean step) and against wall time: one colour
+    per integrator, solid with Baumgarte, dashed without."""
+    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(13, 6))
+    style = {"baumgarte": "o-", "none": "s--"}
+    refused = []
+    for k, name in enumerate(LABEL):
+        colour = f"C{k}"
+        for stab in STABILISATION:
+            rows = [
+                r for r in res["runs"] if r["integrator"] == name and r["stabilisation"] == stab
+            ]
+            if rows and not any(r["supported"] for r in rows):
+                refused.append(f"{LABEL[name]} {STABILISATION[stab]}")
+            done = [r for r in rows if r["complete"]]
+            if not done:
+                continue
+            if name == "dopri5":
+                x = [res["duration"] / r["steps"] for r in done]
+                label = f"{LABEL[name]}, mean step, {STABILISATION[stab]}"
+            else:
+                x = [r["step"] for r in done]
+                label = f"{LABEL[name]}, {STABILISATION[stab]}"
+            y = [max(r["violation_max"], 1e-16) for r in done]
+            ax1.loglog(x, y, style[stab], color=colour, ms=4, label=label)
+            ax2.loglog([r["wall_s"] for r in done], y, style[stab], color=colour, ms=4)
+    for ax in (ax1, ax2):
+        for target in VIOLATION_TARGETS:
+            ax.axhline(target, color="grey", lw=0.8, ls=":")
+        ax.set_ylabel("max |phi| over the run (m)")
+        ax.grid(True, which="major", alpha=0.3)
+    ax1.set_xlabel("step dt (s)")
+    ax1.set_title("Loop-closure violation against step")
+    ax2.set_xlabel("wall time (s)")
+    ax2.set_title("Loop-closure violation against wall time")
+    alpha, beta = res["baumgarte"]
+    note = (
+        f"{res['title']}, {res['duration']:g} s; Baumgarte alpha = {alpha:g}, beta = {beta:g} 1/s"
+    )
+    note += "; dotted: " + ", ".join(f"{t:.0e} m" for t in VIOLATION_TARGETS)
+    if refused:
+        note += "\nnot supported: " + "; ".join(refused)
+    fig.suptitle(note, fontsize=10)
+    fig.legend(*ax1.get_legend_handles_labels(), loc="lower center", ncol=4, fontsize=8)
+    fig.tight_layout(rect=(0, 0.1, 1, 1))
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
 def plot_algorithms(algo, cond_rows, path):
     fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(12, 4.5))
     n = [r["n"] for r in algo["chains"]]
@@ -527,7 +708,112 @@ def _step(r):
     return f"rtol {r['step']:.0e}" if r["integrator"] == "dopri5" else f"dt {r['step'] * 1e3:g} ms"
 
 
-def markdown(results, algo, cond_rows, effect_rows, mode, elapsed):
+def _recommended(r):
+    if r is None:
+        return "none"
+    return f"{LABEL[r['integrator']]}, {_step(r)}: {r['wall_s'] * 1e3:.3g} ms"
+
+
+def constrained_recommendations(res):
+    """Markdown lines: the fastest run that keeps max |phi| under each target, per setting."""
+    out = [
+        f"\nConstrained scene ({res['title']}, {res['duration']:g} s): the fastest run whose max "
+        "loop-closure violation |phi| meets each bound.\n"
+    ]
+    out.append(
+        "| stabilisation | " + " | ".join(f"max abs(phi) <= {t:.0e} m" for t in VIOLATION_TARGETS)
+    )
+    out[-1] += " |"
+    out.append("|---" * (len(VIOLATION_TARGETS) + 1) + "|")
+    for stab, title in STABILISATION.items():
+        cells = [_recommended(res["recommendations"][stab][t]) for t in VIOLATION_TARGETS]
+        out.append(f"| {title} | " + " | ".join(cells) + " |")
+    return out
+
+
+def constrained_markdown(res):
+    """Markdown lines: the constrained scene's section (tables of runs, orders)."""
+    ref = res["reference"]
+    alpha, beta = res["baumgarte"]
+    out = [
+        f"\n## Constrained scene: {res['title']}, {res['duration']:g} s\n\n"
+        f"The shipped four_bar scene (crank driven at 2 N m against damping, gravity) run with "
+        f"its Baumgarte stabilisation (alpha = {alpha:g} 1/s, beta = {beta:g} 1/s) and without "
+        f"it. |phi|: the largest loop-closure error (m) at the recorded samples; |A qd|: the "
+        f"largest closure velocity error (m/s). The state error is max_j |q_j - q_ref,j| (rad) "
+        f"against dopri5 at rtol = atol = {ref['rtol']:.0e} with Baumgarte ({ref['steps']} "
+        f"steps; bound {ref['error_bound']:.1e} rad from the run at {CHECK_TOL:.0e}; its own max "
+        f"|phi| is {ref['violation_max']:.1e} m, max |A qd| {ref['velocity_violation_max']:.1e} "
+        f"m/s). Every run, stabilised or not, approximates the same exact motion, on which phi = 0 "
+        f"and the Baumgarte terms vanish.\n"
+    ]
+    for stab, title in STABILISATION.items():
+        out.append(f"### {title[0].upper() + title[1:]}\n")
+        out.append(
+            "| integrator | step | max abs(phi) (m) | final abs(phi) (m) | max abs(A qd) (m/s) "
+            "| final state error (rad) | max state error (rad) | evaluations | wall (ms) |"
+        )
+        out.append("|---" * 9 + "|")
+        refused = set()
+        for r in res["runs"]:
+            if r["stabilisation"] != stab:
+                continue
+            if not r["supported"]:
+                if r["integrator"] not in refused:
+                    refused.add(r["integrator"])
+                    reason = r["reason"].split(": ", 1)[-1]
+                    out.append(
+                        f"| {LABEL[r['integrator']]} | every step | not supported: {reason} "
+                        "| - | - | - | - | - | - |"
+                    )
+                continue
+            if r["complete"]:
+                cells = [r["violation_max"], r["violation_final"], r["velocity_violation_max"]]
+                cells = [_e(v) for v in cells + [r["error_final"], r["error_max"]]]
+            else:
+                cells = [f"diverged at t = {r['failed_at']:.3g} s"] + ["-"] * 4
+            out.append(
+                f"| {LABEL[r['integrator']]} | {_step(r)} | " + " | ".join(cells) + f" | "
+                f"{r['evaluations']} | {r['wall_s'] * 1e3:.3g} |"
+            )
+        out.append("")
+    out.append(
+        "### Convergence order of the violation\n\nThe slope of log(max abs(phi)) against "
+        "log(step) (DOPRI5: against log(rtol)) over the four smallest steps whose violation lies "
+        f"between 100x the reference's ({100 * ref['violation_max']:.0e} m) and 0.1 m. '-': "
+        "fewer than three runs there, or not supported.\n"
+    )
+    out.append("| stabilisation | " + " | ".join(LABEL[n] for n in LABEL) + " |")
+    out.append("|---" * (len(LABEL) + 1) + "|")
+    for stab, title in STABILISATION.items():
+        cells = [f"{o:.2f}" if o is not None else "-" for o in res["orders"][stab].values()]
+        out.append(f"| {title} | " + " | ".join(cells) + " |")
+    out += constrained_recommendations(res)
+    return out
+
+
+def method_table(rows, key, title):
+    """Markdown lines: one row of per-call times per model."""
+    if not rows:
+        return ["(none)"]
+    has_pin = "pinocchio_aba_us" in rows[0]
+    head = f"| {title} | ABA (us) | CRBA + Cholesky (us) | n-RNEA + Cholesky (us) | "
+    head += "od.forward_dynamics (us)"
+    lines = [head + (" | pin.aba (us) | ratio |" if has_pin else " |")]
+    lines.append("|---" * (7 if has_pin else 5) + "|")
+    for r in rows:
+        cells = [f"{r[f'{m}_kernel_us']:.3g}" for m in METHODS] + [f"{r['aba_public_us']:.3g}"]
+        if has_pin:
+            cells += [
+                f"{r['pinocchio_aba_us']:.3g}",
+                f"{r['aba_public_us'] / r['pinocchio_aba_us']:.2f}",
+            ]
+        name = r[key] if key == "n" else f"{r[key]} ({r['nv']})"
+        lines.append(f"| {name} | " + " | ".join(cells) + " |")
+    return lines
+
+
+def markdown(results, constrained, algo, cond_rows, effect_rows, mode, elapsed):
     out = [f"# Accuracy versus time ({mode} run, {elapsed:.0f} s)\n"]
     out.append("## Recommendations: the fastest run that meets each max error\n")
     out.append("| scene | " + " | ".join(f"error <= {t:.0e} rad" for t in TARGETS) + " |")
@@ -542,6 +828,7 @@ def markdown(results, algo, cond_rows, effect_rows, mode, elapsed):
                 else f"{LABEL[r['integrator']]}, {_step(r)}: {r['wall_s'] * 1e3:.3g} ms"
             )
         out.append(f"| {res['title']} | " + " | ".join(cells) + " |")
+    out += constrained_recommendations(constrained)
     out.append(
         "\n## Convergence orders\n\nThe slope of log(final error) against log(step); for DOPRI5 "
         "against log(rtol) (1: the error is proportional to the tolerance). '-': fewer than "
@@ -581,21 +868,11 @@ def markdown(results, algo, cond_rows, effect_rows, mode, elapsed):
             for r in res["pareto"]
         )
         out.append(f"\nPareto front (fastest first): {front}.")
+    out += constrained_markdown(constrained)
     out.append("\n## Forward dynamics: time per call on random serial chains\n")
-    has_pin = "pinocchio_aba_us" in algo["chains"][0]
-    head = (
-        "| n | ABA (us) | CRBA + Cholesky (us) | n-RNEA + Cholesky (us) | od.forward_dynamics (us)"
-    )
-    out.append(head + (" | pin.aba (us) | ratio |" if has_pin else " |"))
-    out.append("|---" * (7 if has_pin else 5) + "|")
-    for r in algo["chains"]:
-        cells = [f"{r[f'{m}_kernel_us']:.3g}" for m in METHODS] + [f"{r['aba_public_us']:.3g}"]
-        if has_pin:
-            cells += [
-                f"{r['pinocchio_aba_us']:.3g}",
-                f"{r['aba_public_us'] / r['pinocchio_aba_us']:.2f}",
-            ]
-        out.append(f"| {r['n']} | " + " | ".join(cells) + " |")
+    out += method_table(algo["chains"], "n", "n")
+    out.append("\nAnd on the bundled robots (and example-robot-data's UR5 and Panda):\n")
+    out += method_table(algo["robots"], "robot", "robot (nv)")
     exps = ", ".join(f"{m} n^{p:.2f}" for m, p in algo["exponents"].items())
     out.append(
         f"\nThe first three columns are per call inside a compiled loop (what a simulation step "
@@ -643,19 +920,22 @@ def main(argv=None):
     tmp.mkdir(exist_ok=True)
     tic = time.perf_counter()
     results = integrator_study(mode, repeats=5 if mode == "full" else 1)
+    constrained = constrained_study(mode, repeats=5 if mode == "full" else 1)
     algo = algorithm_study(mode, tmp)
     cond_rows = conditioning_study(mode, tmp)
     effect_rows = effect_study(mode)
     elapsed = time.perf_counter() - tic
     plot_pareto(results, out / "accuracy_vs_time.png")
     plot_convergence(results, out / "convergence.png")
+    plot_constraint(constrained, out / "constraint.png")
     plot_algorithms(algo, cond_rows, out / "algorithms.png")
-    text = markdown(results, algo, cond_rows, effect_rows, mode, elapsed)
+    text = markdown(results, constrained, algo, cond_rows, effect_rows, mode, elapsed)
     (out / "study.md").write_text(text)
     record = dict(
         mode=mode,
         elapsed_s=elapsed,
         integrators=results,
+        constrained=constrained,
         algorithms=algo,
         conditioning=cond_rows,
         effects=effect_rows,
@@ -666,7 +946,10 @@ def main(argv=None):
         path.unlink()
     tmp.rmdir()
     print(text)
-    print(f"wrote {out}/: accuracy_vs_time.png convergence.png algorithms.png study.md study.json")
+    print(
+        f"wrote {out}/: accuracy_vs_time.png convergence.png constraint.png algorithms.png "
+        "study.md study.json"
+    )
     return 0
 
 
