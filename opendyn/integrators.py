@@ -44,7 +44,7 @@ from .dynamics.crba import crba_kernel
 from .dynamics.energy import kinetic_gradient_kernel
 from .dynamics.forward import cholesky_factor, cholesky_solve, cholesky_substitute
 from .dynamics.rnea import rnea_kernel
-from .step import DIVERGED, evaluate, generalized_forces
+from .step import DIVERGED, evaluate, explicit_forces, generalized_forces
 
 STEP_UNDERFLOW = 6  # the adaptive step fell below what float64 time can resolve
 NO_CONVERGENCE = 7  # the symplectic Euler momentum update did not converge
@@ -266,23 +266,8 @@ def symplectic_euler_step(
     tau = np.empty(nv)
     power = np.empty(2)
     loads = np.empty((1, 6))
-    unused = np.empty(0)
-    status = generalized_forces(
-        ibuf,
-        fbuf,
-        rows,
-        params,
-        armature,
-        t,
-        q,
-        qd,
-        loads[0],
-        tau,
-        tau_ctrl,
-        power,
-        unused,
-        unused,
-        False,
+    status = explicit_forces(
+        ibuf, fbuf, rows, params, armature, t, q, qd, loads, tau, tau_ctrl, power
     )
     if status:
         return status

@@ -129,6 +129,30 @@ def generalized_forces(
 
 
 @njit(**INLINE)
+def explicit_forces(ibuf, fbuf, rows, params, armature, t, q, qd, loads, tau, tau_ctrl, power):
+    """generalized_forces without the stiffness and damping diagonals (for steps that treat every
+    effect explicitly): tau, tau_ctrl (nv,), loads[0] <- dV_0, power (2,). Returns a status."""
+    unused = np.empty(0)
+    return generalized_forces(
+        ibuf,
+        fbuf,
+        rows,
+        params,
+        armature,
+        t,
+        q,
+        qd,
+        loads[0],
+        tau,
+        tau_ctrl,
+        power,
+        unused,
+        unused,
+        False,
+    )
+
+
+@njit(**INLINE)
 def dynamics(ibuf, fbuf, q, qd, tau, loads, qdd, method, armature, con):
     """qdd (nv,) <- forward dynamics under tau (nv,) and the base acceleration loads[0]: ABA or
     CRBA (`method`) without constraints, the constrained solve with them. Returns a status."""
@@ -146,26 +170,10 @@ def evaluate(ibuf, fbuf, rows, params, method, armature, con, t, q, qd, qdd, tau
     """qdd (nv,) <- the scene's forward dynamics at (t, q, qd); tau_ctrl (nv,) <- the control
     torque; power (2,) <- (applied, passive) power. con: the constraints, (rows, params,
     (alpha, beta)), with no rows for none. Returns 0, or the dynamics' status code."""
-    nv = q.shape[0]
-    tau = np.empty(nv)
+    tau = np.empty(q.shape[0])
     loads = np.empty((1, 6))
-    unused = np.empty(0)  # no K, D: explicit integrators do not need them
-    status = generalized_forces(
-        ibuf,
-        fbuf,
-        rows,
-        params,
-        armature,
-        t,
-        q,
-        qd,
-        loads[0],
-        tau,
-        tau_ctrl,
-        power,
-        unused,
-        unused,
-        False,
+    status = explicit_forces(
+        ibuf, fbuf, rows, params, armature, t, q, qd, loads, tau, tau_ctrl, power
     )
     if status:
         return status

@@ -199,11 +199,12 @@ def pareto_front(runs):
     return front
 
 
-def recommend(runs):
-    """For each target max error: the fastest run that meets it (None when none does)."""
+def recommend(runs, targets=TARGETS, measure="error_max"):
+    """For each target: the fastest complete run whose `measure` (max error, rad; or max
+    violation, m) meets it (None when none does)."""
     out = {}
-    for target in TARGETS:
-        ok = [r for r in runs if r["complete"] and r["error_max"] <= target]
+    for target in targets:
+        ok = [r for r in runs if r["complete"] and r[measure] <= target]
         out[target] = min(ok, key=lambda r: r["wall_s"]) if ok else None
     return out
 
@@ -281,7 +282,9 @@ def constrained_study(mode, repeats):
                 [r["step"] for r in done], [r["violation_max"] for r in done], ref_violation
             )
     recommendations = {
-        stab: recommend_violation([r for r in runs if r["stabilisation"] == stab])
+        stab: recommend(
+            [r for r in runs if r["stabilisation"] == stab], VIOLATION_TARGETS, "violation_max"
+        )
         for stab in STABILISATION
     }
     return dict(
@@ -301,15 +304,6 @@ def constrained_study(mode, repeats):
         orders=orders,
         recommendations=recommendations,
     )
-
-
-def recommend_violation(runs):
-    """For each target max |phi| (m): the fastest complete run that meets it (None if none)."""
-    out = {}
-    for target in VIOLATION_TARGETS:
-        ok = [r for r in runs if r["complete"] and r["violation_max"] <= target]
-        out[target] = min(ok, key=lambda r: r["wall_s"]) if ok else None
-    return out
 
 
 # ---------------------------------------------------------------- 3. algorithms

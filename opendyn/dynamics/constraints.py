@@ -130,6 +130,19 @@ def add_point_jacobian(parent, coord, mult, A, R_s, p_s, body, p_w, sign, J, S):
 
 
 @njit(**INLINE)
+def relative_pose(R_s1, p_s1, R_s2, p_s2, R_12, p_12):
+    """(R_12, p_12) <- T_12 = T_s1^-1 T_s2 = (R_s1^T R_s2, R_s1^T (p_s2 - p_s1))."""
+    for i in range(3):
+        for j in range(3):
+            R_12[i, j] = R_s1[0, i] * R_s2[0, j] + R_s1[1, i] * R_s2[1, j] + R_s1[2, i] * R_s2[2, j]
+        p_12[i] = (
+            R_s1[0, i] * (p_s2[0] - p_s1[0])
+            + R_s1[1, i] * (p_s2[1] - p_s1[1])
+            + R_s1[2, i] * (p_s2[2] - p_s1[2])
+        )
+
+
+@njit(**INLINE)
 def frame_in_world(R_s, p_s, body, R_bf, p_bf, R_sf, p_sf):
     """(R_sf, p_sf) <- T_{s,body} T_{body,frame}; body -1: T_{body,frame} is already T_sf."""
     for r in range(3):
@@ -313,16 +326,7 @@ def constraint_terms_kernel(ibuf, fbuf, rows, params, q, qd, A, Adot_qd, phi):
                 parent, coord, mult, Ax, R_s, p_s, body_a, R_sb, p_sb, -1.0, Arows, S, c6
             )
             # T_ba = T_bs T_sa: R_ab holds R_ba here, p_ab holds p_ba
-            for i in range(3):
-                for j in range(3):
-                    R_ab[i, j] = (
-                        R_sb[0, i] * R_sa[0, j] + R_sb[1, i] * R_sa[1, j] + R_sb[2, i] * R_sa[2, j]
-                    )
-                p_ab[i] = (
-                    R_sb[0, i] * (p_sa[0] - p_sb[0])
-                    + R_sb[1, i] * (p_sa[1] - p_sb[1])
-                    + R_sb[2, i] * (p_sa[2] - p_sb[2])
-                )
+            relative_pose(R_sb, p_sb, R_sa, p_sa, R_ab, p_ab)
             # d/dt V_rel at qdd = 0: dV_b - Ad_{T_ba} dV_a + ad_{V_b} (Ad_{T_ba} V_a)
             frame_twist(V, body_a, R_af, p_af, Va)
             space_axis(R_ab, p_ab, Va, X)  # X = Ad_{T_ba} V_a
@@ -334,16 +338,7 @@ def constraint_terms_kernel(ibuf, fbuf, rows, params, q, qd, A, Adot_qd, phi):
             for k in range(6):
                 Adot_qd[r0 + k] = Vb[k] - X[k] + Y[k]
             # phi = log(T_ab*^-1 T_ab), T_ab = T_sa^-1 T_sb
-            for i in range(3):
-                for j in range(3):
-                    R_ab[i, j] = (
-                        R_sa[0, i] * R_sb[0, j] + R_sa[1, i] * R_sb[1, j] + R_sa[2, i] * R_sb[2, j]
-                    )
-                p_ab[i] = (
-                    R_sa[0, i] * (p_sb[0] - p_sa[0])
-                    + R_sa[1, i] * (p_sb[1] - p_sa[1])
-                    + R_sa[2, i] * (p_sb[2] - p_sa[2])
-                )
+            relative_pose(R_sa, p_sa, R_sb, p_sb, R_ab, p_ab)
             for i in range(3):
                 for j in range(3):
                     R_sa[i, j] = (

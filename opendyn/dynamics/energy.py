@@ -21,6 +21,7 @@ from numba import njit
 from . import _args
 from ._kernels import (
     BATCH,
+    INLINE,
     JIT,
     add_neg_ad_transpose,
     add_wrench_to_parent,
@@ -35,6 +36,18 @@ from .kinematics import forward_kinematics
 from .rnea import forward_pass
 
 
+@njit(**INLINE)
+def body_twists(ibuf, fbuf, q, qd):
+    """(R, p, V): each body's pose in its parent (nb, 3, 3), (nb, 3) and twist V_i in {i}
+    (nb, 6), from the RNEA forward pass."""
+    body_tree = tree(ibuf, fbuf)
+    nb = body_tree[0].shape[0]
+    R, p = np.empty((nb, 3, 3)), np.empty((nb, 3))
+    V, dV = np.empty((nb, 6)), np.empty((nb, 6))
+    forward_pass(body_tree, q, qd, np.zeros_like(qd), np.zeros(6), R, p, V, dV, np.empty(6))
+    return R, p, V
+
+
 @njit(**JIT)
 def kinetic_kernel(ibuf, fbuf, q, qd, out):
     """out[0] <- sum_i 1/2 V_i^T G_i V_i. Status 1/2: q/qd not finite."""
@@ -42,15 +55,10 @@ def kinetic_kernel(ibuf, fbuf, q, qd, out):
         return 1
     if not all_finite(qd):
         return 2
-    body_tree = tree(ibuf, fbuf)
     mass, h, I_o = rigid_inertias(ibuf, fbuf)
     nb = mass.shape[0]
-    R = np.empty((nb, 3, 3))
-    p = np.empty((nb, 3))
-    V = np.empty((nb, 6))
-    dV = np.empty((nb, 6))
+    R, p, V = body_twists(ibuf, fbuf, q, qd)
     s = np.empty(6)
-    forward_pass(body_tree, q, qd, np.zeros_like(qd), np.zeros(6), R, p, V, dV, s)
     K = 0.0
     for i in range(nb):
         rigid_inertia_times(mass[i], h[i], I_o[i], V[i], s)
@@ -67,17 +75,12 @@ def kinetic_gradient_kernel(ibuf, fbuf, q, qd, dK_dq):
         return 1
     if not all_finite(qd):
         return 2
-    body_tree = tree(ibuf, fbuf)
-    parent, jtype, coord, mult, offset, A, R_home, p_home = body_tree
+    parent, jtype, coord, mult, offset, A, R_home, p_home = tree(ibuf, fbuf)
     mass, h, I_o = rigid_inertias(ibuf, fbuf)
     nb = mass.shape[0]
-    R = np.empty((nb, 3, 3))
-    p = np.empty((nb, 3))
-    V = np.empty((nb, 6))
-    dV = np.empty((nb, 6))
+    R, p, V = body_twists(ibuf, fbuf, q, qd)
     P = np.empty((nb, 6))
     s = np.empty(6)
-    forward_pass(body_tree, q, qd, np.zeros_like(qd), np.zeros(6), R, p, V, dV, s)
     # backward pass: P_j = G_j V_j + sum_children Ad_{T_cj}^T P_c
     for i in range(nb):
         rigid_inertia_times(mass[i], h[i], I_o[i], V[i], P[i])
