@@ -59,7 +59,7 @@ from opendyn.simulate import stage_costs  # noqa: E402
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tests"))
-from randtree import random_tree_urdf  # noqa: E402
+from randtree import random_chain_urdf  # noqa: E402
 
 OUTPUT_DT = 0.02  # s: every fixed step below divides it, so all runs share the sample times
 FIXED = ("euler", "semi_implicit_euler", "implicit_euler", "rk4")
@@ -313,17 +313,7 @@ def chain_model(n, tmp):
     """A random serial chain of n moving joints (revolute, continuous, prismatic; random axes,
     offsets and inertias): the seeded generator of the test suite."""
     path = tmp / f"chain_{n}.urdf"
-    path.write_text(
-        random_tree_urdf(
-            1000 + n,
-            n_links=n + 1,
-            root_branches=1,
-            p_chain=1.0,
-            p_fixed=0.0,
-            p_massless=0.0,
-            n_flanges=1,
-        )
-    )
+    path.write_text(random_chain_urdf(1000 + n, n))
     return od.load_urdf(path), path
 
 

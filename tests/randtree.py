@@ -156,6 +156,14 @@ def random_tree_urdf(
     return "".join(out)
 
 
+def random_chain_urdf(seed, n):
+    """URDF XML text of a random serial chain of n moving joints (one branch from the root, no
+    fixed joints inside, every link with mass, a tool flange at the end)."""
+    return random_tree_urdf(
+        seed, n_links=n + 1, root_branches=1, p_chain=1.0, p_fixed=0.0, p_massless=0.0, n_flanges=1
+    )
+
+
 def write_random_tree(tmp_path, seed, **kw):
     """Write random_tree_urdf(seed, **kw) to tmp_path/random_tree_<seed>.urdf; return the path."""
     path = Path(tmp_path) / f"random_tree_{seed}.urdf"

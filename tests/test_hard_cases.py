@@ -20,7 +20,7 @@ from decimal import Decimal, localcontext
 
 import numpy as np
 import pytest
-from randtree import write_random_tree
+from randtree import random_chain_urdf, write_random_tree
 
 import opendyn as od
 from opendyn.cli import main
@@ -170,16 +170,8 @@ def rel(actual, expected, scale=None):
 @pytest.fixture(scope="module")
 def chain(tmp_path_factory):
     """(urdf path, model) of a serial chain of CHAIN_LINKS moving joints."""
-    path = write_random_tree(
-        tmp_path_factory.mktemp("chain"),
-        CHAIN_SEED,
-        n_links=CHAIN_LINKS + 1,
-        root_branches=1,
-        p_chain=1.0,
-        p_fixed=0.0,
-        p_massless=0.0,
-        n_flanges=1,
-    )
+    path = tmp_path_factory.mktemp("chain") / "chain.urdf"
+    path.write_text(random_chain_urdf(CHAIN_SEED, CHAIN_LINKS))
     model = od.load_urdf(path)
     assert model.nv == CHAIN_LINKS
     return path, model
