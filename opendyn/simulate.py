@@ -490,9 +490,11 @@ def failure_message(scene, status, t, steps, q, qd):
 
 
 def _stiffness_cause(scene, q):
-    """The stiffest joint-space effect against the step: for each joint the natural frequency
+    """The joint-space effects too stiff for the step: for each joint the natural frequency
     w = sqrt(k / M_jj) of its springs (limits, PD) and the rate d / M_jj of its dampers. Explicit
-    methods need dt w below about 2 (Euler) to 2.8 (RK4): above, the step is too large."""
+    methods need dt w below about 2 (Euler) to 2.8 (RK4): every effect above 2 is named, the
+    stiffest first (which of them set the motion off depends on which acted: a limit acts only
+    past it), with the step that suits them all."""
     from .dynamics.crba import mass_matrix
 
     run = scene.run
@@ -520,19 +522,23 @@ def _stiffness_cause(scene, q):
     control = scene.control
     if control is not None and control.kind == "pd":
         candidates += [("PD stiffness", np.sqrt(control.kp / m)), ("PD damping", control.kd / m)]
-    worst = None
+    stiff = []
     for name, rate in candidates:
         j = int(np.argmax(rate))
-        if worst is None or rate[j] > worst[1]:
-            worst = (name, rate[j], j)
-    if worst is None or worst[1] * run.dt < 2.0:
+        if rate[j] * run.dt >= 2.0:
+            stiff.append((rate[j], name, j))
+    if not stiff:
         return None
-    name, rate, j = worst
+    stiff.sort(reverse=True)
+    named = "; ".join(
+        f"{name} on joint {scene.model.joint_names[j]!r} has rate {rate:.3g} 1/s "
+        f"(dt x rate = {rate * run.dt:.3g})"
+        for rate, name, j in stiff
+    )
+    effects = "a stiff effect" if len(stiff) == 1 else "stiff effects"
     return (
-        f"the step is too large for a stiff effect: {name} on joint "
-        f"{scene.model.joint_names[j]!r} has rate {rate:.3g} 1/s, and dt x rate = "
-        f"{rate * run.dt:.3g} > 2. Use dt below {2.0 / rate:.2g} s, or integrator "
-        "implicit_euler"
+        f"the step is too large for {effects}: {named}, above 2. Use dt below "
+        f"{2.0 / stiff[0][0]:.2g} s, or integrator implicit_euler"
     )
 
 

@@ -329,6 +329,20 @@ def test_implicit_euler_is_stable_where_rk4_diverges():
     assert f"t = {partial.t[-1]:.6g} s" in message
 
 
+def test_failure_names_every_effect_too_stiff_for_the_step():
+    """Heavy damping (20 N m s/rad) on the stiff-limit arm: RK4 at 5 ms blows up from the
+    damping before any joint reaches a limit, so the message must name the damping too, with
+    its rate d / M_jj, not only the (stiffer, but idle) limit springs."""
+    settings = dict(od.load_scene("planar_3r_limits").settings)
+    settings["effects"] = dict(settings["effects"], damping={"coefficients": 20.0})
+    scene = od.scene_from_dict(settings, base_dir=od.scene.shipped_robots_dir())
+    traj = od.simulate(scene.replace_run(integrator="rk4"), raise_on_failure=False)
+    assert not traj.complete and traj.t[-1] < 0.05  # before any limit is reached
+    M_33 = od.mass_matrix(scene.model, traj.q[0])[2, 2]
+    assert f"viscous damping on joint 'joint3' has rate {20.0 / M_33:.3g} 1/s" in traj.message
+    assert "joint-limit stiffness" in traj.message
+
+
 def test_singular_mass_matrix_stops_naming_the_joint_and_armature_fixes_it(tmp_path):
     urdf = tmp_path / "massless.urdf"
     urdf.write_text(
