@@ -210,7 +210,9 @@ class StageTable:
       is not a force but a change of M, so it has no row.
     constraints: (rows (n_c, 5) int64, params float64, gains (2,)): the scene's constraints as
       opendyn.dynamics.constraints.constraint_table gives them and the Baumgarte gains
-      (alpha, beta); no rows when the scene has none (forward dynamics is then unconstrained).
+      (alpha, beta); None when the scene has none. The compiled loops then drop the constrained
+      solve at compile time (a None argument prunes its branch), so that a scene without
+      constraints neither compiles nor runs it.
     """
 
     rows: np.ndarray
@@ -218,7 +220,7 @@ class StageTable:
     names: tuple[str, ...]
     method: int
     armature: np.ndarray
-    constraints: tuple = (np.zeros((0, 5), np.int64), np.zeros(0), np.zeros(2))
+    constraints: tuple | None = None
 
 
 def stage_table(scene) -> StageTable:
@@ -264,7 +266,7 @@ def stage_table(scene) -> StageTable:
             add(COMPUTED_TORQUE, params, name="control (computed torque)")
         if control.clip:
             add(CLIP, model.effort_limit)
-    constraints = StageTable.constraints
+    constraints = None
     if scene.constraints:
         c_rows, c_params = constraint_table(model, scene.constraints, scene.q0)
         gains = np.array(scene.baumgarte if scene.baumgarte is not None else (0.0, 0.0))

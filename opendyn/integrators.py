@@ -239,7 +239,7 @@ def implicit_velocity_step(
             M[j, j] += armature[j]
         rhs[j] = tau[j] - h[j] - dt * K[j] * qd[j]
     qdd = np.empty(nv)
-    if con[0].shape[0]:
+    if con is not None:
         c_rows, c_params, gains = con
         lam = np.empty(c_rows[:, 2].sum())
         status = constrained_solve_at(ibuf, fbuf, c_rows, c_params, gains, q, qd, M, rhs, qdd, lam)

@@ -152,11 +152,12 @@ def explicit_forces(ibuf, fbuf, rows, params, armature, t, q, qd, loads, tau, ta
     )
 
 
-@njit(**INLINE)
+@njit(**JIT)
 def dynamics(ibuf, fbuf, q, qd, tau, loads, qdd, method, armature, con):
     """qdd (nv,) <- forward dynamics under tau (nv,) and the base acceleration loads[0]: ABA or
-    CRBA (`method`) without constraints, the constrained solve with them. Returns a status."""
-    if con[0].shape[0] == 0:
+    CRBA (`method`) without constraints (con None), the constrained solve with them. Compiled
+    apart for each: the test on None is decided when it compiles."""
+    if con is None:
         return forward_kernel(ibuf, fbuf, q, qd, tau, loads, qdd, method, armature)
     rows, cparams, gains = con
     lam = np.empty(rows[:, 2].sum())
