@@ -37,7 +37,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numba import njit
 
-from .dynamics._kernels import JIT
+from .dynamics._kernels import INLINE, JIT
 from .dynamics.configuration import integrate_kernel
 from .dynamics.constraints import constrained_solve_at
 from .dynamics.crba import crba_kernel
@@ -126,35 +126,28 @@ def state_ok(q, qd, max_speed):
 
 
 @njit(**JIT)
-def rk_stages(
-    ibuf,
-    fbuf,
-    rows,
-    params,
-    method,
-    armature,
-    con,
-    A,
-    c,
-    t,
-    dt,
-    q,
-    qd,
-    kq,
-    kv,
-    kw,
-    qs,
-    qds,
-    v,
-    first,
-    tau_stage,
-    tau,
-):
+def rk_work(s, nq, nv):
+    """Scratch of an s-stage Runge-Kutta step: (kq (s, nv), kv (s, nv), kw (s, 2), qs (nq,),
+    qds (nv,), v (nv,)) for rk_stages and rk_combine."""
+    return (
+        np.empty((s, nv)),
+        np.empty((s, nv)),
+        np.empty((s, 2)),
+        np.empty(nq),
+        np.empty(nv),
+        np.empty(nv),
+    )
+
+
+@njit(**JIT)
+def rk_stages(scene, A, c, t, dt, q, qd, work, first, tau_stage, tau):
     """Stages first..s-1 of an explicit Runge-Kutta step from (t, q, qd): stage i at
     q_i = q (+) dt sum_l A_il kq_l, qd_i = qd + dt sum_l A_il kv_l, kq_i = qd_i,
-    kv_i = qdd(t + c_i dt, q_i, qd_i), kw_i = power there. first = 1 when stage 0 is already
-    in kq, kv, kw (FSAL). tau <- the control torque at stage tau_stage.
-    Returns (status, evaluations)."""
+    kv_i = qdd(t + c_i dt, q_i, qd_i), kw_i = power there, with work = rk_work(...) =
+    (kq, kv, kw, qs, qds, v). first = 1 when stage 0 is already in kq, kv, kw (FSAL).
+    tau <- the control torque at stage tau_stage. Returns (status, evaluations)."""
+    kq, kv, kw, qs, qds, v = work
+    ibuf = scene[0]
     nv = qd.shape[0]
     stage_tau = np.empty(nv)
     for i in range(first, A.shape[0]):
@@ -168,21 +161,7 @@ def rk_stages(
             qds[j] = qd[j] + dt * dv
         integrate_kernel(ibuf, q, v, dt, qs)
         kq[i] = qds
-        status = evaluate(
-            ibuf,
-            fbuf,
-            rows,
-            params,
-            method,
-            armature,
-            con,
-            t + c[i] * dt,
-            qs,
-            qds,
-            kv[i],
-            stage_tau,
-            kw[i],
-        )
+        status = evaluate(scene, t + c[i] * dt, qs, qds, kv[i], stage_tau, kw[i])
         if i == tau_stage:
             tau[:] = stage_tau
         if status:
@@ -191,8 +170,9 @@ def rk_stages(
 
 
 @njit(**JIT)
-def rk_combine(ibuf, weights, dt, q, qd, w, kq, kv, kw, q1, qd1, w1, v):
+def rk_combine(ibuf, weights, dt, q, qd, w, work, q1, qd1, w1):
     """x1 = x (+) dt sum_i weights_i k_i for q (through integrate), qd and the work W."""
+    kq, kv, kw, _, _, v = work
     nv = qd.shape[0]
     for j in range(nv):
         dq = 0.0
@@ -211,10 +191,22 @@ def rk_combine(ibuf, weights, dt, q, qd, w, kq, kv, kw, q1, qd1, w1, v):
 
 
 @njit(**JIT)
-def implicit_velocity_step(
-    ibuf, fbuf, rows, params, armature, con, t, dt, q, qd, w, q1, qd1, w1, tau_ctrl
-):
+def velocity_solve(ibuf, fbuf, con, q, qd, M, rhs, qdd):
+    """qdd <- M^-1 rhs, or with constraints con (not None) the constrained solve of
+    M qdd + A^T lambda = rhs (M overwritten). A function of its own so that the test on None is
+    decided when it compiles. Returns a status (100 + k: M singular at joint k)."""
+    if con is None:
+        k = cholesky_solve(M, rhs, qdd)
+        return 0 if k < 0 else 100 + k
+    c_rows, c_params, gains = con
+    lam = np.empty(c_rows[:, 2].sum())
+    return constrained_solve_at(ibuf, fbuf, c_rows, c_params, gains, q, qd, M, rhs, qdd, lam)
+
+
+@njit(**JIT)
+def implicit_velocity_step(scene, t, dt, q, qd, w, q1, qd1, w1, tau_ctrl):
     """One linearly implicit Euler step (module docstring). Returns a status."""
+    ibuf, fbuf, rows, params, _, armature, con = scene
     nv = qd.shape[0]
     tau = np.empty(nv)
     K = np.empty(nv)
@@ -239,16 +231,9 @@ def implicit_velocity_step(
             M[j, j] += armature[j]
         rhs[j] = tau[j] - h[j] - dt * K[j] * qd[j]
     qdd = np.empty(nv)
-    if con is not None:
-        c_rows, c_params, gains = con
-        lam = np.empty(c_rows[:, 2].sum())
-        status = constrained_solve_at(ibuf, fbuf, c_rows, c_params, gains, q, qd, M, rhs, qdd, lam)
-        if status:
-            return status
-    else:
-        k = cholesky_solve(M, rhs, qdd)
-        if k >= 0:
-            return 100 + k
+    status = velocity_solve(ibuf, fbuf, con, q, qd, M, rhs, qdd)
+    if status:
+        return status
     for j in range(nv):
         qd1[j] = qd[j] + dt * qdd[j]
     integrate_kernel(ibuf, q, qd1, dt, q1)
@@ -258,10 +243,9 @@ def implicit_velocity_step(
 
 
 @njit(**JIT)
-def symplectic_euler_step(
-    ibuf, fbuf, rows, params, armature, t, dt, q, qd, w, q1, qd1, w1, tau_ctrl
-):
+def symplectic_euler_step(scene, t, dt, q, qd, w, q1, qd1, w1, tau_ctrl):
     """One step of symplectic Euler in momentum form (module docstring). Returns a status."""
+    ibuf, fbuf, rows, params, _, armature, _ = scene
     nv = qd.shape[0]
     tau = np.empty(nv)
     power = np.empty(2)
@@ -327,19 +311,24 @@ def symplectic_euler_step(
     return 0
 
 
+@njit(**INLINE)
+def record(out, r, t, q, qd, tau, w):
+    """Row r of the record out = (t, q, qd, tau, w) <- the state, control torque and work."""
+    out_t, out_q, out_qd, out_tau, out_w = out
+    out_t[r] = t
+    out_q[r] = q
+    out_qd[r] = qd
+    out_tau[r] = tau
+    out_w[r] = w
+
+
 @njit(**JIT)
 def run_fixed(
     kind,
     A,
     b,
     c,
-    ibuf,
-    fbuf,
-    rows,
-    params,
-    method,
-    armature,
-    con,
+    scene,
     t0,
     dt,
     step0,
@@ -349,11 +338,7 @@ def run_fixed(
     q,
     qd,
     w,
-    out_t,
-    out_q,
-    out_qd,
-    out_tau,
-    out_w,
+    out,
     counters,
 ):
     """Advance (q, qd, w) in place by up to nsteps fixed steps of dt from global step step0,
@@ -361,68 +346,32 @@ def run_fixed(
     step whose global index is a multiple of `every` is recorded in row index // every, with
     the control torque there. Stops at the first step whose result is not finite, faster than
     max_speed, or whose dynamics fail; the state stays the last good one, the start of the
-    failed step.
+    failed step. scene: step.scene_data(model, table); out: the record (t, q, qd, tau, w).
     Returns (status, steps done); counters[0] += dynamics evaluations."""
     nv = qd.shape[0]
-    s = A.shape[0]
-    kq = np.empty((s, nv))
-    kv = np.empty((s, nv))
-    kw = np.empty((s, 2))
-    qs, qds, v = np.empty(q.shape[0]), np.empty(nv), np.empty(nv)
+    work = rk_work(A.shape[0], q.shape[0], nv)
     q1, qd1, w1 = np.empty(q.shape[0]), np.empty(nv), np.empty(2)
     tau = np.empty(nv)
     for n in range(nsteps):
         g = step0 + n
         t = t0 + g * dt
         if kind == IMPLICIT:
-            status = implicit_velocity_step(
-                ibuf, fbuf, rows, params, armature, con, t, dt, q, qd, w, q1, qd1, w1, tau
-            )
+            status = implicit_velocity_step(scene, t, dt, q, qd, w, q1, qd1, w1, tau)
             counters[0] += 1
         elif kind == SEMI_IMPLICIT:
-            status = symplectic_euler_step(
-                ibuf, fbuf, rows, params, armature, t, dt, q, qd, w, q1, qd1, w1, tau
-            )
+            status = symplectic_euler_step(scene, t, dt, q, qd, w, q1, qd1, w1, tau)
             counters[0] += 1
         else:
-            status, evaluations = rk_stages(
-                ibuf,
-                fbuf,
-                rows,
-                params,
-                method,
-                armature,
-                con,
-                A,
-                c,
-                t,
-                dt,
-                q,
-                qd,
-                kq,
-                kv,
-                kw,
-                qs,
-                qds,
-                v,
-                0,
-                0,
-                tau,
-            )
+            status, evaluations = rk_stages(scene, A, c, t, dt, q, qd, work, 0, 0, tau)
             counters[0] += evaluations
             if status == 0:
-                rk_combine(ibuf, b, dt, q, qd, w, kq, kv, kw, q1, qd1, w1, v)
+                rk_combine(scene[0], b, dt, q, qd, w, work, q1, qd1, w1)
         if status == 0:
             status = state_ok(q1, qd1, max_speed)
         if status:
             return status, n
         if g % every == 0:
-            r = g // every
-            out_t[r] = t
-            out_q[r] = q
-            out_qd[r] = qd
-            out_tau[r] = tau
-            out_w[r] = w
+            record(out, g // every, t, q, qd, tau, w)
         q[:] = q1
         qd[:] = qd1
         w[:] = w1
@@ -435,13 +384,7 @@ def run_adaptive(
     b,
     c,
     e,
-    ibuf,
-    fbuf,
-    rows,
-    params,
-    method,
-    armature,
-    con,
+    scene,
     t,
     t_stop,
     t_end,
@@ -457,11 +400,7 @@ def run_adaptive(
     k_first,
     power_first,
     tau_first,
-    out_t,
-    out_q,
-    out_qd,
-    out_tau,
-    out_w,
+    out,
     counters,
 ):
     """Advance (q, qd, w) in place from t to t_stop with an embedded explicit Runge-Kutta pair
@@ -470,14 +409,13 @@ def run_adaptive(
 
     Steps are cut so that they land on the output times. k_first (2, nv) holds (qd, qdd),
     power_first (2,) the power and tau_first (nv,) the control torque of the first stage, at the
-    current state (the FSAL stage).
+    current state (the FSAL stage). scene: step.scene_data(model, table); out: the record
+    (t, q, qd, tau, w).
     Returns (status, t, h, row); counters += (evaluations, accepted, rejected)."""
     nv = qd.shape[0]
     s = A.shape[0]
-    kq = np.empty((s, nv))
-    kv = np.empty((s, nv))
-    kw = np.empty((s, 2))
-    qs, qds, v = np.empty(q.shape[0]), np.empty(nv), np.empty(nv)
+    work = rk_work(s, q.shape[0], nv)
+    kq, kv, kw = work[0], work[1], work[2]
     q1, qd1, w1 = np.empty(q.shape[0]), np.empty(nv), np.empty(2)
     stage_tau = np.empty(nv)
     while t < t_stop:
@@ -491,33 +429,10 @@ def run_adaptive(
         kq[0] = k_first[0]
         kv[0] = k_first[1]
         kw[0] = power_first
-        status, evaluations = rk_stages(
-            ibuf,
-            fbuf,
-            rows,
-            params,
-            method,
-            armature,
-            con,
-            A,
-            c,
-            t,
-            dt,
-            q,
-            qd,
-            kq,
-            kv,
-            kw,
-            qs,
-            qds,
-            v,
-            1,
-            s - 1,
-            stage_tau,
-        )
+        status, evaluations = rk_stages(scene, A, c, t, dt, q, qd, work, 1, s - 1, stage_tau)
         counters[0] += evaluations
         if status == 0:
-            rk_combine(ibuf, b, dt, q, qd, w, kq, kv, kw, q1, qd1, w1, v)
+            rk_combine(scene[0], b, dt, q, qd, w, work, q1, qd1, w1)
             status = state_ok(q1, qd1, max_speed)
         if status >= 100:
             return status, t, h, row  # singular mass matrix: a smaller step will not help
@@ -553,11 +468,7 @@ def run_adaptive(
         power_first[:] = kw[s - 1]
         tau_first[:] = stage_tau
         if last_before_output:
-            out_t[row] = t
-            out_q[row] = q
-            out_qd[row] = qd
-            out_tau[row] = tau_first
-            out_w[row] = w
+            record(out, row, t, q, qd, tau_first, w)
             row += 1
         h = dt * min(5.0, 0.9 * err**-0.2) if err > 0 else 5.0 * dt
         if last_before_output and h < dt:

@@ -153,19 +153,13 @@ def _load_kernels(scene, integ, table, q, qd, w, out, counters):
 def _fixed_chunk(scene, integ, table, step0, nsteps, every, q, qd, w, out, counters):
     """integrators.run_fixed on the run's arrays: up to nsteps steps from global step step0,
     recording every `every`-th. Returns (status, steps done)."""
-    model, run = scene.model, scene.run
+    run = scene.run
     return integrators.run_fixed(
         integ.kind,
         integ.A,
         integ.b,
         integ.c,
-        model._ibuf,
-        model._fbuf,
-        table.rows,
-        table.params,
-        table.method,
-        table.armature,
-        table.constraints,
+        step.scene_data(scene.model, table),
         0.0,
         run.dt,
         step0,
@@ -175,11 +169,7 @@ def _fixed_chunk(scene, integ, table, step0, nsteps, every, q, qd, w, out, count
         q,
         qd,
         w,
-        out.t,
-        out.q,
-        out.qd,
-        out.tau,
-        out.w,
+        out.arrays(),
         counters,
     )
 
@@ -188,19 +178,13 @@ def _adaptive_chunk(scene, integ, table, t, t_stop, h, row, q, qd, w, first, out
     """integrators.run_adaptive on the run's arrays from t to t_stop, first step h, next
     output row `row`; first = (k_first, power_first, tau_first), the FSAL stage.
     Returns (status, t, h, row)."""
-    model, run = scene.model, scene.run
+    run = scene.run
     return integrators.run_adaptive(
         integ.A,
         integ.b,
         integ.c,
         integ.e,
-        model._ibuf,
-        model._fbuf,
-        table.rows,
-        table.params,
-        table.method,
-        table.armature,
-        table.constraints,
+        step.scene_data(scene.model, table),
         t,
         t_stop,
         run.duration,
@@ -214,11 +198,7 @@ def _adaptive_chunk(scene, integ, table, t, t_stop, h, row, q, qd, w, first, out
         qd,
         w,
         *first,
-        out.t,
-        out.q,
-        out.qd,
-        out.tau,
-        out.w,
+        out.arrays(),
         counters,
     )
 
@@ -233,6 +213,10 @@ class _Samples:
         self.tau = np.full((rows, nv), np.nan)
         self.w = np.full((rows, 2), np.nan)
         self.filled = 0
+
+    def arrays(self):
+        """(t, q, qd, tau, w): the record as the compiled loops write it."""
+        return self.t, self.q, self.qd, self.tau, self.w
 
 
 def _progress_bar(duration):
@@ -319,23 +303,8 @@ def _run_adaptive(scene, integ, table, q, qd, w, out, counters, bar, stop):
 def _first_stage(scene, table, t, q, qd, k_first, power, tau):
     """k_first (2, nv) <- (qd, qdd), power (2,) <- (applied, passive) power and tau <- the
     control torque, at (t, q, qd). Returns the dynamics' status."""
-    model = scene.model
     k_first[0] = qd
-    return step.evaluate(
-        model._ibuf,
-        model._fbuf,
-        table.rows,
-        table.params,
-        table.method,
-        table.armature,
-        table.constraints,
-        t,
-        q,
-        qd,
-        k_first[1],
-        tau,
-        power,
-    )
+    return step.evaluate(step.scene_data(scene.model, table), t, q, qd, k_first[1], tau, power)
 
 
 def _record_state(scene, table, t, q, qd, w, out):
@@ -571,13 +540,12 @@ def stage_costs(scene, *, steps=2000, evaluations=20000):
     qd = np.ascontiguousarray(np.tile(traj.qd, (reps, 1)))
 
     def cost(which):
-        args = (model._ibuf, model._fbuf, table.rows, table.params, table.method)
-        args += (table.armature, table.constraints, which)
-        step.stage_cost_kernel(*args, t[:1], q[:1], qd[:1])
+        data = step.scene_data(model, table)
+        step.stage_cost_kernel(data, which, t[:1], q[:1], qd[:1])
         best = np.inf
         for _ in range(3):
             tic = time.perf_counter()
-            step.stage_cost_kernel(*args, t, q, qd)
+            step.stage_cost_kernel(data, which, t, q, qd)
             best = min(best, time.perf_counter() - tic)
         return best / len(t) * 1e6
 

@@ -166,11 +166,27 @@ def dynamics(ibuf, fbuf, q, qd, tau, loads, qdd, method, armature, con):
     )
 
 
+def scene_data(model, table):
+    """The scene as the compiled step takes it: one tuple (ibuf, fbuf, rows, params, method,
+    armature, con) of the model's buffers and the stage table (effects.StageTable); con is the
+    table's constraints, None without."""
+    return (
+        model._ibuf,
+        model._fbuf,
+        table.rows,
+        table.params,
+        table.method,
+        table.armature,
+        table.constraints,
+    )
+
+
 @njit(**INLINE)
-def evaluate(ibuf, fbuf, rows, params, method, armature, con, t, q, qd, qdd, tau_ctrl, power):
+def evaluate(scene, t, q, qd, qdd, tau_ctrl, power):
     """qdd (nv,) <- the scene's forward dynamics at (t, q, qd); tau_ctrl (nv,) <- the control
-    torque; power (2,) <- (applied, passive) power. con: the constraints, (rows, params,
-    (alpha, beta)), with no rows for none. Returns 0, or the dynamics' status code."""
+    torque; power (2,) <- (applied, passive) power. scene: scene_data(model, table).
+    Returns 0, or the dynamics' status code."""
+    ibuf, fbuf, rows, params, method, armature, con = scene
     tau = np.empty(q.shape[0])
     loads = np.empty((1, 6))
     status = explicit_forces(
@@ -182,10 +198,12 @@ def evaluate(ibuf, fbuf, rows, params, method, armature, con, t, q, qd, qdd, tau
 
 
 @njit(**JIT)
-def stage_cost_kernel(ibuf, fbuf, rows, params, method, armature, con, which, t, q, qd):
+def stage_cost_kernel(scene, which, t, q, qd):
     """Run one part of the step at every state (t[n], q[n], qd[n]), for timing it:
     which >= 0 the stage table's row `which`, -1 forward dynamics alone (with the table's
-    gravity, zero torque), -2 the whole evaluation. Returns a checksum of the outputs."""
+    gravity, zero torque), -2 the whole evaluation. scene: scene_data(model, table).
+    Returns a checksum of the outputs."""
+    ibuf, fbuf, rows, params, method, armature, con = scene
     nv = q.shape[1]
     tau_ctrl = np.empty(nv)
     tau_app = np.empty(nv)
@@ -227,20 +245,6 @@ def stage_cost_kernel(ibuf, fbuf, rows, params, method, armature, con, which, t,
             dynamics(ibuf, fbuf, q[n], qd[n], tau_ctrl, loads, qdd, method, armature, con)
             total += qdd.sum()
         else:
-            evaluate(
-                ibuf,
-                fbuf,
-                rows,
-                params,
-                method,
-                armature,
-                con,
-                t[n],
-                q[n],
-                qd[n],
-                qdd,
-                tau_ctrl,
-                power,
-            )
+            evaluate(scene, t[n], q[n], qd[n], qdd, tau_ctrl, power)
             total += qdd.sum()
     return total

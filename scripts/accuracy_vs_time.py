@@ -327,8 +327,7 @@ def kernel_time(model, method, q, qd, budget):
         method=METHODS.index(method),
         armature=NO_ARMATURE,
     )
-    args = (model._ibuf, model._fbuf, table.rows, table.params, table.method, table.armature)
-    args += (table.constraints, -1)
+    args = (step.scene_data(model, table), -1)
     t = np.zeros(len(q))
     step.stage_cost_kernel(*args, t[:1], q[:1], qd[:1])
     tic = time.perf_counter()
