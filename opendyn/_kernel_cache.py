@@ -1,23 +1,35 @@
-"""Where numba caches opendyn's compiled kernels: a folder named by a hash of every kernel source.
+"""Where numba caches opendyn's compiled kernels: a writable folder named by a hash of every kernel
+source.
 
 numba caches each compiled kernel on disk keyed on the kernel's own source file only, while the
 kernels inline or call helpers from other files (_kernels.py, rnea.py, effects.py, ...); after such
 a helper changes, a kernel would be loaded stale. Every module that defines kernels is therefore
 imported inside `kernel_cache()`, which points numba at a folder named by a hash of all those
 sources (numba reads the setting when a function is decorated) and restores it afterwards.
+
+The folder is the first writable one of:
+  1. $NUMBA_CACHE_DIR/opendyn-kernels-HASH, when the user sets NUMBA_CACHE_DIR;
+  2. the package's own __pycache__/opendyn-kernels-HASH;
+  3. the per-user cache, $XDG_CACHE_HOME (default ~/.cache)/opendyn/kernels-HASH.
+When none is writable, the kernels run uncached (compiled in every process), with one warning;
+`import opendyn` never fails for want of a cache folder.
 """
 
 from __future__ import annotations
 
 import contextlib
 import hashlib
+import os
 import pathlib
+import tempfile
+import warnings
 
 from numba.core import config as _numba_config
 
 _HERE = pathlib.Path(__file__).parent
 _SOURCES = (
     "model.py",
+    "status.py",
     "constraints.py",
     "effects.py",
     "step.py",
@@ -26,23 +38,60 @@ _SOURCES = (
 )
 
 
-def _cache_dir() -> str:
+def _digest() -> str:
     digest = hashlib.sha1()
     for source in sorted(p for pattern in _SOURCES for p in _HERE.glob(pattern)):
         digest.update(source.read_bytes())
-    base = (
-        pathlib.Path(_numba_config.CACHE_DIR)
-        if _numba_config.CACHE_DIR
-        else (_HERE / "__pycache__")
+    return digest.hexdigest()[:16]
+
+
+def _candidates(digest):
+    """The cache folders to try, in order, with a word on each."""
+    if _numba_config.CACHE_DIR:
+        yield pathlib.Path(_numba_config.CACHE_DIR) / f"opendyn-kernels-{digest}", "NUMBA_CACHE_DIR"
+    yield _HERE / "__pycache__" / f"opendyn-kernels-{digest}", "package folder"
+    user = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    yield pathlib.Path(user) / "opendyn" / f"kernels-{digest}", "per-user cache"
+
+
+def _writable(folder: pathlib.Path) -> bool:
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        with tempfile.TemporaryFile(dir=folder):
+            pass
+    except OSError:
+        return False
+    return True
+
+
+def _choose():
+    """(folder or None, where): the first writable candidate; None when there is none."""
+    tried = []
+    for folder, where in _candidates(_digest()):
+        if _writable(folder):
+            return str(folder), where
+        tried.append(str(folder))
+    warnings.warn(
+        "opendyn: no writable folder for the compiled-kernel cache (tried "
+        + ", ".join(tried)
+        + "); kernels are compiled in every process. Set NUMBA_CACHE_DIR to a writable folder "
+        "to cache them.",
+        RuntimeWarning,
+        stacklevel=3,
     )
-    return str(base / f"opendyn-kernels-{digest.hexdigest()[:16]}")
+    return None, "none (uncached)"
+
+
+CACHE_DIR, CACHE_WHERE = _choose()
+CACHING = CACHE_DIR is not None  # the kernels' `cache=` option
 
 
 @contextlib.contextmanager
 def kernel_cache():
     """Import kernel modules inside this block so that they cache in the hashed folder."""
     user_cache_dir = _numba_config.CACHE_DIR
-    _numba_config.CACHE_DIR = _cache_dir()
+    if CACHING:
+        _numba_config.CACHE_DIR = CACHE_DIR
     try:
         yield
     finally:

@@ -4,6 +4,8 @@
   opendyn info ROBOT                        model summary and URDF fidelity report
   opendyn verify ROBOT                      every contract function against Pinocchio
   opendyn demo [ROBOT]                      M(q), g(q) and forward dynamics at one state
+  opendyn compile [--all | SCENE...]        compile the kernels ahead of time (images, workers)
+  opendyn info --cache                      where the compiled kernels are cached
 
 Exit status: 0 success, 1 a simulation that stopped early (its partial record is written) or a
 failed verification, 2 bad input (the message names the file, key or argument).
@@ -37,6 +39,45 @@ DEFAULT_ROBOT = "double_pendulum"
 ENABLE_FROM_URDF = {"gravity": True, "damping": {}, "friction": {}}
 
 
+def _compile_ahead(args) -> int:
+    """opendyn compile: the scenes named (or, with --all or nothing named, every core function
+    and every shipped scene whose robot is installed), compiled into the kernel cache."""
+    from ._compile import compile_ahead
+
+    names = args.scenes or []
+    everything = args.all or not names
+    scenes, skipped = [], []
+    for name in list(shipped_scenes()) if everything else names:
+        try:
+            scenes.append(load_scene(name))
+        except SceneError as e:
+            if not everything:
+                raise
+            skipped.append(f"{name} ({e})")
+    t0 = time.perf_counter()
+    done = compile_ahead(scenes, functions=everything)
+    for name in skipped:
+        print(f"skipped scene {name}", file=sys.stderr)
+    print(f"compiled {len(done)} items in {time.perf_counter() - t0:.1f} s")
+    return 0
+
+
+def _cache_info() -> int:
+    """opendyn info --cache: the kernel cache folder, why it is there, and its size."""
+    import os
+
+    from ._kernel_cache import CACHE_DIR, CACHE_WHERE
+
+    print(f"kernel cache  {CACHE_DIR or 'none: kernels are compiled in every process'}")
+    print(f"chosen as     {CACHE_WHERE} (first writable of NUMBA_CACHE_DIR, the package folder, "
+          "the per-user cache)")
+    if CACHE_DIR and os.path.isdir(CACHE_DIR):
+        files = [os.path.join(d, f) for d, _, fs in os.walk(CACHE_DIR) for f in fs]
+        size = sum(os.path.getsize(f) for f in files)
+        print(f"holds         {len(files)} files, {size / 1e6:.1f} MB")
+    return 0
+
+
 def _demo(args) -> int:
     """Load a robot, print its summary and fidelity report, M(q), g(q) and a forward-dynamics
     result at a fixed state, and check the result by inverse dynamics."""
@@ -64,6 +105,10 @@ def _demo(args) -> int:
 
 
 def _info(args) -> int:
+    if args.cache:
+        return _cache_info()
+    if args.robot is None:
+        raise ValueError("name a robot (a URDF file or robot name), or ask for --cache")
     model = load_urdf(args.robot, mimic=args.mimic, check_inertia=not args.keep_inertia)
     print(model.summary())
     print()
@@ -129,7 +174,12 @@ def _simulate(args) -> int:
     scene = _with_effects(scene, args.enable, args.disable)
     if not args.quiet:
         print(_scene_header(scene))
-    traj = simulate(scene, progress=not args.quiet, raise_on_failure=False)
+    try:
+        traj = simulate(scene, progress=not args.quiet, raise_on_failure=False)
+    except KeyboardInterrupt:
+        # Ctrl-C before the run started (while numba compiled the step): nothing to keep
+        print("opendyn simulate: interrupted before the run started", file=sys.stderr)
+        return 130
     if not args.quiet or not traj.complete:
         print(summary(scene, traj))
     if args.profile:
@@ -208,10 +258,16 @@ def summary(scene, traj):
     simulated = stats["simulated_s"]
     factor = simulated / wall if wall > 0 else float("inf")
     status = "complete" if traj.complete else "STOPPED EARLY (partial record)"
+    if stats["compile_s"] > 0:
+        ready = (
+            f"{stats['compile_s']:.3g} s more compiling the step, once per machine and opendyn "
+            "version"
+        )
+    else:
+        ready = f"{stats['load_s']:.2g} s more to load the compiled step"
     lines = [
         f"run         {status}",
-        f"simulated   {simulated:.4g} s in {wall:.3g} s wall ({factor:.3g}x real time; "
-        f"{stats['kernel_load_s']:.2g} s more to load the compiled loop)",
+        f"simulated   {simulated:.4g} s in {wall:.3g} s wall ({factor:.3g}x real time; {ready})",
         f"steps       {stats['steps']} accepted, {stats['rejected_steps']} rejected, "
         f"{stats['evaluations']} dynamics evaluations",
     ]
@@ -294,7 +350,10 @@ def main(argv=None) -> int:
     sim.set_defaults(run=_simulate)
 
     info = sub.add_parser("info", help="model summary and URDF fidelity report")
-    info.add_argument("robot", help="URDF file or robot name")
+    info.add_argument("robot", nargs="?", help="URDF file or robot name")
+    info.add_argument(
+        "--cache", action="store_true", help="where the compiled kernels are cached, and how much"
+    )
     info.add_argument("--mimic", action="store_true", help="couple mimic joints")
     info.add_argument(
         "--keep-inertia", action="store_true", help="keep physically invalid inertias as written"
@@ -320,6 +379,22 @@ def main(argv=None) -> int:
         help=f"URDF file or robot name (default: {DEFAULT_ROBOT})",
     )
     demo.set_defaults(run=_demo)
+
+    comp = sub.add_parser(
+        "compile",
+        help="compile the kernels ahead of time (Docker images, CI images, cluster workers)",
+    )
+    comp.add_argument(
+        "scenes",
+        nargs="*",
+        help="scene files or shipped scene names: compile what they need (default: --all)",
+    )
+    comp.add_argument(
+        "--all",
+        action="store_true",
+        help="every core function and every shipped scene whose robot is installed",
+    )
+    comp.set_defaults(run=_compile_ahead)
 
     args = parser.parse_args(argv)
     try:

@@ -37,17 +37,16 @@ from dataclasses import dataclass, field
 import numpy as np
 from numba import njit
 
-from .dynamics._kernels import INLINE, JIT
+from .dynamics._kernels import JIT, copy_into
 from .dynamics.configuration import integrate_kernel
 from .dynamics.constraints import constrained_solve_at
 from .dynamics.crba import crba_kernel
 from .dynamics.energy import kinetic_gradient_kernel
 from .dynamics.forward import cholesky_factor, cholesky_solve, cholesky_substitute
 from .dynamics.rnea import rnea_kernel
-from .step import DIVERGED, evaluate, explicit_forces, generalized_forces
+from .status import Status
+from .step import evaluate, generalized_forces
 
-STEP_UNDERFLOW = 6  # the adaptive step fell below what float64 time can resolve
-NO_CONVERGENCE = 7  # the symplectic Euler momentum update did not converge
 FIXED_POINT_RTOL = 1e-14  # the momentum update's iteration stops when v changes less than this
 FIXED_POINT_MAX = 50
 EXPLICIT_RK, SEMI_IMPLICIT, IMPLICIT = 0, 1, 2  # fixed-step loop kinds
@@ -68,6 +67,16 @@ class Integrator:
     b: np.ndarray = field(default_factory=lambda: np.ones(1))
     c: np.ndarray = field(default_factory=lambda: np.zeros(1))
     e: np.ndarray = field(default_factory=lambda: np.zeros(1))
+
+    def switches(self):
+        """(tableau, implicit, symplectic): the compile-time switches of run_fixed, one of
+        them not None, so that only this integrator's step is compiled: the tableau (A, b, c)
+        of an explicit Runge-Kutta method, or True for implicit or semi-implicit Euler."""
+        return (
+            (self.A, self.b, self.c) if self.kind == EXPLICIT_RK else None,
+            True if self.kind == IMPLICIT else None,
+            True if self.kind == SEMI_IMPLICIT else None,
+        )
 
 
 _RK4 = dict(
@@ -113,27 +122,29 @@ INTEGRATORS = {
 
 @njit(**JIT)
 def state_ok(q, qd, max_speed):
-    """0 when q and qd are finite and every |qd| <= max_speed, else a status code."""
+    """Status.OK when q and qd are finite and every |qd| <= max_speed, else Q/QD_NOT_FINITE or
+    DIVERGED."""
     for k in range(q.shape[0]):
         if not np.isfinite(q[k]):
-            return 1
+            return Status.Q_NOT_FINITE
     for k in range(qd.shape[0]):
         if not np.isfinite(qd[k]):
-            return 2
+            return Status.QD_NOT_FINITE
         if abs(qd[k]) > max_speed:
-            return DIVERGED
-    return 0
+            return Status.DIVERGED
+    return Status.OK
 
 
 @njit(**JIT)
 def rk_work(s, nq, nv):
     """Scratch of an s-stage Runge-Kutta step: (kq (s, nv), kv (s, nv), kw (s, 2), qs (nq,),
-    qds (nv,), v (nv,)) for rk_stages and rk_combine."""
+    qds (nv,), v (nv,), stage_tau (nv,)) for rk_stages and rk_combine."""
     return (
         np.empty((s, nv)),
         np.empty((s, nv)),
         np.empty((s, 2)),
         np.empty(nq),
+        np.empty(nv),
         np.empty(nv),
         np.empty(nv),
     )
@@ -144,12 +155,11 @@ def rk_stages(scene, A, c, t, dt, q, qd, work, first, tau_stage, tau):
     """Stages first..s-1 of an explicit Runge-Kutta step from (t, q, qd): stage i at
     q_i = q (+) dt sum_l A_il kq_l, qd_i = qd + dt sum_l A_il kv_l, kq_i = qd_i,
     kv_i = qdd(t + c_i dt, q_i, qd_i), kw_i = power there, with work = rk_work(...) =
-    (kq, kv, kw, qs, qds, v). first = 1 when stage 0 is already in kq, kv, kw (FSAL).
+    (kq, kv, kw, qs, qds, v, stage_tau). first = 1 when stage 0 is already in kq, kv, kw (FSAL).
     tau <- the control torque at stage tau_stage. Returns (status, evaluations)."""
-    kq, kv, kw, qs, qds, v = work
+    kq, kv, kw, qs, qds, v, stage_tau = work
     ibuf = scene[0]
     nv = qd.shape[0]
-    stage_tau = np.empty(nv)
     for i in range(first, A.shape[0]):
         for j in range(nv):
             dv = 0.0
@@ -160,19 +170,19 @@ def rk_stages(scene, A, c, t, dt, q, qd, work, first, tau_stage, tau):
             v[j] = dq
             qds[j] = qd[j] + dt * dv
         integrate_kernel(ibuf, q, v, dt, qs)
-        kq[i] = qds
+        copy_into(qds, kq[i])
         status = evaluate(scene, t + c[i] * dt, qs, qds, kv[i], stage_tau, kw[i])
         if i == tau_stage:
-            tau[:] = stage_tau
+            copy_into(stage_tau, tau)
         if status:
             return status, i - first + 1
-    return 0, A.shape[0] - first
+    return Status.OK, A.shape[0] - first
 
 
 @njit(**JIT)
 def rk_combine(ibuf, weights, dt, q, qd, w, work, q1, qd1, w1):
     """x1 = x (+) dt sum_i weights_i k_i for q (through integrate), qd and the work W."""
-    kq, kv, kw, _, _, v = work
+    kq, kv, kw, _, _, v, _ = work
     nv = qd.shape[0]
     for j in range(nv):
         dq = 0.0
@@ -194,10 +204,9 @@ def rk_combine(ibuf, weights, dt, q, qd, w, work, q1, qd1, w1):
 def velocity_solve(ibuf, fbuf, con, q, qd, M, rhs, qdd):
     """qdd <- M^-1 rhs, or with constraints con (not None) the constrained solve of
     M qdd + A^T lambda = rhs (M overwritten). A function of its own so that the test on None is
-    decided when it compiles. Returns a status (100 + k: M singular at joint k)."""
+    decided when it compiles. Returns a Status (SINGULAR + k: M singular at joint k)."""
     if con is None:
-        k = cholesky_solve(M, rhs, qdd)
-        return 0 if k < 0 else 100 + k
+        return cholesky_solve(M, rhs, qdd)
     c_rows, c_params, gains = con
     lam = np.empty(c_rows[:, 2].sum())
     return constrained_solve_at(ibuf, fbuf, c_rows, c_params, gains, q, qd, M, rhs, qdd, lam)
@@ -205,25 +214,20 @@ def velocity_solve(ibuf, fbuf, con, q, qd, M, rhs, qdd):
 
 @njit(**JIT)
 def implicit_velocity_step(scene, t, dt, q, qd, w, q1, qd1, w1, tau_ctrl):
-    """One linearly implicit Euler step (module docstring). Returns a status."""
-    ibuf, fbuf, rows, params, _, armature, con = scene
+    """One linearly implicit Euler step (module docstring). Returns a Status."""
+    ibuf, fbuf, _, armature, _, con, (work, forces, loads) = scene
     nv = qd.shape[0]
-    tau = np.empty(nv)
-    K = np.empty(nv)
-    D = np.empty(nv)
+    tau, K, D = forces[0], forces[3], forces[4]
     power = np.empty(2)
-    loads = np.empty((1, 6))
-    status = generalized_forces(
-        ibuf, fbuf, rows, params, armature, t, q, qd, loads[0], tau, tau_ctrl, power, K, D, True
-    )
+    status = generalized_forces(scene, t, q, qd, tau, tau_ctrl, power, K, D, True)
     if status:
         return status
     h = np.empty(nv)
-    status = rnea_kernel(ibuf, fbuf, q, qd, np.zeros(nv), loads, h)
+    status = rnea_kernel(ibuf, fbuf, q, qd, np.zeros(nv), loads, h, work)
     if status:
         return status
     M = np.empty((nv, nv))
-    crba_kernel(ibuf, fbuf, q, M)
+    crba_kernel(ibuf, fbuf, q, M, work)
     rhs = np.empty(nv)
     for j in range(nv):
         M[j, j] += dt * D[j] + dt * dt * K[j]
@@ -239,40 +243,37 @@ def implicit_velocity_step(scene, t, dt, q, qd, w, q1, qd1, w1, tau_ctrl):
     integrate_kernel(ibuf, q, qd1, dt, q1)
     w1[0] = w[0] + dt * power[0]
     w1[1] = w[1] + dt * power[1]
-    return 0
+    return Status.OK
 
 
 @njit(**JIT)
 def symplectic_euler_step(scene, t, dt, q, qd, w, q1, qd1, w1, tau_ctrl):
-    """One step of symplectic Euler in momentum form (module docstring). Returns a status."""
-    ibuf, fbuf, rows, params, _, armature, _ = scene
+    """One step of symplectic Euler in momentum form (module docstring). Returns a Status."""
+    ibuf, fbuf, _, armature, _, _, (work, forces, loads) = scene
     nv = qd.shape[0]
-    tau = np.empty(nv)
+    tau = forces[0]
     power = np.empty(2)
-    loads = np.empty((1, 6))
-    status = explicit_forces(
-        ibuf, fbuf, rows, params, armature, t, q, qd, loads, tau, tau_ctrl, power
-    )
+    status = generalized_forces(scene, t, q, qd, tau, tau_ctrl, power, tau, tau, False)
     if status:
         return status
     # g(q): RNEA at qd = qdd = 0 under the base acceleration
     zero = np.zeros(nv)
     g = np.empty(nv)
-    status = rnea_kernel(ibuf, fbuf, q, zero, zero, loads, g)
+    status = rnea_kernel(ibuf, fbuf, q, zero, zero, loads, g, work)
     if status:
         return status
     # p = (M(q) + diag(armature)) qd
     M = np.empty((nv, nv))
-    crba_kernel(ibuf, fbuf, q, M)
+    crba_kernel(ibuf, fbuf, q, M, work)
     p = np.zeros(nv)
     for r in range(nv):
         if armature.shape[0]:
             M[r, r] += armature[r]
         for c in range(nv):
             p[r] += M[r, c] * qd[c]
-    k = cholesky_factor(M)
-    if k >= 0:
-        return 100 + k
+    status = cholesky_factor(M)
+    if status:
+        return status
     # p' = p + dt (dK/dq(q, v) - g + tau), v = M^-1 p': fixed-point iteration from v = qd
     v = qd.copy()
     v_next = np.empty(nv)
@@ -296,38 +297,62 @@ def symplectic_euler_step(scene, t, dt, q, qd, w, q1, qd1, w1, tau_ctrl):
             converged = True
             break
     if not converged:
-        return NO_CONVERGENCE
+        return Status.NO_CONVERGENCE
     # q' = q (+) v dt, qd' = (M(q') + diag(armature))^-1 p'
     integrate_kernel(ibuf, q, v, dt, q1)
-    crba_kernel(ibuf, fbuf, q1, M)
+    crba_kernel(ibuf, fbuf, q1, M, work)
     if armature.shape[0]:
         for r in range(nv):
             M[r, r] += armature[r]
-    k = cholesky_solve(M, p1, qd1)
-    if k >= 0:
-        return 100 + k
+    status = cholesky_solve(M, p1, qd1)
+    if status:
+        return status
     w1[0] = w[0] + dt * power[0]
     w1[1] = w[1] + dt * power[1]
-    return 0
+    return Status.OK
 
 
-@njit(**INLINE)
+@njit(**JIT)
 def record(out, r, t, q, qd, tau, w):
     """Row r of the record out = (t, q, qd, tau, w) <- the state, control torque and work."""
     out_t, out_q, out_qd, out_tau, out_w = out
     out_t[r] = t
-    out_q[r] = q
-    out_qd[r] = qd
-    out_tau[r] = tau
-    out_w[r] = w
+    copy_into(q, out_q[r])
+    copy_into(qd, out_qd[r])
+    copy_into(tau, out_tau[r])
+    copy_into(w, out_w[r])
+
+
+@njit(**JIT)
+def rk_stage_count(tableau):
+    """Stages of the tableau (A, b, c), 1 for None (a step that is no Runge-Kutta method)."""
+    if tableau is None:
+        return 1
+    return tableau[0].shape[0]
+
+
+@njit(**JIT)
+def fixed_step(tableau, implicit, symplectic, scene, t, dt, q, qd, w, work, q1, qd1, w1, tau):
+    """One fixed step of dt from (t, q, qd, w) to (q1, qd1, w1), tau <- the control torque at
+    its start, by the integrator the compile-time switches (tableau, implicit, symplectic)
+    name (Integrator.switches): numba drops the code behind the None ones when it compiles.
+    Returns (status, dynamics evaluations)."""
+    if tableau is not None:
+        A, b, c = tableau
+        status, evaluations = rk_stages(scene, A, c, t, dt, q, qd, work, 0, 0, tau)
+        if status == Status.OK:
+            rk_combine(scene[0], b, dt, q, qd, w, work, q1, qd1, w1)
+        return status, evaluations
+    if implicit is not None:
+        return implicit_velocity_step(scene, t, dt, q, qd, w, q1, qd1, w1, tau), 1
+    if symplectic is not None:
+        return symplectic_euler_step(scene, t, dt, q, qd, w, q1, qd1, w1, tau), 1
+    return Status.OK, 0
 
 
 @njit(**JIT)
 def run_fixed(
-    kind,
-    A,
-    b,
-    c,
+    switches,
     scene,
     t0,
     dt,
@@ -342,40 +367,35 @@ def run_fixed(
     counters,
 ):
     """Advance (q, qd, w) in place by up to nsteps fixed steps of dt from global step step0,
-    at time t0 + step0 dt (t0: the time of global step 0). The state at the start of every
-    step whose global index is a multiple of `every` is recorded in row index // every, with
-    the control torque there. Stops at the first step whose result is not finite, faster than
+    at time t0 + step0 dt (t0: the time of global step 0), by the integrator the compile-time
+    switches name (fixed_step). The state at the start of every step
+    whose global index is a multiple of `every` is recorded in row index // every, with the
+    control torque there. Stops at the first step whose result is not finite, faster than
     max_speed, or whose dynamics fail; the state stays the last good one, the start of the
     failed step. scene: step.scene_data(model, table); out: the record (t, q, qd, tau, w).
     Returns (status, steps done); counters[0] += dynamics evaluations."""
     nv = qd.shape[0]
-    work = rk_work(A.shape[0], q.shape[0], nv)
+    tableau, implicit, symplectic = switches
+    work = rk_work(rk_stage_count(tableau), q.shape[0], nv)
     q1, qd1, w1 = np.empty(q.shape[0]), np.empty(nv), np.empty(2)
     tau = np.empty(nv)
     for n in range(nsteps):
         g = step0 + n
         t = t0 + g * dt
-        if kind == IMPLICIT:
-            status = implicit_velocity_step(scene, t, dt, q, qd, w, q1, qd1, w1, tau)
-            counters[0] += 1
-        elif kind == SEMI_IMPLICIT:
-            status = symplectic_euler_step(scene, t, dt, q, qd, w, q1, qd1, w1, tau)
-            counters[0] += 1
-        else:
-            status, evaluations = rk_stages(scene, A, c, t, dt, q, qd, work, 0, 0, tau)
-            counters[0] += evaluations
-            if status == 0:
-                rk_combine(scene[0], b, dt, q, qd, w, work, q1, qd1, w1)
-        if status == 0:
+        status, evaluations = fixed_step(
+            tableau, implicit, symplectic, scene, t, dt, q, qd, w, work, q1, qd1, w1, tau
+        )
+        counters[0] += evaluations
+        if status == Status.OK:
             status = state_ok(q1, qd1, max_speed)
         if status:
             return status, n
         if g % every == 0:
             record(out, g // every, t, q, qd, tau, w)
-        q[:] = q1
-        qd[:] = qd1
-        w[:] = w1
-    return 0, nsteps
+        copy_into(q1, q)
+        copy_into(qd1, qd)
+        copy_into(w1, w)
+    return Status.OK, nsteps
 
 
 @njit(**JIT)
@@ -424,17 +444,17 @@ def run_adaptive(
         last_before_output = h >= 0.99 * (t_out - t)
         dt = t_out - t if last_before_output else h
         if dt <= 1e-14 * max(1.0, abs(t)):
-            return STEP_UNDERFLOW, t, h, row
+            return Status.STEP_UNDERFLOW, t, h, row
         # stage 0 is the FSAL stage, evaluated at the end of the previous step
-        kq[0] = k_first[0]
-        kv[0] = k_first[1]
-        kw[0] = power_first
+        copy_into(k_first[0], kq[0])
+        copy_into(k_first[1], kv[0])
+        copy_into(power_first, kw[0])
         status, evaluations = rk_stages(scene, A, c, t, dt, q, qd, work, 1, s - 1, stage_tau)
         counters[0] += evaluations
         if status == 0:
             rk_combine(scene[0], b, dt, q, qd, w, work, q1, qd1, w1)
             status = state_ok(q1, qd1, max_speed)
-        if status >= 100:
+        if status >= Status.SINGULAR:
             return status, t, h, row  # singular mass matrix: a smaller step will not help
         if status:
             # a failed trial is a rejected step: retry smaller, give up when the step underflows
@@ -459,18 +479,18 @@ def run_adaptive(
             continue
         counters[1] += 1
         t = t_out if last_before_output else t + dt
-        q[:] = q1
-        qd[:] = qd1
-        w[:] = w1
+        copy_into(q1, q)
+        copy_into(qd1, qd)
+        copy_into(w1, w)
         # FSAL: the last stage was evaluated at the new state (c = 1, A's last row = b)
-        k_first[0] = kq[s - 1]
-        k_first[1] = kv[s - 1]
-        power_first[:] = kw[s - 1]
-        tau_first[:] = stage_tau
+        copy_into(kq[s - 1], k_first[0])
+        copy_into(kv[s - 1], k_first[1])
+        copy_into(kw[s - 1], power_first)
+        copy_into(stage_tau, tau_first)
         if last_before_output:
             record(out, row, t, q, qd, tau_first, w)
             row += 1
         h = dt * min(5.0, 0.9 * err**-0.2) if err > 0 else 5.0 * dt
         if last_before_output and h < dt:
             h = dt
-    return 0, t, h, row
+    return Status.OK, t, h, row

@@ -16,7 +16,9 @@ The body coordinates come from the generalized coordinates through an affine map
 offset 0) except for mimic joints loaded with ``mimic=True``.
 
 All per-body numbers live in two flat buffers (``_ibuf`` ints, ``_fbuf`` float64) that the
-compiled kernels receive as two arguments; the documented fields are read-only views into them.
+compiled kernels receive as two arguments, laid out by one table (INT_FIELDS, FLOAT_FIELDS);
+the documented fields are read-only views into them. A third flat buffer, the workspace
+(WORK_FIELDS), holds the recursions' per-body scratch, so that a kernel call allocates nothing.
 Conventions: twists (omega, v) and wrenches (m, f), angular first; SI units; gravity is the
 world-frame vector g, applied as the base acceleration dV_0 = (0, -g).
 """
@@ -33,36 +35,64 @@ REVOLUTE = 0
 PRISMATIC = 1
 
 
-def _ibuf_layout(nb: int) -> dict[str, tuple[int, tuple[int, ...]]]:
-    """Offsets and shapes of the integer fields in ``_ibuf`` (after the header ``[nb, nv]``)."""
-    return _layout([("parent", (nb,)), ("jtype", (nb,)), ("coord", (nb,))], start=2)
+# The kernels' flat buffers, defined once: (field, shape per body). Field k of _fbuf starts at
+# start_k * nb; field k of _ibuf at INT_HEADER + start_k * nb, after the header [nb, nv].
+INT_HEADER = 2
+INT_FIELDS = (("parent", ()), ("jtype", ()), ("coord", ()))
+FLOAT_FIELDS = (
+    ("mult", ()),
+    ("offset", ()),
+    ("A", (6,)),
+    ("G", (6, 6)),
+    ("mass", ()),
+    ("h", (3,)),
+    ("I_o", (3, 3)),
+    ("R_home", (3, 3)),
+    ("p_home", (3,)),
+)
+# The per-model workspace of the recursions (like Pinocchio's Data): per-body fields, then
+# WORK_SCRATCH numbers of fixed scratch. Kernels carve their views from it (_kernels.work_views).
+WORK_FIELDS = (
+    ("R", (3, 3)),
+    ("p", (3,)),
+    ("V", (6,)),
+    ("dV", (6,)),
+    ("F", (6,)),
+    ("c", (6,)),
+    ("U", (6,)),
+    ("IA", (6, 6)),
+    ("D", ()),
+    ("u", ()),
+    ("I_c", (3, 3)),
+    ("h_c", (3,)),
+    ("m_c", ()),
+)
+WORK_SCRATCH = 60
 
 
-def _fbuf_layout(nb: int) -> dict[str, tuple[int, tuple[int, ...]]]:
-    """Offsets and shapes of the float fields in ``_fbuf``."""
-    return _layout(
-        [
-            ("mult", (nb,)),
-            ("offset", (nb,)),
-            ("A", (nb, 6)),
-            ("G", (nb, 6, 6)),
-            ("mass", (nb,)),
-            ("h", (nb, 3)),
-            ("I_o", (nb, 3, 3)),
-            ("R_home", (nb, 3, 3)),
-            ("p_home", (nb, 3)),
-        ],
-        start=0,
-    )
-
-
-def _layout(fields, start):
-    out, off = {}, start
+def field_starts(fields) -> dict[str, tuple[int, int, tuple[int, ...]]]:
+    """{field: (start, size, shape)}: start and size in units of nb (numbers per body)."""
+    out, start = {}, 0
     for name, shape in fields:
-        out[name] = (off, shape)
-        off += int(np.prod(shape))
-    out["_size"] = (off, ())
+        size = int(np.prod(shape))
+        out[name] = (start, size, shape)
+        start += size
     return out
+
+
+INT_AT = field_starts(INT_FIELDS)
+FLOAT_AT = field_starts(FLOAT_FIELDS)
+WORK_AT = field_starts(WORK_FIELDS)
+
+
+def buffer_size(at: dict, nb: int) -> int:
+    """Numbers in a buffer laid out by `at` for nb bodies."""
+    return sum(size for _, size, _ in at.values()) * nb
+
+
+def work_size(nb: int) -> int:
+    """Length of a workspace for nb bodies."""
+    return buffer_size(WORK_AT, nb) + WORK_SCRATCH
 
 
 def _frame_index(frames, aliases):
@@ -72,11 +102,11 @@ def _frame_index(frames, aliases):
     return index
 
 
-def _readonly_view(buf, where):
-    """A read-only view of one field of a flat buffer (the buffer itself stays writeable, so the
-    compiled kernels see one array type)."""
-    off, shape = where
-    view = buf[off : off + int(np.prod(shape))].reshape(shape)
+def _readonly_view(buf, at, name, nb, header=0):
+    """A read-only (nb, *shape) view of one field of a flat buffer (the buffer itself stays
+    writeable, so the compiled kernels see one array type)."""
+    start, size, shape = at[name]
+    view = buf[header + start * nb : header + (start + size) * nb].reshape((nb, *shape))
     view.flags.writeable = False
     return view
 
@@ -176,13 +206,14 @@ class Model:
         (the URDF joint frame is the child link's frame); a frame's own name always wins.
         """
         nb, nv = len(body_names), len(joint_names)
-        ilay, flay = _ibuf_layout(nb), _fbuf_layout(nb)
-        ibuf = np.zeros(ilay["_size"][0], dtype=np.int64)
-        fbuf = np.zeros(flay["_size"][0], dtype=np.float64)
+        ibuf = np.zeros(INT_HEADER + buffer_size(INT_AT, nb), dtype=np.int64)
+        fbuf = np.zeros(buffer_size(FLOAT_AT, nb), dtype=np.float64)
         ibuf[0], ibuf[1] = nb, nv
         for key, arr in (("parent", parent), ("jtype", jtype), ("coord", coord)):
-            off, shape = ilay[key]
-            ibuf[off : off + int(np.prod(shape))] = np.asarray(arr, dtype=np.int64).ravel()
+            start, size, _ = INT_AT[key]
+            ibuf[INT_HEADER + start * nb : INT_HEADER + (start + size) * nb] = np.asarray(
+                arr, dtype=np.int64
+            ).ravel()
         G = np.reshape(np.asarray(G, dtype=np.float64), (nb, 6, 6))
         # the same inertia in rigid-body form: mass m, first moment h = m c, I_o about {i}'s
         # origin; G = [[I_o, [h]], [[h]^T, m 1]]
@@ -200,8 +231,8 @@ class Model:
             ("R_home", R_home),
             ("p_home", p_home),
         ):
-            off, shape = flay[key]
-            fbuf[off : off + int(np.prod(shape))] = np.asarray(arr, dtype=np.float64).ravel()
+            start, size, _ = FLOAT_AT[key]
+            fbuf[start * nb : (start + size) * nb] = np.asarray(arr, dtype=np.float64).ravel()
 
         def frozen(x, dtype=np.float64):
             a = np.array(x, dtype=dtype)
@@ -231,10 +262,10 @@ class Model:
         )
 
     def _ifield(self, key):
-        return _readonly_view(self._ibuf, _ibuf_layout(self.nb)[key])
+        return _readonly_view(self._ibuf, INT_AT, key, self.nb, INT_HEADER)
 
     def _ffield(self, key):
-        return _readonly_view(self._fbuf, _fbuf_layout(self.nb)[key])
+        return _readonly_view(self._fbuf, FLOAT_AT, key, self.nb)
 
     def __post_init__(self):
         # plain attributes, read on every call: nb bodies, nq = nv coordinates (fixed base)
@@ -250,6 +281,9 @@ class Model:
         loads = np.zeros((1, 6))
         linear(loads[0])[:] = -self._gravity  # the kernels' dV_0 = (0, -g), no wrenches
         object.__setattr__(self, "_loads", loads)
+        # the workspace of single-state kernel calls (they hold the GIL, so one per model is
+        # never used by two calls at once); batch kernels allocate one per thread
+        object.__setattr__(self, "_work", np.empty(work_size(self.nb)))
 
     parent = property(lambda self: self._ifield("parent"), doc="(nb,) parent body, -1 = world")
     jtype = property(lambda self: self._ifield("jtype"), doc="(nb,) REVOLUTE=0 / PRISMATIC=1")

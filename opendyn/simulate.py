@@ -21,17 +21,25 @@ import time
 import numpy as np
 
 from . import __version__
+from ._compile import compile_seconds, compiling
 from ._kernel_cache import kernel_cache
-from .dynamics.energy import kinetic_energy, potential_energy
+from .dynamics.energy import energies
 from .scene import SceneError
+from .status import Status, decode
 
 with kernel_cache():
     from . import effects, integrators, step
     from .dynamics.constraints import constraint_terms_kernel
 
 _CHUNK_SECONDS = 0.1  # wall time of one compiled chunk: progress and Ctrl-C granularity
-_FIRST_CHUNK = 64  # steps in the first chunk (it may include loading the compiled kernels)
-INTERRUPTED = -1  # status of a run stopped by Ctrl-C
+_FIRST_CHUNK = 64  # steps in the first chunk
+# what compiling a scene's pieces takes on a 2-core machine, by integrator (measured by
+# scripts/bench_coldstart.py; constraints add about half again)
+_COMPILE_ESTIMATE = {
+    integrators.EXPLICIT_RK: "about 15 s",
+    integrators.SEMI_IMPLICIT: "about 20 s",
+    integrators.IMPLICIT: "about 20 s",
+}
 
 
 class _Interrupt:
@@ -71,8 +79,8 @@ def simulate(scene, *, progress=False, raise_on_failure=True):
       trajectory; with False, return it with complete=False and the message.
     The trajectory is sampled every scene.run.output_dt seconds and at the end; its stats give
     steps, rejected steps, dynamics evaluations, the wall time (s) and, apart from it, the time
-    taken to load the compiled loop (kernel_load_s: from the on-disk cache, or compiling it
-    once per machine).
+    taken to get the compiled step ready: compile_s compiling it (once per machine and opendyn
+    version; 0 when the on-disk cache had it) and load_s loading it.
     """
     run = scene.run
     model = scene.model
@@ -96,8 +104,10 @@ def simulate(scene, *, progress=False, raise_on_failure=True):
     w = np.zeros(2)
     counters = np.zeros(3, dtype=np.int64)  # evaluations, accepted, rejected (adaptive)
     start = time.perf_counter()
+    compiled_before = compile_seconds()
     _load_kernels(scene, integ, table, q, qd, w, out, counters)
-    load = time.perf_counter() - start
+    compile_s = compile_seconds() - compiled_before
+    load = time.perf_counter() - start - compile_s
     bar = _progress_bar(run.duration) if progress else None
     start = time.perf_counter()
     with _Interrupt() as stop:
@@ -112,7 +122,7 @@ def simulate(scene, *, progress=False, raise_on_failure=True):
         bar.close()
     steps = int(counters[1]) if integ.adaptive else int(round(t / run.dt))
     message = ""
-    if status == INTERRUPTED:
+    if status == Status.INTERRUPTED:
         message = f"interrupted (Ctrl-C) at t = {t:.6g} s (step {steps})"
     elif status:
         message = failure_message(scene, status, t, steps, q, qd)
@@ -126,7 +136,8 @@ def simulate(scene, *, progress=False, raise_on_failure=True):
         "rejected_steps": int(counters[2]),
         "evaluations": int(counters[0]),
         "wall_s": wall,
-        "kernel_load_s": load,
+        "compile_s": compile_s,
+        "load_s": load,
         "simulated_s": float(out.t[out.filled - 1]) if out.filled else 0.0,
     }
     traj = _trajectory(scene, table, out, status == 0, message, stats)
@@ -136,18 +147,42 @@ def simulate(scene, *, progress=False, raise_on_failure=True):
 
 
 def _load_kernels(scene, integ, table, q, qd, w, out, counters):
-    """Call the run's compiled loop for zero steps, and one evaluation (used for the first and
-    last samples): numba loads them from its on-disk cache (or compiles them, once per machine)
-    here, so that the run's wall time is the simulation's."""
-    nv = scene.model.nv
+    """Get the run's compiled pieces ready before the clock starts, one by one: forward
+    dynamics, the effects, one evaluation, the loop (called for zero steps) and the energies of
+    the record. numba loads each from its on-disk cache or, the first time on a machine,
+    compiles it; then a notice and a bar over these pieces show on stderr."""
+    model = scene.model
+    nv = model.nv
+    data = step.scene_data(model, table)
     first = (np.zeros((2, nv)), np.zeros(2), np.zeros(nv))
-    _first_stage(scene, table, 0.0, q, qd, *first)
-    if integ.adaptive:
-        _adaptive_chunk(
+    ibuf, fbuf, _, armature, method, con, (work, _, loads) = data
+    tau, qdd, unused = np.zeros(nv), np.empty(nv), np.empty(0)
+    state = (q[None].copy(), qd[None].copy())
+    pieces = [
+        lambda: step.dynamics(ibuf, fbuf, armature, method, con, work, loads, q, qd, tau, qdd),
+        lambda: step.generalized_forces(
+            data, 0.0, q, qd, np.empty(nv), np.empty(nv), np.empty(2), unused, unused, False
+        ),
+        lambda: _first_stage(scene, table, 0.0, q, qd, *first),
+        lambda: _adaptive_chunk(
             scene, integ, table, 0.0, 0.0, scene.run.dt, 1, q, qd, w, first, out, counters
         )
-    else:
-        _fixed_chunk(scene, integ, table, 0, 0, 1, q, qd, w, out, counters)
+        if integ.adaptive
+        else _fixed_chunk(scene, integ, table, 0, 0, 1, q, qd, w, out, counters),
+        lambda: energies(model, *state, _gravity(scene)),
+    ]
+    if scene.constraints:
+        pieces.append(lambda: _violation(model, table, *state))
+    what = f"the simulation step for {integ.name} with {', '.join(table.names) or 'no effects'}"
+    with compiling(what, len(pieces), _COMPILE_ESTIMATE[integ.kind]) as done:
+        for piece in pieces:
+            piece()
+            done()
+
+
+def _gravity(scene):
+    """The scene's gravity (3,), or zeros when it names none (then U = 0)."""
+    return np.zeros(3) if scene.gravity is None else np.asarray(scene.gravity, float)
 
 
 def _fixed_chunk(scene, integ, table, step0, nsteps, every, q, qd, w, out, counters):
@@ -155,10 +190,7 @@ def _fixed_chunk(scene, integ, table, step0, nsteps, every, q, qd, w, out, count
     recording every `every`-th. Returns (status, steps done)."""
     run = scene.run
     return integrators.run_fixed(
-        integ.kind,
-        integ.A,
-        integ.b,
-        integ.c,
+        integ.switches(),
         step.scene_data(scene.model, table),
         0.0,
         run.dt,
@@ -256,7 +288,7 @@ def _run_fixed(scene, integ, table, nsteps, every, q, qd, w, out, counters, bar,
         if status:
             return status, done * run.dt
         if stop.requested and done < nsteps:
-            return INTERRUPTED, done * run.dt
+            return Status.INTERRUPTED, done * run.dt
         chunk = _chunk_steps(steps, time.perf_counter() - tic, chunk)
     t_end = nsteps * run.dt
     if out.filled < len(out.t):
@@ -291,7 +323,7 @@ def _run_adaptive(scene, integ, table, q, qd, w, out, counters, bar, stop):
         if status:
             return status, t
         if stop.requested and t < run.duration:
-            return INTERRUPTED, t
+            return Status.INTERRUPTED, t
         elapsed = time.perf_counter() - tic
         if elapsed > 0:
             span = min(
@@ -328,14 +360,9 @@ def _trajectory(scene, table, out, complete, message, stats):
     model = scene.model
     n = out.filled
     t, q, qd, tau, w = out.t[:n], out.q[:n], out.qd[:n], out.tau[:n], out.w[:n]
-    kinetic = kinetic_energy(model, q, qd) if n else np.zeros(0)
+    kinetic, potential = energies(model, q, qd, _gravity(scene)) if n else (np.zeros(0),) * 2
     if scene.armature is not None and n:
         kinetic = kinetic + 0.5 * (qd**2) @ scene.armature
-    potential = (
-        potential_energy(model, q, gravity=scene.gravity)
-        if scene.gravity is not None and n
-        else np.zeros(n)
-    )
     violation = _violation(model, table, q, qd) if scene.constraints else (np.zeros(0),) * 2
     return Trajectory(
         violation_position=violation[0],
@@ -411,29 +438,30 @@ def failure_message(scene, status, t, steps, q, qd):
     model = scene.model
     run = scene.run
     where = f"at t = {t:.6g} s (step {steps})"
-    if status >= 100:
-        joint = model.joint_names[status - 100]
+    status, coordinate = decode(status)
+    if status == Status.SINGULAR:
+        joint = model.joint_names[coordinate]
         return (
             f"singular mass matrix {where}: nothing with mass or inertia moves with joint "
             f"{joint!r}. Give the links below it inertia, or name the armature effect for it."
         )
-    if status == integrators.NO_CONVERGENCE:
+    if status == Status.NO_CONVERGENCE:
         return (
             f"semi-implicit Euler's momentum update did not converge {where}: the step is too "
             f"large for the velocities here (|qd| up to {np.abs(qd).max():.3g}); use a smaller "
             "step"
         )
-    if status == integrators.STEP_UNDERFLOW:
+    if status == Status.STEP_UNDERFLOW:
         return (
             f"adaptive step underflow {where}: no step down to 1e-14 s met the tolerances. "
             "The dynamics are likely discontinuous or singular here."
         )
     what = {
-        1: "the positions q became non-finite",
-        2: "the velocities qd became non-finite",
-        4: "a generalized force became non-finite",
-        step.DIVERGED: f"a joint velocity exceeded max_speed = {run.max_speed:g}",
-    }.get(status, f"the dynamics failed (status {status})")
+        Status.Q_NOT_FINITE: "the positions q became non-finite",
+        Status.QD_NOT_FINITE: "the velocities qd became non-finite",
+        Status.TAU_NOT_FINITE: "a generalized force became non-finite",
+        Status.DIVERGED: f"a joint velocity exceeded max_speed = {run.max_speed:g}",
+    }.get(status, f"the dynamics failed ({status.name})")
     fastest = int(np.argmax(np.abs(qd))) if model.nv else 0
     state = (
         f"the last good state has |qd| up to {np.abs(qd).max():.3g} on joint "
@@ -551,12 +579,12 @@ def stage_costs(scene, *, steps=2000, evaluations=20000):
 
     # implicit and semi-implicit Euler run the stages, then their own solve, not an evaluation
     implicit = integrators.INTEGRATORS[run.integrator].kind != integrators.EXPLICIT_RK
-    rows = [(name, cost(s)) for s, name in enumerate(table.names)]
+    rows = [(name, cost(slot)) for slot, name in zip(table.slots, table.names)]
     if not implicit:
         if scene.constraints:
             dynamics = "constrained forward dynamics (CRBA"
         else:
-            dynamics = "forward dynamics (ABA" if table.method == 0 else "forward dynamics (CRBA"
+            dynamics = "forward dynamics (ABA" if table.method == "aba" else "forward dynamics (CRBA"
         dynamics += ", with armature)" if scene.armature is not None else ")"
         rows.append((dynamics, cost(-1)))
     evaluation = sum(us for _, us in rows) if implicit else cost(-2)

@@ -1,9 +1,9 @@
 """One evaluation of the scene's dynamics: the stages it names, then forward dynamics.
 
-    tau = sum over the stage table's rows of tau_e(t, q, qd)          (effects, control)
+    tau = sum over the scene's effects of tau_e(t, q, qd)             (effects, control)
     qdd = (M(q) + diag(armature))^-1 (tau - c(q, qd) - g(q))         (forward dynamics, ABA)
 
-with g(q) present only when the table has a gravity row (it sets dV_0 = (0, -g); without it the
+with g(q) present only when the scene names gravity (it sets dV_0 = (0, -g); without it the
 base does not accelerate). With constraints A(q) qd = 0 the forward dynamics is instead
 
     (M + diag(armature)) qdd + A^T lambda = tau - c - g,
@@ -15,8 +15,9 @@ where E = T + U_gravity:
   applied = control torques and applied wrenches (work put in),
   passive = damping, friction and joint-limit spring-dampers (work taken out, mostly).
 
-Only the rows of the table run: an effect the scene does not name costs nothing, not even a
-multiplication by zero.
+Only the effects the scene names are compiled and run: an effect it does not name has None in
+its slot of the effects tuple, and numba drops its call when it compiles the step (not even a
+multiplication by zero remains).
 """
 
 from __future__ import annotations
@@ -24,9 +25,9 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .dynamics._kernels import INLINE, JIT
+from .dynamics._kernels import INLINE, JIT, fill
 from .dynamics.constraints import constrained_forward_kernel
-from .dynamics.forward import forward_kernel
+from .dynamics.forward import forward_kernel, method_switches
 from .effects import (
     CLIP,
     COMPUTED_TORQUE,
@@ -36,9 +37,11 @@ from .effects import (
     GRAVITY,
     LIMITS,
     PD,
+    SLOT_NAMES,
     WRENCH,
     clip_effect,
     computed_torque_effect,
+    constant_effect,
     damping_effect,
     friction_effect,
     gravity_effect,
@@ -46,203 +49,155 @@ from .effects import (
     pd_effect,
     wrench_effect,
 )
-
-# status codes beyond the dynamics kernels' (1 q, 2 qd, 4 tau not finite, 100 + k singular)
-DIVERGED = 5  # |qd| beyond the run's max_speed
-
-
-@njit(**INLINE)
-def run_stage(
-    ibuf, fbuf, row, params, armature, t, q, qd, dV_0, tau_ctrl, tau_app, tau_pas, K, D, jac
-):
-    """One row of the stage table: adds its generalized force to tau_ctrl (control), tau_app
-    (applied wrenches) or tau_pas (passive effects), or sets dV_0 (gravity). Returns a status."""
-    code, offset, count, body, flag = row[0], row[1], row[2], row[3], row[4]
-    p = params[offset:]
-    if code == GRAVITY:
-        gravity_effect(p, dV_0)
-    elif code == DAMPING:
-        damping_effect(p, qd, tau_pas, D, jac)
-    elif code == FRICTION:
-        friction_effect(p, qd, tau_pas, D, jac)
-    elif code == LIMITS:
-        limits_effect(p, q, qd, tau_pas, K, D, jac)
-    elif code == WRENCH:
-        wrench_effect(ibuf, fbuf, p, count, body, flag == 1, t, q, tau_app)
-    elif code == CONSTANT:
-        for j in range(q.shape[0]):
-            tau_ctrl[j] += p[j]
-    elif code == PD:
-        pd_effect(p, q, qd, tau_ctrl, K, D, jac)
-    elif code == COMPUTED_TORQUE:
-        return computed_torque_effect(ibuf, fbuf, p, t, q, qd, dV_0, armature, tau_ctrl)
-    elif code == CLIP:
-        clip_effect(p, tau_ctrl)
-    return 0
+from .model import work_size
+from .status import Status
 
 
 @njit(**INLINE)
-def generalized_forces(
-    ibuf, fbuf, rows, params, armature, t, q, qd, dV_0, tau, tau_ctrl, power, K, D, jac
-):
-    """Run every stage: tau (nv,) <- the total generalized force of the effects, tau_ctrl (nv,)
-    <- the control's share, dV_0 (6,) <- the base acceleration, power (2,) <- (applied, passive)
-    power qd . tau_applied and qd . tau_passive (W). With jac, K and D (nv,) <- the diagonal
-    stiffness -d tau/dq and damping -d tau/dqd of the joint-space effects. Returns a status."""
-    nv = q.shape[0]
-    tau_app = np.zeros(nv)
-    tau_pas = np.zeros(nv)
-    tau_ctrl[:] = 0.0
-    dV_0[:] = 0.0
+def run_slot(slot, effects, ibuf, fbuf, armature, work, t, q, qd, dV_0, tau_ctrl, tau_app, tau_pas, K, D, jac):
+    """One effect of the scene's effects tuple: adds its generalized force to tau_ctrl
+    (control), tau_app (applied wrenches) or tau_pas (passive effects), or sets dV_0 (gravity).
+    An empty slot (None) compiles to nothing. Returns a Status."""
+    if slot == GRAVITY:
+        gravity_effect(effects[GRAVITY], dV_0)
+    elif slot == DAMPING:
+        damping_effect(effects[DAMPING], qd, tau_pas, D, jac)
+    elif slot == FRICTION:
+        friction_effect(effects[FRICTION], qd, tau_pas, D, jac)
+    elif slot == LIMITS:
+        limits_effect(effects[LIMITS], q, qd, tau_pas, K, D, jac)
+    elif slot == WRENCH:
+        wrench_effect(effects[WRENCH], ibuf, fbuf, t, q, tau_app)
+    elif slot == CONSTANT:
+        constant_effect(effects[CONSTANT], tau_ctrl)
+    elif slot == PD:
+        pd_effect(effects[PD], q, qd, tau_ctrl, K, D, jac)
+    elif slot == COMPUTED_TORQUE:
+        return computed_torque_effect(
+            effects[COMPUTED_TORQUE], ibuf, fbuf, t, q, qd, dV_0, armature, tau_ctrl, work
+        )
+    elif slot == CLIP:
+        clip_effect(effects[CLIP], tau_ctrl)
+    return Status.OK
+
+
+@njit(**INLINE)
+def generalized_forces(scene, t, q, qd, tau, tau_ctrl, power, K, D, jac):
+    """Run every effect the scene names: tau (nv,) <- their total generalized force, tau_ctrl
+    (nv,) <- the control's share, the scene's base acceleration dV_0 (6,) <- (0, -g) or 0,
+    power (2,) <- (applied, passive) power qd . tau_applied and qd . tau_passive (W). With jac,
+    K and D (nv,) <- the diagonal stiffness -d tau/dq and damping -d tau/dqd of the joint-space
+    effects; without, K and D are not touched. Returns a Status."""
+    ibuf, fbuf, effects, armature, _, _, (work, forces, loads) = scene
+    tau_app, tau_pas, dV_0 = forces[1], forces[2], loads[0]
+    fill(tau_app, 0.0)
+    fill(tau_pas, 0.0)
+    fill(tau_ctrl, 0.0)
+    fill(dV_0, 0.0)
     if jac:
-        K[:] = 0.0
-        D[:] = 0.0
-    for s in range(rows.shape[0]):
-        status = run_stage(
-            ibuf,
-            fbuf,
-            rows[s],
-            params,
-            armature,
-            t,
-            q,
-            qd,
-            dV_0,
-            tau_ctrl,
-            tau_app,
-            tau_pas,
-            K,
-            D,
-            jac,
+        fill(K, 0.0)
+        fill(D, 0.0)
+    for slot in range(len(SLOT_NAMES)):
+        status = run_slot(
+            slot, effects, ibuf, fbuf, armature, work, t, q, qd, dV_0, tau_ctrl, tau_app,
+            tau_pas, K, D, jac,
         )
         if status:
             return status
     applied = 0.0
     passive = 0.0
-    for j in range(nv):
+    for j in range(q.shape[0]):
         applied += qd[j] * (tau_ctrl[j] + tau_app[j])
         passive += qd[j] * tau_pas[j]
         tau[j] = tau_ctrl[j] + tau_app[j] + tau_pas[j]
     power[0] = applied
     power[1] = passive
-    return 0
-
-
-@njit(**INLINE)
-def explicit_forces(ibuf, fbuf, rows, params, armature, t, q, qd, loads, tau, tau_ctrl, power):
-    """generalized_forces without the stiffness and damping diagonals (for steps that treat every
-    effect explicitly): tau, tau_ctrl (nv,), loads[0] <- dV_0, power (2,). Returns a status."""
-    unused = np.empty(0)
-    return generalized_forces(
-        ibuf,
-        fbuf,
-        rows,
-        params,
-        armature,
-        t,
-        q,
-        qd,
-        loads[0],
-        tau,
-        tau_ctrl,
-        power,
-        unused,
-        unused,
-        False,
-    )
+    return Status.OK
 
 
 @njit(**JIT)
-def dynamics(ibuf, fbuf, q, qd, tau, loads, qdd, method, armature, con):
-    """qdd (nv,) <- forward dynamics under tau (nv,) and the base acceleration loads[0]: ABA or
-    CRBA (`method`) without constraints (con None), the constrained solve with them. Compiled
-    apart for each: the test on None is decided when it compiles."""
+def dynamics(ibuf, fbuf, armature, method, con, work, loads, q, qd, tau, qdd):
+    """qdd (nv,) <- forward dynamics under tau (nv,) and the base acceleration loads[0]: the
+    method's without constraints (con None), the constrained solve with them (the method's
+    switches, (aba, crba, newton_euler) as dynamics.forward.method_switches gives them, are
+    then all None). numba tests con and the switches against None when it compiles, so only
+    the branch a scene selects is compiled. Returns a Status."""
     if con is None:
-        return forward_kernel(ibuf, fbuf, q, qd, tau, loads, qdd, method, armature)
+        aba, crba, newton_euler = method
+        return forward_kernel(
+            ibuf, fbuf, q, qd, tau, loads, qdd, armature, work, aba, crba, newton_euler
+        )
     rows, cparams, gains = con
     lam = np.empty(rows[:, 2].sum())
     return constrained_forward_kernel(
-        ibuf, fbuf, rows, cparams, gains, q, qd, tau, loads, armature, qdd, lam
+        ibuf, fbuf, rows, cparams, gains, q, qd, tau, loads, armature, qdd, lam, work
     )
 
 
 def scene_data(model, table):
-    """The scene as the compiled step takes it: one tuple (ibuf, fbuf, rows, params, method,
-    armature, con) of the model's buffers and the stage table (effects.StageTable); con is the
-    table's constraints, None without."""
+    """The scene as the compiled step takes it: one tuple (ibuf, fbuf, effects, armature,
+    method, con, (work, forces, loads)) of the model's buffers, the stage table
+    (effects.StageTable: its effects tuple, armature, the forward-dynamics method as the
+    compile-time switches of dynamics.forward.forward_kernel, none with constraints, and its
+    constraints or None), and the step's own scratch: the model workspace, forces (5, nv)
+    (tau, tau_applied, tau_passive, K, D), loads (1, 6) with dV_0."""
+    method = method_switches(model, None if table.constraints else table.method)
+    scratch = (np.empty(work_size(model.nb)), np.empty((5, model.nv)), np.zeros((1, 6)))
     return (
         model._ibuf,
         model._fbuf,
-        table.rows,
-        table.params,
-        table.method,
+        table.effects,
         table.armature,
+        method,
         table.constraints,
+        scratch,
     )
 
 
-@njit(**INLINE)
+@njit(**JIT)
 def evaluate(scene, t, q, qd, qdd, tau_ctrl, power):
     """qdd (nv,) <- the scene's forward dynamics at (t, q, qd); tau_ctrl (nv,) <- the control
     torque; power (2,) <- (applied, passive) power. scene: scene_data(model, table).
-    Returns 0, or the dynamics' status code."""
-    ibuf, fbuf, rows, params, method, armature, con = scene
-    tau = np.empty(q.shape[0])
-    loads = np.empty((1, 6))
-    status = explicit_forces(
-        ibuf, fbuf, rows, params, armature, t, q, qd, loads, tau, tau_ctrl, power
-    )
+    Compiled once and called by every loop. Returns a Status."""
+    ibuf, fbuf, _, armature, method, con, (work, forces, loads) = scene
+    tau, unused = forces[0], forces[3]
+    status = generalized_forces(scene, t, q, qd, tau, tau_ctrl, power, unused, unused, False)
     if status:
         return status
-    return dynamics(ibuf, fbuf, q, qd, tau, loads, qdd, method, armature, con)
+    return dynamics(ibuf, fbuf, armature, method, con, work, loads, q, qd, tau, qdd)
 
 
 @njit(**JIT)
 def stage_cost_kernel(scene, which, t, q, qd):
     """Run one part of the step at every state (t[n], q[n], qd[n]), for timing it:
-    which >= 0 the stage table's row `which`, -1 forward dynamics alone (with the table's
+    which >= 0 the effect in slot `which`, -1 forward dynamics alone (with the scene's
     gravity, zero torque), -2 the whole evaluation. scene: scene_data(model, table).
     Returns a checksum of the outputs."""
-    ibuf, fbuf, rows, params, method, armature, con = scene
     nv = q.shape[1]
     tau_ctrl = np.empty(nv)
     tau_app = np.empty(nv)
     tau_pas = np.empty(nv)
     qdd = np.empty(nv)
     power = np.empty(2)
-    loads = np.zeros((1, 6))
     unused = np.empty(0)
-    for s in range(rows.shape[0]):
-        if rows[s, 0] == GRAVITY:
-            gravity_effect(params[rows[s, 1] :], loads[0])
+    ibuf, fbuf, effects, armature, method, con, (work, _, loads) = scene
+    fill(loads[0], 0.0)
+    gravity_effect(effects[GRAVITY], loads[0])
     total = 0.0
     for n in range(q.shape[0]):
         if which >= 0:
-            tau_ctrl[:] = 0.0
-            tau_app[:] = 0.0
-            tau_pas[:] = 0.0
-            run_stage(
-                ibuf,
-                fbuf,
-                rows[which],
-                params,
-                armature,
-                t[n],
-                q[n],
-                qd[n],
-                loads[0],
-                tau_ctrl,
-                tau_app,
-                tau_pas,
-                unused,
-                unused,
-                False,
+            fill(tau_ctrl, 0.0)
+            fill(tau_app, 0.0)
+            fill(tau_pas, 0.0)
+            run_slot(
+                which, effects, ibuf, fbuf, armature, work, t[n], q[n], qd[n], loads[0],
+                tau_ctrl, tau_app, tau_pas, unused, unused, False,
             )
             for j in range(nv):
                 total += tau_ctrl[j] + tau_app[j] + tau_pas[j]
         elif which == -1:
-            tau_ctrl[:] = 0.0
-            dynamics(ibuf, fbuf, q[n], qd[n], tau_ctrl, loads, qdd, method, armature, con)
+            fill(tau_ctrl, 0.0)
+            dynamics(ibuf, fbuf, armature, method, con, work, loads, q[n], qd[n], tau_ctrl, qdd)
             total += qdd.sum()
         else:
             evaluate(scene, t[n], q[n], qd[n], qdd, tau_ctrl, power)

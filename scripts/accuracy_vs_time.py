@@ -321,10 +321,10 @@ def kernel_time(model, method, q, qd, budget):
     """Seconds per forward-dynamics call of `method` inside a compiled loop over the states
     (q, qd): the stage-cost loop of the simulation step, with no stage rows and zero torque."""
     table = effects.StageTable(
-        rows=np.zeros((0, 5), np.int64),
-        params=np.zeros(0),
+        effects=(None,) * len(effects.SLOT_NAMES),
         names=(),
-        method=METHODS.index(method),
+        slots=(),
+        method=method,
         armature=NO_ARMATURE,
     )
     args = (step.scene_data(model, table), -1)

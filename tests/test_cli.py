@@ -129,6 +129,8 @@ def test_ctrl_c_on_the_command_line_saves_the_partial_record(tmp_path):
     import time
 
     out = tmp_path / "long.npz"
+    # compiled ahead, so that the interrupt reaches the run and not numba compiling it
+    assert main(["compile", "ur5_falling"]) == 0
     proc = subprocess.Popen(
         [
             sys.executable,

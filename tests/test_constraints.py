@@ -23,6 +23,7 @@ import warnings
 import numpy as np
 import pytest
 
+from opendyn.status import Status, decode
 import opendyn as od
 from opendyn.dynamics import constraints as dc
 
@@ -138,7 +139,7 @@ def test_planar_closure_has_a_zero_row_and_rank_two(four_bar):
     assert A.shape == (3, 3) and np.all(A[2] == 0.0)  # out of the plane: identically zero
     M = od.mass_matrix(four_bar, q)
     qdd, lam, rank = np.empty(3), np.empty(3), np.zeros(1, dtype=np.int64)
-    assert dc.constrained_solve_rank_kernel(M, np.ones(3), A, np.zeros(3), qdd, lam, rank) == -1
+    assert dc.constrained_solve_rank_kernel(M, np.ones(3), A, np.zeros(3), qdd, lam, rank) == 0
     assert rank[0] == 2
 
 
@@ -212,7 +213,7 @@ def test_solve_kernel_reports_the_singular_pivot_of_M():
     M = np.diag([2.0, 0.0, 1.0])
     qdd, lam = np.empty(3), np.empty(1)
     status = dc.constrained_solve_kernel(M, np.ones(3), np.ones((1, 3)), np.zeros(1), qdd, lam)
-    assert status == 1
+    assert decode(status) == (Status.SINGULAR, 1)
 
 
 def test_solve_kernel_without_constraints_is_plain_forward_dynamics(ur5):
@@ -220,7 +221,7 @@ def test_solve_kernel_without_constraints_is_plain_forward_dynamics(ur5):
     M = od.mass_matrix(ur5, q)
     rhs = tau - od.bias_forces(ur5, q, qd)
     qdd, lam = np.empty(6), np.empty(0)
-    assert dc.constrained_solve_kernel(M, rhs, np.zeros((0, 6)), np.zeros(0), qdd, lam) == -1
+    assert dc.constrained_solve_kernel(M, rhs, np.zeros((0, 6)), np.zeros(0), qdd, lam) == Status.OK
     assert_close(qdd, od.forward_dynamics(ur5, q, qd, tau), "qdd")
 
 
@@ -456,8 +457,8 @@ def test_terms_kernel_reports_non_finite_state(ur5):
     bad = np.r_[0, 0, np.nan, 0, 0, 0]
     good = np.zeros(6)
     args = (ur5._ibuf, ur5._fbuf, rows, params)
-    assert dc.constraint_terms_kernel(*args, bad, good, A, Adot_qd, phi) == 1
-    assert dc.constraint_terms_kernel(*args, good, bad, A, Adot_qd, phi) == 2
+    assert dc.constraint_terms_kernel(*args, bad, good, A, Adot_qd, phi) == Status.Q_NOT_FINITE
+    assert dc.constraint_terms_kernel(*args, good, bad, A, Adot_qd, phi) == Status.QD_NOT_FINITE
 
 
 # ------------------------------------------------------------------------------------------

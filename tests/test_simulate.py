@@ -9,8 +9,11 @@ core (checked against Pinocchio in test_pinocchio.py) at single states.
 from __future__ import annotations
 
 import dataclasses
+import json
 import os
 import signal
+import subprocess
+import sys
 import threading
 
 import numpy as np
@@ -121,44 +124,96 @@ def _full_scene():
     "effect", ["gravity", "damping", "friction", "limits", "wrench", "control"]
 )
 def test_disabled_effect_never_runs(effect):
-    """A scene without an effect has no stage for it. And the compiled step reads only its
-    rows' parameters: the same table with the effect's row removed and its parameters poisoned
-    with NaN runs to the same finite result, so a stage that ran anyway would show NaN."""
+    """A scene without an effect has None in its slot of the effects tuple, which the compiled
+    step never reads: the full scene's table with that slot emptied runs to the same result as
+    the scene without the effect, and poisoning the emptied parameters with NaN (had any stage
+    read them) would show."""
     full = _full_scene()
     off = full.without(effect)
     table_full = effects.stage_table(full)
     table_off = effects.stage_table(off)
-    name = {"control": "control (pd)", "wrench": "wrench on tip"}.get(effect, effect)
-    assert name in table_full.names and name not in table_off.names
-    assert len(table_off.rows) == len(table_full.rows) - 1
+    slot = effects.PD if effect == "control" else effects.SLOT_NAMES.index(effect)
+    assert table_full.effects[slot] is not None and table_off.effects[slot] is None
+    assert len(table_off.names) == len(table_full.names) - 1
 
-    k = table_full.names.index(name)
-    start = table_full.rows[k, 1]
-    stop = table_full.rows[k + 1, 1] if k + 1 < len(table_full.rows) else None
-    poisoned = table_full.params.copy()
-    poisoned[start:stop] = np.nan
-    table_poisoned = dataclasses.replace(
-        table_full, rows=np.delete(table_full.rows, k, axis=0), params=poisoned
-    )
-    q_poisoned, qd_poisoned, w = full.q0.copy(), full.qd0.copy(), np.zeros(2)
+    emptied = list(table_full.effects)
+    poisoned = emptied[slot]
+    for array in poisoned if isinstance(poisoned, tuple) else (poisoned,):
+        if array.dtype == np.float64:
+            array[:] = np.nan
+    emptied[slot] = None
+    table_emptied = dataclasses.replace(table_off, effects=tuple(emptied))
+    q, qd, w = full.q0.copy(), full.qd0.copy(), np.zeros(2)
     status, steps = _fixed_chunk(
         full,
         integrators.INTEGRATORS["rk4"],
-        table_poisoned,
+        table_emptied,
         0,
         500,
         1,
-        q_poisoned,
-        qd_poisoned,
+        q,
+        qd,
         w,
         _Samples(501, full.model.nq, full.model.nv),
         np.zeros(3, dtype=np.int64),
     )
     assert status == 0 and steps == 500
     traj_off = od.simulate(off)
-    assert np.all(np.isfinite(q_poisoned))
-    np.testing.assert_allclose(q_poisoned, traj_off.q[-1], rtol=0, atol=1e-12)
-    np.testing.assert_allclose(qd_poisoned, traj_off.qd[-1], rtol=0, atol=1e-12)
+    assert np.all(np.isfinite(q))
+    np.testing.assert_allclose(q, traj_off.q[-1], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(qd, traj_off.qd[-1], rtol=0, atol=1e-12)
+
+
+# Run in a fresh process with an empty kernel cache, so that everything the run needs is
+# compiled there (a cache hit compiles nothing and would prove nothing): which specialisations
+# of each effect function and of the forward-dynamics methods did the gravity-only default
+# scene compile?
+_COMPILED_FOR_DEFAULT_SCENE = r"""
+import json
+import opendyn as od
+from opendyn import effects
+from opendyn.dynamics import aba, crba, forward, rnea
+od.simulate(od.load_scene("double_pendulum_swing").replace_run(duration=0.01))
+functions = {name: getattr(effects, name) for name in dir(effects) if name.endswith("_effect")}
+functions.update(
+    aba=aba.aba_kernel, crba=crba.crba_kernel, rnea=rnea.rnea_kernel,
+    newton_euler=forward.newton_euler_mass_matrix, mass_matrix_solve=forward.mass_matrix_solve,
+)
+print(json.dumps({name: [str(sig[0]) for sig in f.signatures] for name, f in functions.items()}))
+"""
+
+
+def test_a_scene_compiles_no_effect_it_does_not_name(tmp_path):
+    """The default scene names gravity only: in an empty cache its run compiles the gravity
+    effect for real parameters and every other effect only for an empty (None) slot, where it
+    is nothing; ABA is compiled and neither CRBA nor the seed's n-RNEA method is."""
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path))
+    proc = subprocess.run(
+        [sys.executable, "-c", _COMPILED_FOR_DEFAULT_SCENE],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
+    assert proc.returncode == 0, proc.stderr
+    compiled = json.loads(proc.stdout.strip().splitlines()[-1])
+    assert compiled["gravity_effect"] == ["Array(float64, 1, 'C', False, aligned=True)"]
+    for name in (
+        "damping_effect",
+        "friction_effect",
+        "limits_effect",
+        "wrench_effect",
+        "constant_effect",
+        "pd_effect",
+        "computed_torque_effect",
+        "clip_effect",
+    ):
+        assert compiled[name] == ["none"], f"{name} compiled for {compiled[name]}"
+    assert compiled["aba"] and compiled["rnea"] == []
+    assert compiled["crba"] == [] and compiled["newton_euler"] == []
+    assert compiled["mass_matrix_solve"] == []
+    # and the run said so, once, on stderr
+    assert proc.stderr.count("opendyn: compiling the simulation step for rk4 with gravity") == 1
 
 
 def _evaluate(scene, t, q, qd):

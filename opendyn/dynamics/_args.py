@@ -11,10 +11,10 @@ from __future__ import annotations
 import numpy as np
 
 from ..spatial import angular, linear
+from ..status import NOT_FINITE_ARGUMENT, Status, decode
 
 F64 = np.dtype(np.float64)
 
-STATUS_ARG = {1: "q", 2: "qd", 3: "qdd", 4: "tau"}  # kernel status -> argument not finite
 
 
 def is_single(model, x, y=None, z=None):
@@ -68,12 +68,12 @@ def as_gravity(model, gravity):
     """The (3,) world-frame gravity vector: the model's default, or the override."""
     if gravity is None:
         return model._gravity
-    g = np.asarray(gravity, dtype=np.float64)
+    g = np.array(gravity, dtype=np.float64)  # a writeable copy: one array type for the kernels
     if g.shape != (3,):
         raise ValueError(f"gravity must be a 3-vector (m/s^2, world frame), got shape {g.shape}")
     if not np.all(np.isfinite(g)):
         raise ValueError(f"gravity must be finite, got {g}")
-    return np.ascontiguousarray(g)
+    return g
 
 
 def loads(model, gravity, f_tip, n_states=None):
@@ -123,12 +123,13 @@ def loads(model, gravity, f_tip, n_states=None):
 
 
 def raise_status(status, model, what):
-    """Turn a kernel's non-zero status into a ValueError naming the argument or the joint."""
-    if status in STATUS_ARG:
-        raise ValueError(f"{what}: {STATUS_ARG[status]} must be finite (it has NaN or inf)")
-    if status >= 100:
-        raise SingularMassMatrixError(model, [model.joint_names[status - 100]], what)
-    raise RuntimeError(f"{what}: kernel failed with status {status}")
+    """Turn a kernel's failing Status into a ValueError naming the argument or the joint."""
+    status, coordinate = decode(status)
+    if status in NOT_FINITE_ARGUMENT:
+        raise ValueError(f"{what}: {NOT_FINITE_ARGUMENT[status]} must be finite (it has NaN or inf)")
+    if status == Status.SINGULAR:
+        raise SingularMassMatrixError(model, [model.joint_names[coordinate]], what)
+    raise RuntimeError(f"{what}: kernel failed with status {status.name}")
 
 
 def raise_batch_status(statuses, model, what):

@@ -1,4 +1,5 @@
-"""Compiled building blocks shared by the dynamics kernels: the model's flat buffers, the joint
+"""Compiled building blocks shared by the dynamics kernels: views of the model's flat buffers
+and workspace (laid out by the tables in opendyn.model), the joint
 transform T_{lambda(i), i}(q_i) = M_{lambda(i), i} exp([A_i] q_i), and the 3x3-block forms of
 Ad_T and ad_V on twists, wrenches and spatial inertias.
 
@@ -17,15 +18,17 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 from numba import njit
 
-from ..model import PRISMATIC
+from .._kernel_cache import CACHING
+from ..model import FLOAT_AT, INT_AT, INT_HEADER, PRISMATIC, WORK_AT, buffer_size
 
-JIT = dict(cache=True)
+JIT = dict(cache=CACHING)
 # batch loops release the GIL so that threads run them in parallel (see run_rows); single-state
-# kernels keep it, which saves the release and re-acquisition on every call
-BATCH = dict(cache=True, nogil=True)
+# kernels keep it, which saves the release and re-acquisition on every call (and lets them share
+# the model's one workspace)
+BATCH = dict(cache=CACHING, nogil=True)
 # small helpers are inlined into the kernels at the numba IR level (measured: RNEA on a UR5
 # 1.46 -> 1.10 us per call inside a compiled loop)
-INLINE = dict(cache=True, inline="always")
+INLINE = dict(cache=CACHING, inline="always")
 
 _MIN_ROWS_PER_THREAD = 64
 _pool = None
@@ -53,21 +56,49 @@ def run_rows(batch_kernel, n, *args):
         f.result()
 
 
+def _where(at, name, header=0):
+    """(header, first, last) of one field, first and last in units of nb: a tuple, which numba
+    freezes as a compile-time constant."""
+    start, size, _ = at[name]
+    return (header, start, start + size)
+
+
+_PARENT, _JTYPE, _COORD = (_where(INT_AT, n, INT_HEADER) for n in ("parent", "jtype", "coord"))
+_MULT, _OFFSET, _A, _G, _MASS, _H, _I_O, _R_HOME, _P_HOME = (
+    _where(FLOAT_AT, n)
+    for n in ("mult", "offset", "A", "G", "mass", "h", "I_o", "R_home", "p_home")
+)
+_W_R, _W_P, _W_V, _W_DV, _W_F, _W_C, _W_U, _W_IA, _W_D, _W_LU = (
+    _where(WORK_AT, n) for n in ("R", "p", "V", "dV", "F", "c", "U", "IA", "D", "u")
+)
+_W_I_C, _W_H_C, _W_M_C = (_where(WORK_AT, n) for n in ("I_c", "h_c", "m_c"))
+_W_END = buffer_size(WORK_AT, 1)
+
+
+@njit(**INLINE)
+def field(buf, nb, where):
+    """The flat slice of one field of a buffer; where = (header, first, last) from the layout
+    table in opendyn.model (first, last in units of nb)."""
+    header, first, last = where
+    return buf[header + first * nb : header + last * nb]
+
+
 @njit(**INLINE)
 def tree(ibuf, fbuf):
-    """Views of the model's tree: parent, jtype, coord, mult, offset, A, R_home, p_home.
-
-    Offsets follow model._fbuf_layout: mult, offset, A, G, mass, h, I_o, R_home, p_home. Each
-    kernel takes only the views it needs (a reshaped view costs about 20 ns).
-    """
+    """Views of the model's tree: parent, jtype, coord, mult, offset, A, R_home, p_home
+    (fields of model.INT_FIELDS and model.FLOAT_FIELDS). Each kernel takes only the views it
+    needs (a reshaped view costs about 20 ns)."""
     nb = ibuf[0]
-    parent = ibuf[2 : 2 + nb]
-    jtype = ibuf[2 + nb : 2 + 2 * nb]
-    coord = ibuf[2 + 2 * nb : 2 + 3 * nb]
-    A = fbuf[2 * nb : 8 * nb].reshape((nb, 6))
-    R_home = fbuf[57 * nb : 66 * nb].reshape((nb, 3, 3))
-    p_home = fbuf[66 * nb : 69 * nb].reshape((nb, 3))
-    return parent, jtype, coord, fbuf[0:nb], fbuf[nb : 2 * nb], A, R_home, p_home
+    return (
+        field(ibuf, nb, _PARENT),
+        field(ibuf, nb, _JTYPE),
+        field(ibuf, nb, _COORD),
+        field(fbuf, nb, _MULT),
+        field(fbuf, nb, _OFFSET),
+        field(fbuf, nb, _A).reshape((nb, 6)),
+        field(fbuf, nb, _R_HOME).reshape((nb, 3, 3)),
+        field(fbuf, nb, _P_HOME).reshape((nb, 3)),
+    )
 
 
 @njit(**INLINE)
@@ -76,9 +107,9 @@ def rigid_inertias(ibuf, fbuf):
     I_o (nb, 3, 3)."""
     nb = ibuf[0]
     return (
-        fbuf[44 * nb : 45 * nb],
-        fbuf[45 * nb : 48 * nb].reshape((nb, 3)),
-        fbuf[48 * nb : 57 * nb].reshape((nb, 3, 3)),
+        field(fbuf, nb, _MASS),
+        field(fbuf, nb, _H).reshape((nb, 3)),
+        field(fbuf, nb, _I_O).reshape((nb, 3, 3)),
     )
 
 
@@ -86,7 +117,62 @@ def rigid_inertias(ibuf, fbuf):
 def spatial_inertias(ibuf, fbuf):
     """View of the (nb, 6, 6) spatial inertias G_i."""
     nb = ibuf[0]
-    return fbuf[8 * nb : 44 * nb].reshape((nb, 6, 6))
+    return field(fbuf, nb, _G).reshape((nb, 6, 6))
+
+
+@njit(**INLINE)
+def work_views(work, nb):
+    """Views of a workspace (model.WORK_FIELDS): R (nb, 3, 3), p (nb, 3), V, dV, F, c, U
+    (nb, 6), IA (nb, 6, 6), D, u (nb,), then the scratch S (9, 6) and s (6,)."""
+    scratch = work[_W_END * nb :]
+    return (
+        field(work, nb, _W_R).reshape((nb, 3, 3)),
+        field(work, nb, _W_P).reshape((nb, 3)),
+        field(work, nb, _W_V).reshape((nb, 6)),
+        field(work, nb, _W_DV).reshape((nb, 6)),
+        field(work, nb, _W_F).reshape((nb, 6)),
+        field(work, nb, _W_C).reshape((nb, 6)),
+        field(work, nb, _W_U).reshape((nb, 6)),
+        field(work, nb, _W_IA).reshape((nb, 6, 6)),
+        field(work, nb, _W_D),
+        field(work, nb, _W_LU),
+        scratch[:54].reshape((9, 6)),
+        scratch[54:60],
+    )
+
+
+@njit(**INLINE)
+def composite_views(work, nb):
+    """Views of a workspace's composite rigid-body inertias: I_c (nb, 3, 3), h_c (nb, 3),
+    m_c (nb,) (model.WORK_FIELDS)."""
+    return (
+        field(work, nb, _W_I_C).reshape((nb, 3, 3)),
+        field(work, nb, _W_H_C).reshape((nb, 3)),
+        field(work, nb, _W_M_C),
+    )
+
+
+@njit(**INLINE)
+def copy_into(src, dst):
+    """dst[k] = src[k] for 1-D arrays of one length. An explicit loop: a slice assignment
+    `dst[:] = src` makes numba compile a shape-mismatch error path into every kernel."""
+    for k in range(dst.shape[0]):
+        dst[k] = src[k]
+
+
+@njit(**INLINE)
+def fill(x, value):
+    """x[k] = value for every entry of the 1-D array x (see copy_into)."""
+    for k in range(x.shape[0]):
+        x[k] = value
+
+
+@njit(**INLINE)
+def zero_matrix(X):
+    """X[r, c] = 0 for a 2-D array (see copy_into)."""
+    for r in range(X.shape[0]):
+        for c in range(X.shape[1]):
+            X[r, c] = 0.0
 
 
 @njit(**INLINE)

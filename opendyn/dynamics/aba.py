@@ -28,41 +28,35 @@ from ._kernels import (
     add_wrench_to_parent,
     all_finite,
     dot6,
+    fill,
     joint_transform,
     mat6_vec,
     spatial_inertias,
     tree,
     twist_to_child,
+    work_views,
 )
+from ..status import Status
 
 SINGULAR_PIVOT = 1e-14  # D_i below this times the largest body inertia: nothing moves with i
 
 
 @njit(**JIT)
-def aba_kernel(ibuf, fbuf, q, qd, tau, loads, qdd, armature):
+def aba_kernel(ibuf, fbuf, q, qd, tau, loads, qdd, armature, work):
     """qdd (nv,) <- ABA at one state; loads as in rnea_kernel (dV_0, then body wrenches).
-    armature: (nv,) rotor inertias added to D_i (M's diagonal), or an empty array for none.
-    Status: 0 ok, 1/2/4 q/qd/tau not finite,
-    100 + k when joint coordinate k has no inertia moving with it (D_k ~ 0)."""
+    armature: (nv,) rotor inertias added to D_i (M's diagonal), or an empty array for none;
+    work: the model's workspace. Returns a Status: OK, Q/QD/TAU_NOT_FINITE, or SINGULAR + k
+    when joint coordinate k has no inertia moving with it (D_k ~ 0)."""
     if not all_finite(q):
-        return 1
+        return Status.Q_NOT_FINITE
     if not all_finite(qd):
-        return 2
+        return Status.QD_NOT_FINITE
     if not all_finite(tau):
-        return 4
+        return Status.TAU_NOT_FINITE
     parent, jtype, coord, mult, offset, A, R_home, p_home = tree(ibuf, fbuf)
     G = spatial_inertias(ibuf, fbuf)
     nb = parent.shape[0]
-    R = np.empty((nb, 3, 3))
-    p = np.empty((nb, 3))
-    IA = G.copy()
-    vec = np.empty((5, nb, 6))
-    V, c, pA, U, dV = vec[0], vec[1], vec[2], vec[3], vec[4]
-    D = np.empty(nb)
-    u = np.empty(nb)
-    S = np.empty((9, 6))
-    s = np.empty(6)
-    zero = np.zeros(6)
+    R, p, V, dV, pA, c, U, IA, D, u, S, s = work_views(work, nb)
     wrenches = loads.shape[0] > 1
     rotors = armature.shape[0] > 0
     scale = 0.0
@@ -70,22 +64,28 @@ def aba_kernel(ibuf, fbuf, q, qd, tau, loads, qdd, armature):
         for k in range(6):
             scale = max(scale, G[i, k, k])
 
-    # pass 1: V_i, c_i = ad_{V_i} A_i qd_i, pA_i = -ad_{V_i}^T G_i V_i + F_tip,i
+    # pass 1: V_i, c_i = ad_{V_i} A_i qd_i, pA_i = -ad_{V_i}^T G_i V_i + F_tip,i; IA_i = G_i
     for i in range(nb):
         joint_transform(jtype[i], A[i], R_home[i], p_home[i], q[i], R[i], p[i])
         lam = parent[i]
-        twist_to_child(R[i], p[i], zero if lam < 0 else V[lam], V[i])
+        if lam < 0:
+            fill(V[i], 0.0)
+        else:
+            twist_to_child(R[i], p[i], V[lam], V[i])
         for k in range(6):
             V[i, k] += A[i, k] * qd[i]
         ad_twist(V[i], A[i], c[i])
         for k in range(6):
             c[i, k] *= qd[i]
         mat6_vec(G[i], V[i], s)
-        pA[i, :] = 0.0
+        fill(pA[i], 0.0)
         add_neg_ad_transpose(V[i], s, pA[i])
         if wrenches:
             for k in range(6):
                 pA[i, k] += loads[1 + i, k]
+        for r in range(6):
+            for k in range(6):
+                IA[i, r, k] = G[i, r, k]
 
     # pass 2: articulated inertias and bias wrenches, tips to base
     for i in range(nb - 1, -1, -1):
@@ -95,7 +95,7 @@ def aba_kernel(ibuf, fbuf, q, qd, tau, loads, qdd, armature):
             D[i] += armature[i]
         u[i] = tau[i] - dot6(A[i], pA[i])
         if not D[i] > SINGULAR_PIVOT * scale:
-            return 100 + i
+            return Status.SINGULAR + i
         lam = parent[i]
         if lam < 0:
             continue
@@ -118,4 +118,4 @@ def aba_kernel(ibuf, fbuf, q, qd, tau, loads, qdd, armature):
         qdd[i] = (u[i] - dot6(U[i], dV[i])) / D[i]
         for k in range(6):
             dV[i, k] += A[i, k] * qdd[i]
-    return 0
+    return Status.OK

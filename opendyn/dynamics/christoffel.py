@@ -30,11 +30,14 @@ from ._kernels import (
     add_inertia_to_parent,
     all_finite,
     dot6,
+    fill,
     mat6_vec,
     run_rows,
     spatial_inertias,
     tree,
+    zero_matrix,
 )
+from ..status import Status
 from .kinematics import forward_kinematics, space_axis
 
 
@@ -50,26 +53,28 @@ def space_axes_and_inertias(ibuf, fbuf, q, S, Gs, Gc):
     p_s = np.empty((nb, 3))
     forward_kinematics(body_tree, q, R_s, p_s, -1)
     scratch = np.empty((9, 6))
-    Gs[:] = 0.0
     for i in range(nb):
+        zero_matrix(Gs[i])
         space_axis(R_s[i], p_s[i], A[i], S[i])
         add_inertia_to_parent(R_s[i], p_s[i], G[i], Gs[i], scratch)
-    Gc[:] = Gs
     for i in range(nb - 1, -1, -1):
-        if parent[i] >= 0:
-            Gc[parent[i]] += Gc[i]
+        for r in range(6):
+            for c in range(6):
+                Gc[i, r, c] += Gs[i, r, c]  # Gc[i] holds the children's sum already
+                if parent[i] >= 0:
+                    Gc[parent[i], r, c] += Gc[i, r, c]
 
 
 @njit(**JIT)
 def christoffel_kernel(ibuf, fbuf, q, Gamma):
-    """Gamma (nv, nv, nv) <- Christoffel symbols at q. Status 1: q not finite."""
+    """Gamma (nv, nv, nv) <- Christoffel symbols at q. Returns a Status: OK or Q_NOT_FINITE."""
     if not all_finite(q):
-        return 1
+        return Status.Q_NOT_FINITE
     parent, jtype, coord, mult, offset, A, R_home, p_home = tree(ibuf, fbuf)
     nb, nv = parent.shape[0], Gamma.shape[0]
     S = np.empty((nb, 6))
     Gs = np.empty((nb, 6, 6))
-    Gc = np.empty((nb, 6, 6))
+    Gc = np.zeros((nb, 6, 6))
     space_axes_and_inertias(ibuf, fbuf, q, S, Gs, Gc)
 
     # above[a, b]: a is b or an ancestor of b
@@ -111,7 +116,7 @@ def christoffel_kernel(ibuf, fbuf, q, Gamma):
         for b in range(nv):
             for c in range(nv):
                 Gamma[a, b, c] = 0.5 * (dM[a, b, c] + dM[a, c, b] - dM[b, c, a])
-    return 0
+    return Status.OK
 
 
 @njit(**JIT)
@@ -128,14 +133,14 @@ def coriolis_matrix_kernel(ibuf, fbuf, q, qd, C):
     (the dM/dq terms of the module docstring summed against qd).
     """
     if not all_finite(q):
-        return 1
+        return Status.Q_NOT_FINITE
     if not all_finite(qd):
-        return 2
+        return Status.QD_NOT_FINITE
     parent, jtype, coord, mult, offset, A, R_home, p_home = tree(ibuf, fbuf)
     nb = parent.shape[0]
     S = np.empty((nb, 6))
     Gs = np.empty((nb, 6, 6))
-    Gc = np.empty((nb, 6, 6))
+    Gc = np.zeros((nb, 6, 6))
     space_axes_and_inertias(ibuf, fbuf, q, S, Gs, Gc)
 
     # forward: space twists V_i; per body Gc_i S_i, ad_{V_i} S_i, Gc_i ad_{V_i} S_i
@@ -163,7 +168,7 @@ def coriolis_matrix_kernel(ibuf, fbuf, q, qd, C):
             H[i, k] += col[k]
         # X_i = Y + Y^T with Y = Gc_i ad_{S_i} (Gc_i is symmetric), column by column
         for c in range(6):
-            e[:] = 0.0
+            fill(e, 0.0)
             e[c] = 1.0
             ad_twist(S[i], e, col)
             mat6_vec(Gc[i], col, Y[:, c])
@@ -173,11 +178,13 @@ def coriolis_matrix_kernel(ibuf, fbuf, q, qd, C):
         mat6_vec(B[i], S[i], BS[i])
         lam = parent[i]
         if lam >= 0:
-            H[lam] += H[i]
-            D[lam] += D[i]
-            B[lam] += D[i]
+            for r in range(6):
+                H[lam, r] += H[i, r]
+                for c in range(6):
+                    D[lam, r, c] += D[i, r, c]
+                    B[lam, r, c] += D[i, r, c]
 
-    C[:, :] = 0.0
+    zero_matrix(C)
     dV = np.empty(6)
     adSS = np.empty(6)
     for j in range(nb):
@@ -197,16 +204,17 @@ def coriolis_matrix_kernel(ibuf, fbuf, q, qd, C):
                 C[coord[i], coord[j]] += w * (Mdot + P_ij - P_ji)
                 C[coord[j], coord[i]] += w * (Mdot + P_ji - P_ij)
             i = parent[i]
-    return 0
+    return Status.OK
 
 
 @njit(**BATCH)
-def christoffel_batch_kernel(ibuf, fbuf, q, qd, out, status, matrix, start, stop):
-    """Christoffel symbols (matrix False) or Coriolis matrices (True), rows [start, stop)."""
+def christoffel_batch_kernel(ibuf, fbuf, q, qd, out, status, matrix, symbols, start, stop):
+    """Coriolis matrices or Christoffel symbols over rows [start, stop), as the compile-time
+    switches (matrix, symbols) say: the one that is not None (only it is compiled)."""
     for n in range(start, stop):
-        if matrix:
-            status[n] = coriolis_matrix_kernel(ibuf, fbuf, q[n], qd[n], out[n, :, :, 0])
-        else:
+        if matrix is not None:
+            status[n] = coriolis_matrix_kernel(ibuf, fbuf, q[n], qd[n], out[n])
+        if symbols is not None:
             status[n] = christoffel_kernel(ibuf, fbuf, q[n], out[n])
 
 
@@ -223,13 +231,22 @@ def _run(model, q, qd, matrix, what):
         if status:
             _args.raise_status(status, model, what)
         return out
-    out = np.empty((q.shape[0], nv, nv, 1 if matrix else nv))
+    # C-contiguous rows out[n]: a strided view would make numba compile the kernel again
+    out = np.empty((q.shape[0], nv, nv) if matrix else (q.shape[0], nv, nv, nv))
     status = np.zeros(q.shape[0], dtype=np.int64)
     run_rows(
-        christoffel_batch_kernel, q.shape[0], model._ibuf, model._fbuf, q, qd, out, status, matrix
+        christoffel_batch_kernel,
+        q.shape[0],
+        model._ibuf,
+        model._fbuf,
+        q,
+        qd,
+        out,
+        status,
+        *((True, None) if matrix else (None, True)),
     )
     _args.raise_batch_status(status, model, what)
-    return out[..., 0] if matrix else out
+    return out
 
 
 def christoffel_symbols(model, q):

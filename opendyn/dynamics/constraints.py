@@ -22,11 +22,11 @@ Compiled interface (for the simulation step, inside compiled loops):
   constraint_table(model, constraints, q0) -> rows (n_c, 5) int64, params (p,) float64
       row: (kind, offset into params, m rows of A, body_a, body_b), body -1 = the fixed world
   constraint_terms_kernel(ibuf, fbuf, rows, params, q, qd, A, Adot_qd, phi) -> status
-  constrained_solve_kernel(M, rhs, A, gamma, qdd, lam) -> -1, or the first bad pivot of M
+  constrained_solve_kernel(M, rhs, A, gamma, qdd, lam) -> Status.OK, or SINGULAR + k (pivot k)
   constrained_solve_rank_kernel(M, rhs, A, gamma, qdd, lam, rank) -> the same, rank[0] = rank
   constrained_solve_at(ibuf, fbuf, rows, params, gains, q, qd, M, rhs, qdd, lam) -> status
   constrained_forward_kernel(ibuf, fbuf, rows, params, gains, q, qd, tau, loads, armature,
-                             qdd, lam) -> status
+                             qdd, lam, work) -> status
 with gains = (alpha, beta), the Baumgarte stabilisation A qdd + Adot qd + 2 alpha A qd +
 beta^2 phi = 0 of a simulation ((0, 0): none).
 """
@@ -49,11 +49,21 @@ from ..constraints import (
     PointToWorld,
 )
 from . import _args
-from ._kernels import INLINE, JIT, ad_twist, all_finite, tree, twist_to_child
+from ._kernels import (
+    INLINE,
+    JIT,
+    ad_twist,
+    all_finite,
+    fill,
+    tree,
+    twist_to_child,
+    zero_matrix,
+)
 from .crba import crba_kernel, mass_matrix
 from .forward import cholesky_solve
 from .kinematics import frame_pose, jacobian, space_axis
 from .rnea import forward_pass, rnea_kernel
+from ..status import Status
 
 RANK_RTOL = 1e-12  # eigenvalues of A M^-1 A^T below this times the largest count as zero
 JACOBI_MAX_SWEEPS = 60
@@ -248,11 +258,11 @@ def constraint_terms_kernel(ibuf, fbuf, rows, params, q, qd, A, Adot_qd, phi):
     """A (k, nv), Adot_qd (k,), phi (k,) <- every constraint's rows at (q, qd), k = rows[:, 2]
     .sum(), in table order. Adot qd is d/dt (A qd) at qdd = 0 (no gravity). Point rows: world
     axes; FIXED_POSE: frame b axes, angular first (see opendyn.constraints).
-    Status: 0 ok, 1 q not finite, 2 qd not finite."""
+    Returns a Status: OK, Q_NOT_FINITE or QD_NOT_FINITE."""
     if not all_finite(q):
-        return 1
+        return Status.Q_NOT_FINITE
     if not all_finite(qd):
-        return 2
+        return Status.QD_NOT_FINITE
     body_tree = tree(ibuf, fbuf)
     parent, jtype, coord, mult, offset, Ax, R_home, p_home = body_tree
     nb = parent.shape[0]
@@ -276,7 +286,7 @@ def constraint_terms_kernel(ibuf, fbuf, rows, params, q, qd, A, Adot_qd, phi):
     forward_pass(body_tree, q, qd, np.zeros(nv), np.zeros(6), R, p, V, dV, S)
     world_poses(parent, R, p, R_s, p_s)
 
-    A[:, :] = 0.0
+    zero_matrix(A)
     r0 = 0
     for n in range(rows.shape[0]):
         kind, o, m, body_a, body_b = rows[n, 0], rows[n, 1], rows[n, 2], rows[n, 3], rows[n, 4]
@@ -301,7 +311,7 @@ def constraint_terms_kernel(ibuf, fbuf, rows, params, q, qd, A, Adot_qd, phi):
         elif kind == POINT_ON_PLANE:
             # n . (world velocity of the point): 1 row
             point_motion(R_s, p_s, V, dV, body_a, params[o : o + 3], p_a, a_a)
-            J3[:, :] = 0.0
+            zero_matrix(J3)
             add_point_jacobian(parent, coord, mult, Ax, R_s, p_s, body_a, p_a, 1.0, J3, S)
             nrm = params[o + 3 : o + 6]
             for c in range(nv):
@@ -364,7 +374,7 @@ def constraint_terms_kernel(ibuf, fbuf, rows, params, q, qd, A, Adot_qd, phi):
                 Adot_qd[r0 + i] = 0.0
                 phi[r0 + i] = e
         r0 += m
-    return 0
+    return Status.OK
 
 
 # --------------------------------------------------------------------------------------------
@@ -377,7 +387,7 @@ def symmetric_eigen(G, E, e):
     Matrix Computations, Section 8.5): G is overwritten, E (k, k) <- orthonormal eigenvectors
     (columns), e (k,) <- eigenvalues. A fixed cap of sweeps: no exception, no NaN from finite G."""
     k = G.shape[0]
-    E[:, :] = 0.0
+    zero_matrix(E)
     for i in range(k):
         E[i, i] = 1.0
     total = 0.0
@@ -436,7 +446,7 @@ def pseudo_solve(G, b, x):
     e_max = 0.0
     for i in range(k):
         e_max = max(e_max, e[i])
-    x[:] = 0.0
+    fill(x, 0.0)
     rank = 0
     for i in range(k):
         if not e[i] > RANK_RTOL * e_max or not e_max > 0.0:
@@ -459,10 +469,10 @@ def constrained_solve_rank_kernel(M, rhs, A, gamma, qdd, lam, rank):
     k = A.shape[0]
     qdd_free = np.empty(nv)
     # M = L L^T (L in M's lower triangle), qdd_free = M^-1 rhs
-    bad = cholesky_solve(M, rhs, qdd_free)
-    if bad >= 0:
+    status = cholesky_solve(M, rhs, qdd_free)
+    if status:
         rank[0] = 0
-        return bad
+        return status
     # Y = L^-1 A^T (nv, k), G = Y^T Y = A M^-1 A^T
     Y = np.empty((nv, k))
     for j in range(k):
@@ -501,7 +511,7 @@ def constrained_solve_rank_kernel(M, rhs, A, gamma, qdd, lam, rank):
         z[r] = s / M[r, r]
     for r in range(nv):
         qdd[r] = qdd_free[r] - z[r]
-    return -1
+    return Status.OK
 
 
 @njit(**JIT)
@@ -512,7 +522,7 @@ def constrained_solve_kernel(M, rhs, A, gamma, qdd, lam):
     its diagonal first), rhs = tau - h (nv,), A (k, nv), gamma = Adot qd (+ stabilisation) (k,).
     Rank-deficient A: lam minimum-norm (pseudo-inverse, RANK_RTOL), never NaN from finite input
     (non-finite rhs, A or gamma propagate to qdd; nothing raises, nothing loops forever).
-    Returns -1 on success, or k >= 0, the first non-positive pivot of M (singular at k)."""
+    Returns Status.OK, or SINGULAR + k for the first non-positive pivot of M (singular at k)."""
     rank = np.zeros(1, dtype=np.int64)
     return constrained_solve_rank_kernel(M, rhs, A, gamma, qdd, lam, rank)
 
@@ -523,7 +533,7 @@ def constrained_solve_at(ibuf, fbuf, rows, params, gains, q, qd, M, rhs, qdd, la
     (q, qd) held to second order, with Baumgarte stabilisation gains = (alpha, beta) (1/s):
         A qdd + Adot qd + 2 alpha A qd + beta^2 phi = 0
     ((0, 0): A qdd + Adot qd = 0, the drift of phi left alone). M (nv, nv) is overwritten.
-    Status: 0 ok, 1/2 q/qd not finite, 100 + j when M is singular at coordinate j."""
+    Returns a Status: OK, Q/QD_NOT_FINITE, or SINGULAR + j when M is singular at coordinate j."""
     nv = qd.shape[0]
     k = lam.shape[0]
     A = np.empty((k, nv))
@@ -539,29 +549,29 @@ def constrained_solve_at(ibuf, fbuf, rows, params, gains, q, qd, M, rhs, qdd, la
             for j in range(nv):
                 rate += A[r, j] * qd[j]
             gamma[r] += 2.0 * alpha * rate + beta * beta * phi[r]
-    bad = constrained_solve_kernel(M, rhs, A, gamma, qdd, lam)
-    return 0 if bad < 0 else 100 + bad
+    return constrained_solve_kernel(M, rhs, A, gamma, qdd, lam)
 
 
 @njit(**JIT)
 def constrained_forward_kernel(
-    ibuf, fbuf, rows, params, gains, q, qd, tau, loads, armature, qdd, lam
+    ibuf, fbuf, rows, params, gains, q, qd, tau, loads, armature, qdd, lam, work
 ):
     """qdd (nv,), lam (k,) <- constrained forward dynamics at one state: M by CRBA
     (+ diag(armature), (nv,) or empty), h (and the f_tip wrenches in loads, as in rnea_kernel)
     by RNEA, then constrained_solve_at with the Baumgarte gains (alpha, beta) (zeros: none).
-    Status: 0 ok, 1/2/4 q/qd/tau not finite, 100 + j when M is singular at coordinate j."""
+    work: the model's workspace. Returns a Status: OK, Q/QD/TAU_NOT_FINITE, or SINGULAR + j
+    when M is singular at coordinate j."""
     if not all_finite(tau):
-        return 4
+        return Status.TAU_NOT_FINITE
     nv = q.shape[0]
     rhs = np.empty(nv)
-    status = rnea_kernel(ibuf, fbuf, q, qd, np.zeros(nv), loads, rhs)
+    status = rnea_kernel(ibuf, fbuf, q, qd, np.zeros(nv), loads, rhs, work)
     if status:
         return status
     for i in range(nv):
         rhs[i] = tau[i] - rhs[i]
     M = np.empty((nv, nv))
-    crba_kernel(ibuf, fbuf, q, M)
+    crba_kernel(ibuf, fbuf, q, M, work)
     for i in range(armature.shape[0]):
         M[i, i] += armature[i]
     return constrained_solve_at(ibuf, fbuf, rows, params, gains, q, qd, M, rhs, qdd, lam)
@@ -870,6 +880,7 @@ def constrained_forward_dynamics(
             np.zeros(0),
             qdd,
             lam,
+            model._work,
         )
         if status:
             _args.raise_status(status, model, what)
@@ -877,13 +888,13 @@ def constrained_forward_dynamics(
     A = _matrix_A(model, A, what)
     gamma = _vector_k(Adot_qd, A.shape[0], "Adot_qd", what)
     rhs = np.empty(model.nv)
-    rnea_kernel(model._ibuf, model._fbuf, q, qd, model._zero_v, loads, rhs)
+    rnea_kernel(model._ibuf, model._fbuf, q, qd, model._zero_v, loads, rhs, model._work)
     rhs = tau - rhs
     M = mass_matrix(model, q)
     qdd, lam = np.empty(model.nv), np.empty(A.shape[0])
-    bad = constrained_solve_kernel(M, rhs, A, gamma, qdd, lam)
-    if bad >= 0:
-        _args.raise_status(100 + bad, model, what)
+    status = constrained_solve_kernel(M, rhs, A, gamma, qdd, lam)
+    if status:
+        _args.raise_status(status, model, what)
     return qdd, lam
 
 
@@ -947,7 +958,14 @@ def constrained_inverse_dynamics(model, q, qd, qdd, A, lam=None, gravity=None):
         lam = _vector_k(lam, A.shape[0], "lam", what)
     tau_free = np.empty(model.nv)
     status = rnea_kernel(
-        model._ibuf, model._fbuf, q, qd, qdd, _args.loads(model, gravity, None), tau_free
+        model._ibuf,
+        model._fbuf,
+        q,
+        qd,
+        qdd,
+        _args.loads(model, gravity, None),
+        tau_free,
+        model._work,
     )
     if status:
         _args.raise_status(status, model, what)

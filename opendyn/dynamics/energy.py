@@ -27,6 +27,7 @@ from ._kernels import (
     add_wrench_to_parent,
     all_finite,
     dot6,
+    fill,
     rigid_inertia_times,
     rigid_inertias,
     run_rows,
@@ -34,6 +35,7 @@ from ._kernels import (
 )
 from .kinematics import forward_kinematics
 from .rnea import forward_pass
+from ..status import Status
 
 
 @njit(**INLINE)
@@ -48,13 +50,9 @@ def body_twists(ibuf, fbuf, q, qd):
     return R, p, V
 
 
-@njit(**JIT)
-def kinetic_kernel(ibuf, fbuf, q, qd, out):
-    """out[0] <- sum_i 1/2 V_i^T G_i V_i. Status 1/2: q/qd not finite."""
-    if not all_finite(q):
-        return 1
-    if not all_finite(qd):
-        return 2
+@njit(**INLINE)
+def kinetic(ibuf, fbuf, q, qd):
+    """K = sum_i 1/2 V_i^T G_i V_i (J)."""
     mass, h, I_o = rigid_inertias(ibuf, fbuf)
     nb = mass.shape[0]
     R, p, V = body_twists(ibuf, fbuf, q, qd)
@@ -64,17 +62,16 @@ def kinetic_kernel(ibuf, fbuf, q, qd, out):
         rigid_inertia_times(mass[i], h[i], I_o[i], V[i], s)
         for k in range(6):
             K += 0.5 * V[i, k] * s[k]
-    out[0] = K
-    return 0
+    return K
 
 
 @njit(**JIT)
 def kinetic_gradient_kernel(ibuf, fbuf, q, qd, dK_dq):
-    """dK_dq (nv,) <- dK/dq at fixed qd (N m or N). Status 1/2: q/qd not finite."""
+    """dK_dq (nv,) <- dK/dq at fixed qd (N m or N). Returns a Status: OK or Q/QD_NOT_FINITE."""
     if not all_finite(q):
-        return 1
+        return Status.Q_NOT_FINITE
     if not all_finite(qd):
-        return 2
+        return Status.QD_NOT_FINITE
     parent, jtype, coord, mult, offset, A, R_home, p_home = tree(ibuf, fbuf)
     mass, h, I_o = rigid_inertias(ibuf, fbuf)
     nb = mass.shape[0]
@@ -84,22 +81,20 @@ def kinetic_gradient_kernel(ibuf, fbuf, q, qd, dK_dq):
     # backward pass: P_j = G_j V_j + sum_children Ad_{T_cj}^T P_c
     for i in range(nb):
         rigid_inertia_times(mass[i], h[i], I_o[i], V[i], P[i])
-    dK_dq[:] = 0.0
+    fill(dK_dq, 0.0)
     for j in range(nb - 1, -1, -1):
         # dK/dq_j = (ad_{V_j} A_j)^T P_j = -A_j . (-ad_{V_j}^T P_j)
-        s[:] = 0.0
+        fill(s, 0.0)
         add_neg_ad_transpose(V[j], P[j], s)
         dK_dq[coord[j]] -= mult[j] * dot6(A[j], s)
         if parent[j] >= 0:
             add_wrench_to_parent(R[j], p[j], P[j], P[parent[j]])
-    return 0
+    return Status.OK
 
 
-@njit(**JIT)
-def potential_kernel(ibuf, fbuf, q, gravity, out):
-    """out[0] <- -sum_i g . (R_si h_i + m_i p_si), h_i = m_i c_i. Status 1: q not finite."""
-    if not all_finite(q):
-        return 1
+@njit(**INLINE)
+def potential(ibuf, fbuf, q, gravity):
+    """U = -sum_i g . (R_si h_i + m_i p_si) (J), h_i = m_i c_i."""
     mass, h, I_o = rigid_inertias(ibuf, fbuf)
     nb = mass.shape[0]
     R_s = np.empty((nb, 3, 3))
@@ -115,45 +110,51 @@ def potential_kernel(ibuf, fbuf, q, gravity, out):
                 + mass[i] * p_s[i, r]
             )
             U -= gravity[r] * mc
-    out[0] = U
-    return 0
+    return U
+
+
+@njit(**JIT)
+def energy_kernel(ibuf, fbuf, q, qd, gravity, out):
+    """out (2,) <- (K(q, qd), U(q)) under the world-frame gravity (3,).
+    Returns a Status: OK or Q/QD_NOT_FINITE."""
+    if not all_finite(q):
+        return Status.Q_NOT_FINITE
+    if not all_finite(qd):
+        return Status.QD_NOT_FINITE
+    out[0] = kinetic(ibuf, fbuf, q, qd)
+    out[1] = potential(ibuf, fbuf, q, gravity)
+    return Status.OK
 
 
 @njit(**BATCH)
-def energy_batch_kernel(ibuf, fbuf, q, qd, gravity, kinetic, out, status, start, stop):
-    """Kinetic (when kinetic) or potential energy over rows [start, stop) of a batch."""
+def energy_batch_kernel(ibuf, fbuf, q, qd, gravity, out, status, start, stop):
+    """(K, U) over rows [start, stop) of a batch -> out (N, 2)."""
     for n in range(start, stop):
-        if kinetic:
-            status[n] = kinetic_kernel(ibuf, fbuf, q[n], qd[n], out[n : n + 1])
-        else:
-            status[n] = potential_kernel(ibuf, fbuf, q[n], gravity, out[n : n + 1])
+        status[n] = energy_kernel(ibuf, fbuf, q[n], qd[n], gravity, out[n])
 
 
-def _energy(model, q, qd, gravity, kinetic, what):
+def energies(model, q, qd, gravity=None, what="energies"):
+    """(K, U): kinetic energy 1/2 qd^T M qd and potential energy -sum_i m_i g . c_i (J), each a
+    float, or (N,) arrays for batches (N, nv), by one compiled kernel. gravity: optional (3,)
+    world-frame vector (m/s^2); what: the function named in error messages."""
     (q, qd), batch = _args.as_states(model, ("q", q), ("qd", qd))
     g = _args.as_gravity(model, gravity)
     if not batch:
-        out = np.empty(1)
-        status = (
-            kinetic_kernel(model._ibuf, model._fbuf, q, qd, out)
-            if kinetic
-            else potential_kernel(model._ibuf, model._fbuf, q, g, out)
-        )
+        out = np.empty(2)
+        status = energy_kernel(model._ibuf, model._fbuf, q, qd, g, out)
         if status:
             _args.raise_status(status, model, what)
-        return float(out[0])
-    out = np.empty(q.shape[0])
+        return float(out[0]), float(out[1])
+    out = np.empty((q.shape[0], 2))
     status = np.zeros(q.shape[0], dtype=np.int64)
-    run_rows(
-        energy_batch_kernel, q.shape[0], model._ibuf, model._fbuf, q, qd, g, kinetic, out, status
-    )
+    run_rows(energy_batch_kernel, q.shape[0], model._ibuf, model._fbuf, q, qd, g, out, status)
     _args.raise_batch_status(status, model, what)
-    return out
+    return out[:, 0], out[:, 1]
 
 
 def kinetic_energy(model, q, qd):
     """K = 1/2 qd^T M(q) qd (J): float, or (N,) for a batch of states (N, nv)."""
-    return _energy(model, q, qd, None, True, "kinetic_energy")
+    return energies(model, q, qd, what="kinetic_energy")[0]
 
 
 def potential_energy(model, q, gravity=None):
@@ -162,4 +163,4 @@ def potential_energy(model, q, gravity=None):
     gravity: optional (3,) world-frame vector (m/s^2), default model.gravity; dU/dq = g(q).
     """
     q = _args.as_state(model, q, "q")
-    return _energy(model, q, np.zeros_like(q), gravity, False, "potential_energy")
+    return energies(model, q, np.zeros_like(q), gravity, "potential_energy")[1]

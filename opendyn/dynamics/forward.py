@@ -17,16 +17,16 @@ from ._kernels import BATCH, JIT, all_finite, run_rows
 from .aba import SINGULAR_PIVOT, aba_kernel
 from .crba import crba_kernel
 from .rnea import rnea_kernel
+from ..status import Status
 
 METHODS = ("aba", "crba", "newton_euler")
 NO_ARMATURE = np.zeros(0)  # the rigid-body M: no rotor inertias
-_METHOD_CODE = {name: code for code, name in enumerate(METHODS)}
 
 
 @njit(**JIT)
 def cholesky_factor(M):
-    """M = L L^T, L in place in M's lower triangle. Returns -1, or the first index k whose
-    pivot is not positive (M singular there)."""
+    """M = L L^T, L in place in M's lower triangle. Returns Status.OK, or SINGULAR + k for the
+    first index k whose pivot is not positive (M singular there)."""
     n = M.shape[0]
     scale = 0.0
     for k in range(n):
@@ -36,7 +36,7 @@ def cholesky_factor(M):
         for m in range(k):
             d -= M[k, m] * M[k, m]
         if not d > SINGULAR_PIVOT * scale:
-            return k
+            return Status.SINGULAR + k
         d = np.sqrt(d)
         M[k, k] = d
         for r in range(k + 1, n):
@@ -44,7 +44,7 @@ def cholesky_factor(M):
             for m in range(k):
                 s -= M[r, m] * M[k, m]
             M[r, k] = s / d
-    return -1
+    return Status.OK
 
 
 @njit(**JIT)
@@ -65,61 +65,79 @@ def cholesky_substitute(L, b, x):
 
 @njit(**JIT)
 def cholesky_solve(M, b, x):
-    """x = M^-1 b by M = L L^T, in place in M. Returns -1, or the first index k whose pivot is
-    not positive (M singular there)."""
-    k = cholesky_factor(M)
-    if k < 0:
+    """x = M^-1 b by M = L L^T, in place in M. Returns Status.OK or SINGULAR + k."""
+    status = cholesky_factor(M)
+    if status == Status.OK:
         cholesky_substitute(M, b, x)
-    return k
+    return status
 
 
 @njit(**JIT)
-def mass_matrix_solve(ibuf, fbuf, q, qd, tau, loads, qdd, newton_euler, armature):
-    """qdd <- (M + diag(armature))^-1 (tau - h - J^T F_tip), M by CRBA or by n RNEA calls;
-    armature (nv,) or empty. Status as aba_kernel."""
+def newton_euler_mass_matrix(ibuf, fbuf, q, M, work):
+    """M (nv, nv) <- the seed's method: column k is RNEA's tau with qdd = e_k, qd = 0,
+    gravity = 0 and no F_tip (nv RNEA calls). Returns a Status."""
+    nv = M.shape[0]
+    zero = np.zeros(nv)
+    e_k = np.zeros(nv)
+    col = np.empty(nv)
+    no_loads = np.zeros((1, 6))
+    for k in range(nv):
+        e_k[k] = 1.0
+        status = rnea_kernel(ibuf, fbuf, q, zero, e_k, no_loads, col, work)
+        if status:
+            return status
+        for r in range(nv):
+            M[r, k] = col[r]
+        e_k[k] = 0.0
+    return Status.OK
+
+
+@njit(**JIT)
+def mass_matrix_solve(ibuf, fbuf, q, qd, tau, loads, qdd, armature, work, crba, newton_euler):
+    """qdd <- (M + diag(armature))^-1 (tau - h - J^T F_tip), M by CRBA or by nv RNEA calls,
+    whichever compile-time switch is not None; armature (nv,) or empty.
+    Returns a Status as aba_kernel."""
     nv = qdd.shape[0]
     M = np.empty((nv, nv))
-    zero = np.zeros(nv)
     b = np.empty(nv)
-    status = rnea_kernel(ibuf, fbuf, q, qd, zero, loads, b)
+    status = rnea_kernel(ibuf, fbuf, q, qd, np.zeros(nv), loads, b, work)
     if status:
         return status
     if not all_finite(tau):
-        return 4
-    if newton_euler:
-        # column k of M: tau of RNEA with qdd = e_k, qd = 0, gravity = 0, F_tip = 0
-        e_k = np.zeros(nv)
-        col = np.empty(nv)
-        no_loads = np.zeros((1, 6))
-        for k in range(nv):
-            e_k[k] = 1.0
-            rnea_kernel(ibuf, fbuf, q, zero, e_k, no_loads, col)
-            M[:, k] = col
-            e_k[k] = 0.0
-    else:
-        crba_kernel(ibuf, fbuf, q, M)
+        return Status.TAU_NOT_FINITE
+    if crba is not None:
+        crba_kernel(ibuf, fbuf, q, M, work)
+    if newton_euler is not None:
+        newton_euler_mass_matrix(ibuf, fbuf, q, M, work)
     for k in range(armature.shape[0]):
         M[k, k] += armature[k]
     for k in range(nv):
         b[k] = tau[k] - b[k]
-    k = cholesky_solve(M, b, qdd)
-    return 0 if k < 0 else 100 + k
+    return cholesky_solve(M, b, qdd)
 
 
 @njit(**JIT)
-def forward_kernel(ibuf, fbuf, q, qd, tau, loads, qdd, method, armature):
-    """Dispatch one state to method 0 = ABA, 1 = CRBA + Cholesky, 2 = Newton-Euler columns;
-    armature (nv,) rotor inertias on M's diagonal, or an empty array for none."""
-    if method == 0:
-        return aba_kernel(ibuf, fbuf, q, qd, tau, loads, qdd, armature)
-    return mass_matrix_solve(ibuf, fbuf, q, qd, tau, loads, qdd, method == 2, armature)
+def forward_kernel(ibuf, fbuf, q, qd, tau, loads, qdd, armature, work, aba, crba, newton_euler):
+    """One state by the method the compile-time switches (aba, crba, newton_euler) name: one
+    of them True, the others None (method_switches). numba drops the code behind a None
+    argument when it compiles, so only the method asked for is compiled. armature (nv,)
+    rotor inertias on M's diagonal, or an empty array for none. Returns a Status."""
+    if aba is not None:
+        return aba_kernel(ibuf, fbuf, q, qd, tau, loads, qdd, armature, work)
+    if crba is not None or newton_euler is not None:
+        return mass_matrix_solve(
+            ibuf, fbuf, q, qd, tau, loads, qdd, armature, work, crba, newton_euler
+        )
+    return Status.OK  # no method switched on: nothing to compile
 
 
 @njit(**BATCH)
-def forward_batch_kernel(ibuf, fbuf, q, qd, tau, loads, qdd, method, status, start, stop):
-    """Forward dynamics over rows [start, stop) of a batch (N, nv); loads (1 or N, rows, 6)."""
+def forward_batch_kernel(ibuf, fbuf, q, qd, tau, loads, qdd, work, method, status, start, stop):
+    """Forward dynamics over rows [start, stop) of a batch (N, nv); loads (1 or N, rows, 6);
+    a workspace like `work` of this thread's own."""
     shared = loads.shape[0] == 1
-    rigid = np.zeros(0)  # no armature
+    own = np.empty_like(work)
+    aba, crba, newton_euler = method
     for n in range(start, stop):
         status[n] = forward_kernel(
             ibuf,
@@ -129,9 +147,26 @@ def forward_batch_kernel(ibuf, fbuf, q, qd, tau, loads, qdd, method, status, sta
             tau[n],
             loads[0] if shared else loads[n],
             qdd[n],
-            method,
-            rigid,
+            NO_ARMATURE,
+            own,
+            aba,
+            crba,
+            newton_euler,
         )
+
+
+def method_switches(model, method):
+    """(aba, crba, newton_euler): the compile-time switches of forward_kernel for a method
+    name, True for the method and None for the others (None for a method name of None: no
+    forward dynamics). Models with coupled (mimic) joints solve "aba" by CRBA (ABA needs one
+    coordinate a body)."""
+    if method is not None and method not in METHODS:
+        raise ValueError(
+            f"forward_dynamics: method must be one of {', '.join(METHODS)}, got {method!r}"
+        )
+    if method == "aba" and model.nb != model.nv:
+        method = "crba"
+    return tuple(True if method == m else None for m in METHODS)
 
 
 def forward_dynamics(model, q, qd, tau, f_tip=None, gravity=None, method="aba"):
@@ -148,13 +183,7 @@ def forward_dynamics(model, q, qd, tau, f_tip=None, gravity=None, method="aba"):
     Raises SingularMassMatrixError (a ValueError) naming the joint when nothing with mass or
     inertia moves with it.
     """
-    code = _METHOD_CODE.get(method)
-    if code is None:
-        raise ValueError(
-            f"forward_dynamics: method must be one of {', '.join(METHODS)}, got {method!r}"
-        )
-    if code == 0 and model.nb != model.nv:
-        code = 1
+    switches = method_switches(model, method)
     if _args.is_single(model, q, qd, tau):
         qdd = np.empty(model._vector_shape)
         status = forward_kernel(
@@ -167,8 +196,9 @@ def forward_dynamics(model, q, qd, tau, f_tip=None, gravity=None, method="aba"):
             if gravity is None and f_tip is None
             else _args.loads(model, gravity, f_tip),
             qdd,
-            code,
             NO_ARMATURE,
+            model._work,
+            *switches,
         )
         if status:
             _args.raise_status(status, model, "forward_dynamics")
@@ -189,7 +219,8 @@ def forward_dynamics(model, q, qd, tau, f_tip=None, gravity=None, method="aba"):
         tau,
         _args.loads(model, gravity, f_tip, n),
         qdd,
-        code,
+        model._work,
+        switches,
         status,
     )
     _args.raise_batch_status(status, model, "forward_dynamics")

@@ -20,11 +20,14 @@ from ._kernels import (
     INLINE,
     JIT,
     all_finite,
+    copy_into,
     joint_transform,
     run_rows,
     tree,
     twist_to_child,
+    zero_matrix,
 )
+from ..status import Status
 
 
 @njit(**INLINE)
@@ -36,9 +39,10 @@ def forward_kinematics(body_tree, q, R_s, p_s, last):
     nb = parent.shape[0]
     R = np.empty((3, 3))
     p = np.empty(3)
-    wanted = np.ones(nb, dtype=np.bool_)
+    wanted = np.empty(nb, dtype=np.bool_)
+    for i in range(nb):
+        wanted[i] = last < 0
     if last >= 0:
-        wanted[:] = False
         i = last
         while i >= 0:
             wanted[i] = True
@@ -51,8 +55,10 @@ def forward_kinematics(body_tree, q, R_s, p_s, last):
         )
         lam = parent[i]
         if lam < 0:
-            R_s[i] = R
-            p_s[i] = p
+            for r in range(3):
+                p_s[i, r] = p[r]
+                for c in range(3):
+                    R_s[i, r, c] = R[r, c]
             continue
         for r in range(3):
             for c in range(3):
@@ -79,7 +85,7 @@ def space_axis(R_s, p_s, A_i, S):
 @njit(**JIT)
 def compose_frame(R_s, p_s, body, T_bf, T_sf):
     """T_sf (4, 4) <- T_{s,body} T_{body,frame}; body -1 is the world."""
-    T_sf[:, :] = 0.0
+    zero_matrix(T_sf)
     T_sf[3, 3] = 1.0
     for r in range(3):
         for c in range(4):
@@ -98,23 +104,24 @@ def compose_frame(R_s, p_s, body, T_bf, T_sf):
 
 @njit(**JIT)
 def frame_pose_kernel(ibuf, fbuf, q, body, T_bf, T_sf):
-    """T_sf (4, 4) <- T_{s,body}(q) T_{body,frame}. Status 1: q not finite."""
+    """T_sf (4, 4) <- T_{s,body}(q) T_{body,frame}. Returns a Status: OK or Q_NOT_FINITE."""
     if not all_finite(q):
-        return 1
+        return Status.Q_NOT_FINITE
     nb = ibuf[0]
     R_s = np.empty((nb, 3, 3))
     p_s = np.empty((nb, 3))
     if body >= 0:
         forward_kinematics(tree(ibuf, fbuf), q, R_s, p_s, body)
     compose_frame(R_s, p_s, body, T_bf, T_sf)
-    return 0
+    return Status.OK
 
 
 @njit(**JIT)
 def jacobian_kernel(ibuf, fbuf, q, body, T_bf, body_frame, J):
-    """J (6, nv) <- J_s, or J_b of the frame when body_frame. Status 1: q not finite."""
+    """J (6, nv) <- J_s, or J_b of the frame when body_frame. Returns a Status: OK or
+    Q_NOT_FINITE."""
     if not all_finite(q):
-        return 1
+        return Status.Q_NOT_FINITE
     body_tree = tree(ibuf, fbuf)
     parent, jtype, coord, mult, offset, A, R_home, p_home = body_tree
     nb = parent.shape[0]
@@ -126,7 +133,7 @@ def jacobian_kernel(ibuf, fbuf, q, body, T_bf, body_frame, J):
     compose_frame(R_s, p_s, body, T_bf, T_sf)
     S = np.empty(6)
     col = np.empty(6)
-    J[:, :] = 0.0
+    zero_matrix(J)
     i = body
     while i >= 0:
         space_axis(R_s[i], p_s[i], A[i], S)
@@ -134,11 +141,11 @@ def jacobian_kernel(ibuf, fbuf, q, body, T_bf, body_frame, J):
             # Ad_{T_{frame,s}} S = (R^T w, R^T (v + w x p)) with (R, p) = T_sf
             twist_to_child(T_sf[:3, :3], T_sf[:3, 3], S, col)
         else:
-            col[:] = S
+            copy_into(S, col)
         for k in range(6):
             J[k, coord[i]] += mult[i] * col[k]
         i = parent[i]
-    return 0
+    return Status.OK
 
 
 @njit(**BATCH)
@@ -171,8 +178,9 @@ def frame_pose(model, q, frame):
     body, T_bf = _frame(model, frame)
     if q.ndim == 1:
         T = np.empty((4, 4))
-        if frame_pose_kernel(model._ibuf, model._fbuf, q, body, T_bf, T):
-            _args.raise_status(1, model, "frame_pose")
+        status = frame_pose_kernel(model._ibuf, model._fbuf, q, body, T_bf, T)
+        if status:
+            _args.raise_status(status, model, "frame_pose")
         return T
     T = np.empty((q.shape[0], 4, 4))
     status = np.zeros(q.shape[0], dtype=np.int64)
@@ -198,8 +206,9 @@ def jacobian(model, q, frame, expressed_in="space"):
     body_frame = expressed_in == "body"
     if q.ndim == 1:
         J = np.empty((6, model.nv))
-        if jacobian_kernel(model._ibuf, model._fbuf, q, body, T_bf, body_frame, J):
-            _args.raise_status(1, model, "jacobian")
+        status = jacobian_kernel(model._ibuf, model._fbuf, q, body, T_bf, body_frame, J)
+        if status:
+            _args.raise_status(status, model, "jacobian")
         return J
     J = np.empty((q.shape[0], 6, model.nv))
     status = np.zeros(q.shape[0], dtype=np.int64)

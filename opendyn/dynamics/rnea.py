@@ -27,13 +27,16 @@ from ._kernels import (
     add_wrench_to_parent,
     all_finite,
     dot6,
+    fill,
     joint_transform,
     rigid_inertia_times,
     rigid_inertias,
     run_rows,
     tree,
     twist_to_child,
+    work_views,
 )
+from ..status import Status
 
 
 @njit(**INLINE)
@@ -44,15 +47,17 @@ def forward_pass(body_tree, q, qd, qdd, dV_0, R, p, V, dV, s):
     gravity. s is (6,) scratch. Also used for energies and frame accelerations.
     """
     parent, jtype, coord, mult, offset, A, R_home, p_home = body_tree
-    zero = np.zeros(6)
     for i in range(parent.shape[0]):
         j = coord[i]
         joint_transform(
             jtype[i], A[i], R_home[i], p_home[i], mult[i] * q[j] + offset[i], R[i], p[i]
         )
         lam = parent[i]
-        # V_i = Ad_{T_{i,lambda}} V_lambda + A_i qd_i
-        twist_to_child(R[i], p[i], zero if lam < 0 else V[lam], V[i])
+        # V_i = Ad_{T_{i,lambda}} V_lambda + A_i qd_i  (the world does not move: V_0 = 0)
+        if lam < 0:
+            fill(V[i], 0.0)
+        else:
+            twist_to_child(R[i], p[i], V[lam], V[i])
         qd_i, qdd_i = mult[i] * qd[j], mult[i] * qdd[j]
         for k in range(6):
             V[i, k] += A[i, k] * qd_i
@@ -64,24 +69,21 @@ def forward_pass(body_tree, q, qd, qdd, dV_0, R, p, V, dV, s):
 
 
 @njit(**JIT)
-def rnea_kernel(ibuf, fbuf, q, qd, qdd, loads, tau):
+def rnea_kernel(ibuf, fbuf, q, qd, qdd, loads, tau, work):
     """tau (nv,) <- RNEA at one state. loads[0] = dV_0 = (0, -g); loads[1 + i], when present,
-    the wrench body i applies to the environment. Status: 0 ok, 1/2/3 q/qd/qdd not finite."""
+    the wrench body i applies to the environment; work: the model's workspace
+    (model.work_size(nb)). Returns a Status: OK, or Q/QD/QDD_NOT_FINITE."""
     if not all_finite(q):
-        return 1
+        return Status.Q_NOT_FINITE
     if not all_finite(qd):
-        return 2
+        return Status.QD_NOT_FINITE
     if not all_finite(qdd):
-        return 3
+        return Status.QDD_NOT_FINITE
     body_tree = tree(ibuf, fbuf)
     parent, jtype, coord, mult, offset, A, R_home, p_home = body_tree
     mass, h, I_o = rigid_inertias(ibuf, fbuf)
     nb = parent.shape[0]
-    work = np.empty((3, nb, 6))
-    V, dV, F = work[0], work[1], work[2]
-    R = np.empty((nb, 3, 3))
-    p = np.empty((nb, 3))
-    s = np.empty(6)
+    R, p, V, dV, F, _, _, _, _, _, _, s = work_views(work, nb)
     forward_pass(body_tree, q, qd, qdd, loads[0], R, p, V, dV, s)
 
     # backward pass: F_i = G_i dV_i - ad_{V_i}^T G_i V_i + F_tip,i + sum_children Ad^T F_c,
@@ -94,21 +96,23 @@ def rnea_kernel(ibuf, fbuf, q, qd, qdd, loads, tau):
         if wrenches:
             for k in range(6):
                 F[i, k] += loads[1 + i, k]
-    tau[:] = 0.0
+    fill(tau, 0.0)
     for i in range(nb - 1, -1, -1):
         tau[coord[i]] += mult[i] * dot6(F[i], A[i])
         if parent[i] >= 0:
             add_wrench_to_parent(R[i], p[i], F[i], F[parent[i]])
-    return 0
+    return Status.OK
 
 
 @njit(**BATCH)
-def rnea_batch_kernel(ibuf, fbuf, q, qd, qdd, loads, tau, status, start, stop):
-    """RNEA over rows [start, stop) of a batch (N, nv); loads (1, rows, 6) shared or (N, ...)."""
+def rnea_batch_kernel(ibuf, fbuf, q, qd, qdd, loads, tau, work, status, start, stop):
+    """RNEA over rows [start, stop) of a batch (N, nv); loads (1, rows, 6) shared or (N, ...);
+    a workspace like `work` of this thread's own."""
     shared = loads.shape[0] == 1
+    own = np.empty_like(work)
     for n in range(start, stop):
         status[n] = rnea_kernel(
-            ibuf, fbuf, q[n], qd[n], qdd[n], loads[0] if shared else loads[n], tau[n]
+            ibuf, fbuf, q[n], qd[n], qdd[n], loads[0] if shared else loads[n], tau[n], own
         )
 
 
@@ -121,7 +125,14 @@ def run_rnea(model, q, qd, qdd, f_tip, gravity, what):
     if not batch:
         tau = np.empty(model._vector_shape)
         status = rnea_kernel(
-            model._ibuf, model._fbuf, q, qd, qdd, _args.loads(model, gravity, f_tip), tau
+            model._ibuf,
+            model._fbuf,
+            q,
+            qd,
+            qdd,
+            _args.loads(model, gravity, f_tip),
+            tau,
+            model._work,
         )
         if status:
             _args.raise_status(status, model, what)
@@ -139,6 +150,7 @@ def run_rnea(model, q, qd, qdd, f_tip, gravity, what):
         qdd,
         _args.loads(model, gravity, f_tip, n),
         tau,
+        model._work,
         status,
     )
     _args.raise_batch_status(status, model, what)
@@ -158,7 +170,9 @@ def inverse_dynamics(model, q, qd, qdd, f_tip=None, gravity=None):
     if gravity is None and f_tip is None and _args.is_single(model, q, qd, qdd):
         # the common call, with nothing to convert: straight to the kernel
         tau = np.empty(model._vector_shape)
-        status = rnea_kernel(model._ibuf, model._fbuf, q, qd, qdd, model._loads, tau)
+        status = rnea_kernel(
+            model._ibuf, model._fbuf, q, qd, qdd, model._loads, tau, model._work
+        )
         if status:
             _args.raise_status(status, model, "inverse_dynamics")
         return tau

@@ -1,0 +1,56 @@
+"""What a compiled kernel or a simulation loop reports: one enumeration, zero for success.
+
+    status = OK (0) | a failure below | SINGULAR + k (M singular at coordinate k)
+
+Every kernel returns a Status (numba compiles the members as int64 constants); `decode` turns
+any status back into its member and, for SINGULAR + k, the coordinate k.
+"""
+
+from __future__ import annotations
+
+from enum import IntEnum
+
+from numba.core import types
+from numba.extending import overload
+
+
+class Status(IntEnum):
+    """Outcome of a kernel or a simulation loop."""
+
+    OK = 0
+    Q_NOT_FINITE = 1  # an argument or state q has NaN or inf
+    QD_NOT_FINITE = 2
+    QDD_NOT_FINITE = 3
+    TAU_NOT_FINITE = 4  # a torque argument, or a generalized force in a simulation
+    DIVERGED = 5  # a joint velocity beyond the run's max_speed
+    STEP_UNDERFLOW = 6  # the adaptive step fell below what float64 time can resolve
+    NO_CONVERGENCE = 7  # the symplectic Euler momentum update did not converge
+    INTERRUPTED = 8  # Ctrl-C: the run stopped after its current chunk
+    SINGULAR = 100  # + k: nothing with mass or inertia moves with coordinate k
+
+
+@overload(bool)
+def _status_is_failure(status):
+    """`if status:` in compiled code: true for any failure (numba has no truth value for an
+    IntEnum member of its own)."""
+    if isinstance(status, types.IntEnumMember) and status.instance_class is Status:
+        return lambda status: status.value != 0
+    return None
+
+
+# the argument each "not finite" status names
+NOT_FINITE_ARGUMENT = {
+    Status.Q_NOT_FINITE: "q",
+    Status.QD_NOT_FINITE: "qd",
+    Status.QDD_NOT_FINITE: "qdd",
+    Status.TAU_NOT_FINITE: "tau",
+}
+
+
+def decode(status: int) -> tuple[Status, int | None]:
+    """(member, coordinate): SINGULAR + k gives (SINGULAR, k); any other status (member, None).
+    Raises ValueError for a number that is no status."""
+    status = int(status)
+    if status >= Status.SINGULAR:
+        return Status.SINGULAR, status - Status.SINGULAR
+    return Status(status), None

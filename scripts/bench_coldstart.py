@@ -1,0 +1,184 @@
+"""What a first run costs: numba compiling opendyn's kernels in a fresh, empty cache, against the
+same run once the on-disk cache is warm.
+
+    python scripts/bench_coldstart.py [--quick] [--json FILE]
+
+Measures, each in fresh processes (wall time of the whole process, import included):
+  - `opendyn simulate` on the default scene, cold (empty NUMBA_CACHE_DIR) and warm (again, in
+    that cache);
+  - `opendyn simulate SCENE` for every shipped scene, each cold in its own empty cache, then
+    warm (skipped with --quick);
+  - the first call of every public core function on the UR5 (example-robot-data), single
+    states and batches, all in one process: cold, then warm in a second process.
+Prints Markdown tables (the README's "Start-up" section is written from them).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import time
+
+# The first call of each function, in one process; prints {name: seconds} as JSON. Run as a
+# child process so that every measurement starts with nothing loaded.
+FIRST_CALLS = r"""
+import json, sys, time
+t0 = time.perf_counter()
+import numpy as np
+import opendyn as od
+times = {"import opendyn": time.perf_counter() - t0}
+t0 = time.perf_counter()
+model = od.load_urdf("ur5")
+times["load_urdf(ur5)"] = time.perf_counter() - t0
+rng = np.random.default_rng(0)
+nv = model.nv
+q, qd, qdd = rng.normal(size=(3, nv))
+Q, QD, QDD = rng.normal(size=(3, 64, nv))
+tool = "tool0"
+closure = od.PointToWorld(tool)
+calls = [
+    ("inverse_dynamics", lambda: od.inverse_dynamics(model, q, qd, qdd)),
+    ("inverse_dynamics f_tip", lambda: od.inverse_dynamics(model, q, qd, qdd, f_tip={tool: np.ones(6)})),
+    ("mass_matrix", lambda: od.mass_matrix(model, q)),
+    ("gravity_forces", lambda: od.gravity_forces(model, q)),
+    ("coriolis_forces", lambda: od.coriolis_forces(model, q, qd)),
+    ("bias_forces", lambda: od.bias_forces(model, q, qd)),
+    ("coriolis_matrix", lambda: od.coriolis_matrix(model, q, qd)),
+    ("christoffel_symbols", lambda: od.christoffel_symbols(model, q)),
+    ("forward_dynamics aba", lambda: od.forward_dynamics(model, q, qd, qdd)),
+    ("forward_dynamics crba", lambda: od.forward_dynamics(model, q, qd, qdd, method="crba")),
+    ("forward_dynamics newton_euler", lambda: od.forward_dynamics(model, q, qd, qdd, method="newton_euler")),
+    ("frame_pose", lambda: od.frame_pose(model, q, tool)),
+    ("jacobian space", lambda: od.jacobian(model, q, tool)),
+    ("jacobian body", lambda: od.jacobian(model, q, tool, expressed_in="body")),
+    ("kinetic_energy", lambda: od.kinetic_energy(model, q, qd)),
+    ("potential_energy", lambda: od.potential_energy(model, q)),
+    ("integrate", lambda: od.integrate(model, q, qd, 0.01)),
+    ("task_space_mass_matrix", lambda: od.task_space_mass_matrix(model, q, tool)),
+    ("task_space_bias", lambda: od.task_space_bias(model, q, qd, tool)),
+    ("frame_acceleration", lambda: od.frame_acceleration(model, q, qd, qdd, tool)),
+    ("batch inverse_dynamics", lambda: od.inverse_dynamics(model, Q, QD, QDD)),
+    ("batch mass_matrix", lambda: od.mass_matrix(model, Q)),
+    ("batch bias_forces", lambda: od.bias_forces(model, Q, QD)),
+    ("batch coriolis_matrix", lambda: od.coriolis_matrix(model, Q, QD)),
+    ("batch christoffel_symbols", lambda: od.christoffel_symbols(model, Q)),
+    ("batch forward_dynamics aba", lambda: od.forward_dynamics(model, Q, QD, QDD)),
+    ("batch forward_dynamics crba", lambda: od.forward_dynamics(model, Q, QD, QDD, method="crba")),
+    ("batch forward_dynamics newton_euler", lambda: od.forward_dynamics(model, Q, QD, QDD, method="newton_euler")),
+    ("batch frame_pose", lambda: od.frame_pose(model, Q, tool)),
+    ("batch jacobian", lambda: od.jacobian(model, Q, tool)),
+    ("batch kinetic_energy", lambda: od.kinetic_energy(model, Q, QD)),
+    ("batch potential_energy", lambda: od.potential_energy(model, Q)),
+    ("batch integrate", lambda: od.integrate(model, Q, QD, 0.01)),
+    ("constraint_jacobian", lambda: od.constraint_jacobian(model, q, closure)),
+    ("constraint_drift", lambda: od.constraint_drift(model, q, qd, closure)),
+    ("constraint_error", lambda: od.constraint_error(model, q, closure, q_bound=q)),
+    ("constrained_forward_dynamics", lambda: od.constrained_forward_dynamics(model, q, qd, qdd, closure)),
+]
+for name, call in calls:
+    t0 = time.perf_counter()
+    call()
+    times[name] = time.perf_counter() - t0
+print(json.dumps(times))
+"""
+
+CONSTRAINT_CALLS = (
+    "constraint_jacobian",
+    "constraint_drift",
+    "constraint_error",
+    "constrained_forward_dynamics",
+)
+SCENES = (
+    "double_pendulum_swing",
+    "double_pendulum_push",
+    "planar_3r_limits",
+    "ur5_falling",
+    "panda_computed_torque",
+    "four_bar",
+    "planar_3r_pinned",
+    "ur5_on_plane",
+)
+
+
+def _env(cache):
+    env = dict(os.environ)
+    env["NUMBA_CACHE_DIR"] = cache
+    return env
+
+
+def timed(cmd, cache):
+    """Wall time (s) of a child process run with NUMBA_CACHE_DIR=cache, and its stdout."""
+    t0 = time.perf_counter()
+    proc = subprocess.run(cmd, env=_env(cache), capture_output=True, text=True)
+    wall = time.perf_counter() - t0
+    if proc.returncode != 0:
+        raise RuntimeError(f"{' '.join(cmd)} failed:\n{proc.stdout}\n{proc.stderr}")
+    return wall, proc.stdout
+
+
+def simulate_cold_warm(scene):
+    """(cold, warm) wall seconds of `opendyn simulate [scene]` in a fresh cache."""
+    cmd = [sys.executable, "-m", "opendyn.cli", "simulate"] + ([scene] if scene else [])
+    with tempfile.TemporaryDirectory() as cache:
+        cold, _ = timed(cmd, cache)
+        warm, _ = timed(cmd, cache)
+    return cold, warm
+
+
+def first_calls():
+    """({call: cold s}, {call: warm s}) of the first call of every core function on a UR5."""
+    cmd = [sys.executable, "-c", FIRST_CALLS]
+    with tempfile.TemporaryDirectory() as cache:
+        _, cold = timed(cmd, cache)
+        _, warm = timed(cmd, cache)
+    return json.loads(cold), json.loads(warm)
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--quick", action="store_true", help="default scene and functions only")
+    parser.add_argument("--json", help="also write every number to this file")
+    args = parser.parse_args()
+    results = {}
+
+    cold, warm = simulate_cold_warm(None)
+    results["simulate (default scene)"] = (cold, warm)
+    print("## opendyn simulate, whole process (s)\n")
+    print("| command | cold (empty cache) | warm |")
+    print("|---|---:|---:|")
+    print(f"| `opendyn simulate` (default scene) | {cold:.1f} | {warm:.2f} |")
+    if not args.quick:
+        for scene in SCENES:
+            cold, warm = simulate_cold_warm(scene)
+            results[f"simulate {scene}"] = (cold, warm)
+            print(f"| `opendyn simulate {scene}` | {cold:.1f} | {warm:.2f} |")
+    sys.stdout.flush()
+
+    cold, warm = first_calls()
+    results["first calls"] = {"cold": cold, "warm": warm}
+    print("\n## First call of each function on the UR5, in one process (s)\n")
+    print("| call | cold | warm |")
+    print("|---|---:|---:|")
+    for name in cold:
+        print(f"| {name} | {cold[name]:.2f} | {warm[name]:.4f} |")
+    core = [n for n in cold if n not in CONSTRAINT_CALLS and n not in ("import opendyn",)]
+    core = [n for n in core if n != "load_urdf(ur5)"]
+    total_core = sum(cold[n] for n in core)
+    total_con = sum(cold[n] for n in CONSTRAINT_CALLS)
+    print(
+        f"\nCore functions (dynamics, kinematics, energy, task space; single and batch): "
+        f"{total_core:.1f} s cold, {sum(warm[n] for n in core):.3f} s warm; "
+        f"the constraint functions add {total_con:.1f} s cold."
+    )
+    results["totals"] = {"core_cold": total_core, "constraints_cold": total_con}
+    if args.json:
+        with open(args.json, "w") as f:
+            json.dump(results, f, indent=1)
+
+
+if __name__ == "__main__":
+    main()
