@@ -197,7 +197,7 @@ def test_a_scene_compiles_no_effect_it_does_not_name(tmp_path):
     )
     assert proc.returncode == 0, proc.stderr
     compiled = json.loads(proc.stdout.strip().splitlines()[-1])
-    assert compiled["gravity_effect"] == ["Array(float64, 1, 'C', False, aligned=True)"]
+    assert set(compiled["gravity_effect"]) == {"array(float64, 1d, C)"}
     for name in (
         "damping_effect",
         "friction_effect",
@@ -208,7 +208,7 @@ def test_a_scene_compiles_no_effect_it_does_not_name(tmp_path):
         "computed_torque_effect",
         "clip_effect",
     ):
-        assert compiled[name] == ["none"], f"{name} compiled for {compiled[name]}"
+        assert set(compiled[name]) == {"none"}, f"{name} compiled for {compiled[name]}"
     assert compiled["aba"] and compiled["rnea"] == []
     assert compiled["crba"] == [] and compiled["newton_euler"] == []
     assert compiled["mass_matrix_solve"] == []
