@@ -145,45 +145,75 @@ def quiet():
             _watch.quiet = before
 
 
-def core_calls(model):
-    """(name, call) for every public core function on `model`, single states and batches: what
-    `opendyn compile` runs so that numba compiles them ahead of time (the kernels' types do not
-    depend on the robot, so one small model compiles them for every robot)."""
+def core_calls(model, batch=64):
+    """(name, call) for every public core function on `model`, single states, then batches of
+    `batch` states, then the constraint functions: what `opendyn compile` runs so that numba
+    compiles them ahead of time (the kernels' types do not depend on the robot, so one small
+    model compiles them for every robot), and what scripts/bench_coldstart.py times."""
     import numpy as np
 
     import opendyn as od
 
     rng = np.random.default_rng(0)
     q, qd, qdd = rng.normal(size=(3, model.nv))
-    Q, QD, QDD = rng.normal(size=(3, 2, model.nv))
+    Q, QD, QDD = rng.normal(size=(3, batch, model.nv))
     frame = model.frame_names[-1]
+    point = od.PointToWorld(frame)
     calls = [
         ("inverse_dynamics", lambda: od.inverse_dynamics(model, q, qd, qdd)),
-        ("inverse_dynamics with f_tip", lambda: od.inverse_dynamics(
-            model, q, qd, qdd, f_tip={frame: np.ones(6)})),
+        (
+            "inverse_dynamics f_tip",
+            lambda: od.inverse_dynamics(model, q, qd, qdd, f_tip={frame: np.ones(6)}),
+        ),
         ("mass_matrix", lambda: od.mass_matrix(model, q)),
+        ("gravity_forces", lambda: od.gravity_forces(model, q)),
+        ("coriolis_forces", lambda: od.coriolis_forces(model, q, qd)),
+        ("bias_forces", lambda: od.bias_forces(model, q, qd)),
         ("coriolis_matrix", lambda: od.coriolis_matrix(model, q, qd)),
         ("christoffel_symbols", lambda: od.christoffel_symbols(model, q)),
-        ("frame_pose", lambda: od.frame_pose(model, q, frame)),
-        ("jacobian", lambda: od.jacobian(model, q, frame)),
-        ("energies", lambda: od.kinetic_energy(model, q, qd)),
-        ("task space", lambda: od.task_space_bias(model, q, qd, frame, damping=1e-6)),
-        ("constraint functions", lambda: od.constrained_forward_dynamics(
-            model, q, qd, qdd, od.PointToWorld(frame))),
     ]
-    for method in ("aba", "crba", "newton_euler"):
-        calls.append((f"forward_dynamics {method}",
-                      lambda m=method: od.forward_dynamics(model, q, qd, qdd, method=m)))
-        calls.append((f"batch forward_dynamics {method}",
-                      lambda m=method: od.forward_dynamics(model, Q, QD, QDD, method=m)))
+    for m in ("aba", "crba", "newton_euler"):
+        calls.append(
+            (f"forward_dynamics {m}", lambda m=m: od.forward_dynamics(model, q, qd, qdd, method=m))
+        )
     calls += [
+        ("frame_pose", lambda: od.frame_pose(model, q, frame)),
+        ("jacobian space", lambda: od.jacobian(model, q, frame)),
+        ("jacobian body", lambda: od.jacobian(model, q, frame, expressed_in="body")),
+        ("kinetic_energy", lambda: od.kinetic_energy(model, q, qd)),
+        ("potential_energy", lambda: od.potential_energy(model, q)),
+        ("integrate", lambda: od.integrate(model, q, qd, 0.01)),
+        (
+            "task_space_mass_matrix",
+            lambda: od.task_space_mass_matrix(model, q, frame, damping=1e-6),
+        ),
+        ("frame_acceleration", lambda: od.frame_acceleration(model, q, qd, qdd, frame)),
         ("batch inverse_dynamics", lambda: od.inverse_dynamics(model, Q, QD, QDD)),
         ("batch mass_matrix", lambda: od.mass_matrix(model, Q)),
+        ("batch bias_forces", lambda: od.bias_forces(model, Q, QD)),
         ("batch coriolis_matrix", lambda: od.coriolis_matrix(model, Q, QD)),
         ("batch christoffel_symbols", lambda: od.christoffel_symbols(model, Q)),
+    ]
+    for m in ("aba", "crba", "newton_euler"):
+        calls.append(
+            (
+                f"batch forward_dynamics {m}",
+                lambda m=m: od.forward_dynamics(model, Q, QD, QDD, method=m),
+            )
+        )
+    calls += [
         ("batch frame_pose", lambda: od.frame_pose(model, Q, frame)),
         ("batch jacobian", lambda: od.jacobian(model, Q, frame)),
-        ("batch energies", lambda: od.kinetic_energy(model, Q, QD)),
+        ("batch kinetic_energy", lambda: od.kinetic_energy(model, Q, QD)),
+        ("batch potential_energy", lambda: od.potential_energy(model, Q)),
+        ("batch integrate", lambda: od.integrate(model, Q, QD, 0.01)),
+        ("constraint_jacobian", lambda: od.constraint_jacobian(model, q, point)),
+        ("constraint_drift", lambda: od.constraint_drift(model, q, qd, point)),
+        ("constraint_error", lambda: od.constraint_error(model, q, point, q_bound=q)),
+        (
+            "constrained_forward_dynamics",
+            lambda: od.constrained_forward_dynamics(model, q, qd, qdd, point),
+        ),
     ]
     return calls
 

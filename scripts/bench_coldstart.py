@@ -23,63 +23,19 @@ import sys
 import tempfile
 import time
 
-# The first call of each function, in one process; prints {name: seconds} as JSON. Run as a
-# child process so that every measurement starts with nothing loaded.
+# The first call of each function (opendyn._compile.core_calls, the list `opendyn compile`
+# runs), in one process; prints {name: seconds} as JSON. Run as a child process so that every
+# measurement starts with nothing loaded.
 FIRST_CALLS = r"""
-import json, sys, time
+import json, time
 t0 = time.perf_counter()
-import numpy as np
 import opendyn as od
+from opendyn._compile import core_calls
 times = {"import opendyn": time.perf_counter() - t0}
 t0 = time.perf_counter()
 model = od.load_urdf("ur5")
 times["load_urdf(ur5)"] = time.perf_counter() - t0
-rng = np.random.default_rng(0)
-nv = model.nv
-q, qd, qdd = rng.normal(size=(3, nv))
-Q, QD, QDD = rng.normal(size=(3, 64, nv))
-tool = "tool0"
-closure = od.PointToWorld(tool)
-calls = [
-    ("inverse_dynamics", lambda: od.inverse_dynamics(model, q, qd, qdd)),
-    ("inverse_dynamics f_tip", lambda: od.inverse_dynamics(model, q, qd, qdd, f_tip={tool: np.ones(6)})),
-    ("mass_matrix", lambda: od.mass_matrix(model, q)),
-    ("gravity_forces", lambda: od.gravity_forces(model, q)),
-    ("coriolis_forces", lambda: od.coriolis_forces(model, q, qd)),
-    ("bias_forces", lambda: od.bias_forces(model, q, qd)),
-    ("coriolis_matrix", lambda: od.coriolis_matrix(model, q, qd)),
-    ("christoffel_symbols", lambda: od.christoffel_symbols(model, q)),
-    ("forward_dynamics aba", lambda: od.forward_dynamics(model, q, qd, qdd)),
-    ("forward_dynamics crba", lambda: od.forward_dynamics(model, q, qd, qdd, method="crba")),
-    ("forward_dynamics newton_euler", lambda: od.forward_dynamics(model, q, qd, qdd, method="newton_euler")),
-    ("frame_pose", lambda: od.frame_pose(model, q, tool)),
-    ("jacobian space", lambda: od.jacobian(model, q, tool)),
-    ("jacobian body", lambda: od.jacobian(model, q, tool, expressed_in="body")),
-    ("kinetic_energy", lambda: od.kinetic_energy(model, q, qd)),
-    ("potential_energy", lambda: od.potential_energy(model, q)),
-    ("integrate", lambda: od.integrate(model, q, qd, 0.01)),
-    ("task_space_mass_matrix", lambda: od.task_space_mass_matrix(model, q, tool)),
-    ("task_space_bias", lambda: od.task_space_bias(model, q, qd, tool)),
-    ("frame_acceleration", lambda: od.frame_acceleration(model, q, qd, qdd, tool)),
-    ("batch inverse_dynamics", lambda: od.inverse_dynamics(model, Q, QD, QDD)),
-    ("batch mass_matrix", lambda: od.mass_matrix(model, Q)),
-    ("batch bias_forces", lambda: od.bias_forces(model, Q, QD)),
-    ("batch coriolis_matrix", lambda: od.coriolis_matrix(model, Q, QD)),
-    ("batch christoffel_symbols", lambda: od.christoffel_symbols(model, Q)),
-    ("batch forward_dynamics aba", lambda: od.forward_dynamics(model, Q, QD, QDD)),
-    ("batch forward_dynamics crba", lambda: od.forward_dynamics(model, Q, QD, QDD, method="crba")),
-    ("batch forward_dynamics newton_euler", lambda: od.forward_dynamics(model, Q, QD, QDD, method="newton_euler")),
-    ("batch frame_pose", lambda: od.frame_pose(model, Q, tool)),
-    ("batch jacobian", lambda: od.jacobian(model, Q, tool)),
-    ("batch kinetic_energy", lambda: od.kinetic_energy(model, Q, QD)),
-    ("batch potential_energy", lambda: od.potential_energy(model, Q)),
-    ("batch integrate", lambda: od.integrate(model, Q, QD, 0.01)),
-    ("constraint_jacobian", lambda: od.constraint_jacobian(model, q, closure)),
-    ("constraint_drift", lambda: od.constraint_drift(model, q, qd, closure)),
-    ("constraint_error", lambda: od.constraint_error(model, q, closure, q_bound=q)),
-    ("constrained_forward_dynamics", lambda: od.constrained_forward_dynamics(model, q, qd, qdd, closure)),
-]
-for name, call in calls:
+for name, call in core_calls(model):
     t0 = time.perf_counter()
     call()
     times[name] = time.perf_counter() - t0

@@ -163,3 +163,26 @@ def test_verify_prints_a_table_against_pinocchio(capsys):
     assert main(["verify", "double_pendulum", "--states", "2"]) == 0
     out = capsys.readouterr().out
     assert "mass_matrix" in out and "forward_dynamics[aba]" in out and "PASS" in out
+
+
+def test_compile_ahead_runs_every_core_call_and_the_scenes_named(capsys):
+    """`opendyn compile` runs the list of core calls (each must accept its arguments on any
+    robot: a wrong call would only show on a user's machine) and simulates each named scene."""
+    from opendyn._compile import core_calls
+
+    model = od.load_urdf("double_pendulum")
+    names = []
+    for name, call in core_calls(model, batch=3):
+        call()
+        names.append(name)
+    assert "forward_dynamics newton_euler" in names and "constrained_forward_dynamics" in names
+    assert main(["compile", "double_pendulum_swing"]) == 0
+    assert "compiled 1 items" in capsys.readouterr().out
+
+
+def test_info_cache_names_the_cache_folder(capsys):
+    from opendyn._kernel_cache import CACHE_DIR
+
+    assert main(["info", "--cache"]) == 0
+    out = capsys.readouterr().out
+    assert f"kernel cache  {CACHE_DIR}" in out and "chosen as" in out

@@ -17,7 +17,6 @@ ABA needs one coordinate per body: models with coupled (mimic) joints use CRBA +
 
 from __future__ import annotations
 
-import numpy as np
 from numba import njit
 
 from ._kernels import (
