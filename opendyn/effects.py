@@ -202,7 +202,7 @@ def computed_torque_effect(p, ibuf, fbuf, t, q, qd, dV_0, armature, tau, work):
     w = 2 pi frequency. p = (kp, kd, offset, amplitude, frequency, phase), each (nv,); or None.
     Returns the RNEA's Status."""
     if p is None:
-        return Status.OK
+        return Status.OK.value
     nv = q.shape[0]
     qdd_c = np.empty(nv)
     for j in range(nv):

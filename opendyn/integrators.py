@@ -122,17 +122,17 @@ INTEGRATORS = {
 
 @njit(**JIT)
 def state_ok(q, qd, max_speed):
-    """Status.OK when q and qd are finite and every |qd| <= max_speed, else Q/QD_NOT_FINITE or
+    """Status.OK.value when q and qd are finite and every |qd| <= max_speed, else Q/QD_NOT_FINITE or
     DIVERGED."""
     for k in range(q.shape[0]):
         if not np.isfinite(q[k]):
-            return Status.Q_NOT_FINITE
+            return Status.Q_NOT_FINITE.value
     for k in range(qd.shape[0]):
         if not np.isfinite(qd[k]):
-            return Status.QD_NOT_FINITE
+            return Status.QD_NOT_FINITE.value
         if abs(qd[k]) > max_speed:
-            return Status.DIVERGED
-    return Status.OK
+            return Status.DIVERGED.value
+    return Status.OK.value
 
 
 @njit(**JIT)
@@ -176,7 +176,7 @@ def rk_stages(scene, A, c, t, dt, q, qd, work, first, tau_stage, tau):
             copy_into(stage_tau, tau)
         if status:
             return status, i - first + 1
-    return Status.OK, A.shape[0] - first
+    return Status.OK.value, A.shape[0] - first
 
 
 @njit(**JIT)
@@ -243,7 +243,7 @@ def implicit_velocity_step(scene, t, dt, q, qd, w, q1, qd1, w1, tau_ctrl):
     integrate_kernel(ibuf, q, qd1, dt, q1)
     w1[0] = w[0] + dt * power[0]
     w1[1] = w[1] + dt * power[1]
-    return Status.OK
+    return Status.OK.value
 
 
 @njit(**JIT)
@@ -297,7 +297,7 @@ def symplectic_euler_step(scene, t, dt, q, qd, w, q1, qd1, w1, tau_ctrl):
             converged = True
             break
     if not converged:
-        return Status.NO_CONVERGENCE
+        return Status.NO_CONVERGENCE.value
     # q' = q (+) v dt, qd' = (M(q') + diag(armature))^-1 p'
     integrate_kernel(ibuf, q, v, dt, q1)
     crba_kernel(ibuf, fbuf, q1, M, work)
@@ -309,7 +309,7 @@ def symplectic_euler_step(scene, t, dt, q, qd, w, q1, qd1, w1, tau_ctrl):
         return status
     w1[0] = w[0] + dt * power[0]
     w1[1] = w[1] + dt * power[1]
-    return Status.OK
+    return Status.OK.value
 
 
 @njit(**JIT)
@@ -340,14 +340,14 @@ def fixed_step(tableau, implicit, symplectic, scene, t, dt, q, qd, w, work, q1, 
     if tableau is not None:
         A, b, c = tableau
         status, evaluations = rk_stages(scene, A, c, t, dt, q, qd, work, 0, 0, tau)
-        if status == Status.OK:
+        if status == Status.OK.value:
             rk_combine(scene[0], b, dt, q, qd, w, work, q1, qd1, w1)
         return status, evaluations
     if implicit is not None:
         return implicit_velocity_step(scene, t, dt, q, qd, w, q1, qd1, w1, tau), 1
     if symplectic is not None:
         return symplectic_euler_step(scene, t, dt, q, qd, w, q1, qd1, w1, tau), 1
-    return Status.OK, 0
+    return Status.OK.value, 0
 
 
 @njit(**JIT)
@@ -386,7 +386,7 @@ def run_fixed(
             tableau, implicit, symplectic, scene, t, dt, q, qd, w, work, q1, qd1, w1, tau
         )
         counters[0] += evaluations
-        if status == Status.OK:
+        if status == Status.OK.value:
             status = state_ok(q1, qd1, max_speed)
         if status:
             return status, n
@@ -395,7 +395,7 @@ def run_fixed(
         copy_into(q1, q)
         copy_into(qd1, qd)
         copy_into(w1, w)
-    return Status.OK, nsteps
+    return Status.OK.value, nsteps
 
 
 @njit(**JIT)
@@ -444,7 +444,7 @@ def run_adaptive(
         last_before_output = h >= 0.99 * (t_out - t)
         dt = t_out - t if last_before_output else h
         if dt <= 1e-14 * max(1.0, abs(t)):
-            return Status.STEP_UNDERFLOW, t, h, row
+            return Status.STEP_UNDERFLOW.value, t, h, row
         # stage 0 is the FSAL stage, evaluated at the end of the previous step
         copy_into(k_first[0], kq[0])
         copy_into(k_first[1], kv[0])
@@ -454,7 +454,7 @@ def run_adaptive(
         if status == 0:
             rk_combine(scene[0], b, dt, q, qd, w, work, q1, qd1, w1)
             status = state_ok(q1, qd1, max_speed)
-        if status >= Status.SINGULAR:
+        if status >= Status.SINGULAR.value:
             return status, t, h, row  # singular mass matrix: a smaller step will not help
         if status:
             # a failed trial is a rejected step: retry smaller, give up when the step underflows
@@ -493,4 +493,4 @@ def run_adaptive(
         h = dt * min(5.0, 0.9 * err**-0.2) if err > 0 else 5.0 * dt
         if last_before_output and h < dt:
             h = dt
-    return Status.OK, t, h, row
+    return Status.OK.value, t, h, row

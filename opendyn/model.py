@@ -18,7 +18,8 @@ offset 0) except for mimic joints loaded with ``mimic=True``.
 All per-body numbers live in two flat buffers (``_ibuf`` ints, ``_fbuf`` float64) that the
 compiled kernels receive as two arguments, laid out by one table (INT_FIELDS, FLOAT_FIELDS);
 the documented fields are read-only views into them. A third flat buffer, the workspace
-(WORK_FIELDS), holds the recursions' per-body scratch, so that a kernel call allocates nothing.
+(WORK_FIELDS), holds the recursions' per-body scratch: a simulation or a batch allocates one and
+hands it to every kernel call.
 Conventions: twists (omega, v) and wrenches (m, f), angular first; SI units; gravity is the
 world-frame vector g, applied as the base acceleration dV_0 = (0, -g).
 """
@@ -281,9 +282,6 @@ class Model:
         loads = np.zeros((1, 6))
         linear(loads[0])[:] = -self._gravity  # the kernels' dV_0 = (0, -g), no wrenches
         object.__setattr__(self, "_loads", loads)
-        # the workspace of single-state kernel calls (they hold the GIL, so one per model is
-        # never used by two calls at once); batch kernels allocate one per thread
-        object.__setattr__(self, "_work", np.empty(work_size(self.nb)))
 
     parent = property(lambda self: self._ifield("parent"), doc="(nb,) parent body, -1 = world")
     jtype = property(lambda self: self._ifield("jtype"), doc="(nb,) REVOLUTE=0 / PRISMATIC=1")

@@ -2,16 +2,15 @@
 
     status = OK (0) | a failure below | SINGULAR + k (M singular at coordinate k)
 
-Every kernel returns a Status (numba compiles the members as int64 constants); `decode` turns
-any status back into its member and, for SINGULAR + k, the coordinate k.
+Every kernel returns a Status code as a plain int64, written `Status.X.value`: returned to Python,
+a member itself would be boxed by constructing the enum (measured: 0.81 us a call against
+0.16 us for the int). `decode` turns any status back into its member and, for SINGULAR + k, the
+coordinate k; Python compares codes with members directly (an IntEnum equals its int).
 """
 
 from __future__ import annotations
 
 from enum import IntEnum
-
-from numba.core import types
-from numba.extending import overload
 
 
 class Status(IntEnum):
@@ -27,15 +26,6 @@ class Status(IntEnum):
     NO_CONVERGENCE = 7  # the symplectic Euler momentum update did not converge
     INTERRUPTED = 8  # Ctrl-C: the run stopped after its current chunk
     SINGULAR = 100  # + k: nothing with mass or inertia moves with coordinate k
-
-
-@overload(bool)
-def _status_is_failure(status):
-    """`if status:` in compiled code: true for any failure (numba has no truth value for an
-    IntEnum member of its own)."""
-    if isinstance(status, types.IntEnumMember) and status.instance_class is Status:
-        return lambda status: status.value != 0
-    return None
 
 
 # the argument each "not finite" status names

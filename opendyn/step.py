@@ -78,7 +78,7 @@ def run_slot(slot, effects, ibuf, fbuf, armature, work, t, q, qd, dV_0, tau_ctrl
         )
     elif slot == CLIP:
         clip_effect(effects[CLIP], tau_ctrl)
-    return Status.OK
+    return Status.OK.value
 
 
 @njit(**INLINE)
@@ -112,7 +112,7 @@ def generalized_forces(scene, t, q, qd, tau, tau_ctrl, power, K, D, jac):
         tau[j] = tau_ctrl[j] + tau_app[j] + tau_pas[j]
     power[0] = applied
     power[1] = passive
-    return Status.OK
+    return Status.OK.value
 
 
 @njit(**JIT)

@@ -19,7 +19,7 @@ import numpy as np
 from numba import njit
 
 from .._kernel_cache import CACHING
-from ..model import FLOAT_AT, INT_AT, INT_HEADER, PRISMATIC, WORK_AT, buffer_size
+from ..model import FLOAT_AT, INT_AT, INT_HEADER, PRISMATIC, WORK_AT, WORK_SCRATCH, buffer_size
 
 JIT = dict(cache=CACHING)
 # batch loops release the GIL so that threads run them in parallel (see run_rows); single-state
@@ -118,6 +118,17 @@ def spatial_inertias(ibuf, fbuf):
     """View of the (nb, 6, 6) spatial inertias G_i."""
     nb = ibuf[0]
     return field(fbuf, nb, _G).reshape((nb, 6, 6))
+
+
+@njit(**JIT)
+def workspace(work, nb):
+    """work, or a new workspace (model.work_size(nb)) when work is None. Loops (a simulation,
+    a batch) allocate one and hand it to every call; a single call from Python passes None and
+    allocates here, which costs less than handing a preallocated array across from Python
+    (unboxing one more array argument)."""
+    if work is None:
+        return np.empty(_W_END * nb + WORK_SCRATCH)
+    return work
 
 
 @njit(**INLINE)

@@ -34,6 +34,7 @@ from ._kernels import (
     tree,
     twist_to_child,
     work_views,
+    workspace,
 )
 from ..status import Status
 
@@ -44,18 +45,18 @@ SINGULAR_PIVOT = 1e-14  # D_i below this times the largest body inertia: nothing
 def aba_kernel(ibuf, fbuf, q, qd, tau, loads, qdd, armature, work):
     """qdd (nv,) <- ABA at one state; loads as in rnea_kernel (dV_0, then body wrenches).
     armature: (nv,) rotor inertias added to D_i (M's diagonal), or an empty array for none;
-    work: the model's workspace. Returns a Status: OK, Q/QD/TAU_NOT_FINITE, or SINGULAR + k
+    work: a workspace (model.work_size(nb)), or None to allocate one. Returns a Status: OK, Q/QD/TAU_NOT_FINITE, or SINGULAR + k
     when joint coordinate k has no inertia moving with it (D_k ~ 0)."""
     if not all_finite(q):
-        return Status.Q_NOT_FINITE
+        return Status.Q_NOT_FINITE.value
     if not all_finite(qd):
-        return Status.QD_NOT_FINITE
+        return Status.QD_NOT_FINITE.value
     if not all_finite(tau):
-        return Status.TAU_NOT_FINITE
+        return Status.TAU_NOT_FINITE.value
     parent, jtype, coord, mult, offset, A, R_home, p_home = tree(ibuf, fbuf)
     G = spatial_inertias(ibuf, fbuf)
     nb = parent.shape[0]
-    R, p, V, dV, pA, c, U, IA, D, u, S, s = work_views(work, nb)
+    R, p, V, dV, pA, c, U, IA, D, u, S, s = work_views(workspace(work, nb), nb)
     wrenches = loads.shape[0] > 1
     rotors = armature.shape[0] > 0
     scale = 0.0
@@ -94,7 +95,7 @@ def aba_kernel(ibuf, fbuf, q, qd, tau, loads, qdd, armature, work):
             D[i] += armature[i]
         u[i] = tau[i] - dot6(A[i], pA[i])
         if not D[i] > SINGULAR_PIVOT * scale:
-            return Status.SINGULAR + i
+            return Status.SINGULAR.value + i
         lam = parent[i]
         if lam < 0:
             continue
@@ -117,4 +118,4 @@ def aba_kernel(ibuf, fbuf, q, qd, tau, loads, qdd, armature, work):
         qdd[i] = (u[i] - dot6(U[i], dV[i])) / D[i]
         for k in range(6):
             dV[i, k] += A[i, k] * qdd[i]
-    return Status.OK
+    return Status.OK.value

@@ -69,7 +69,7 @@ def space_axes_and_inertias(ibuf, fbuf, q, S, Gs, Gc):
 def christoffel_kernel(ibuf, fbuf, q, Gamma):
     """Gamma (nv, nv, nv) <- Christoffel symbols at q. Returns a Status: OK or Q_NOT_FINITE."""
     if not all_finite(q):
-        return Status.Q_NOT_FINITE
+        return Status.Q_NOT_FINITE.value
     parent, jtype, coord, mult, offset, A, R_home, p_home = tree(ibuf, fbuf)
     nb, nv = parent.shape[0], Gamma.shape[0]
     S = np.empty((nb, 6))
@@ -116,7 +116,7 @@ def christoffel_kernel(ibuf, fbuf, q, Gamma):
         for b in range(nv):
             for c in range(nv):
                 Gamma[a, b, c] = 0.5 * (dM[a, b, c] + dM[a, c, b] - dM[b, c, a])
-    return Status.OK
+    return Status.OK.value
 
 
 @njit(**JIT)
@@ -133,9 +133,9 @@ def coriolis_matrix_kernel(ibuf, fbuf, q, qd, C):
     (the dM/dq terms of the module docstring summed against qd).
     """
     if not all_finite(q):
-        return Status.Q_NOT_FINITE
+        return Status.Q_NOT_FINITE.value
     if not all_finite(qd):
-        return Status.QD_NOT_FINITE
+        return Status.QD_NOT_FINITE.value
     parent, jtype, coord, mult, offset, A, R_home, p_home = tree(ibuf, fbuf)
     nb = parent.shape[0]
     S = np.empty((nb, 6))
@@ -204,7 +204,7 @@ def coriolis_matrix_kernel(ibuf, fbuf, q, qd, C):
                 C[coord[i], coord[j]] += w * (Mdot + P_ij - P_ji)
                 C[coord[j], coord[i]] += w * (Mdot + P_ji - P_ij)
             i = parent[i]
-    return Status.OK
+    return Status.OK.value
 
 
 @njit(**BATCH)

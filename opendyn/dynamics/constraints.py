@@ -22,7 +22,7 @@ Compiled interface (for the simulation step, inside compiled loops):
   constraint_table(model, constraints, q0) -> rows (n_c, 5) int64, params (p,) float64
       row: (kind, offset into params, m rows of A, body_a, body_b), body -1 = the fixed world
   constraint_terms_kernel(ibuf, fbuf, rows, params, q, qd, A, Adot_qd, phi) -> status
-  constrained_solve_kernel(M, rhs, A, gamma, qdd, lam) -> Status.OK, or SINGULAR + k (pivot k)
+  constrained_solve_kernel(M, rhs, A, gamma, qdd, lam) -> Status.OK.value, or SINGULAR + k (pivot k)
   constrained_solve_rank_kernel(M, rhs, A, gamma, qdd, lam, rank) -> the same, rank[0] = rank
   constrained_solve_at(ibuf, fbuf, rows, params, gains, q, qd, M, rhs, qdd, lam) -> status
   constrained_forward_kernel(ibuf, fbuf, rows, params, gains, q, qd, tau, loads, armature,
@@ -260,9 +260,9 @@ def constraint_terms_kernel(ibuf, fbuf, rows, params, q, qd, A, Adot_qd, phi):
     axes; FIXED_POSE: frame b axes, angular first (see opendyn.constraints).
     Returns a Status: OK, Q_NOT_FINITE or QD_NOT_FINITE."""
     if not all_finite(q):
-        return Status.Q_NOT_FINITE
+        return Status.Q_NOT_FINITE.value
     if not all_finite(qd):
-        return Status.QD_NOT_FINITE
+        return Status.QD_NOT_FINITE.value
     body_tree = tree(ibuf, fbuf)
     parent, jtype, coord, mult, offset, Ax, R_home, p_home = body_tree
     nb = parent.shape[0]
@@ -374,7 +374,7 @@ def constraint_terms_kernel(ibuf, fbuf, rows, params, q, qd, A, Adot_qd, phi):
                 Adot_qd[r0 + i] = 0.0
                 phi[r0 + i] = e
         r0 += m
-    return Status.OK
+    return Status.OK.value
 
 
 # --------------------------------------------------------------------------------------------
@@ -511,7 +511,7 @@ def constrained_solve_rank_kernel(M, rhs, A, gamma, qdd, lam, rank):
         z[r] = s / M[r, r]
     for r in range(nv):
         qdd[r] = qdd_free[r] - z[r]
-    return Status.OK
+    return Status.OK.value
 
 
 @njit(**JIT)
@@ -522,7 +522,7 @@ def constrained_solve_kernel(M, rhs, A, gamma, qdd, lam):
     its diagonal first), rhs = tau - h (nv,), A (k, nv), gamma = Adot qd (+ stabilisation) (k,).
     Rank-deficient A: lam minimum-norm (pseudo-inverse, RANK_RTOL), never NaN from finite input
     (non-finite rhs, A or gamma propagate to qdd; nothing raises, nothing loops forever).
-    Returns Status.OK, or SINGULAR + k for the first non-positive pivot of M (singular at k)."""
+    Returns Status.OK.value, or SINGULAR + k for the first non-positive pivot of M (singular at k)."""
     rank = np.zeros(1, dtype=np.int64)
     return constrained_solve_rank_kernel(M, rhs, A, gamma, qdd, lam, rank)
 
@@ -559,10 +559,10 @@ def constrained_forward_kernel(
     """qdd (nv,), lam (k,) <- constrained forward dynamics at one state: M by CRBA
     (+ diag(armature), (nv,) or empty), h (and the f_tip wrenches in loads, as in rnea_kernel)
     by RNEA, then constrained_solve_at with the Baumgarte gains (alpha, beta) (zeros: none).
-    work: the model's workspace. Returns a Status: OK, Q/QD/TAU_NOT_FINITE, or SINGULAR + j
+    work: a workspace, or None to allocate one. Returns a Status: OK, Q/QD/TAU_NOT_FINITE, or SINGULAR + j
     when M is singular at coordinate j."""
     if not all_finite(tau):
-        return Status.TAU_NOT_FINITE
+        return Status.TAU_NOT_FINITE.value
     nv = q.shape[0]
     rhs = np.empty(nv)
     status = rnea_kernel(ibuf, fbuf, q, qd, np.zeros(nv), loads, rhs, work)
@@ -880,7 +880,7 @@ def constrained_forward_dynamics(
             np.zeros(0),
             qdd,
             lam,
-            model._work,
+            None,
         )
         if status:
             _args.raise_status(status, model, what)
@@ -888,7 +888,7 @@ def constrained_forward_dynamics(
     A = _matrix_A(model, A, what)
     gamma = _vector_k(Adot_qd, A.shape[0], "Adot_qd", what)
     rhs = np.empty(model.nv)
-    rnea_kernel(model._ibuf, model._fbuf, q, qd, model._zero_v, loads, rhs, model._work)
+    rnea_kernel(model._ibuf, model._fbuf, q, qd, model._zero_v, loads, rhs, None)
     rhs = tau - rhs
     M = mass_matrix(model, q)
     qdd, lam = np.empty(model.nv), np.empty(A.shape[0])
@@ -965,7 +965,7 @@ def constrained_inverse_dynamics(model, q, qd, qdd, A, lam=None, gravity=None):
         qdd,
         _args.loads(model, gravity, None),
         tau_free,
-        model._work,
+        None,
     )
     if status:
         _args.raise_status(status, model, what)

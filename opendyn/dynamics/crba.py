@@ -26,6 +26,7 @@ from ._kernels import (
     run_rows,
     tree,
     work_views,
+    workspace,
     composite_views,
     wrench_to_parent,
     zero_matrix,
@@ -35,15 +36,16 @@ from ..status import Status
 
 @njit(**JIT)
 def crba_kernel(ibuf, fbuf, q, M, work):
-    """M (nv, nv) <- CRBA at one configuration; work: the model's workspace.
+    """M (nv, nv) <- CRBA at one configuration; work: a workspace, or None to allocate one.
     Returns a Status: OK or Q_NOT_FINITE."""
     if not all_finite(q):
-        return Status.Q_NOT_FINITE
+        return Status.Q_NOT_FINITE.value
     parent, jtype, coord, mult, offset, A, R_home, p_home = tree(ibuf, fbuf)
     mass, h, I_o = rigid_inertias(ibuf, fbuf)
     nb = parent.shape[0]
-    R, p, _, _, _, _, _, _, _, _, S6, F = work_views(work, nb)
-    I_c, h_c, mass_c = composite_views(work, nb)
+    w = workspace(work, nb)
+    R, p, _, _, _, _, _, _, _, _, S6, F = work_views(w, nb)
+    I_c, h_c, mass_c = composite_views(w, nb)
     S = S6[:3, :3]
     for i in range(nb):
         joint_transform(
@@ -74,14 +76,14 @@ def crba_kernel(ibuf, fbuf, q, M, work):
             m_ij = mult[i] * mult[j] * dot6(F, A[j])
             M[ci, coord[j]] += m_ij
             M[coord[j], ci] += m_ij
-    return Status.OK
+    return Status.OK.value
 
 
 @njit(**BATCH)
-def crba_batch_kernel(ibuf, fbuf, q, M, work, status, start, stop):
-    """CRBA over rows [start, stop) of a batch of configurations (N, nv) -> M (N, nv, nv), in a
-    workspace like `work` of this thread's own."""
-    own = np.empty_like(work)
+def crba_batch_kernel(ibuf, fbuf, q, M, status, start, stop):
+    """CRBA over rows [start, stop) of a batch of configurations (N, nv) -> M (N, nv, nv), in
+    one workspace for the rows."""
+    own = workspace(None, ibuf[0])
     for n in range(start, stop):
         status[n] = crba_kernel(ibuf, fbuf, q[n], M[n], own)
 
@@ -94,7 +96,7 @@ def mass_matrix(model, q):
     """
     if _args.is_single(model, q):
         M = np.empty(model._matrix_shape)
-        status = crba_kernel(model._ibuf, model._fbuf, q, M, model._work)
+        status = crba_kernel(model._ibuf, model._fbuf, q, M, None)
         if status:
             _args.raise_status(status, model, "mass_matrix")
         return M
@@ -103,6 +105,6 @@ def mass_matrix(model, q):
         return mass_matrix(model, q)
     M = np.empty((q.shape[0], model.nv, model.nv))
     status = np.zeros(q.shape[0], dtype=np.int64)
-    run_rows(crba_batch_kernel, q.shape[0], model._ibuf, model._fbuf, q, M, model._work, status)
+    run_rows(crba_batch_kernel, q.shape[0], model._ibuf, model._fbuf, q, M, status)
     _args.raise_batch_status(status, model, "mass_matrix")
     return M

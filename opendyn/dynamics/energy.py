@@ -69,9 +69,9 @@ def kinetic(ibuf, fbuf, q, qd):
 def kinetic_gradient_kernel(ibuf, fbuf, q, qd, dK_dq):
     """dK_dq (nv,) <- dK/dq at fixed qd (N m or N). Returns a Status: OK or Q/QD_NOT_FINITE."""
     if not all_finite(q):
-        return Status.Q_NOT_FINITE
+        return Status.Q_NOT_FINITE.value
     if not all_finite(qd):
-        return Status.QD_NOT_FINITE
+        return Status.QD_NOT_FINITE.value
     parent, jtype, coord, mult, offset, A, R_home, p_home = tree(ibuf, fbuf)
     mass, h, I_o = rigid_inertias(ibuf, fbuf)
     nb = mass.shape[0]
@@ -89,7 +89,7 @@ def kinetic_gradient_kernel(ibuf, fbuf, q, qd, dK_dq):
         dK_dq[coord[j]] -= mult[j] * dot6(A[j], s)
         if parent[j] >= 0:
             add_wrench_to_parent(R[j], p[j], P[j], P[parent[j]])
-    return Status.OK
+    return Status.OK.value
 
 
 @njit(**INLINE)
@@ -118,12 +118,12 @@ def energy_kernel(ibuf, fbuf, q, qd, gravity, out):
     """out (2,) <- (K(q, qd), U(q)) under the world-frame gravity (3,).
     Returns a Status: OK or Q/QD_NOT_FINITE."""
     if not all_finite(q):
-        return Status.Q_NOT_FINITE
+        return Status.Q_NOT_FINITE.value
     if not all_finite(qd):
-        return Status.QD_NOT_FINITE
+        return Status.QD_NOT_FINITE.value
     out[0] = kinetic(ibuf, fbuf, q, qd)
     out[1] = potential(ibuf, fbuf, q, gravity)
-    return Status.OK
+    return Status.OK.value
 
 
 @njit(**BATCH)

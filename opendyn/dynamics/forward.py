@@ -13,7 +13,7 @@ import numpy as np
 from numba import njit
 
 from . import _args
-from ._kernels import BATCH, JIT, all_finite, run_rows
+from ._kernels import BATCH, JIT, all_finite, run_rows, workspace
 from .aba import SINGULAR_PIVOT, aba_kernel
 from .crba import crba_kernel
 from .rnea import rnea_kernel
@@ -25,7 +25,7 @@ NO_ARMATURE = np.zeros(0)  # the rigid-body M: no rotor inertias
 
 @njit(**JIT)
 def cholesky_factor(M):
-    """M = L L^T, L in place in M's lower triangle. Returns Status.OK, or SINGULAR + k for the
+    """M = L L^T, L in place in M's lower triangle. Returns Status.OK.value, or SINGULAR + k for the
     first index k whose pivot is not positive (M singular there)."""
     n = M.shape[0]
     scale = 0.0
@@ -36,7 +36,7 @@ def cholesky_factor(M):
         for m in range(k):
             d -= M[k, m] * M[k, m]
         if not d > SINGULAR_PIVOT * scale:
-            return Status.SINGULAR + k
+            return Status.SINGULAR.value + k
         d = np.sqrt(d)
         M[k, k] = d
         for r in range(k + 1, n):
@@ -44,7 +44,7 @@ def cholesky_factor(M):
             for m in range(k):
                 s -= M[r, m] * M[k, m]
             M[r, k] = s / d
-    return Status.OK
+    return Status.OK.value
 
 
 @njit(**JIT)
@@ -65,9 +65,9 @@ def cholesky_substitute(L, b, x):
 
 @njit(**JIT)
 def cholesky_solve(M, b, x):
-    """x = M^-1 b by M = L L^T, in place in M. Returns Status.OK or SINGULAR + k."""
+    """x = M^-1 b by M = L L^T, in place in M. Returns Status.OK.value or SINGULAR + k."""
     status = cholesky_factor(M)
-    if status == Status.OK:
+    if status == Status.OK.value:
         cholesky_substitute(M, b, x)
     return status
 
@@ -89,7 +89,7 @@ def newton_euler_mass_matrix(ibuf, fbuf, q, M, work):
         for r in range(nv):
             M[r, k] = col[r]
         e_k[k] = 0.0
-    return Status.OK
+    return Status.OK.value
 
 
 @njit(**JIT)
@@ -104,7 +104,7 @@ def mass_matrix_solve(ibuf, fbuf, q, qd, tau, loads, qdd, armature, work, crba, 
     if status:
         return status
     if not all_finite(tau):
-        return Status.TAU_NOT_FINITE
+        return Status.TAU_NOT_FINITE.value
     if crba is not None:
         crba_kernel(ibuf, fbuf, q, M, work)
     if newton_euler is not None:
@@ -128,15 +128,15 @@ def forward_kernel(ibuf, fbuf, q, qd, tau, loads, qdd, armature, work, aba, crba
         return mass_matrix_solve(
             ibuf, fbuf, q, qd, tau, loads, qdd, armature, work, crba, newton_euler
         )
-    return Status.OK  # no method switched on: nothing to compile
+    return Status.OK.value  # no method switched on: nothing to compile
 
 
 @njit(**BATCH)
-def forward_batch_kernel(ibuf, fbuf, q, qd, tau, loads, qdd, work, method, status, start, stop):
+def forward_batch_kernel(ibuf, fbuf, q, qd, tau, loads, qdd, method, status, start, stop):
     """Forward dynamics over rows [start, stop) of a batch (N, nv); loads (1 or N, rows, 6);
-    a workspace like `work` of this thread's own."""
+    one workspace for the rows."""
     shared = loads.shape[0] == 1
-    own = np.empty_like(work)
+    own = workspace(None, ibuf[0])
     aba, crba, newton_euler = method
     for n in range(start, stop):
         status[n] = forward_kernel(
@@ -155,18 +155,22 @@ def forward_batch_kernel(ibuf, fbuf, q, qd, tau, loads, qdd, work, method, statu
         )
 
 
+_SWITCHES = {m: tuple(True if m == k else None for k in METHODS) for m in (*METHODS, None)}
+
+
 def method_switches(model, method):
     """(aba, crba, newton_euler): the compile-time switches of forward_kernel for a method
-    name, True for the method and None for the others (None for a method name of None: no
+    name, True for the method and None for the others (all None for a method name of None: no
     forward dynamics). Models with coupled (mimic) joints solve "aba" by CRBA (ABA needs one
-    coordinate a body)."""
-    if method is not None and method not in METHODS:
-        raise ValueError(
-            f"forward_dynamics: method must be one of {', '.join(METHODS)}, got {method!r}"
-        )
+    coordinate a body). A table look-up: it runs on every forward_dynamics call."""
     if method == "aba" and model.nb != model.nv:
         method = "crba"
-    return tuple(True if method == m else None for m in METHODS)
+    try:
+        return _SWITCHES[method]
+    except (KeyError, TypeError):
+        raise ValueError(
+            f"forward_dynamics: method must be one of {', '.join(METHODS)}, got {method!r}"
+        ) from None
 
 
 def forward_dynamics(model, q, qd, tau, f_tip=None, gravity=None, method="aba"):
@@ -197,7 +201,7 @@ def forward_dynamics(model, q, qd, tau, f_tip=None, gravity=None, method="aba"):
             else _args.loads(model, gravity, f_tip),
             qdd,
             NO_ARMATURE,
-            model._work,
+            None,
             *switches,
         )
         if status:
@@ -219,7 +223,6 @@ def forward_dynamics(model, q, qd, tau, f_tip=None, gravity=None, method="aba"):
         tau,
         _args.loads(model, gravity, f_tip, n),
         qdd,
-        model._work,
         switches,
         status,
     )

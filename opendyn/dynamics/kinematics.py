@@ -106,14 +106,14 @@ def compose_frame(R_s, p_s, body, T_bf, T_sf):
 def frame_pose_kernel(ibuf, fbuf, q, body, T_bf, T_sf):
     """T_sf (4, 4) <- T_{s,body}(q) T_{body,frame}. Returns a Status: OK or Q_NOT_FINITE."""
     if not all_finite(q):
-        return Status.Q_NOT_FINITE
+        return Status.Q_NOT_FINITE.value
     nb = ibuf[0]
     R_s = np.empty((nb, 3, 3))
     p_s = np.empty((nb, 3))
     if body >= 0:
         forward_kinematics(tree(ibuf, fbuf), q, R_s, p_s, body)
     compose_frame(R_s, p_s, body, T_bf, T_sf)
-    return Status.OK
+    return Status.OK.value
 
 
 @njit(**JIT)
@@ -121,7 +121,7 @@ def jacobian_kernel(ibuf, fbuf, q, body, T_bf, body_frame, J):
     """J (6, nv) <- J_s, or J_b of the frame when body_frame. Returns a Status: OK or
     Q_NOT_FINITE."""
     if not all_finite(q):
-        return Status.Q_NOT_FINITE
+        return Status.Q_NOT_FINITE.value
     body_tree = tree(ibuf, fbuf)
     parent, jtype, coord, mult, offset, A, R_home, p_home = body_tree
     nb = parent.shape[0]
@@ -145,7 +145,7 @@ def jacobian_kernel(ibuf, fbuf, q, body, T_bf, body_frame, J):
         for k in range(6):
             J[k, coord[i]] += mult[i] * col[k]
         i = parent[i]
-    return Status.OK
+    return Status.OK.value
 
 
 @njit(**BATCH)

@@ -35,6 +35,7 @@ from ._kernels import (
     tree,
     twist_to_child,
     work_views,
+    workspace,
 )
 from ..status import Status
 
@@ -71,19 +72,19 @@ def forward_pass(body_tree, q, qd, qdd, dV_0, R, p, V, dV, s):
 @njit(**JIT)
 def rnea_kernel(ibuf, fbuf, q, qd, qdd, loads, tau, work):
     """tau (nv,) <- RNEA at one state. loads[0] = dV_0 = (0, -g); loads[1 + i], when present,
-    the wrench body i applies to the environment; work: the model's workspace
-    (model.work_size(nb)). Returns a Status: OK, or Q/QD/QDD_NOT_FINITE."""
+    the wrench body i applies to the environment; work: a workspace (model.work_size(nb)), or
+    None to allocate one. Returns a Status: OK, or Q/QD/QDD_NOT_FINITE."""
     if not all_finite(q):
-        return Status.Q_NOT_FINITE
+        return Status.Q_NOT_FINITE.value
     if not all_finite(qd):
-        return Status.QD_NOT_FINITE
+        return Status.QD_NOT_FINITE.value
     if not all_finite(qdd):
-        return Status.QDD_NOT_FINITE
+        return Status.QDD_NOT_FINITE.value
     body_tree = tree(ibuf, fbuf)
     parent, jtype, coord, mult, offset, A, R_home, p_home = body_tree
     mass, h, I_o = rigid_inertias(ibuf, fbuf)
     nb = parent.shape[0]
-    R, p, V, dV, F, _, _, _, _, _, _, s = work_views(work, nb)
+    R, p, V, dV, F, _, _, _, _, _, _, s = work_views(workspace(work, nb), nb)
     forward_pass(body_tree, q, qd, qdd, loads[0], R, p, V, dV, s)
 
     # backward pass: F_i = G_i dV_i - ad_{V_i}^T G_i V_i + F_tip,i + sum_children Ad^T F_c,
@@ -101,15 +102,15 @@ def rnea_kernel(ibuf, fbuf, q, qd, qdd, loads, tau, work):
         tau[coord[i]] += mult[i] * dot6(F[i], A[i])
         if parent[i] >= 0:
             add_wrench_to_parent(R[i], p[i], F[i], F[parent[i]])
-    return Status.OK
+    return Status.OK.value
 
 
 @njit(**BATCH)
-def rnea_batch_kernel(ibuf, fbuf, q, qd, qdd, loads, tau, work, status, start, stop):
+def rnea_batch_kernel(ibuf, fbuf, q, qd, qdd, loads, tau, status, start, stop):
     """RNEA over rows [start, stop) of a batch (N, nv); loads (1, rows, 6) shared or (N, ...);
-    a workspace like `work` of this thread's own."""
+    one workspace for the rows."""
     shared = loads.shape[0] == 1
-    own = np.empty_like(work)
+    own = workspace(None, ibuf[0])
     for n in range(start, stop):
         status[n] = rnea_kernel(
             ibuf, fbuf, q[n], qd[n], qdd[n], loads[0] if shared else loads[n], tau[n], own
@@ -132,7 +133,7 @@ def run_rnea(model, q, qd, qdd, f_tip, gravity, what):
             qdd,
             _args.loads(model, gravity, f_tip),
             tau,
-            model._work,
+            None,
         )
         if status:
             _args.raise_status(status, model, what)
@@ -150,7 +151,6 @@ def run_rnea(model, q, qd, qdd, f_tip, gravity, what):
         qdd,
         _args.loads(model, gravity, f_tip, n),
         tau,
-        model._work,
         status,
     )
     _args.raise_batch_status(status, model, what)
@@ -171,7 +171,7 @@ def inverse_dynamics(model, q, qd, qdd, f_tip=None, gravity=None):
         # the common call, with nothing to convert: straight to the kernel
         tau = np.empty(model._vector_shape)
         status = rnea_kernel(
-            model._ibuf, model._fbuf, q, qd, qdd, model._loads, tau, model._work
+            model._ibuf, model._fbuf, q, qd, qdd, model._loads, tau, None
         )
         if status:
             _args.raise_status(status, model, "inverse_dynamics")
