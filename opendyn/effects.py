@@ -196,7 +196,7 @@ def pd_effect(p, q, qd, tau, K, D, jac):
 
 
 @njit(**JIT)
-def computed_torque_effect(p, ibuf, fbuf, t, q, qd, dV_0, armature, tau, work):
+def computed_torque_effect(p, ibuf, fbuf, t, q, qd, dV_0, armature, tau):
     """tau += M(q) qdd_c + h(q, qd) by RNEA (plus armature qdd_c), with
     qdd_c = qdd_r + kp (q_r - q) + kd (qd_r - qd) and q_r = offset + amplitude sin(w t + phase),
     w = 2 pi frequency. p = (kp, kd, offset, amplitude, frequency, phase), each (nv,); or None.
@@ -216,7 +216,7 @@ def computed_torque_effect(p, ibuf, fbuf, t, q, qd, dV_0, armature, tau, work):
     loads = np.empty((1, 6))
     copy_into(dV_0, loads[0])
     tau_c = np.empty(nv)
-    status = rnea_kernel(ibuf, fbuf, q, qd, qdd_c, loads, tau_c, work)
+    status = rnea_kernel(ibuf, fbuf, q, qd, qdd_c, loads, tau_c)
     for j in range(nv):
         tau[j] += tau_c[j]
     for j in range(armature.shape[0]):

@@ -215,7 +215,7 @@ def velocity_solve(ibuf, fbuf, con, q, qd, M, rhs, qdd):
 @njit(**JIT)
 def implicit_velocity_step(scene, t, dt, q, qd, w, q1, qd1, w1, tau_ctrl):
     """One linearly implicit Euler step (module docstring). Returns a Status."""
-    ibuf, fbuf, _, armature, _, con, (work, forces, loads) = scene
+    ibuf, fbuf, _, armature, _, con, (forces, loads) = scene
     nv = qd.shape[0]
     tau, K, D = forces[0], forces[3], forces[4]
     power = np.empty(2)
@@ -223,11 +223,11 @@ def implicit_velocity_step(scene, t, dt, q, qd, w, q1, qd1, w1, tau_ctrl):
     if status:
         return status
     h = np.empty(nv)
-    status = rnea_kernel(ibuf, fbuf, q, qd, np.zeros(nv), loads, h, work)
+    status = rnea_kernel(ibuf, fbuf, q, qd, np.zeros(nv), loads, h)
     if status:
         return status
     M = np.empty((nv, nv))
-    crba_kernel(ibuf, fbuf, q, M, work)
+    crba_kernel(ibuf, fbuf, q, M)
     rhs = np.empty(nv)
     for j in range(nv):
         M[j, j] += dt * D[j] + dt * dt * K[j]
@@ -249,7 +249,7 @@ def implicit_velocity_step(scene, t, dt, q, qd, w, q1, qd1, w1, tau_ctrl):
 @njit(**JIT)
 def symplectic_euler_step(scene, t, dt, q, qd, w, q1, qd1, w1, tau_ctrl):
     """One step of symplectic Euler in momentum form (module docstring). Returns a Status."""
-    ibuf, fbuf, _, armature, _, _, (work, forces, loads) = scene
+    ibuf, fbuf, _, armature, _, _, (forces, loads) = scene
     nv = qd.shape[0]
     tau = forces[0]
     power = np.empty(2)
@@ -259,12 +259,12 @@ def symplectic_euler_step(scene, t, dt, q, qd, w, q1, qd1, w1, tau_ctrl):
     # g(q): RNEA at qd = qdd = 0 under the base acceleration
     zero = np.zeros(nv)
     g = np.empty(nv)
-    status = rnea_kernel(ibuf, fbuf, q, zero, zero, loads, g, work)
+    status = rnea_kernel(ibuf, fbuf, q, zero, zero, loads, g)
     if status:
         return status
     # p = (M(q) + diag(armature)) qd
     M = np.empty((nv, nv))
-    crba_kernel(ibuf, fbuf, q, M, work)
+    crba_kernel(ibuf, fbuf, q, M)
     p = np.zeros(nv)
     for r in range(nv):
         if armature.shape[0]:
@@ -300,7 +300,7 @@ def symplectic_euler_step(scene, t, dt, q, qd, w, q1, qd1, w1, tau_ctrl):
         return Status.NO_CONVERGENCE.value
     # q' = q (+) v dt, qd' = (M(q') + diag(armature))^-1 p'
     integrate_kernel(ibuf, q, v, dt, q1)
-    crba_kernel(ibuf, fbuf, q1, M, work)
+    crba_kernel(ibuf, fbuf, q1, M)
     if armature.shape[0]:
         for r in range(nv):
             M[r, r] += armature[r]

@@ -17,9 +17,7 @@ offset 0) except for mimic joints loaded with ``mimic=True``.
 
 All per-body numbers live in two flat buffers (``_ibuf`` ints, ``_fbuf`` float64) that the
 compiled kernels receive as two arguments, laid out by one table (INT_FIELDS, FLOAT_FIELDS);
-the documented fields are read-only views into them. A third flat buffer, the workspace
-(WORK_FIELDS), holds the recursions' per-body scratch: a simulation or a batch allocates one and
-hands it to every kernel call.
+the documented fields are read-only views into them.
 Conventions: twists (omega, v) and wrenches (m, f), angular first; SI units; gravity is the
 world-frame vector g, applied as the base acceleration dV_0 = (0, -g).
 """
@@ -51,26 +49,6 @@ FLOAT_FIELDS = (
     ("R_home", (3, 3)),
     ("p_home", (3,)),
 )
-# The per-model workspace of the recursions (like Pinocchio's Data): per-body fields, then
-# WORK_SCRATCH numbers of fixed scratch. Kernels carve their views from it (_kernels.work_views).
-WORK_FIELDS = (
-    ("R", (3, 3)),
-    ("p", (3,)),
-    ("V", (6,)),
-    ("dV", (6,)),
-    ("F", (6,)),
-    ("c", (6,)),
-    ("U", (6,)),
-    ("IA", (6, 6)),
-    ("D", ()),
-    ("u", ()),
-    ("I_c", (3, 3)),
-    ("h_c", (3,)),
-    ("m_c", ()),
-)
-WORK_SCRATCH = 60
-
-
 def field_starts(fields) -> dict[str, tuple[int, int, tuple[int, ...]]]:
     """{field: (start, size, shape)}: start and size in units of nb (numbers per body)."""
     out, start = {}, 0
@@ -83,17 +61,11 @@ def field_starts(fields) -> dict[str, tuple[int, int, tuple[int, ...]]]:
 
 INT_AT = field_starts(INT_FIELDS)
 FLOAT_AT = field_starts(FLOAT_FIELDS)
-WORK_AT = field_starts(WORK_FIELDS)
 
 
 def buffer_size(at: dict, nb: int) -> int:
     """Numbers in a buffer laid out by `at` for nb bodies."""
     return sum(size for _, size, _ in at.values()) * nb
-
-
-def work_size(nb: int) -> int:
-    """Length of a workspace for nb bodies."""
-    return buffer_size(WORK_AT, nb) + WORK_SCRATCH
 
 
 def _frame_index(frames, aliases):

@@ -155,11 +155,11 @@ def _load_kernels(scene, integ, table, q, qd, w, out, counters):
     nv = model.nv
     data = step.scene_data(model, table)
     first = (np.zeros((2, nv)), np.zeros(2), np.zeros(nv))
-    ibuf, fbuf, _, armature, method, con, (work, _, loads) = data
+    ibuf, fbuf, _, armature, method, con, (_, loads) = data
     tau, qdd, unused = np.zeros(nv), np.empty(nv), np.empty(0)
     state = (q[None].copy(), qd[None].copy())
     pieces = [
-        lambda: step.dynamics(ibuf, fbuf, armature, method, con, work, loads, q, qd, tau, qdd),
+        lambda: step.dynamics(ibuf, fbuf, armature, method, con, loads, q, qd, tau, qdd),
         lambda: step.generalized_forces(
             data, 0.0, q, qd, np.empty(nv), np.empty(nv), np.empty(2), unused, unused, False
         ),

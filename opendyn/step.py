@@ -49,34 +49,36 @@ from .effects import (
     pd_effect,
     wrench_effect,
 )
-from .model import work_size
 from .status import Status
 
 
 @njit(**INLINE)
-def run_slot(slot, effects, ibuf, fbuf, armature, work, t, q, qd, dV_0, tau_ctrl, tau_app, tau_pas, K, D, jac):
+def run_slot(slot, effects, ibuf, fbuf, armature, t, q, qd, dV_0, tau_ctrl, tau_app, tau_pas, K, D, jac):
     """One effect of the scene's effects tuple: adds its generalized force to tau_ctrl
     (control), tau_app (applied wrenches) or tau_pas (passive effects), or sets dV_0 (gravity).
-    An empty slot (None) compiles to nothing. Returns a Status."""
-    if slot == GRAVITY:
+    An empty slot (None) compiles to nothing: its effect function compiles to a bare return
+    and the test `is not None` on a None-typed slot is a constant, so the call is dropped
+    (a call left in, with its array arguments, cost about 60 ns per empty slot and evaluation).
+    Returns a Status."""
+    if slot == GRAVITY and effects[GRAVITY] is not None:
         gravity_effect(effects[GRAVITY], dV_0)
-    elif slot == DAMPING:
+    elif slot == DAMPING and effects[DAMPING] is not None:
         damping_effect(effects[DAMPING], qd, tau_pas, D, jac)
-    elif slot == FRICTION:
+    elif slot == FRICTION and effects[FRICTION] is not None:
         friction_effect(effects[FRICTION], qd, tau_pas, D, jac)
-    elif slot == LIMITS:
+    elif slot == LIMITS and effects[LIMITS] is not None:
         limits_effect(effects[LIMITS], q, qd, tau_pas, K, D, jac)
-    elif slot == WRENCH:
+    elif slot == WRENCH and effects[WRENCH] is not None:
         wrench_effect(effects[WRENCH], ibuf, fbuf, t, q, tau_app)
-    elif slot == CONSTANT:
+    elif slot == CONSTANT and effects[CONSTANT] is not None:
         constant_effect(effects[CONSTANT], tau_ctrl)
-    elif slot == PD:
+    elif slot == PD and effects[PD] is not None:
         pd_effect(effects[PD], q, qd, tau_ctrl, K, D, jac)
-    elif slot == COMPUTED_TORQUE:
+    elif slot == COMPUTED_TORQUE and effects[COMPUTED_TORQUE] is not None:
         return computed_torque_effect(
-            effects[COMPUTED_TORQUE], ibuf, fbuf, t, q, qd, dV_0, armature, tau_ctrl, work
+            effects[COMPUTED_TORQUE], ibuf, fbuf, t, q, qd, dV_0, armature, tau_ctrl
         )
-    elif slot == CLIP:
+    elif slot == CLIP and effects[CLIP] is not None:
         clip_effect(effects[CLIP], tau_ctrl)
     return Status.OK.value
 
@@ -88,7 +90,7 @@ def generalized_forces(scene, t, q, qd, tau, tau_ctrl, power, K, D, jac):
     power (2,) <- (applied, passive) power qd . tau_applied and qd . tau_passive (W). With jac,
     K and D (nv,) <- the diagonal stiffness -d tau/dq and damping -d tau/dqd of the joint-space
     effects; without, K and D are not touched. Returns a Status."""
-    ibuf, fbuf, effects, armature, _, _, (work, forces, loads) = scene
+    ibuf, fbuf, effects, armature, _, _, (forces, loads) = scene
     tau_app, tau_pas, dV_0 = forces[1], forces[2], loads[0]
     fill(tau_app, 0.0)
     fill(tau_pas, 0.0)
@@ -99,7 +101,7 @@ def generalized_forces(scene, t, q, qd, tau, tau_ctrl, power, K, D, jac):
         fill(D, 0.0)
     for slot in range(len(SLOT_NAMES)):
         status = run_slot(
-            slot, effects, ibuf, fbuf, armature, work, t, q, qd, dV_0, tau_ctrl, tau_app,
+            slot, effects, ibuf, fbuf, armature, t, q, qd, dV_0, tau_ctrl, tau_app,
             tau_pas, K, D, jac,
         )
         if status:
@@ -116,7 +118,7 @@ def generalized_forces(scene, t, q, qd, tau, tau_ctrl, power, K, D, jac):
 
 
 @njit(**JIT)
-def dynamics(ibuf, fbuf, armature, method, con, work, loads, q, qd, tau, qdd):
+def dynamics(ibuf, fbuf, armature, method, con, loads, q, qd, tau, qdd):
     """qdd (nv,) <- forward dynamics under tau (nv,) and the base acceleration loads[0]: the
     method's without constraints (con None), the constrained solve with them (the method's
     switches, (aba, crba, newton_euler) as dynamics.forward.method_switches gives them, are
@@ -125,24 +127,24 @@ def dynamics(ibuf, fbuf, armature, method, con, work, loads, q, qd, tau, qdd):
     if con is None:
         aba, crba, newton_euler = method
         return forward_kernel(
-            ibuf, fbuf, q, qd, tau, loads, qdd, armature, work, aba, crba, newton_euler
+            ibuf, fbuf, q, qd, tau, loads, qdd, armature, aba, crba, newton_euler
         )
     rows, cparams, gains = con
     lam = np.empty(rows[:, 2].sum())
     return constrained_forward_kernel(
-        ibuf, fbuf, rows, cparams, gains, q, qd, tau, loads, armature, qdd, lam, work
+        ibuf, fbuf, rows, cparams, gains, q, qd, tau, loads, armature, qdd, lam
     )
 
 
 def scene_data(model, table):
     """The scene as the compiled step takes it: one tuple (ibuf, fbuf, effects, armature,
-    method, con, (work, forces, loads)) of the model's buffers, the stage table
+    method, con, (forces, loads)) of the model's buffers, the stage table
     (effects.StageTable: its effects tuple, armature, the forward-dynamics method as the
     compile-time switches of dynamics.forward.forward_kernel, none with constraints, and its
-    constraints or None), and the step's own scratch: the model workspace, forces (5, nv)
+    constraints or None), and the step's own scratch: forces (5, nv)
     (tau, tau_applied, tau_passive, K, D), loads (1, 6) with dV_0."""
     method = method_switches(model, None if table.constraints else table.method)
-    scratch = (np.empty(work_size(model.nb)), np.empty((5, model.nv)), np.zeros((1, 6)))
+    scratch = (np.empty((5, model.nv)), np.zeros((1, 6)))
     return (
         model._ibuf,
         model._fbuf,
@@ -159,12 +161,12 @@ def evaluate(scene, t, q, qd, qdd, tau_ctrl, power):
     """qdd (nv,) <- the scene's forward dynamics at (t, q, qd); tau_ctrl (nv,) <- the control
     torque; power (2,) <- (applied, passive) power. scene: scene_data(model, table).
     Compiled once and called by every loop. Returns a Status."""
-    ibuf, fbuf, _, armature, method, con, (work, forces, loads) = scene
+    ibuf, fbuf, _, armature, method, con, (forces, loads) = scene
     tau, unused = forces[0], forces[3]
     status = generalized_forces(scene, t, q, qd, tau, tau_ctrl, power, unused, unused, False)
     if status:
         return status
-    return dynamics(ibuf, fbuf, armature, method, con, work, loads, q, qd, tau, qdd)
+    return dynamics(ibuf, fbuf, armature, method, con, loads, q, qd, tau, qdd)
 
 
 @njit(**JIT)
@@ -180,7 +182,7 @@ def stage_cost_kernel(scene, which, t, q, qd):
     qdd = np.empty(nv)
     power = np.empty(2)
     unused = np.empty(0)
-    ibuf, fbuf, effects, armature, method, con, (work, _, loads) = scene
+    ibuf, fbuf, effects, armature, method, con, (_, loads) = scene
     fill(loads[0], 0.0)
     gravity_effect(effects[GRAVITY], loads[0])
     total = 0.0
@@ -190,14 +192,14 @@ def stage_cost_kernel(scene, which, t, q, qd):
             fill(tau_app, 0.0)
             fill(tau_pas, 0.0)
             run_slot(
-                which, effects, ibuf, fbuf, armature, work, t[n], q[n], qd[n], loads[0],
+                which, effects, ibuf, fbuf, armature, t[n], q[n], qd[n], loads[0],
                 tau_ctrl, tau_app, tau_pas, unused, unused, False,
             )
             for j in range(nv):
                 total += tau_ctrl[j] + tau_app[j] + tau_pas[j]
         elif which == -1:
             fill(tau_ctrl, 0.0)
-            dynamics(ibuf, fbuf, armature, method, con, work, loads, q[n], qd[n], tau_ctrl, qdd)
+            dynamics(ibuf, fbuf, armature, method, con, loads, q[n], qd[n], tau_ctrl, qdd)
             total += qdd.sum()
         else:
             evaluate(scene, t[n], q[n], qd[n], qdd, tau_ctrl, power)

@@ -1,5 +1,5 @@
 """Compiled building blocks shared by the dynamics kernels: views of the model's flat buffers
-and workspace (laid out by the tables in opendyn.model), the joint
+(laid out by the tables in opendyn.model), the joint
 transform T_{lambda(i), i}(q_i) = M_{lambda(i), i} exp([A_i] q_i), and the 3x3-block forms of
 Ad_T and ad_V on twists, wrenches and spatial inertias.
 
@@ -19,7 +19,7 @@ import numpy as np
 from numba import njit
 
 from .._kernel_cache import CACHING
-from ..model import FLOAT_AT, INT_AT, INT_HEADER, PRISMATIC, WORK_AT, WORK_SCRATCH, buffer_size
+from ..model import FLOAT_AT, INT_AT, INT_HEADER, PRISMATIC
 
 JIT = dict(cache=CACHING)
 # batch loops release the GIL so that threads run them in parallel (see run_rows); single-state
@@ -68,11 +68,6 @@ _MULT, _OFFSET, _A, _G, _MASS, _H, _I_O, _R_HOME, _P_HOME = (
     _where(FLOAT_AT, n)
     for n in ("mult", "offset", "A", "G", "mass", "h", "I_o", "R_home", "p_home")
 )
-_W_R, _W_P, _W_V, _W_DV, _W_F, _W_C, _W_U, _W_IA, _W_D, _W_LU = (
-    _where(WORK_AT, n) for n in ("R", "p", "V", "dV", "F", "c", "U", "IA", "D", "u")
-)
-_W_I_C, _W_H_C, _W_M_C = (_where(WORK_AT, n) for n in ("I_c", "h_c", "m_c"))
-_W_END = buffer_size(WORK_AT, 1)
 
 
 @njit(**INLINE)
@@ -118,49 +113,6 @@ def spatial_inertias(ibuf, fbuf):
     """View of the (nb, 6, 6) spatial inertias G_i."""
     nb = ibuf[0]
     return field(fbuf, nb, _G).reshape((nb, 6, 6))
-
-
-@njit(**JIT)
-def workspace(work, nb):
-    """work, or a new workspace (model.work_size(nb)) when work is None. Loops (a simulation,
-    a batch) allocate one and hand it to every call; a single call from Python passes None and
-    allocates here, which costs less than handing a preallocated array across from Python
-    (unboxing one more array argument)."""
-    if work is None:
-        return np.empty(_W_END * nb + WORK_SCRATCH)
-    return work
-
-
-@njit(**INLINE)
-def work_views(work, nb):
-    """Views of a workspace (model.WORK_FIELDS): R (nb, 3, 3), p (nb, 3), V, dV, F, c, U
-    (nb, 6), IA (nb, 6, 6), D, u (nb,), then the scratch S (9, 6) and s (6,)."""
-    scratch = work[_W_END * nb :]
-    return (
-        field(work, nb, _W_R).reshape((nb, 3, 3)),
-        field(work, nb, _W_P).reshape((nb, 3)),
-        field(work, nb, _W_V).reshape((nb, 6)),
-        field(work, nb, _W_DV).reshape((nb, 6)),
-        field(work, nb, _W_F).reshape((nb, 6)),
-        field(work, nb, _W_C).reshape((nb, 6)),
-        field(work, nb, _W_U).reshape((nb, 6)),
-        field(work, nb, _W_IA).reshape((nb, 6, 6)),
-        field(work, nb, _W_D),
-        field(work, nb, _W_LU),
-        scratch[:54].reshape((9, 6)),
-        scratch[54:60],
-    )
-
-
-@njit(**INLINE)
-def composite_views(work, nb):
-    """Views of a workspace's composite rigid-body inertias: I_c (nb, 3, 3), h_c (nb, 3),
-    m_c (nb,) (model.WORK_FIELDS)."""
-    return (
-        field(work, nb, _W_I_C).reshape((nb, 3, 3)),
-        field(work, nb, _W_H_C).reshape((nb, 3)),
-        field(work, nb, _W_M_C),
-    )
 
 
 @njit(**INLINE)

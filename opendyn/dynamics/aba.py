@@ -17,6 +17,7 @@ ABA needs one coordinate per body: models with coupled (mimic) joints use CRBA +
 
 from __future__ import annotations
 
+import numpy as np
 from numba import njit
 
 from ._kernels import (
@@ -33,8 +34,6 @@ from ._kernels import (
     spatial_inertias,
     tree,
     twist_to_child,
-    work_views,
-    workspace,
 )
 from ..status import Status
 
@@ -42,10 +41,10 @@ SINGULAR_PIVOT = 1e-14  # D_i below this times the largest body inertia: nothing
 
 
 @njit(**JIT)
-def aba_kernel(ibuf, fbuf, q, qd, tau, loads, qdd, armature, work):
+def aba_kernel(ibuf, fbuf, q, qd, tau, loads, qdd, armature):
     """qdd (nv,) <- ABA at one state; loads as in rnea_kernel (dV_0, then body wrenches).
-    armature: (nv,) rotor inertias added to D_i (M's diagonal), or an empty array for none;
-    work: a workspace (model.work_size(nb)), or None to allocate one. Returns a Status: OK, Q/QD/TAU_NOT_FINITE, or SINGULAR + k
+    armature: (nv,) rotor inertias added to D_i (M's diagonal), or an empty array for none.
+    Returns a Status: OK, Q/QD/TAU_NOT_FINITE, or SINGULAR + k
     when joint coordinate k has no inertia moving with it (D_k ~ 0)."""
     if not all_finite(q):
         return Status.Q_NOT_FINITE.value
@@ -56,7 +55,15 @@ def aba_kernel(ibuf, fbuf, q, qd, tau, loads, qdd, armature, work):
     parent, jtype, coord, mult, offset, A, R_home, p_home = tree(ibuf, fbuf)
     G = spatial_inertias(ibuf, fbuf)
     nb = parent.shape[0]
-    R, p, V, dV, pA, c, U, IA, D, u, S, s = work_views(workspace(work, nb), nb)
+    R = np.empty((nb, 3, 3))
+    p = np.empty((nb, 3))
+    IA = np.empty((nb, 6, 6))
+    vec = np.empty((5, nb, 6))
+    V, c, pA, U, dV = vec[0], vec[1], vec[2], vec[3], vec[4]
+    D = np.empty(nb)
+    u = np.empty(nb)
+    S = np.empty((9, 6))
+    s = np.empty(6)
     wrenches = loads.shape[0] > 1
     rotors = armature.shape[0] > 0
     scale = 0.0

@@ -26,7 +26,7 @@ Compiled interface (for the simulation step, inside compiled loops):
   constrained_solve_rank_kernel(M, rhs, A, gamma, qdd, lam, rank) -> the same, rank[0] = rank
   constrained_solve_at(ibuf, fbuf, rows, params, gains, q, qd, M, rhs, qdd, lam) -> status
   constrained_forward_kernel(ibuf, fbuf, rows, params, gains, q, qd, tau, loads, armature,
-                             qdd, lam, work) -> status
+                             qdd, lam) -> status
 with gains = (alpha, beta), the Baumgarte stabilisation A qdd + Adot qd + 2 alpha A qd +
 beta^2 phi = 0 of a simulation ((0, 0): none).
 """
@@ -554,24 +554,24 @@ def constrained_solve_at(ibuf, fbuf, rows, params, gains, q, qd, M, rhs, qdd, la
 
 @njit(**JIT)
 def constrained_forward_kernel(
-    ibuf, fbuf, rows, params, gains, q, qd, tau, loads, armature, qdd, lam, work
+    ibuf, fbuf, rows, params, gains, q, qd, tau, loads, armature, qdd, lam
 ):
     """qdd (nv,), lam (k,) <- constrained forward dynamics at one state: M by CRBA
     (+ diag(armature), (nv,) or empty), h (and the f_tip wrenches in loads, as in rnea_kernel)
     by RNEA, then constrained_solve_at with the Baumgarte gains (alpha, beta) (zeros: none).
-    work: a workspace, or None to allocate one. Returns a Status: OK, Q/QD/TAU_NOT_FINITE, or SINGULAR + j
+    Returns a Status: OK, Q/QD/TAU_NOT_FINITE, or SINGULAR + j
     when M is singular at coordinate j."""
     if not all_finite(tau):
         return Status.TAU_NOT_FINITE.value
     nv = q.shape[0]
     rhs = np.empty(nv)
-    status = rnea_kernel(ibuf, fbuf, q, qd, np.zeros(nv), loads, rhs, work)
+    status = rnea_kernel(ibuf, fbuf, q, qd, np.zeros(nv), loads, rhs)
     if status:
         return status
     for i in range(nv):
         rhs[i] = tau[i] - rhs[i]
     M = np.empty((nv, nv))
-    crba_kernel(ibuf, fbuf, q, M, work)
+    crba_kernel(ibuf, fbuf, q, M)
     for i in range(armature.shape[0]):
         M[i, i] += armature[i]
     return constrained_solve_at(ibuf, fbuf, rows, params, gains, q, qd, M, rhs, qdd, lam)
@@ -880,7 +880,6 @@ def constrained_forward_dynamics(
             np.zeros(0),
             qdd,
             lam,
-            None,
         )
         if status:
             _args.raise_status(status, model, what)
@@ -888,7 +887,7 @@ def constrained_forward_dynamics(
     A = _matrix_A(model, A, what)
     gamma = _vector_k(Adot_qd, A.shape[0], "Adot_qd", what)
     rhs = np.empty(model.nv)
-    rnea_kernel(model._ibuf, model._fbuf, q, qd, model._zero_v, loads, rhs, None)
+    rnea_kernel(model._ibuf, model._fbuf, q, qd, model._zero_v, loads, rhs)
     rhs = tau - rhs
     M = mass_matrix(model, q)
     qdd, lam = np.empty(model.nv), np.empty(A.shape[0])
@@ -965,7 +964,6 @@ def constrained_inverse_dynamics(model, q, qd, qdd, A, lam=None, gravity=None):
         qdd,
         _args.loads(model, gravity, None),
         tau_free,
-        None,
     )
     if status:
         _args.raise_status(status, model, what)

@@ -13,7 +13,7 @@ import numpy as np
 from numba import njit
 
 from . import _args
-from ._kernels import BATCH, JIT, all_finite, run_rows, workspace
+from ._kernels import BATCH, JIT, all_finite, run_rows
 from .aba import SINGULAR_PIVOT, aba_kernel
 from .crba import crba_kernel
 from .rnea import rnea_kernel
@@ -73,7 +73,7 @@ def cholesky_solve(M, b, x):
 
 
 @njit(**JIT)
-def newton_euler_mass_matrix(ibuf, fbuf, q, M, work):
+def newton_euler_mass_matrix(ibuf, fbuf, q, M):
     """M (nv, nv) <- the seed's method: column k is RNEA's tau with qdd = e_k, qd = 0,
     gravity = 0 and no F_tip (nv RNEA calls). Returns a Status."""
     nv = M.shape[0]
@@ -83,7 +83,7 @@ def newton_euler_mass_matrix(ibuf, fbuf, q, M, work):
     no_loads = np.zeros((1, 6))
     for k in range(nv):
         e_k[k] = 1.0
-        status = rnea_kernel(ibuf, fbuf, q, zero, e_k, no_loads, col, work)
+        status = rnea_kernel(ibuf, fbuf, q, zero, e_k, no_loads, col)
         if status:
             return status
         for r in range(nv):
@@ -93,22 +93,22 @@ def newton_euler_mass_matrix(ibuf, fbuf, q, M, work):
 
 
 @njit(**JIT)
-def mass_matrix_solve(ibuf, fbuf, q, qd, tau, loads, qdd, armature, work, crba, newton_euler):
+def mass_matrix_solve(ibuf, fbuf, q, qd, tau, loads, qdd, armature, crba, newton_euler):
     """qdd <- (M + diag(armature))^-1 (tau - h - J^T F_tip), M by CRBA or by nv RNEA calls,
     whichever compile-time switch is not None; armature (nv,) or empty.
     Returns a Status as aba_kernel."""
     nv = qdd.shape[0]
     M = np.empty((nv, nv))
     b = np.empty(nv)
-    status = rnea_kernel(ibuf, fbuf, q, qd, np.zeros(nv), loads, b, work)
+    status = rnea_kernel(ibuf, fbuf, q, qd, np.zeros(nv), loads, b)
     if status:
         return status
     if not all_finite(tau):
         return Status.TAU_NOT_FINITE.value
     if crba is not None:
-        crba_kernel(ibuf, fbuf, q, M, work)
+        crba_kernel(ibuf, fbuf, q, M)
     if newton_euler is not None:
-        newton_euler_mass_matrix(ibuf, fbuf, q, M, work)
+        newton_euler_mass_matrix(ibuf, fbuf, q, M)
     for k in range(armature.shape[0]):
         M[k, k] += armature[k]
     for k in range(nv):
@@ -117,26 +117,24 @@ def mass_matrix_solve(ibuf, fbuf, q, qd, tau, loads, qdd, armature, work, crba, 
 
 
 @njit(**JIT)
-def forward_kernel(ibuf, fbuf, q, qd, tau, loads, qdd, armature, work, aba, crba, newton_euler):
+def forward_kernel(ibuf, fbuf, q, qd, tau, loads, qdd, armature, aba, crba, newton_euler):
     """One state by the method the compile-time switches (aba, crba, newton_euler) name: one
     of them True, the others None (method_switches). numba drops the code behind a None
     argument when it compiles, so only the method asked for is compiled. armature (nv,)
     rotor inertias on M's diagonal, or an empty array for none. Returns a Status."""
     if aba is not None:
-        return aba_kernel(ibuf, fbuf, q, qd, tau, loads, qdd, armature, work)
+        return aba_kernel(ibuf, fbuf, q, qd, tau, loads, qdd, armature)
     if crba is not None or newton_euler is not None:
         return mass_matrix_solve(
-            ibuf, fbuf, q, qd, tau, loads, qdd, armature, work, crba, newton_euler
+            ibuf, fbuf, q, qd, tau, loads, qdd, armature, crba, newton_euler
         )
     return Status.OK.value  # no method switched on: nothing to compile
 
 
 @njit(**BATCH)
 def forward_batch_kernel(ibuf, fbuf, q, qd, tau, loads, qdd, method, status, start, stop):
-    """Forward dynamics over rows [start, stop) of a batch (N, nv); loads (1 or N, rows, 6);
-    one workspace for the rows."""
+    """Forward dynamics over rows [start, stop) of a batch (N, nv); loads (1 or N, rows, 6)."""
     shared = loads.shape[0] == 1
-    own = workspace(None, ibuf[0])
     aba, crba, newton_euler = method
     for n in range(start, stop):
         status[n] = forward_kernel(
@@ -148,7 +146,6 @@ def forward_batch_kernel(ibuf, fbuf, q, qd, tau, loads, qdd, method, status, sta
             loads[0] if shared else loads[n],
             qdd[n],
             NO_ARMATURE,
-            own,
             aba,
             crba,
             newton_euler,
@@ -163,10 +160,8 @@ def method_switches(model, method):
     name, True for the method and None for the others (all None for a method name of None: no
     forward dynamics). Models with coupled (mimic) joints solve "aba" by CRBA (ABA needs one
     coordinate a body). A table look-up: it runs on every forward_dynamics call."""
-    if method == "aba" and model.nb != model.nv:
-        method = "crba"
     try:
-        return _SWITCHES[method]
+        return _SWITCHES["crba" if method == "aba" and model.nb != model.nv else method]
     except (KeyError, TypeError):
         raise ValueError(
             f"forward_dynamics: method must be one of {', '.join(METHODS)}, got {method!r}"
@@ -187,7 +182,7 @@ def forward_dynamics(model, q, qd, tau, f_tip=None, gravity=None, method="aba"):
     Raises SingularMassMatrixError (a ValueError) naming the joint when nothing with mass or
     inertia moves with it.
     """
-    switches = method_switches(model, method)
+    aba, crba, newton_euler = method_switches(model, method)
     if _args.is_single(model, q, qd, tau):
         qdd = np.empty(model._vector_shape)
         status = forward_kernel(
@@ -201,8 +196,9 @@ def forward_dynamics(model, q, qd, tau, f_tip=None, gravity=None, method="aba"):
             else _args.loads(model, gravity, f_tip),
             qdd,
             NO_ARMATURE,
-            None,
-            *switches,
+            aba,
+            crba,
+            newton_euler,
         )
         if status:
             _args.raise_status(status, model, "forward_dynamics")
@@ -223,7 +219,7 @@ def forward_dynamics(model, q, qd, tau, f_tip=None, gravity=None, method="aba"):
         tau,
         _args.loads(model, gravity, f_tip, n),
         qdd,
-        switches,
+        (aba, crba, newton_euler),
         status,
     )
     _args.raise_batch_status(status, model, "forward_dynamics")

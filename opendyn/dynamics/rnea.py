@@ -34,8 +34,6 @@ from ._kernels import (
     run_rows,
     tree,
     twist_to_child,
-    work_views,
-    workspace,
 )
 from ..status import Status
 
@@ -70,10 +68,9 @@ def forward_pass(body_tree, q, qd, qdd, dV_0, R, p, V, dV, s):
 
 
 @njit(**JIT)
-def rnea_kernel(ibuf, fbuf, q, qd, qdd, loads, tau, work):
+def rnea_kernel(ibuf, fbuf, q, qd, qdd, loads, tau):
     """tau (nv,) <- RNEA at one state. loads[0] = dV_0 = (0, -g); loads[1 + i], when present,
-    the wrench body i applies to the environment; work: a workspace (model.work_size(nb)), or
-    None to allocate one. Returns a Status: OK, or Q/QD/QDD_NOT_FINITE."""
+    the wrench body i applies to the environment. Returns a Status: OK, or Q/QD/QDD_NOT_FINITE."""
     if not all_finite(q):
         return Status.Q_NOT_FINITE.value
     if not all_finite(qd):
@@ -84,7 +81,11 @@ def rnea_kernel(ibuf, fbuf, q, qd, qdd, loads, tau, work):
     parent, jtype, coord, mult, offset, A, R_home, p_home = body_tree
     mass, h, I_o = rigid_inertias(ibuf, fbuf)
     nb = parent.shape[0]
-    R, p, V, dV, F, _, _, _, _, _, _, s = work_views(workspace(work, nb), nb)
+    vec = np.empty((3, nb, 6))
+    V, dV, F = vec[0], vec[1], vec[2]
+    R = np.empty((nb, 3, 3))
+    p = np.empty((nb, 3))
+    s = np.empty(6)
     forward_pass(body_tree, q, qd, qdd, loads[0], R, p, V, dV, s)
 
     # backward pass: F_i = G_i dV_i - ad_{V_i}^T G_i V_i + F_tip,i + sum_children Ad^T F_c,
@@ -108,12 +109,11 @@ def rnea_kernel(ibuf, fbuf, q, qd, qdd, loads, tau, work):
 @njit(**BATCH)
 def rnea_batch_kernel(ibuf, fbuf, q, qd, qdd, loads, tau, status, start, stop):
     """RNEA over rows [start, stop) of a batch (N, nv); loads (1, rows, 6) shared or (N, ...);
-    one workspace for the rows."""
+    """
     shared = loads.shape[0] == 1
-    own = workspace(None, ibuf[0])
     for n in range(start, stop):
         status[n] = rnea_kernel(
-            ibuf, fbuf, q[n], qd[n], qdd[n], loads[0] if shared else loads[n], tau[n], own
+            ibuf, fbuf, q[n], qd[n], qdd[n], loads[0] if shared else loads[n], tau[n]
         )
 
 
@@ -133,7 +133,6 @@ def run_rnea(model, q, qd, qdd, f_tip, gravity, what):
             qdd,
             _args.loads(model, gravity, f_tip),
             tau,
-            None,
         )
         if status:
             _args.raise_status(status, model, what)
@@ -171,7 +170,7 @@ def inverse_dynamics(model, q, qd, qdd, f_tip=None, gravity=None):
         # the common call, with nothing to convert: straight to the kernel
         tau = np.empty(model._vector_shape)
         status = rnea_kernel(
-            model._ibuf, model._fbuf, q, qd, qdd, model._loads, tau, None
+            model._ibuf, model._fbuf, q, qd, qdd, model._loads, tau
         )
         if status:
             _args.raise_status(status, model, "inverse_dynamics")
