@@ -28,12 +28,14 @@ from ._kernels import (
     all_finite,
     dot6,
     fill,
+    joint_transform,
     rigid_inertia_times,
     rigid_inertias,
     run_rows,
     tree,
+    twist_to_child,
 )
-from .kinematics import forward_kinematics
+from .kinematics import world_pose
 from .rnea import forward_pass
 from ..status import Status
 
@@ -48,21 +50,6 @@ def body_twists(ibuf, fbuf, q, qd):
     V, dV = np.empty((nb, 6)), np.empty((nb, 6))
     forward_pass(body_tree, q, qd, np.zeros_like(qd), np.zeros(6), R, p, V, dV, np.empty(6))
     return R, p, V
-
-
-@njit(**INLINE)
-def kinetic(ibuf, fbuf, q, qd):
-    """K = sum_i 1/2 V_i^T G_i V_i (J)."""
-    mass, h, I_o = rigid_inertias(ibuf, fbuf)
-    nb = mass.shape[0]
-    R, p, V = body_twists(ibuf, fbuf, q, qd)
-    s = np.empty(6)
-    K = 0.0
-    for i in range(nb):
-        rigid_inertia_times(mass[i], h[i], I_o[i], V[i], s)
-        for k in range(6):
-            K += 0.5 * V[i, k] * s[k]
-    return K
 
 
 @njit(**JIT)
@@ -92,16 +79,41 @@ def kinetic_gradient_kernel(ibuf, fbuf, q, qd, dK_dq):
     return Status.OK.value
 
 
-@njit(**INLINE)
-def potential(ibuf, fbuf, q, gravity):
-    """U = -sum_i g . (R_si h_i + m_i p_si) (J), h_i = m_i c_i."""
+@njit(**JIT)
+def energy_kernel(ibuf, fbuf, q, qd, gravity, out):
+    """out (2,) <- (K(q, qd), U(q)) under the world-frame gravity (3,), in one pass from the
+    base to the tips:
+        T_{s,i} = T_{s,lambda} T_{lambda,i},   V_i = Ad_{T_{i,lambda}} V_lambda + A_i qd_i,
+        K = sum_i 1/2 V_i^T G_i V_i,           U = -sum_i g . (R_si h_i + m_i p_si).
+    Returns a Status: OK or Q/QD_NOT_FINITE."""
+    if not all_finite(q):
+        return Status.Q_NOT_FINITE.value
+    if not all_finite(qd):
+        return Status.QD_NOT_FINITE.value
+    parent, jtype, coord, mult, offset, A, R_home, p_home = tree(ibuf, fbuf)
     mass, h, I_o = rigid_inertias(ibuf, fbuf)
-    nb = mass.shape[0]
-    R_s = np.empty((nb, 3, 3))
-    p_s = np.empty((nb, 3))
-    forward_kinematics(tree(ibuf, fbuf), q, R_s, p_s, -1)
+    nb = parent.shape[0]
+    R, p = np.empty((3, 3)), np.empty(3)
+    R_s, p_s = np.empty((nb, 3, 3)), np.empty((nb, 3))
+    V = np.empty((nb, 6))
+    s = np.empty(6)
+    K = 0.0
     U = 0.0
     for i in range(nb):
+        j = coord[i]
+        joint_transform(
+            jtype[i], A[i], R_home[i], p_home[i], mult[i] * q[j] + offset[i], R, p
+        )
+        lam = parent[i]
+        world_pose(R_s, p_s, lam, R, p, i)
+        if lam < 0:
+            fill(V[i], 0.0)
+        else:
+            twist_to_child(R, p, V[lam], V[i])
+        for k in range(6):
+            V[i, k] += A[i, k] * mult[i] * qd[j]
+        rigid_inertia_times(mass[i], h[i], I_o[i], V[i], s)
+        K += 0.5 * dot6(V[i], s)
         for r in range(3):
             mc = (
                 R_s[i, r, 0] * h[i, 0]
@@ -110,19 +122,8 @@ def potential(ibuf, fbuf, q, gravity):
                 + mass[i] * p_s[i, r]
             )
             U -= gravity[r] * mc
-    return U
-
-
-@njit(**JIT)
-def energy_kernel(ibuf, fbuf, q, qd, gravity, out):
-    """out (2,) <- (K(q, qd), U(q)) under the world-frame gravity (3,).
-    Returns a Status: OK or Q/QD_NOT_FINITE."""
-    if not all_finite(q):
-        return Status.Q_NOT_FINITE.value
-    if not all_finite(qd):
-        return Status.QD_NOT_FINITE.value
-    out[0] = kinetic(ibuf, fbuf, q, qd)
-    out[1] = potential(ibuf, fbuf, q, gravity)
+    out[0] = K
+    out[1] = U
     return Status.OK.value
 
 

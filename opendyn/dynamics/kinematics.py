@@ -31,6 +31,26 @@ from ..status import Status
 
 
 @njit(**INLINE)
+def world_pose(R_s, p_s, lam, R, p, i):
+    """R_s[i], p_s[i] <- T_{s,i} = T_{s,lambda} T_{lambda,i} with (R, p) = T_{lambda,i};
+    lam -1 is the world (T_{s,i} = T_{lambda,i})."""
+    if lam < 0:
+        for r in range(3):
+            p_s[i, r] = p[r]
+            for c in range(3):
+                R_s[i, r, c] = R[r, c]
+        return
+    for r in range(3):
+        for c in range(3):
+            R_s[i, r, c] = (
+                R_s[lam, r, 0] * R[0, c] + R_s[lam, r, 1] * R[1, c] + R_s[lam, r, 2] * R[2, c]
+            )
+        p_s[i, r] = (
+            p_s[lam, r] + R_s[lam, r, 0] * p[0] + R_s[lam, r, 1] * p[1] + R_s[lam, r, 2] * p[2]
+        )
+
+
+@njit(**INLINE)
 def forward_kinematics(body_tree, q, R_s, p_s, last):
     """R_s[i], p_s[i] <- T_{s,i}(q) (world frame = the root link) for every body, or, when
     last >= 0, only for the bodies on the path from the root to body `last`.
@@ -53,21 +73,7 @@ def forward_kinematics(body_tree, q, R_s, p_s, last):
         joint_transform(
             jtype[i], A[i], R_home[i], p_home[i], mult[i] * q[coord[i]] + offset[i], R, p
         )
-        lam = parent[i]
-        if lam < 0:
-            for r in range(3):
-                p_s[i, r] = p[r]
-                for c in range(3):
-                    R_s[i, r, c] = R[r, c]
-            continue
-        for r in range(3):
-            for c in range(3):
-                R_s[i, r, c] = (
-                    R_s[lam, r, 0] * R[0, c] + R_s[lam, r, 1] * R[1, c] + R_s[lam, r, 2] * R[2, c]
-                )
-            p_s[i, r] = (
-                p_s[lam, r] + R_s[lam, r, 0] * p[0] + R_s[lam, r, 1] * p[1] + R_s[lam, r, 2] * p[2]
-            )
+        world_pose(R_s, p_s, parent[i], R, p, i)
 
 
 @njit(**INLINE)
