@@ -255,37 +255,40 @@ def dot6(a, b):
 def add_inertia_to_parent(R, p, I_child, I_parent, S):
     """I_parent += Ad_{T_{i,lambda}}^T I_child Ad_{T_{i,lambda}} for a symmetric (6, 6) inertia.
 
-    Rotate the blocks of I_child = [[K, B], [B^T, C]] into the parent's axes (K' = R K R^T, ...),
-    then shift the reference point by p:
+    Rotate the blocks of I_child = [[K, B], [B^T, C]] into the parent's axes (K' = R K R^T,
+    B' = R B R^T, C' = R C R^T, each as R (X R^T)), then shift the reference point by p:
       C_p = C',   B_p = B' + [p] C',   K_p = K' - B'[p] + [p] B'^T - [p] C' [p].
-    S is (9, 6) scratch: rows 0-5 hold the rotated inertia, rows 6-8 hold [p] C'.
+    S is (9, 6) scratch: K', B', C' in rows 0-2, 3-5, 6-8 of columns 0-2; X R^T in rows 0-2
+    and [p] C' in rows 3-5 of columns 3-5.
     """
-    for r6 in range(6):
-        br = 3 * (r6 // 3)
-        r = r6 - br
-        for c6 in range(6):
-            bc = 3 * (c6 // 3)
-            c = c6 - bc
-            s = 0.0
-            for k in range(3):
-                t = 0.0
-                for l in range(3):
-                    t += I_child[br + k, bc + l] * R[c, l]
-                s += R[r, k] * t
-            S[r6, c6] = s
+    for blk in range(3):
+        br = 0 if blk < 2 else 3
+        bc = 0 if blk == 0 else 3
+        for k in range(3):
+            for c in range(3):
+                S[k, 3 + c] = (
+                    I_child[br + k, bc] * R[c, 0]
+                    + I_child[br + k, bc + 1] * R[c, 1]
+                    + I_child[br + k, bc + 2] * R[c, 2]
+                )
+        for r in range(3):
+            for c in range(3):
+                S[3 * blk + r, c] = R[r, 0] * S[0, 3 + c] + R[r, 1] * S[1, 3 + c] + R[r, 2] * S[
+                    2, 3 + c
+                ]
     P = ((0.0, -p[2], p[1]), (p[2], 0.0, -p[0]), (-p[1], p[0], 0.0))
     for r in range(3):
         for c in range(3):
-            S[6 + r, c] = P[r][0] * S[3, 3 + c] + P[r][1] * S[4, 3 + c] + P[r][2] * S[5, 3 + c]
+            S[3 + r, 3 + c] = P[r][0] * S[6, c] + P[r][1] * S[7, c] + P[r][2] * S[8, c]
     for r in range(3):
         for c in range(3):
-            B_rc = S[r, 3 + c] + S[6 + r, c]
+            B_rc = S[3 + r, c] + S[3 + r, 3 + c]
             I_parent[r, 3 + c] += B_rc
             I_parent[3 + c, r] += B_rc
-            I_parent[3 + r, 3 + c] += S[3 + r, 3 + c]
+            I_parent[3 + r, 3 + c] += S[6 + r, c]
             K_rc = S[r, c]
             for k in range(3):
-                K_rc += -S[r, 3 + k] * P[k][c] + P[r][k] * S[c, 3 + k] - S[6 + r, k] * P[k][c]
+                K_rc += -S[3 + r, k] * P[k][c] + P[r][k] * S[3 + c, k] - S[3 + r, 3 + k] * P[k][c]
             I_parent[r, c] += K_rc
 
 
