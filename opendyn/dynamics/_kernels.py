@@ -246,6 +246,16 @@ def mat6_vec(G, V, out):
 
 
 @njit(**INLINE)
+def inertia_times_axis(jtype, I, A_i, out):
+    """out = I A_i for a (6, 6) inertia and a joint's screw axis, which has one zero half:
+    (a, 0) for a revolute joint, (0, a) for a prismatic one (model.A), so only three columns
+    of I are read."""
+    o = 3 if jtype == PRISMATIC else 0
+    for r in range(6):
+        out[r] = I[r, o] * A_i[o] + I[r, o + 1] * A_i[o + 1] + I[r, o + 2] * A_i[o + 2]
+
+
+@njit(**INLINE)
 def dot6(a, b):
     """a . b for 6-vectors (e.g. the power F . A of a wrench on a screw axis)."""
     return a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3] + a[4] * b[4] + a[5] * b[5]

@@ -30,7 +30,10 @@ from ._kernels import (
     dot6,
     fill,
     joint_transform,
+    inertia_times_axis,
     mat6_vec,
+    rigid_inertia_times,
+    rigid_inertias,
     spatial_inertias,
     tree,
     twist_to_child,
@@ -54,6 +57,7 @@ def aba_kernel(ibuf, fbuf, q, qd, tau, loads, qdd, armature):
         return Status.TAU_NOT_FINITE.value
     parent, jtype, coord, mult, offset, A, R_home, p_home = tree(ibuf, fbuf)
     G = spatial_inertias(ibuf, fbuf)
+    mass, h, I_o = rigid_inertias(ibuf, fbuf)
     nb = parent.shape[0]
     R = np.empty((nb, 3, 3))
     p = np.empty((nb, 3))
@@ -84,7 +88,7 @@ def aba_kernel(ibuf, fbuf, q, qd, tau, loads, qdd, armature):
         ad_twist(V[i], A[i], c[i])
         for k in range(6):
             c[i, k] *= qd[i]
-        mat6_vec(G[i], V[i], s)
+        rigid_inertia_times(mass[i], h[i], I_o[i], V[i], s)
         fill(pA[i], 0.0)
         add_neg_ad_transpose(V[i], s, pA[i])
         if wrenches:
@@ -96,7 +100,7 @@ def aba_kernel(ibuf, fbuf, q, qd, tau, loads, qdd, armature):
 
     # pass 2: articulated inertias and bias wrenches, tips to base
     for i in range(nb - 1, -1, -1):
-        mat6_vec(IA[i], A[i], U[i])
+        inertia_times_axis(jtype[i], IA[i], A[i], U[i])
         D[i] = dot6(A[i], U[i])
         if rotors:
             D[i] += armature[i]
@@ -106,13 +110,14 @@ def aba_kernel(ibuf, fbuf, q, qd, tau, loads, qdd, armature):
         lam = parent[i]
         if lam < 0:
             continue
+        D_inv = 1.0 / D[i]
         for r in range(6):
             for k in range(6):
-                IA[i, r, k] -= U[i, r] * U[i, k] / D[i]
+                IA[i, r, k] -= U[i, r] * U[i, k] * D_inv
         # pa = pA_i + Ia c_i + U_i u_i / D_i  (reuse pA[i])
         mat6_vec(IA[i], c[i], s)
         for k in range(6):
-            pA[i, k] += s[k] + U[i, k] * u[i] / D[i]
+            pA[i, k] += s[k] + U[i, k] * u[i] * D_inv
         add_inertia_to_parent(R[i], p[i], IA[i], IA[lam], S)
         add_wrench_to_parent(R[i], p[i], pA[i], pA[lam])
 
