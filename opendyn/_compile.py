@@ -157,7 +157,7 @@ def core_calls(model, batch=64):
     rng = np.random.default_rng(0)
     q, qd, qdd = rng.normal(size=(3, model.nv))
     Q, QD, QDD = rng.normal(size=(3, batch, model.nv))
-    frame = model.frame_names[-1]
+    frame = model.body_names[-1]  # a frame that moves with every joint above it
     point = od.PointToWorld(frame)
     calls = [
         ("inverse_dynamics", lambda: od.inverse_dynamics(model, q, qd, qdd)),

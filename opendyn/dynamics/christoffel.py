@@ -24,7 +24,6 @@ from numba import njit
 from . import _args
 from ._kernels import (
     BATCH,
-    INLINE,
     JIT,
     ad_twist,
     add_inertia_to_parent,
@@ -41,10 +40,10 @@ from ..status import Status
 from .kinematics import forward_kinematics, space_axis
 
 
-@njit(**INLINE)
+@njit(**JIT)
 def space_axes_and_inertias(ibuf, fbuf, q, S, Gs, Gc):
     """S[i] = Ad_{T_si} A_i, Gs[i] = Ad_{T_is}^T G_i Ad_{T_is} (space frame) and the composite
-    Gc[i] = sum of Gs over the subtree of i, at q."""
+    Gc[i] = sum of Gs over the subtree of i, at q. Compiled once for both kernels below."""
     body_tree = tree(ibuf, fbuf)
     parent, jtype, coord, mult, offset, A, R_home, p_home = body_tree
     G = spatial_inertias(ibuf, fbuf)

@@ -132,8 +132,12 @@ def forward_kernel(ibuf, fbuf, q, qd, tau, loads, qdd, armature, aba, crba, newt
 
 
 @njit(**BATCH)
-def forward_batch_kernel(ibuf, fbuf, q, qd, tau, loads, qdd, method, status, start, stop):
-    """Forward dynamics over rows [start, stop) of a batch (N, nv); loads (1 or N, rows, 6)."""
+def forward_batch_kernel(
+    ibuf, fbuf, q, qd, tau, loads, qdd, armature, method, status, start, stop
+):
+    """Forward dynamics over rows [start, stop) of a batch (N, nv); loads (1 or N, rows, 6);
+    armature as in forward_kernel, an argument (a global array would be a read-only constant to
+    numba, and the kernel would compile again for it)."""
     shared = loads.shape[0] == 1
     aba, crba, newton_euler = method
     for n in range(start, stop):
@@ -145,7 +149,7 @@ def forward_batch_kernel(ibuf, fbuf, q, qd, tau, loads, qdd, method, status, sta
             tau[n],
             loads[0] if shared else loads[n],
             qdd[n],
-            NO_ARMATURE,
+            armature,
             aba,
             crba,
             newton_euler,
@@ -219,6 +223,7 @@ def forward_dynamics(model, q, qd, tau, f_tip=None, gravity=None, method="aba"):
         tau,
         _args.loads(model, gravity, f_tip, n),
         qdd,
+        NO_ARMATURE,
         (aba, crba, newton_euler),
         status,
     )
