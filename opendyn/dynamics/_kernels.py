@@ -23,11 +23,14 @@ from ..model import FLOAT_AT, INT_AT, INT_HEADER, PRISMATIC
 
 JIT = dict(cache=CACHING)
 # batch loops release the GIL so that threads run them in parallel (see run_rows); single-state
-# kernels keep it, which saves the release and re-acquisition on every call (and lets them share
-# the model's one workspace)
+# kernels keep it, which saves the release and re-acquisition on every call
 BATCH = dict(cache=CACHING, nogil=True)
-# small helpers are inlined into the kernels at the numba IR level (measured: RNEA on a UR5
-# 1.46 -> 1.10 us per call inside a compiled loop)
+# helpers that take views of the per-body arrays are inlined into the kernels at the numba IR
+# level (measured: RNEA on a UR5 1.46 -> 1.10 us per call inside a compiled loop; called as
+# compiled functions instead, 1.2 -> 2.1 us). IR inlining is what costs numba's front end most
+# when a kernel compiles, so the loop helpers (all_finite, copy_into, fill, zero_matrix, dot6)
+# are plain compiled functions, which LLVM inlines anyway: ABA compiles in 4.6 s instead of
+# 5.6 s at the same speed.
 INLINE = dict(cache=CACHING, inline="always")
 
 _MIN_ROWS_PER_THREAD = 64
@@ -115,7 +118,7 @@ def spatial_inertias(ibuf, fbuf):
     return field(fbuf, nb, _G).reshape((nb, 6, 6))
 
 
-@njit(**INLINE)
+@njit(**JIT)
 def copy_into(src, dst):
     """dst[k] = src[k] for 1-D arrays of one length. An explicit loop: a slice assignment
     `dst[:] = src` makes numba compile a shape-mismatch error path into every kernel."""
@@ -123,14 +126,14 @@ def copy_into(src, dst):
         dst[k] = src[k]
 
 
-@njit(**INLINE)
+@njit(**JIT)
 def fill(x, value):
     """x[k] = value for every entry of the 1-D array x (see copy_into)."""
     for k in range(x.shape[0]):
         x[k] = value
 
 
-@njit(**INLINE)
+@njit(**JIT)
 def zero_matrix(X):
     """X[r, c] = 0 for a 2-D array (see copy_into)."""
     for r in range(X.shape[0]):
@@ -138,7 +141,7 @@ def zero_matrix(X):
             X[r, c] = 0.0
 
 
-@njit(**INLINE)
+@njit(**JIT)
 def all_finite(x):
     """True when every entry of the 1-D array x is finite."""
     for k in range(x.shape[0]):
@@ -255,7 +258,7 @@ def inertia_times_axis(jtype, I, A_i, out):
         out[r] = I[r, o] * A_i[o] + I[r, o + 1] * A_i[o + 1] + I[r, o + 2] * A_i[o + 2]
 
 
-@njit(**INLINE)
+@njit(**JIT)
 def dot6(a, b):
     """a . b for 6-vectors (e.g. the power F . A of a wrench on a screw axis)."""
     return a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3] + a[4] * b[4] + a[5] * b[5]
