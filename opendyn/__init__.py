@@ -9,7 +9,13 @@ from ._kernel_cache import kernel_cache
 from .constraints import FixedPose, JointCoupling, PointOnPlane, PointToPoint, PointToWorld
 from .dynamics._args import SingularMassMatrixError
 from .dynamics.christoffel import christoffel_symbols, coriolis_matrix
-from .dynamics.configuration import integrate
+from .dynamics.configuration import (
+    difference,
+    integrate,
+    neutral,
+    normalize,
+    random_configuration,
+)
 from .dynamics.crba import mass_matrix
 from .dynamics.energy import kinetic_energy, potential_energy
 from .dynamics.forward import forward_dynamics
@@ -47,7 +53,11 @@ __all__ = [
     "SimulationError",
     "Trajectory",
     "default_scene",
+    "difference",
     "integrate",
+    "neutral",
+    "normalize",
+    "random_configuration",
     "load_scene",
     "scene_from_dict",
     "simulate",

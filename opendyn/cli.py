@@ -2,7 +2,7 @@
 
   opendyn simulate [SCENE | URDF | ROBOT]   run a scene (default: the bundled double pendulum)
   opendyn info ROBOT                        model summary and URDF fidelity report
-  opendyn verify ROBOT                      every contract function against Pinocchio
+  opendyn verify ROBOT [--floating-base]    every contract function against Pinocchio
   opendyn demo [ROBOT]                      M(q), g(q) and forward dynamics at one state
   opendyn compile [--all | SCENE...]        compile the kernels ahead of time (images, workers)
   opendyn info --cache                      where the compiled kernels are cached
@@ -109,7 +109,12 @@ def _info(args) -> int:
         return _cache_info()
     if args.robot is None:
         raise ValueError("name a robot (a URDF file or robot name), or ask for --cache")
-    model = load_urdf(args.robot, mimic=args.mimic, check_inertia=not args.keep_inertia)
+    model = load_urdf(
+        args.robot,
+        mimic=args.mimic,
+        check_inertia=not args.keep_inertia,
+        floating_base=args.floating_base,
+    )
     print(model.summary())
     print()
     print(model.report)
@@ -120,7 +125,12 @@ def _verify(args) -> int:
     from .verify import PinocchioMissingError, format_table, verify
 
     try:
-        model = load_urdf(args.robot, mimic=args.mimic, check_inertia=not args.keep_inertia)
+        model = load_urdf(
+            args.robot,
+            mimic=args.mimic,
+            check_inertia=not args.keep_inertia,
+            floating_base=args.floating_base,
+        )
         checks = verify(model, states=args.states, seed=args.seed, rtol=args.rtol)
     except PinocchioMissingError as e:
         print(e, file=sys.stderr)
@@ -356,6 +366,9 @@ def main(argv=None) -> int:
     )
     info.add_argument("--mimic", action="store_true", help="couple mimic joints")
     info.add_argument(
+        "--floating-base", action="store_true", help="make the root link a free body"
+    )
+    info.add_argument(
         "--keep-inertia", action="store_true", help="keep physically invalid inertias as written"
     )
     info.set_defaults(run=_info)
@@ -366,6 +379,9 @@ def main(argv=None) -> int:
     verify.add_argument("--seed", type=int, default=0)
     verify.add_argument("--rtol", type=float, default=1e-9, help="relative tolerance")
     verify.add_argument("--mimic", action="store_true", help="couple mimic joints")
+    verify.add_argument(
+        "--floating-base", action="store_true", help="make the root link a free body"
+    )
     verify.add_argument(
         "--keep-inertia", action="store_true", help="keep physically invalid inertias as written"
     )

@@ -325,7 +325,7 @@ def stage_table(scene) -> StageTable:
         effects=tuple(slots),
         names=tuple(names.get(k, SLOT_NAMES[k]) for k in present),
         slots=present,
-        method="aba" if model.nb == model.nv else "crba",
+        method="crba" if model.coupled else "aba",
         armature=NO_ARMATURE if scene.armature is None else np.array(scene.armature, float),
         constraints=constraints,
     )

@@ -42,7 +42,12 @@ from .dynamics.configuration import integrate_kernel
 from .dynamics.constraints import constrained_solve_at
 from .dynamics.crba import crba_kernel
 from .dynamics.energy import kinetic_gradient_kernel
-from .dynamics.forward import cholesky_factor, cholesky_solve, cholesky_substitute
+from .dynamics.cholesky import (
+    cholesky_factor,
+    cholesky_solve,
+    cholesky_substitute,
+    largest_diagonal,
+)
 from .dynamics.rnea import rnea_kernel
 from .status import Status
 from .step import evaluate, generalized_forces
@@ -271,7 +276,7 @@ def symplectic_euler_step(scene, t, dt, q, qd, w, q1, qd1, w1, tau_ctrl):
             M[r, r] += armature[r]
         for c in range(nv):
             p[r] += M[r, c] * qd[c]
-    status = cholesky_factor(M)
+    status = cholesky_factor(M, nv, largest_diagonal(M))
     if status:
         return status
     # p' = p + dt (dK/dq(q, v) - g + tau), v = M^-1 p': fixed-point iteration from v = qd
@@ -286,7 +291,7 @@ def symplectic_euler_step(scene, t, dt, q, qd, w, q1, qd1, w1, tau_ctrl):
             return status
         for j in range(nv):
             p1[j] = p[j] + dt * (dK_dq[j] - g[j] + tau[j])
-        cholesky_substitute(M, p1, v_next)
+        cholesky_substitute(M, nv, p1, v_next)
         change = 0.0
         size = 0.0
         for j in range(nv):

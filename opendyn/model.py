@@ -1,19 +1,26 @@
-"""The frozen robot model: screw axes A_i, home transforms M_{i,i-1}, spatial inertias G_i.
+"""The frozen robot model: joint models, home transforms M_{i,i-1}, spatial inertias G_i.
 
 A kinematic tree of ``nb`` moving bodies. Body ``i`` is the child link of the i-th moving joint
-(revolute, continuous or prismatic) with every link welded to it by fixed joints lumped in. Its
-frame {i} is that child link's frame, which by the URDF convention is also the joint frame.
-The configuration of {i} relative to its parent body's frame {lambda(i)} is
+(revolute, continuous, prismatic, or the free joint of a floating base) with every link welded
+to it by fixed joints lumped in. Its frame {i} is that child link's frame, which by the URDF
+convention is also the joint frame. The configuration of {i} relative to its parent body's frame
+{lambda(i)} is
 
-    T_{lambda(i), i}(q_i) = M_{lambda(i), i} exp([A_i] q_i)
+    T_{lambda(i), i}(q_i) = M_{lambda(i), i} X_J(q_i)
 
-with ``A_i`` the joint's screw axis expressed in {i} (angular first: (a, 0) for a revolute joint
-with unit axis a, (0, a) for a prismatic one) and ``M_{lambda(i), i}`` the home transform at
-``q_i = 0``. Parent index -1 is the fixed world: the root link and every link welded to it.
+with ``M_{lambda(i), i}`` the home transform and X_J the joint's own transform (the joint models
+of opendyn.dynamics.joints): exp([A_i] q_i) for a 1-dof joint with screw axis ``A_i`` in {i}
+(angular first: (a, 0) for a revolute joint with unit axis a, (0, a) for a prismatic one), the
+pose (p, quat) for a free joint. Joint i has nq_i configuration coordinates starting at ``iq[i]``
+in q and nv_i velocity coordinates starting at ``iv[i]`` in v, and the motion subspace
+``S_i`` (nv_i rows of 6, angular first): V_J = S_i v_i. Parent index -1 is the fixed world: the
+root link and every link welded to it, unless the base floats; then the root link is body 0,
+on a free joint whose q is (p, quat) of the root link frame in the world, (x, y, z, w) order,
+and whose v is the root's twist (omega_b, v_b) in its own frame.
 
-The body coordinates come from the generalized coordinates through an affine map
-``q_body[i] = mult[i] * q[coord[i]] + offset[i]``; it is the identity (coord[i] = i, mult 1,
-offset 0) except for mimic joints loaded with ``mimic=True``.
+A 1-dof joint may follow another (mimic joints loaded with ``mimic=True``): its angle is
+``mult[i] * q[iq[i]] + offset[i]`` with iq, iv those of the joint it follows; mult 1 and
+offset 0 otherwise.
 
 All per-body numbers live in two flat buffers (``_ibuf`` ints, ``_fbuf`` float64) that the
 compiled kernels receive as two arguments, laid out by one table (INT_FIELDS, FLOAT_FIELDS);
@@ -30,18 +37,27 @@ import numpy as np
 
 from .spatial import linear
 
+# joint types, and each type's numbers of configuration and velocity coordinates
 REVOLUTE = 0
 PRISMATIC = 1
+FREE = 2
+JOINT_NQ = (1, 1, 7)
+JOINT_NV = (1, 1, 6)
+JOINT_TYPE_NAMES = ("revolute", "prismatic", "free")
+# the names of a free joint's coordinates, after its body's name: q, then v
+FREE_Q_NAMES = ("x", "y", "z", "qx", "qy", "qz", "qw")
+FREE_V_NAMES = ("wx", "wy", "wz", "vx", "vy", "vz")
 
 
 # The kernels' flat buffers, defined once: (field, shape per body). Field k of _fbuf starts at
-# start_k * nb; field k of _ibuf at INT_HEADER + start_k * nb, after the header [nb, nv].
-INT_HEADER = 2
-INT_FIELDS = (("parent", ()), ("jtype", ()), ("coord", ()))
+# start_k * nb; field k of _ibuf at INT_HEADER + start_k * nb, after the header [nb, nv, nq].
+# S holds each joint's motion subspace as nv_i rows of 6 (rows past nv_i are zero).
+INT_HEADER = 3
+INT_FIELDS = (("parent", ()), ("jtype", ()), ("nv_j", ()), ("iq", ()), ("iv", ()))
 FLOAT_FIELDS = (
     ("mult", ()),
     ("offset", ()),
-    ("A", (6,)),
+    ("S", (6, 6)),
     ("G", (6, 6)),
     ("mass", ()),
     ("h", (3,)),
@@ -100,24 +116,35 @@ class Frame:
 class Model:
     """A frozen kinematic tree with its inertias, as the dynamics kernels see it.
 
-    Fields (all read-only numpy views; nb = number of moving bodies, nv = number of coordinates;
-    nq = nv for a fixed base, a continuous joint having one coordinate, its angle):
+    Sizes: nb moving bodies; nq configuration and nv velocity coordinates (nq = nv for a fixed
+    base; a floating base adds 7 and 6: q = (p, quat, q_joints), v = (omega_b, v_b, qd_joints));
+    nj = len(joint_names) joint coordinates. Fields (all read-only numpy views):
       name            robot name from the URDF
-      joint_names     (nv,) names of the generalized coordinates, depth-first over the URDF tree
+      floating_base   True when a free joint carries the root link (or a URDF floating joint)
+      joint_names     (nj,) names of the moving URDF joints that are coordinates, in the order of
+                      their coordinates after the base (mimic joints with mimic=True are not)
+      q_index, v_index (nj,) int: joint k's coordinate is q[q_index[k]], its velocity v[v_index[k]]
+      q_names, v_names (nq,), (nv,) a name per coordinate: a free joint's are base_x base_y
+                      base_z base_qx base_qy base_qz base_qw and base_wx ... base_vz for the
+                      free joint on the world (the floating base; its body's name in place of
+                      "base" for a free joint further out), then the joint names
       body_names      (nb,) link name of each moving body (the joint's child link)
-      body_joints     (nb,) name of the joint that moves each body
+      body_joints     (nb,) name of the joint that moves each body ("root_joint" for the free
+                      joint of a floating root link)
       parent          (nb,) int, parent body index, -1 = fixed world; parent[i] < i
-      jtype           (nb,) int, REVOLUTE (0) or PRISMATIC (1); continuous joints are revolute
-      coord, mult, offset  (nb,) q_body[i] = mult[i] * q[coord[i]] + offset[i]
-      A               (nb, 6) screw axis of joint i in {i}, angular first, unit axis
+      jtype           (nb,) int, REVOLUTE (0), PRISMATIC (1) or FREE (2); continuous is revolute
+      nv_j, iq, iv    (nb,) int: joint i's velocity size, first index in q and first index in v
+      mult, offset    (nb,) a 1-dof joint's angle is mult[i] * q[iq[i]] + offset[i] (mimic)
+      S               (nb, 6, 6) motion subspaces: rows 0 .. nv_j[i] - 1 of S[i], angular first
+      A               (nb, 6) screw axis of each 1-dof joint in {i} (S[i, 0]), unit axis
       G               (nb, 6, 6) spatial inertia of body i about the origin of {i}, in {i} (kg, m)
       mass, h, I_o    (nb,), (nb, 3), (nb, 3, 3): the same inertia as mass, first moment m c (kg m)
                       and rotational inertia about {i}'s origin (kg m^2), all in {i}
       R_home, p_home  (nb, 3, 3), (nb, 3): M_{lambda(i), i} = (R_home[i], p_home[i]) in metres
-      lower, upper    (nv,) position limits (rad or m); -inf/+inf where the joint has none
-      velocity_limit, effort_limit (nv,) (rad/s or m/s, N m or N); +inf where absent
-      damping, friction (nv,) from the URDF ``<dynamics>`` (N m s/rad or N s/m; N m or N)
-      continuous      (nv,) bool, joint is continuous (unbounded angle)
+      lower, upper    (nj,) position limits (rad or m); -inf/+inf where the joint has none
+      velocity_limit, effort_limit (nj,) (rad/s or m/s, N m or N); +inf where absent
+      damping, friction (nj,) from the URDF ``<dynamics>`` (N m s/rad or N s/m; N m or N)
+      continuous      (nj,) bool, joint is continuous (unbounded angle)
       frames          tuple of Frame, one per URDF link, by name; a joint's name also finds the
                       frame of its child link (the URDF joint frame)
       gravity         (3,) default gravity vector in the world frame (m/s^2)
@@ -129,6 +156,8 @@ class Model:
     body_names: tuple[str, ...]
     body_joints: tuple[str, ...]
     frames: tuple[Frame, ...]
+    q_index: np.ndarray
+    v_index: np.ndarray
     lower: np.ndarray
     upper: np.ndarray
     velocity_limit: np.ndarray
@@ -153,10 +182,9 @@ class Model:
         body_joints,
         parent,
         jtype,
-        coord,
         mult,
         offset,
-        A,
+        S,
         G,
         R_home,
         p_home,
@@ -168,6 +196,7 @@ class Model:
         damping,
         friction,
         continuous,
+        follows=None,
         gravity=(0.0, 0.0, -9.81),
         report=None,
         source="",
@@ -175,14 +204,35 @@ class Model:
     ):
         """Pack per-body arrays into the kernels' flat buffers and freeze everything.
 
+        jtype (nb,) joint types; S (nb, 6, 6) motion subspaces, rows past nv_j zero.
+        follows: {body: the body whose coordinate it follows} for mimic joints (no coordinate
+        of their own). Coordinates are allocated in body order: JOINT_NQ[jtype] of q from iq,
+        JOINT_NV[jtype] of v from iv.
         frame_aliases: {other name: frame name}, e.g. each URDF joint's name for its child link
         (the URDF joint frame is the child link's frame); a frame's own name always wins.
         """
-        nb, nv = len(body_names), len(joint_names)
+        nb = len(body_names)
+        jtype = np.asarray(jtype, dtype=np.int64).reshape(nb)
+        follows = follows or {}
+        nv_j = np.array([JOINT_NV[t] for t in jtype], dtype=np.int64)
+        iq, iv = np.zeros(nb, dtype=np.int64), np.zeros(nb, dtype=np.int64)
+        nq = nv = 0
+        for i in range(nb):
+            if i not in follows:
+                iq[i], iv[i] = nq, nv
+                nq, nv = nq + JOINT_NQ[jtype[i]], nv + JOINT_NV[jtype[i]]
+        for i, source in follows.items():  # a mimic joint may come before the one it follows
+            iq[i], iv[i] = iq[source], iv[source]
         ibuf = np.zeros(INT_HEADER + buffer_size(INT_AT, nb), dtype=np.int64)
         fbuf = np.zeros(buffer_size(FLOAT_AT, nb), dtype=np.float64)
-        ibuf[0], ibuf[1] = nb, nv
-        for key, arr in (("parent", parent), ("jtype", jtype), ("coord", coord)):
+        ibuf[0], ibuf[1], ibuf[2] = nb, nv, nq
+        for key, arr in (
+            ("parent", parent),
+            ("jtype", jtype),
+            ("nv_j", nv_j),
+            ("iq", iq),
+            ("iv", iv),
+        ):
             start, size, _ = INT_AT[key]
             ibuf[INT_HEADER + start * nb : INT_HEADER + (start + size) * nb] = np.asarray(
                 arr, dtype=np.int64
@@ -196,7 +246,7 @@ class Model:
         for key, arr in (
             ("mult", mult),
             ("offset", offset),
-            ("A", A),
+            ("S", S),
             ("G", G),
             ("mass", mass),
             ("h", h),
@@ -212,6 +262,8 @@ class Model:
             a.flags.writeable = False
             return a
 
+        # each joint coordinate belongs to the 1-dof joint that carries its name
+        owner = {body_joints[i]: i for i in range(nb) if jtype[i] != FREE and i not in follows}
         frames = tuple(Frame(f.name, f.body, frozen(f.T_body_frame)) for f in frames)
         return cls(
             name=name,
@@ -219,6 +271,8 @@ class Model:
             body_names=tuple(body_names),
             body_joints=tuple(body_joints),
             frames=frames,
+            q_index=frozen([iq[owner[j]] for j in joint_names], np.int64),
+            v_index=frozen([iv[owner[j]] for j in joint_names], np.int64),
             lower=frozen(lower),
             upper=frozen(upper),
             velocity_limit=frozen(velocity_limit),
@@ -241,26 +295,45 @@ class Model:
         return _readonly_view(self._fbuf, FLOAT_AT, key, self.nb)
 
     def __post_init__(self):
-        # plain attributes, read on every call: nb bodies, nq = nv coordinates (fixed base)
-        object.__setattr__(self, "nb", int(self._ibuf[0]))
-        object.__setattr__(self, "nv", int(self._ibuf[1]))
-        object.__setattr__(self, "nq", int(self._ibuf[1]))
+        # plain attributes, read on every call
+        nb, nv, nq = (int(x) for x in self._ibuf[:3])
+        object.__setattr__(self, "nb", nb)
+        object.__setattr__(self, "nv", nv)
+        object.__setattr__(self, "nq", nq)
+        object.__setattr__(self, "floating_base", bool(np.any(self.jtype == FREE)))
+        # mimic joints share coordinates: the joints' velocity sizes add up to more than nv
+        object.__setattr__(self, "coupled", int(np.sum(self.nv_j)) != nv)
+        q_names, v_names = [""] * nq, [""] * nv
+        for i in range(nb):
+            if self.jtype[i] == FREE:
+                stem = "base" if self.parent[i] < 0 else self.body_names[i]
+                a, b = self.iq[i], self.iv[i]
+                q_names[a : a + 7] = [f"{stem}_{n}" for n in FREE_Q_NAMES]
+                v_names[b : b + 6] = [f"{stem}_{n}" for n in FREE_V_NAMES]
+        for k, name in enumerate(self.joint_names):
+            q_names[self.q_index[k]], v_names[self.v_index[k]] = name, name
+        object.__setattr__(self, "q_names", tuple(q_names))
+        object.__setattr__(self, "v_names", tuple(v_names))
         # writeable private copies handed to the kernels (one array type per argument, so
         # numba compiles each kernel once), never exposed
-        object.__setattr__(self, "_vector_shape", (self.nv,))
-        object.__setattr__(self, "_matrix_shape", (self.nv, self.nv))
-        object.__setattr__(self, "_zero_v", np.zeros(self.nv))
+        object.__setattr__(self, "_q_shape", (nq,))
+        object.__setattr__(self, "_vector_shape", (nv,))
+        object.__setattr__(self, "_matrix_shape", (nv, nv))
+        object.__setattr__(self, "_zero_v", np.zeros(nv))
         object.__setattr__(self, "_gravity", np.array(self.gravity))
         loads = np.zeros((1, 6))
         linear(loads[0])[:] = -self._gravity  # the kernels' dV_0 = (0, -g), no wrenches
         object.__setattr__(self, "_loads", loads)
 
     parent = property(lambda self: self._ifield("parent"), doc="(nb,) parent body, -1 = world")
-    jtype = property(lambda self: self._ifield("jtype"), doc="(nb,) REVOLUTE=0 / PRISMATIC=1")
-    coord = property(lambda self: self._ifield("coord"), doc="(nb,) coordinate of each body")
+    jtype = property(lambda self: self._ifield("jtype"), doc="(nb,) REVOLUTE/PRISMATIC/FREE")
+    nv_j = property(lambda self: self._ifield("nv_j"), doc="(nb,) velocity size of each joint")
+    iq = property(lambda self: self._ifield("iq"), doc="(nb,) first q index of each joint")
+    iv = property(lambda self: self._ifield("iv"), doc="(nb,) first v index of each joint")
     mult = property(lambda self: self._ffield("mult"), doc="(nb,) mimic multiplier")
     offset = property(lambda self: self._ffield("offset"), doc="(nb,) mimic offset")
-    A = property(lambda self: self._ffield("A"), doc="(nb, 6) screw axes A_i in {i}")
+    S = property(lambda self: self._ffield("S"), doc="(nb, 6, 6) motion subspaces, by rows")
+    A = property(lambda self: self.S[:, 0], doc="(nb, 6) screw axes A_i of 1-dof joints in {i}")
     G = property(lambda self: self._ffield("G"), doc="(nb, 6, 6) spatial inertias G_i in {i}")
     mass = property(lambda self: self._ffield("mass"), doc="(nb,) body masses (kg)")
     h = property(lambda self: self._ffield("h"), doc="(nb, 3) first moments m c in {i} (kg m)")
@@ -303,16 +376,15 @@ class Model:
         """A human-readable table of joints, limits and masses."""
         lines = [
             f"robot {self.name!r}: nq={self.nq}, nv={self.nv}, {self.nb} moving bodies, "
+            f"{'floating' if self.floating_base else 'fixed'} base, "
             f"{len(self.frames)} frames, total moving mass "
             f"{float(self.G[:, 3, 3].sum()) if self.nb else 0.0:.4g} kg"
         ]
+        continuous = dict(zip(self.joint_names, self.continuous))
         for i in range(self.nb):
-            j = int(self.coord[i])
-            kind = (
-                "prismatic"
-                if self.jtype[i] == PRISMATIC
-                else ("continuous" if self.continuous[j] else "revolute")
-            )
+            kind = JOINT_TYPE_NAMES[self.jtype[i]]
+            if continuous.get(self.body_joints[i], False):
+                kind = "continuous"
             parent = self.body_names[self.parent[i]] if self.parent[i] >= 0 else "(world)"
             lines.append(
                 f"  {self.body_joints[i]:<28} {kind:<10} {parent} -> "

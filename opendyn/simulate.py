@@ -23,6 +23,7 @@ import numpy as np
 from . import __version__
 from ._compile import compile_seconds, compiling
 from ._kernel_cache import kernel_cache
+from .dynamics._args import fixed_base_only
 from .dynamics.energy import energies
 from .scene import SceneError
 from .status import Status, decode
@@ -84,6 +85,7 @@ def simulate(scene, *, progress=False, raise_on_failure=True):
     """
     run = scene.run
     model = scene.model
+    fixed_base_only(model, "simulate")
     integ = integrators.INTEGRATORS[run.integrator]
     if scene.constraints and integ.kind == integrators.SEMI_IMPLICIT:
         raise SceneError(

@@ -25,6 +25,7 @@ class Status(IntEnum):
     STEP_UNDERFLOW = 6  # the adaptive step fell below what float64 time can resolve
     NO_CONVERGENCE = 7  # the symplectic Euler momentum update did not converge
     INTERRUPTED = 8  # Ctrl-C: the run stopped after its current chunk
+    Q_NOT_UNIT_QUATERNION = 9  # a free joint's quaternion in q is not of unit norm
     SINGULAR = 100  # + k: nothing with mass or inertia moves with coordinate k
 
 

@@ -1,14 +1,17 @@
 """load_urdf: a URDF file (parsed by yourdfpy) -> a frozen Model, with a fidelity report.
 
-For each moving joint i (revolute, continuous, prismatic) in depth-first order over the tree:
+For each moving joint i (revolute, continuous, prismatic, floating) in depth-first order over
+the tree:
 
     M_{lambda(i), i} = T_{body(parent link), parent link} T_origin(joint i)
-    A_i = (a, 0) revolute / continuous,  (0, a) prismatic,   a = axis / |axis|
+    S_i = (a, 0) revolute / continuous,  (0, a) prismatic,  I_6 floating,   a = axis / |axis|
     G_i = sum over links L welded to body i of  Ad_{T_{L_com, i}}^T G_{L_com} Ad_{T_{L_com, i}}
 
 Fixed joints are merged: a link hanging from a fixed joint becomes a frame of the body above it
 and its inertia is lumped into that body. The root link and the links welded to it belong to the
-fixed world; their inertia plays no part (as in Pinocchio). Every URDF link stays a named frame.
+fixed world, and their inertia plays no part (as in Pinocchio), unless the base floats: with
+floating_base=True the root link is body 0 on a free joint ("root_joint", M = identity), so q
+starts with the root link frame's pose in the world. Every URDF link stays a named frame.
 """
 
 from __future__ import annotations
@@ -24,11 +27,17 @@ from pathlib import Path
 import numpy as np
 from lxml import etree
 
-from .model import PRISMATIC, REVOLUTE, Frame, Model
+from .model import FREE, PRISMATIC, REVOLUTE, Frame, Model
 from .spatial import spatial_inertia
 
-MOVING_TYPES = {"revolute": REVOLUTE, "continuous": REVOLUTE, "prismatic": PRISMATIC}
+MOVING_TYPES = {
+    "revolute": REVOLUTE,
+    "continuous": REVOLUTE,
+    "prismatic": PRISMATIC,
+    "floating": FREE,
+}
 SUPPORTED_TYPES = set(MOVING_TYPES) | {"fixed"}
+ROOT_JOINT = "root_joint"  # the name of the free joint that floating_base=True adds
 
 
 class URDFError(ValueError):
@@ -69,7 +78,11 @@ def load_urdf(
     Args:
       path: a URDF file path, or a robot name (``"ur5"``, ``"panda"``, ``"double_pendulum"``)
         resolved among the robots shipped with opendyn and, when installed, example-robot-data.
-      floating_base: a free-flying root joint; not supported yet (raises NotImplementedError).
+      floating_base: True makes the root link a free body (a free joint named "root_joint"):
+        q = (p, quat, q_joints) with p (3,) the root link frame's origin in the world (m) and
+        quat (4,) its orientation (x, y, z, w); v = (omega_b, v_b, qd_joints), the root's twist
+        in its own frame, angular first. A URDF whose root joint is type="floating" has a free
+        joint of its own, with either value.
       mimic: False (default) keeps mimic joints as independent coordinates; True couples them,
         q_joint = multiplier * q_mimicked + offset, so they are not coordinates of the model.
       check_inertia: True (default) rejects inertias that no rigid body can have (not positive
@@ -79,15 +92,11 @@ def load_urdf(
     Returns the Model; ``model.report`` is the fidelity report (honoured, transformed, ignored).
     Raises URDFError naming the file, the element and the problem for malformed input.
     """
-    if floating_base:
-        raise NotImplementedError(
-            "load_urdf: floating_base=True is not supported yet; opendyn models are fixed-base"
-        )
     file = resolve_robot(path)
     root = _parse_xml(file)
     _check_numbers(file, root)
     urdf = _parse_yourdfpy(file, root)
-    return _Builder(file, root, urdf.robot, mimic, check_inertia).build()
+    return _Builder(file, root, urdf.robot, mimic, check_inertia, floating_base).build()
 
 
 def resolve_robot(path) -> str:
@@ -235,9 +244,10 @@ def _parse_yourdfpy(file, root):
 class _Builder:
     """Walks the URDF tree depth-first and accumulates bodies, frames and the report."""
 
-    def __init__(self, file, root, robot, mimic, check_inertia):
+    def __init__(self, file, root, robot, mimic, check_inertia, floating_base=False):
         self.file, self.root, self.robot = file, root, robot
         self.use_mimic, self.check_inertia = mimic, check_inertia
+        self.floating_base = floating_base
         self.report = FidelityReport(source=file)
 
     def fail(self, what: str):
@@ -252,7 +262,25 @@ class _Builder:
 
         body_of = {root_link: -1}
         T_body_link = {root_link: np.eye(4)}
-        parent, jtype, A, R_home, p_home, body_names, body_joints = [], [], [], [], [], [], []
+        parent, jtype, S, R_home, p_home, body_names, body_joints = [], [], [], [], [], [], []
+
+        def add_body(link, joint, kind, parent_body, T_home, axes):
+            body_of[link], T_body_link[link] = len(body_names), np.eye(4)
+            parent.append(parent_body)
+            jtype.append(kind)
+            S.append(np.zeros((6, 6)))
+            S[-1][: len(axes)] = axes
+            R_home.append(T_home[:3, :3])
+            p_home.append(T_home[:3, 3])
+            body_names.append(link)
+            body_joints.append(joint)
+
+        if self.floating_base and not (order and order[0].type == "floating"):
+            add_body(root_link, ROOT_JOINT, FREE, -1, np.eye(4), np.eye(6))
+            self.report.transformed.append(
+                f"floating base: root link {root_link!r} on a free joint {ROOT_JOINT!r}, "
+                f"q = (p, quat (x, y, z, w), joints), v = (omega_b, v_b, joints)"
+            )
         for j in order:
             plink = j.parent
             origin = j.origin if j.origin is not None else np.eye(4)
@@ -260,29 +288,24 @@ class _Builder:
             if j.type == "fixed":
                 body_of[j.child], T_body_link[j.child] = body_of[plink], T_pj
                 continue
-            axis = self._unit_axis(j)
-            body_of[j.child], T_body_link[j.child] = len(body_names), np.eye(4)
-            parent.append(body_of[plink])
-            jtype.append(MOVING_TYPES[j.type])
-            A.append(
-                np.concatenate([axis, np.zeros(3)])
-                if j.type != "prismatic"
-                else np.concatenate([np.zeros(3), axis])
-            )
-            R_home.append(T_pj[:3, :3])
-            p_home.append(T_pj[:3, 3])
-            body_names.append(j.child)
-            body_joints.append(j.name)
+            if j.type == "floating":
+                axes = np.eye(6)
+            else:
+                axis = self._unit_axis(j)
+                axes = np.concatenate(
+                    [axis, np.zeros(3)] if j.type != "prismatic" else [np.zeros(3), axis]
+                )[None]
+            add_body(j.child, j.name, MOVING_TYPES[j.type], body_of[plink], T_pj, axes)
 
         G = self._body_inertias(links, body_of, T_body_link, len(body_names))
         frames = [Frame(name, body_of[name], T_body_link[name]) for name in links]
         self._report_content(links, joints, body_of)
 
-        coord_index = {name: k for k, name in enumerate(coords)}
-        coord, mult, offset = [], [], []
-        for name in body_joints:
+        follows, mult, offset = {}, [], []
+        for i, name in enumerate(body_joints):
             src, m, o = mimic_of.get(name, (name, 1.0, 0.0))
-            coord.append(coord_index[src])
+            if name in mimic_of:
+                follows[i] = body_joints.index(src)
             mult.append(m)
             offset.append(o)
         limits = self._limits(coords, joints)
@@ -293,15 +316,18 @@ class _Builder:
             body_joints=body_joints,
             parent=parent,
             jtype=jtype,
-            coord=coord,
+            follows=follows,
             mult=mult,
             offset=offset,
-            A=np.reshape(A, (-1, 6)),
+            S=np.reshape(S, (-1, 6, 6)),
             G=G,
             R_home=np.reshape(R_home, (-1, 3, 3)),
             p_home=np.reshape(p_home, (-1, 3)),
             frames=frames,
-            frame_aliases={j.name: j.child for j in joints.values()},
+            frame_aliases={
+                **({ROOT_JOINT: root_link} if ROOT_JOINT in body_joints else {}),
+                **{j.name: j.child for j in joints.values()},
+            },
             report=self.report,
             source=self.file,
             **limits,
@@ -324,10 +350,9 @@ class _Builder:
             if j.name in joints:
                 self.fail(f"{where}: duplicate joint name")
             if j.type not in SUPPORTED_TYPES:
-                hint = " (a free-flying base is not supported yet)" if j.type == "floating" else ""
                 self.fail(
                     f"{where}: joint type {j.type!r} is not supported; supported types: "
-                    f"revolute, continuous, prismatic, fixed{hint}"
+                    f"revolute, continuous, prismatic, floating, fixed"
                 )
             for end, link in (("parent", j.parent), ("child", j.child)):
                 if link not in links:
@@ -401,6 +426,11 @@ class _Builder:
         for j in order:
             if j.mimic is None or j.type == "fixed":
                 continue
+            if j.type == "floating" or joints.get(j.mimic.joint, j).type == "floating":
+                self.fail(
+                    f'<joint name="{j.name}"> <mimic>: a floating joint neither mimics nor is '
+                    f"mimicked"
+                )
             if not self.use_mimic:
                 self.report.ignored.append(
                     f"mimic on joint {j.name!r} (follows {j.mimic.joint!r}): kept as an "
@@ -433,7 +463,9 @@ class _Builder:
                 f"mimic joint {name!r} = {m:g} * {src!r} + {o:g}: not a coordinate of the model "
                 f"(its own <limit> and <dynamics> are not used)"
             )
-        coords = [j.name for j in order if j.type != "fixed" and j.name not in mimic_of]
+        coords = [
+            j.name for j in order if j.type not in ("fixed", "floating") and j.name not in mimic_of
+        ]
         return coords, mimic_of
 
     def _unit_axis(self, j):
@@ -538,7 +570,7 @@ class _Builder:
         moving = [j for j in joints.values() if j.type != "fixed"]
         fixed = [j for j in joints.values() if j.type == "fixed"]
         r.honoured.append(
-            f"{len(moving)} moving joints (revolute, continuous, prismatic) with "
+            f"{len(moving)} moving joints (revolute, continuous, prismatic, floating) with "
             f"their origins, axes, limits and <dynamics>"
         )
         r.honoured.append(f"{len(links)} links kept as named frames, with their <inertial>")

@@ -124,16 +124,21 @@ def test_batch_f_tip_per_state(ur5, states):
 
 
 def test_kernel_views_of_the_model_buffers_match_the_documented_fields(ur5):
-    parent, jtype, coord, mult, offset, A, R_home, p_home = _kernels.tree(ur5._ibuf, ur5._fbuf)
+    parent, jtype, nv_j, iq, iv, mult, offset, S, R_home, p_home = _kernels.tree(
+        ur5._ibuf, ur5._fbuf
+    )
     mass, h, I_o = _kernels.rigid_inertias(ur5._ibuf, ur5._fbuf)
     G = _kernels.spatial_inertias(ur5._ibuf, ur5._fbuf)
     for ours, field in (
         (parent, ur5.parent),
         (jtype, ur5.jtype),
-        (coord, ur5.coord),
+        (nv_j, ur5.nv_j),
+        (iq, ur5.iq),
+        (iv, ur5.iv),
         (mult, ur5.mult),
         (offset, ur5.offset),
-        (A, ur5.A),
+        (S, ur5.S),
+        (S[:, 0], ur5.A),
         (R_home, ur5.R_home),
         (p_home, ur5.p_home),
         (mass, ur5.mass),

@@ -608,7 +608,7 @@ def _pin_point(P, frame, point, q, qd):
     pin.forwardKinematics(P.model, P.data, qp, vp, np.zeros(P.model.nv))
     pin.updateFramePlacements(P.model, P.data)
     a = pin.getFrameClassicalAcceleration(P.model, P.data, fid, pin.LOCAL_WORLD_ALIGNED)
-    return J[:3][:, P.idx_v], a.linear.copy(), P.data.oMf[fid].translation.copy()
+    return J[:3][:, P.perm_v], a.linear.copy(), P.data.oMf[fid].translation.copy()
 
 
 def _pin_frame_local(P, frame, q, qd):
@@ -620,7 +620,7 @@ def _pin_frame_local(P, frame, q, qd):
     pin.forwardKinematics(P.model, P.data, qp, vp, np.zeros(P.model.nv))
     pin.updateFramePlacements(P.model, P.data)
     a = pin.getFrameAcceleration(P.model, P.data, fid, pin.LOCAL)
-    return np.r_[J[3:], J[:3]][:, P.idx_v], np.r_[a.angular, a.linear]
+    return np.r_[J[3:], J[:3]][:, P.perm_v], np.r_[a.angular, a.linear]
 
 
 def _pin_constraint_dynamics(P, q, qd, tau, constraint_models, gravity=None):
@@ -758,7 +758,7 @@ def test_plane_dynamics_match_pinocchio_kkt_forward_dynamics(pin, robot):
         J, a, _ = _pin_point(P, tip, r, q, qd)
         J_pin, gamma = (n @ J)[None], np.array([n @ a])
         J_pin_order = np.zeros((1, P.model.nv))
-        J_pin_order[:, P.idx_v] = J_pin
+        J_pin_order[:, P.perm_v] = J_pin
         P.set_gravity(None)
         qdd_ref = P.back(
             pin.forwardDynamics(P.model, P.data, P.q(q), P.v(qd), P.v(tau), J_pin_order, gamma, 0.0)

@@ -234,11 +234,11 @@ BAD_URDFS = [
             [
                 '<joint name="j2">',
                 f"'{kind}' is not supported",
-                "supported types: revolute, continuous, prismatic, fixed",
+                "supported types: revolute, continuous, prismatic, floating, fixed",
             ],
             {},
         )
-        for kind in ("planar", "floating", "telescopic")
+        for kind in ("planar", "telescopic")
     ],
     (
         "negative_mass",
@@ -387,9 +387,16 @@ def test_unknown_robot_name_lists_closest_and_known_names():
     assert "known robots: " + sorted(od.available_robots())[0] in message
 
 
-def test_floating_base_is_not_implemented(tmp_path):
-    with pytest.raises(NotImplementedError, match="floating_base"):
-        load(tmp_path, chain(), floating_base=True)
+def test_floating_base_frees_the_root_link_and_counts_its_inertia(tmp_path):
+    fixed = load(tmp_path, chain())
+    model = load(tmp_path, chain(), floating_base=True)
+    assert (model.nq, model.nv, model.nb) == (fixed.nq + 7, fixed.nv + 6, fixed.nb + 1)
+    assert model.joint_names == fixed.joint_names
+    assert model.body_names[0] == model.frames[0].name and model.body_joints[0] == "root_joint"
+    assert model.frame_index("root_joint") == model.frame_index(model.body_names[0])
+    assert any("floating base" in line for line in model.report.transformed)
+    # the root link's inertia, ignored when welded, now moves with the base
+    assert model.mass[0] > 0 and model.mass.sum() > fixed.mass.sum()
 
 
 # --- B. loader behaviour ---------------------------------------------------------------------

@@ -1,7 +1,7 @@
 """Argument checking shared by the public dynamics functions: states, gravity, f_tip.
 
-A state argument is a (nv,) vector or a batch (N, nv); anything else raises a ValueError that
-names the argument. Gravity and f_tip reach the kernels as one array of external loads.
+A configuration is a (nq,) vector or a batch (N, nq), a velocity-like argument (qd, qdd, tau) a
+(nv,) vector or a batch (N, nv); anything else raises a ValueError that names the argument. Gravity and f_tip reach the kernels as one array of external loads.
 Finiteness is checked inside the compiled kernels (it costs nothing there)
 and reported through a status code that `raise_status` turns into the same kind of error.
 """
@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..model import FREE
 from ..spatial import angular, linear
 from ..status import NOT_FINITE_ARGUMENT, Status, decode
 
@@ -17,45 +18,53 @@ F64 = np.dtype(np.float64)
 
 
 
-def is_single(model, x, y=None, z=None):
-    """True when x (and y, z when given) are float64 (nv,) arrays: the fast path, no
-    conversion. Written out rather than looped: it runs on every call."""
-    shape = model._vector_shape
+def is_single(model, q, v=None, a=None):
+    """True when q is a float64 (nq,) array and v, a (when given) float64 (nv,) arrays: the
+    fast path, no conversion. Written out rather than looped: it runs on every call."""
     ndarray = np.ndarray
-    if type(x) is not ndarray or x.shape != shape or x.dtype is not F64:
+    if type(q) is not ndarray or q.shape != model._q_shape or q.dtype is not F64:
         return False
-    if y is not None and (type(y) is not ndarray or y.shape != shape or y.dtype is not F64):
+    shape = model._vector_shape
+    if v is not None and (type(v) is not ndarray or v.shape != shape or v.dtype is not F64):
         return False
-    return z is None or (type(z) is ndarray and z.shape == shape and z.dtype is F64)
+    return a is None or (type(a) is ndarray and a.shape == shape and a.dtype is F64)
 
 
-def as_state(model, x, name):
-    """x as a writeable C-contiguous float64 array of shape (nv,) or (N, nv)."""
+def as_state(model, x, name, n=None):
+    """x as a writeable C-contiguous float64 array of shape (n,) or (N, n); n = nv unless
+    given (model.nq for a configuration: see as_q)."""
+    n = model.nv if n is None else n
     try:
         x = np.ascontiguousarray(x, dtype=np.float64)
     except (TypeError, ValueError):
         raise ValueError(
-            f"{name} must be an array of numbers of shape ({model.nv},) or "
-            f"(N, {model.nv}), got {type(x).__name__}"
+            f"{name} must be an array of numbers of shape ({n},) or (N, {n}), got "
+            f"{type(x).__name__}"
         ) from None
-    if x.ndim not in (1, 2) or x.shape[-1] != model.nv:
+    if x.ndim not in (1, 2) or x.shape[-1] != n:
+        sizes = f"nq={model.nq}" if n == model.nq != model.nv else f"nv={model.nv}"
         raise ValueError(
-            f"{name} must have shape ({model.nv},) or (N, {model.nv}) for model "
-            f"{model.name!r} (nv={model.nv}), got shape {x.shape}"
+            f"{name} must have shape ({n},) or (N, {n}) for model {model.name!r} ({sizes}), "
+            f"got shape {x.shape}"
         )
     # a read-only array is a different type to numba: copy it rather than compile again
     return x if x.flags.writeable else x.copy()
 
 
-def as_states(model, *named):
-    """Several (name, value) state arguments: all single (nv,), or batches broadcast to one N.
+def as_q(model, q, name="q"):
+    """A configuration as a writeable C-contiguous float64 array (nq,) or (N, nq)."""
+    return as_state(model, q, name, model.nq)
 
-    Returns the arrays and whether they are a batch."""
-    arrays = [as_state(model, x, name) for name, x in named]
+
+def as_states(model, q, *named):
+    """A configuration q and (name, value) velocity-like arguments: all single, or batches
+    broadcast to one N. Returns [q, *values] and whether they are a batch."""
+    arrays = [as_q(model, q)] + [as_state(model, x, name) for name, x in named]
+    names = ["q"] + [name for name, _ in named]
     if all(a.ndim == 1 for a in arrays):
         return arrays, False
     n = max(a.shape[0] for a in arrays if a.ndim == 2)
-    for (name, _), a in zip(named, arrays):
+    for name, a in zip(names, arrays):
         if a.ndim == 2 and a.shape[0] != n:
             raise ValueError(
                 f"{name} has {a.shape[0]} states but another argument has {n}; "
@@ -127,9 +136,36 @@ def raise_status(status, model, what):
     status, coordinate = decode(status)
     if status in NOT_FINITE_ARGUMENT:
         raise ValueError(f"{what}: {NOT_FINITE_ARGUMENT[status]} must be finite (it has NaN or inf)")
+    if status == Status.Q_NOT_UNIT_QUATERNION:
+        raise ValueError(f"{what}: {quaternion_problem(model)}")
     if status == Status.SINGULAR:
-        raise SingularMassMatrixError(model, [model.joint_names[coordinate]], what)
+        raise SingularMassMatrixError(model, [model.v_names[coordinate]], what)
     raise RuntimeError(f"{what}: kernel failed with status {status.name}")
+
+
+def fixed_base_only(model, what):
+    """NotImplementedError for the functions not yet written for a free joint."""
+    if model.floating_base:
+        raise NotImplementedError(
+            f"{what}: not available yet for floating-base models ({model.name!r} has a free "
+            f"joint); load it with floating_base=False to weld its root to the world"
+        )
+
+
+def quaternion_problem(model):
+    """What is wrong with q's quaternions, for an error message: the slice of each free
+    joint's quaternion and the tolerance."""
+    from .joints import QUATERNION_TOLERANCE
+
+    slices = ", ".join(
+        f"q[{model.iq[i] + 3}:{model.iq[i] + 7}] ({model.body_names[i]})"
+        for i in range(model.nb)
+        if model.jtype[i] == FREE
+    )
+    return (
+        f"the quaternion {slices} (x, y, z, w) must have unit norm (within "
+        f"{QUATERNION_TOLERANCE:g}); od.normalize(model, q) normalises it"
+    )
 
 
 def raise_batch_status(statuses, model, what):

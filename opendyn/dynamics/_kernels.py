@@ -1,7 +1,6 @@
 """Compiled building blocks shared by the dynamics kernels: views of the model's flat buffers
-(laid out by the tables in opendyn.model), the joint
-transform T_{lambda(i), i}(q_i) = M_{lambda(i), i} exp([A_i] q_i), and the 3x3-block forms of
-Ad_T and ad_V on twists, wrenches and spatial inertias.
+(laid out by the tables in opendyn.model) and the 3x3-block forms of Ad_T and ad_V on twists,
+wrenches and spatial inertias (the joints themselves are in opendyn.dynamics.joints).
 
 Pose of body i in its parent: (R, p) = (R_{lambda i}, p_{lambda i}). Then, angular first,
   twist to child   Ad_{T_{i,lambda}} V  = (R^T w,  R^T (v + w x p))
@@ -19,7 +18,7 @@ import numpy as np
 from numba import njit
 
 from .._kernel_cache import CACHING
-from ..model import FLOAT_AT, INT_AT, INT_HEADER, PRISMATIC
+from ..model import FLOAT_AT, INT_AT, INT_HEADER
 
 JIT = dict(cache=CACHING)
 # batch loops release the GIL so that threads run them in parallel (see run_rows); single-state
@@ -66,10 +65,12 @@ def _where(at, name, header=0):
     return (header, start, start + size)
 
 
-_PARENT, _JTYPE, _COORD = (_where(INT_AT, n, INT_HEADER) for n in ("parent", "jtype", "coord"))
-_MULT, _OFFSET, _A, _G, _MASS, _H, _I_O, _R_HOME, _P_HOME = (
+_PARENT, _JTYPE, _NV_J, _IQ, _IV = (
+    _where(INT_AT, n, INT_HEADER) for n in ("parent", "jtype", "nv_j", "iq", "iv")
+)
+_MULT, _OFFSET, _S, _G, _MASS, _H, _I_O, _R_HOME, _P_HOME = (
     _where(FLOAT_AT, n)
-    for n in ("mult", "offset", "A", "G", "mass", "h", "I_o", "R_home", "p_home")
+    for n in ("mult", "offset", "S", "G", "mass", "h", "I_o", "R_home", "p_home")
 )
 
 
@@ -83,17 +84,19 @@ def field(buf, nb, where):
 
 @njit(**INLINE)
 def tree(ibuf, fbuf):
-    """Views of the model's tree: parent, jtype, coord, mult, offset, A, R_home, p_home
+    """Views of the model's tree: parent, jtype, nv_j, iq, iv, mult, offset, S, R_home, p_home
     (fields of model.INT_FIELDS and model.FLOAT_FIELDS). Each kernel takes only the views it
     needs (a reshaped view costs about 20 ns)."""
     nb = ibuf[0]
     return (
         field(ibuf, nb, _PARENT),
         field(ibuf, nb, _JTYPE),
-        field(ibuf, nb, _COORD),
+        field(ibuf, nb, _NV_J),
+        field(ibuf, nb, _IQ),
+        field(ibuf, nb, _IV),
         field(fbuf, nb, _MULT),
         field(fbuf, nb, _OFFSET),
-        field(fbuf, nb, _A).reshape((nb, 6)),
+        field(fbuf, nb, _S).reshape((nb, 6, 6)),
         field(fbuf, nb, _R_HOME).reshape((nb, 3, 3)),
         field(fbuf, nb, _P_HOME).reshape((nb, 3)),
     )
@@ -159,35 +162,6 @@ def cross3(a, b, out):
 
 
 @njit(**INLINE)
-def joint_transform(jtype, A_i, R_home, p_home, q_i, R, p):
-    """(R, p) = T_{lambda(i), i}(q_i) = M_{lambda(i), i} exp([A_i] q_i).
-
-    Revolute, unit axis a: exp = (Rot(a, q), 0), Rot = I + sin q [a] + (1 - cos q) [a]^2.
-    Prismatic, unit axis a: exp = (I, a q).
-    """
-    if jtype == PRISMATIC:
-        for r in range(3):
-            s = 0.0
-            for c in range(3):
-                R[r, c] = R_home[r, c]
-                s += R_home[r, c] * A_i[3 + c]
-            p[r] = p_home[r] + s * q_i
-        return
-    x, y, z = A_i[0], A_i[1], A_i[2]
-    s, c = np.sin(q_i), np.cos(q_i)
-    t = 1.0 - c
-    e00, e01, e02 = c + t * x * x, t * x * y - s * z, t * x * z + s * y
-    e10, e11, e12 = t * x * y + s * z, c + t * y * y, t * y * z - s * x
-    e20, e21, e22 = t * x * z - s * y, t * y * z + s * x, c + t * z * z
-    for r in range(3):
-        h0, h1, h2 = R_home[r, 0], R_home[r, 1], R_home[r, 2]
-        R[r, 0] = h0 * e00 + h1 * e10 + h2 * e20
-        R[r, 1] = h0 * e01 + h1 * e11 + h2 * e21
-        R[r, 2] = h0 * e02 + h1 * e12 + h2 * e22
-        p[r] = p_home[r]
-
-
-@njit(**INLINE)
 def twist_to_child(R, p, V_parent, V_child):
     """V_child = Ad_{T_{i,lambda}} V_parent = (R^T w, R^T (v + w x p))."""
     w0, w1, w2 = V_parent[0], V_parent[1], V_parent[2]
@@ -249,13 +223,18 @@ def mat6_vec(G, V, out):
 
 
 @njit(**INLINE)
-def inertia_times_axis(jtype, I, A_i, out):
-    """out = I A_i for a (6, 6) inertia and a joint's screw axis, which has one zero half:
-    (a, 0) for a revolute joint, (0, a) for a prismatic one (model.A), so only three columns
-    of I are read."""
-    o = 3 if jtype == PRISMATIC else 0
-    for r in range(6):
-        out[r] = I[r, o] * A_i[o] + I[r, o + 1] * A_i[o + 1] + I[r, o + 2] * A_i[o + 2]
+def inertia_times_motion(I, s, out):
+    """out = I s for a (6, 6) inertia and a motion axis s (a row of a joint's S). The axes of
+    opendyn's joints have one zero half, (a, 0) or (0, a), so only three columns of I are read
+    then; the whole product otherwise."""
+    if s[3] == 0.0 and s[4] == 0.0 and s[5] == 0.0:
+        for r in range(6):
+            out[r] = I[r, 0] * s[0] + I[r, 1] * s[1] + I[r, 2] * s[2]
+    elif s[0] == 0.0 and s[1] == 0.0 and s[2] == 0.0:
+        for r in range(6):
+            out[r] = I[r, 3] * s[3] + I[r, 4] * s[4] + I[r, 5] * s[5]
+    else:
+        mat6_vec(I, s, out)
 
 
 @njit(**JIT)

@@ -2,17 +2,20 @@
 
     qdd = M(q)^-1 (tau - h(q, qd) - sum_frames J_b(frame)^T F_tip(frame))
 
-Pass 1, base to tips: T_{i,lambda}, V_i = Ad V_lambda + A_i qd_i, the velocity-product
-acceleration c_i = ad_{V_i} A_i qd_i, and the bias wrench pA_i = -ad_{V_i}^T G_i V_i + F_tip,i.
+Joint i has motion subspace S_i (6 x nv_i: A_i for a 1-dof joint, I_6 for a free one).
+Pass 1, base to tips: T_{i,lambda}, V_i = Ad V_lambda + S_i qd_i, the velocity-product
+acceleration c_i = ad_{V_i} S_i qd_i, and the bias wrench pA_i = -ad_{V_i}^T G_i V_i + F_tip,i.
 Pass 2, tips to base, articulated inertias IA_i (starting from G_i) and bias wrenches:
-    U_i = IA_i A_i,  D_i = A_i^T U_i (+ armature_i),  u_i = tau_i - A_i^T pA_i
-    Ia = IA_i - U_i U_i^T / D_i,   pa = pA_i + Ia c_i + U_i u_i / D_i
-    IA_lambda += Ad^T Ia Ad,       pA_lambda += Ad^T pa
+    U_i = IA_i S_i,  D_i = S_i^T U_i (+ armature),  u_i = tau_i - S_i^T pA_i
+    Ia = IA_i - U_i D_i^-1 U_i^T,   pa = pA_i + Ia c_i + U_i D_i^-1 u_i
+    IA_lambda += Ad^T Ia Ad,        pA_lambda += Ad^T pa
 Pass 3, base to tips, dV_0 = (0, -g):
-    a_i = Ad_{T_{i,lambda}} dV_lambda + c_i,   qdd_i = (u_i - U_i^T a_i) / D_i,
-    dV_i = a_i + A_i qdd_i
+    a_i = Ad_{T_{i,lambda}} dV_lambda + c_i,   qdd_i = D_i^-1 (u_i - U_i^T a_i),
+    dV_i = a_i + S_i qdd_i
+For a 1-dof joint D_i is a number and D_i^-1 a division; for a multi-dof joint (the free
+joint, nv_i = 6) D_i is solved by its Cholesky factor, kept from pass 2 for pass 3.
 (Featherstone, Rigid Body Dynamics Algorithms, 2008, Table 7.1; Lynch & Park, Section 8.5.)
-ABA needs one coordinate per body: models with coupled (mimic) joints use CRBA + Cholesky.
+ABA needs one coordinate per joint: models with coupled (mimic) joints use CRBA + Cholesky.
 """
 
 from __future__ import annotations
@@ -27,10 +30,10 @@ from ._kernels import (
     add_neg_ad_transpose,
     add_wrench_to_parent,
     all_finite,
+    copy_into,
     dot6,
     fill,
-    joint_transform,
-    inertia_times_axis,
+    inertia_times_motion,
     mat6_vec,
     rigid_inertia_times,
     rigid_inertias,
@@ -39,35 +42,38 @@ from ._kernels import (
     twist_to_child,
 )
 from ..status import Status
-
-SINGULAR_PIVOT = 1e-14  # D_i below this times the largest body inertia: nothing moves with i
+from .cholesky import SINGULAR_PIVOT, cholesky_factor, cholesky_substitute
+from .joints import configuration_status, joint_motion, joint_transform
 
 
 @njit(**JIT)
 def aba_kernel(ibuf, fbuf, q, qd, tau, loads, qdd, armature):
     """qdd (nv,) <- ABA at one state; loads as in rnea_kernel (dV_0, then body wrenches).
     armature: (nv,) rotor inertias added to D_i (M's diagonal), or an empty array for none.
-    Returns a Status: OK, Q/QD/TAU_NOT_FINITE, or SINGULAR + k
-    when joint coordinate k has no inertia moving with it (D_k ~ 0)."""
-    if not all_finite(q):
-        return Status.Q_NOT_FINITE.value
+    Returns a Status: OK, Q/QD/TAU_NOT_FINITE, Q_NOT_UNIT_QUATERNION, or SINGULAR + k when
+    velocity coordinate k has no inertia moving with it (a pivot of D_i ~ 0)."""
+    status = configuration_status(ibuf, q)
+    if status:
+        return status
     if not all_finite(qd):
         return Status.QD_NOT_FINITE.value
     if not all_finite(tau):
         return Status.TAU_NOT_FINITE.value
-    parent, jtype, coord, mult, offset, A, R_home, p_home = tree(ibuf, fbuf)
+    parent, jtype, nv_j, iq, iv, mult, offset, S, R_home, p_home = tree(ibuf, fbuf)
     G = spatial_inertias(ibuf, fbuf)
     mass, h, I_o = rigid_inertias(ibuf, fbuf)
     nb = parent.shape[0]
     R = np.empty((nb, 3, 3))
     p = np.empty((nb, 3))
-    IA = np.empty((nb, 6, 6))
+    # IA_i, and per joint U_i (rows k < nv_i: IA_i s_k) and D_i (its Cholesky factor when
+    # nv_i > 1)
+    mats = np.empty((3, nb, 6, 6))
+    IA, U, L = mats[0], mats[1], mats[2]
     vec = np.empty((5, nb, 6))
-    V, c, pA, U, dV = vec[0], vec[1], vec[2], vec[3], vec[4]
-    D = np.empty(nb)
-    u = np.empty(nb)
-    S = np.empty((9, 6))
+    V, c, pA, u, dV = vec[0], vec[1], vec[2], vec[3], vec[4]
+    scratch = np.empty((9, 6))
     s = np.empty(6)
+    x = np.empty(6)
     wrenches = loads.shape[0] > 1
     rotors = armature.shape[0] > 0
     scale = 0.0
@@ -75,19 +81,24 @@ def aba_kernel(ibuf, fbuf, q, qd, tau, loads, qdd, armature):
         for k in range(6):
             scale = max(scale, G[i, k, k])
 
-    # pass 1: V_i, c_i = ad_{V_i} A_i qd_i, pA_i = -ad_{V_i}^T G_i V_i + F_tip,i; IA_i = G_i
+    # pass 1: V_i, c_i = ad_{V_i} S_i qd_i, pA_i = -ad_{V_i}^T G_i V_i + F_tip,i; IA_i = G_i
     for i in range(nb):
-        joint_transform(jtype[i], A[i], R_home[i], p_home[i], q[i], R[i], p[i])
+        joint_transform(
+            jtype[i], S[i], R_home[i], p_home[i], q, iq[i], mult[i], offset[i], R[i], p[i]
+        )
         lam = parent[i]
+        joint_motion(nv_j[i], S[i], 1.0, qd, iv[i], x)
         if lam < 0:
-            fill(V[i], 0.0)
+            copy_into(x, V[i])
         else:
             twist_to_child(R[i], p[i], V[lam], V[i])
-        for k in range(6):
-            V[i, k] += A[i, k] * qd[i]
-        ad_twist(V[i], A[i], c[i])
-        for k in range(6):
-            c[i, k] *= qd[i]
+            for k in range(6):
+                V[i, k] += x[k]
+        fill(c[i], 0.0)
+        for k in range(nv_j[i]):
+            ad_twist(V[i], S[i, k], s)
+            for r in range(6):
+                c[i, r] += s[r] * qd[iv[i] + k]
         rigid_inertia_times(mass[i], h[i], I_o[i], V[i], s)
         fill(pA[i], 0.0)
         add_neg_ad_transpose(V[i], s, pA[i])
@@ -100,34 +111,68 @@ def aba_kernel(ibuf, fbuf, q, qd, tau, loads, qdd, armature):
 
     # pass 2: articulated inertias and bias wrenches, tips to base
     for i in range(nb - 1, -1, -1):
-        inertia_times_axis(jtype[i], IA[i], A[i], U[i])
-        D[i] = dot6(A[i], U[i])
-        if rotors:
-            D[i] += armature[i]
-        u[i] = tau[i] - dot6(A[i], pA[i])
-        if not D[i] > SINGULAR_PIVOT * scale:
-            return Status.SINGULAR.value + i
+        n, b = nv_j[i], iv[i]
+        # U_i = IA_i S_i, D_i = S_i^T U_i (+ armature), u_i = tau_i - S_i^T pA_i
+        for k in range(n):
+            inertia_times_motion(IA[i], S[i, k], U[i, k])
+            u[i, k] = tau[b + k] - dot6(S[i, k], pA[i])
+        for k in range(n):
+            for k2 in range(n):
+                L[i, k, k2] = dot6(S[i, k], U[i, k2])
+            if rotors:
+                L[i, k, k] += armature[b + k]
+        if n == 1:
+            if not L[i, 0, 0] > SINGULAR_PIVOT * scale:
+                return Status.SINGULAR.value + b
+        else:
+            status = cholesky_factor(L[i], n, scale)
+            if status:
+                return status + b
         lam = parent[i]
         if lam < 0:
             continue
-        D_inv = 1.0 / D[i]
-        for r in range(6):
-            for k in range(6):
-                IA[i, r, k] -= U[i, r] * U[i, k] * D_inv
-        # pa = pA_i + Ia c_i + U_i u_i / D_i  (reuse pA[i])
-        mat6_vec(IA[i], c[i], s)
-        for k in range(6):
-            pA[i, k] += s[k] + U[i, k] * u[i] * D_inv
-        add_inertia_to_parent(R[i], p[i], IA[i], IA[lam], S)
+        # Ia = IA_i - U_i D_i^-1 U_i^T,  pa = pA_i + Ia c_i + U_i D_i^-1 u_i  (in place)
+        if n == 1:
+            D_inv = 1.0 / L[i, 0, 0]
+            for r in range(6):
+                for k in range(6):
+                    IA[i, r, k] -= U[i, 0, r] * U[i, 0, k] * D_inv
+            mat6_vec(IA[i], c[i], s)
+            for r in range(6):
+                pA[i, r] += s[r] + U[i, 0, r] * u[i, 0] * D_inv
+        else:
+            for r in range(6):  # column r of D_i^-1 U_i^T, from the factor
+                for k in range(n):
+                    s[k] = U[i, k, r]
+                cholesky_substitute(L[i], n, s, x)
+                for col in range(6):
+                    for k in range(n):
+                        IA[i, col, r] -= U[i, k, col] * x[k]
+            cholesky_substitute(L[i], n, u[i], x)
+            mat6_vec(IA[i], c[i], s)
+            for r in range(6):
+                for k in range(n):
+                    s[r] += U[i, k, r] * x[k]
+                pA[i, r] += s[r]
+        add_inertia_to_parent(R[i], p[i], IA[i], IA[lam], scratch)
         add_wrench_to_parent(R[i], p[i], pA[i], pA[lam])
 
     # pass 3: accelerations, base to tips
     for i in range(nb):
+        n, b = nv_j[i], iv[i]
         lam = parent[i]
+        # a_i = Ad dV_lambda + c_i, qdd_i = D_i^-1 (u_i - U_i^T a_i), dV_i = a_i + S_i qdd_i
         twist_to_child(R[i], p[i], loads[0] if lam < 0 else dV[lam], dV[i])
         for k in range(6):
             dV[i, k] += c[i, k]
-        qdd[i] = (u[i] - dot6(U[i], dV[i])) / D[i]
-        for k in range(6):
-            dV[i, k] += A[i, k] * qdd[i]
+        for k in range(n):
+            s[k] = u[i, k] - dot6(U[i, k], dV[i])
+        if n == 1:
+            x[0] = s[0] / L[i, 0, 0]
+        else:
+            cholesky_substitute(L[i], n, s, x)
+        for k in range(n):
+            qdd[b + k] = x[k]
+            for r in range(6):
+                dV[i, r] += S[i, k, r] * x[k]
     return Status.OK.value

@@ -42,10 +42,10 @@ from .kinematics import forward_kinematics, space_axis
 
 @njit(**JIT)
 def space_axes_and_inertias(ibuf, fbuf, q, S, Gs, Gc):
-    """S[i] = Ad_{T_si} A_i, Gs[i] = Ad_{T_is}^T G_i Ad_{T_is} (space frame) and the composite
+    """S[i] = Ad_{T_si} A_i (1-dof joints), Gs[i] = Ad_{T_is}^T G_i Ad_{T_is} (space frame) and the composite
     Gc[i] = sum of Gs over the subtree of i, at q. Compiled once for both kernels below."""
     body_tree = tree(ibuf, fbuf)
-    parent, jtype, coord, mult, offset, A, R_home, p_home = body_tree
+    parent, jtype, nv_j, iq, iv, mult, offset, axes, R_home, p_home = body_tree
     G = spatial_inertias(ibuf, fbuf)
     nb = parent.shape[0]
     R_s = np.empty((nb, 3, 3))
@@ -54,7 +54,7 @@ def space_axes_and_inertias(ibuf, fbuf, q, S, Gs, Gc):
     scratch = np.empty((9, 6))
     for i in range(nb):
         zero_matrix(Gs[i])
-        space_axis(R_s[i], p_s[i], A[i], S[i])
+        space_axis(R_s[i], p_s[i], axes[i, 0], S[i])
         add_inertia_to_parent(R_s[i], p_s[i], G[i], Gs[i], scratch)
     for i in range(nb - 1, -1, -1):
         for r in range(6):
@@ -69,7 +69,7 @@ def christoffel_kernel(ibuf, fbuf, q, Gamma):
     """Gamma (nv, nv, nv) <- Christoffel symbols at q. Returns a Status: OK or Q_NOT_FINITE."""
     if not all_finite(q):
         return Status.Q_NOT_FINITE.value
-    parent, jtype, coord, mult, offset, A, R_home, p_home = tree(ibuf, fbuf)
+    parent, jtype, nv_j, iq, iv, mult, offset, axes, R_home, p_home = tree(ibuf, fbuf)
     nb, nv = parent.shape[0], Gamma.shape[0]
     S = np.empty((nb, 6))
     Gs = np.empty((nb, 6, 6))
@@ -106,9 +106,9 @@ def christoffel_kernel(ibuf, fbuf, q, Gamma):
                 else:
                     continue
                 w = mult[i] * mult[j] * mult[k] * val
-                dM[coord[i], coord[j], coord[k]] += w
+                dM[iv[i], iv[j], iv[k]] += w
                 if i != j:
-                    dM[coord[j], coord[i], coord[k]] += w
+                    dM[iv[j], iv[i], iv[k]] += w
             i = parent[i]
 
     for a in range(nv):
@@ -135,7 +135,7 @@ def coriolis_matrix_kernel(ibuf, fbuf, q, qd, C):
         return Status.Q_NOT_FINITE.value
     if not all_finite(qd):
         return Status.QD_NOT_FINITE.value
-    parent, jtype, coord, mult, offset, A, R_home, p_home = tree(ibuf, fbuf)
+    parent, jtype, nv_j, iq, iv, mult, offset, axes, R_home, p_home = tree(ibuf, fbuf)
     nb = parent.shape[0]
     S = np.empty((nb, 6))
     Gs = np.empty((nb, 6, 6))
@@ -147,7 +147,7 @@ def coriolis_matrix_kernel(ibuf, fbuf, q, qd, C):
     V, H, GcS, adVS, GcadVS, BS = vec[0], vec[1], vec[2], vec[3], vec[4], vec[5]
     qd_b = np.empty(nb)
     for i in range(nb):
-        qd_b[i] = mult[i] * qd[coord[i]]
+        qd_b[i] = mult[i] * qd[iv[i]]
         for k in range(6):
             V[i, k] = (0.0 if parent[i] < 0 else V[parent[i], k]) + S[i, k] * qd_b[i]
         mat6_vec(Gc[i], S[i], GcS[i])
@@ -195,13 +195,13 @@ def coriolis_matrix_kernel(ibuf, fbuf, q, qd, C):
             Mdot = dot6(adSS, GcS[j]) - dot6(S[i], BS[j])
             P_ji = dot6(GcS[j], adVS[i])
             if i == j:
-                C[coord[i], coord[i]] += mult[i] * mult[i] * 0.5 * Mdot
+                C[iv[i], iv[i]] += mult[i] * mult[i] * 0.5 * Mdot
             else:
                 ad_twist(S[i], S[j], adSS)
                 P_ij = dot6(adSS, H[j]) + dot6(S[i], GcadVS[j])
                 w = mult[i] * mult[j] * 0.5
-                C[coord[i], coord[j]] += w * (Mdot + P_ij - P_ji)
-                C[coord[j], coord[i]] += w * (Mdot + P_ji - P_ij)
+                C[iv[i], iv[j]] += w * (Mdot + P_ij - P_ji)
+                C[iv[j], iv[i]] += w * (Mdot + P_ji - P_ij)
             i = parent[i]
     return Status.OK.value
 
@@ -218,7 +218,8 @@ def christoffel_batch_kernel(ibuf, fbuf, q, qd, out, status, matrix, symbols, st
 
 
 def _run(model, q, qd, matrix, what):
-    (q, qd), batch = _args.as_states(model, ("q", q), ("qd", qd))
+    _args.fixed_base_only(model, what)
+    (q, qd), batch = _args.as_states(model, q, ("qd", qd))
     nv = model.nv
     if not batch:
         out = np.empty((nv, nv) if matrix else (nv, nv, nv))
@@ -252,7 +253,8 @@ def christoffel_symbols(model, q):
     """Gamma(q): (nv, nv, nv) Christoffel symbols of the first kind, Gamma[i, j, k] symmetric
     in j, k, with c_i = sum_jk Gamma[i, j, k] qd_j qd_k. q: (nv,) or (N, nv) -> (N, nv, nv, nv).
     """
-    q = _args.as_state(model, q, "q")
+    _args.fixed_base_only(model, "christoffel_symbols")
+    q = _args.as_q(model, q)
     return _run(model, q, np.zeros_like(q), False, "christoffel_symbols")
 
 

@@ -1,9 +1,12 @@
-"""The configuration update q' = q (+) v dt: how integrators advance positions.
+"""The configuration space: q' = q (+) v dt, its inverse v = q1 (-) q0, and the special points.
 
-For the joints opendyn has now (revolute, continuous with one coordinate, prismatic) the
-configuration space is a vector space and q (+) v dt = q + v dt. Integrators never add to q
-themselves: they call `integrate`, so that a floating base (a quaternion in q, nq != nv) changes
-this one function and no integrator.
+    q (+) v dt:  each joint's own update (joints.joint_integrate): q_i + v_i dt for a 1-dof
+                 joint, T_i exp([V_i] dt) for a free joint (the exponential map of SE(3), its
+                 body twist held for dt seconds, quaternion renormalised)
+    q1 (-) q0:   the v that integrates q0 to q1 in unit time: q1_i - q0_i, or log(T_0^-1 T_1)
+
+Integrators never add to q themselves: they call `integrate`, so a floating base (a quaternion
+in q, nq = nv + 1) changes these functions and no integrator.
 """
 
 from __future__ import annotations
@@ -11,31 +14,147 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from ..model import FREE, PRISMATIC
 from . import _args
-from ._kernels import INLINE
+from ._kernels import INLINE, JIT, field, _IQ, _IV, _JTYPE
+from .joints import joint_difference, joint_integrate, normalize_quaternion
 
 
 @njit(**INLINE)
 def integrate_kernel(ibuf, q, v, dt, q_next):
     """q_next (nq,) <- q (+) v dt, with v (nv,) a velocity held for dt seconds."""
-    for k in range(q.shape[0]):
-        q_next[k] = q[k] + v[k] * dt
+    nb = ibuf[0]
+    jtype, iq, iv = field(ibuf, nb, _JTYPE), field(ibuf, nb, _IQ), field(ibuf, nb, _IV)
+    for i in range(nb):
+        joint_integrate(jtype[i], q, iq[i], v, iv[i], dt, q_next)
+
+
+@njit(**JIT)
+def difference_kernel(ibuf, q0, q1, v):
+    """v (nv,) <- q1 (-) q0."""
+    nb = ibuf[0]
+    jtype, iq, iv = field(ibuf, nb, _JTYPE), field(ibuf, nb, _IQ), field(ibuf, nb, _IV)
+    for i in range(nb):
+        joint_difference(jtype[i], q0, q1, iq[i], iv[i], v)
+
+
+@njit(**JIT)
+def integrate_rows(ibuf, q, v, dt, q_next):
+    """integrate_kernel over the rows of a batch: q (N, nq), v (N, nv)."""
+    for n in range(q.shape[0]):
+        integrate_kernel(ibuf, q[n], v[n], dt, q_next[n])
+
+
+@njit(**JIT)
+def normalize_kernel(ibuf, q):
+    """Each free joint's quaternion in q (nq,) <- itself / its norm."""
+    nb = ibuf[0]
+    jtype, iq = field(ibuf, nb, _JTYPE), field(ibuf, nb, _IQ)
+    for i in range(nb):
+        if jtype[i] == FREE:
+            normalize_quaternion(q[iq[i] + 3 : iq[i] + 7])
+
+
+def _quaternions(model):
+    """[(body, first q index of its quaternion)] for every free joint."""
+    return [(i, int(model.iq[i]) + 3) for i in range(model.nb) if model.jtype[i] == FREE]
+
+
+def _checked_q(model, q, name, what):
+    """q as a float64 (nq,) or (N, nq) array, finite, every quaternion non-zero."""
+    q = _args.as_q(model, q, name)
+    if not np.all(np.isfinite(q)):
+        raise ValueError(f"{what}: {name} must be finite (it has NaN or inf)")
+    for i, k in _quaternions(model):
+        norms = np.linalg.norm(q[..., k : k + 4], axis=-1)
+        if np.any(norms < 1e-12):
+            raise ValueError(
+                f"{what}: the quaternion {name}[{k}:{k + 4}] of {model.body_names[i]!r} is zero; "
+                f"a rotation needs a unit quaternion (x, y, z, w)"
+            )
+    return q
 
 
 def integrate(model, q, v, dt):
     """q (+) v dt: the configuration reached from q moving at velocity v for dt seconds.
 
     Args:
-      q: (nq,) or (N, nq) joint positions (rad or m).
-      v: (nv,) or (N, nv) joint velocities (rad/s or m/s).
+      q: (nq,) or (N, nq) configuration (a floating base's (p, quat), then joint positions).
+      v: (nv,) or (N, nv) velocity (a floating base's body twist (omega_b, v_b), then joint
+        velocities, rad/s or m/s).
       dt: time (s).
-    Returns (nq,) or (N, nq). For the joint types opendyn models now, q + v dt.
+    Returns (nq,) or (N, nq): q + v dt for the joints; for a free joint the pose moved along
+    its body twist by the exponential map of SE(3), T exp([V] dt), quaternion normalised.
     """
-    (q, v), batch = _args.as_states(model, ("q", q), ("v", v))
+    q = _checked_q(model, q, "q", "integrate")
+    (q, v), batch = _args.as_states(model, q, ("v", v))
     dt = float(dt)
     if not np.isfinite(dt):
         raise ValueError(f"integrate: dt must be finite, got {dt}")
+    if not np.all(np.isfinite(v)):
+        raise ValueError("integrate: v must be finite (it has NaN or inf)")
     q_next = np.empty_like(q)
-    for q_n, v_n, out in zip(q, v, q_next) if batch else [(q, v, q_next)]:
-        integrate_kernel(model._ibuf, q_n, v_n, dt, out)
+    integrate_rows(model._ibuf, q if batch else q[None], v if batch else v[None], dt,
+                   q_next if batch else q_next[None])
     return q_next
+
+
+def difference(model, q0, q1):
+    """q1 (-) q0: the velocity v (nv,) that integrates q0 to q1 in unit time, so that
+    integrate(model, q0, difference(model, q0, q1), 1.0) = q1 (the log map of SE(3) for a free
+    joint, the body twist of T_0^-1 T_1 over the shorter rotation; q1 - q0 for the joints).
+
+    q0, q1: (nq,) or (N, nq). Returns (nv,) or (N, nv).
+    """
+    q0 = _checked_q(model, q0, "q0", "difference")
+    q1 = _checked_q(model, q1, "q1", "difference")
+    if q0.ndim == q1.ndim == 1:
+        v = np.empty(model.nv)
+        difference_kernel(model._ibuf, q0, q1, v)
+        return v
+    q0, q1 = np.broadcast_arrays(np.atleast_2d(q0), np.atleast_2d(q1))
+    if q0.shape != q1.shape:
+        raise ValueError(f"difference: q0 and q1 have {len(q0)} and {len(q1)} states")
+    q0, q1 = np.ascontiguousarray(q0), np.ascontiguousarray(q1)
+    v = np.empty((q0.shape[0], model.nv))
+    for n in range(q0.shape[0]):
+        difference_kernel(model._ibuf, q0[n], q1[n], v[n])
+    return v
+
+
+def normalize(model, q):
+    """q with each free joint's quaternion divided by its norm (a copy): (nq,) or (N, nq).
+    A zero or non-finite quaternion is a ValueError naming its slice of q."""
+    q = _checked_q(model, q, "q", "normalize").copy()
+    for row in q if q.ndim == 2 else [q]:
+        normalize_kernel(model._ibuf, row)
+    return q
+
+
+def neutral(model):
+    """The reference configuration (nq,): every joint at 0, a free joint at the origin with
+    the identity rotation (quaternion (0, 0, 0, 1))."""
+    q = np.zeros(model.nq)
+    for _, k in _quaternions(model):
+        q[k + 3] = 1.0
+    return q
+
+
+def random_configuration(model, rng=None):
+    """A random configuration (nq,): each joint uniform between its limits, or over
+    [-pi, pi] rad (revolute) or [-1, 1] m (prismatic) where a limit is infinite; a free joint
+    at a uniform point of the cube [-1, 1]^3 m with a uniformly random rotation (a normalised
+    4-D Gaussian quaternion). rng: a numpy Generator or a seed (default: fresh entropy)."""
+    rng = np.random.default_rng(rng)
+    q = neutral(model)
+    for k, name in enumerate(model.joint_names):
+        i = model.body_joints.index(name)
+        span = 1.0 if model.jtype[i] == PRISMATIC else np.pi
+        lo = model.lower[k] if np.isfinite(model.lower[k]) else -span
+        hi = model.upper[k] if np.isfinite(model.upper[k]) else span
+        q[model.q_index[k]] = rng.uniform(lo, hi)
+    for i, k in _quaternions(model):
+        q[k - 3 : k] = rng.uniform(-1.0, 1.0, 3)
+        u = rng.normal(size=4)
+        q[k : k + 4] = u / np.linalg.norm(u)
+    return q

@@ -60,7 +60,7 @@ from ._kernels import (
     zero_matrix,
 )
 from .crba import crba_kernel, mass_matrix
-from .forward import cholesky_solve
+from .cholesky import cholesky_solve
 from .kinematics import frame_pose, jacobian, space_axis
 from .rnea import forward_pass, rnea_kernel
 from ..status import Status
@@ -124,18 +124,19 @@ def point_motion(R_s, p_s, V, dV, body, r, p_w, a_w):
 
 
 @njit(**INLINE)
-def add_point_jacobian(parent, coord, mult, A, R_s, p_s, body, p_w, sign, J, S):
-    """J (3, nv) += sign * d(world velocity of the world point p_w fixed to `body`)/d qd:
-    column coord[i] gets mult[i] (v_i + w_i x p_w) with (w_i, v_i) = Ad_{T_{s,i}} A_i, for every
-    body i from `body` to the root. S is (6,) scratch."""
+def add_point_jacobian(parent, nv_j, iv, mult, axes, R_s, p_s, body, p_w, sign, J, S):
+    """J (3, nv) += sign * d(world velocity of the world point p_w fixed to `body`)/d v:
+    column iv[i] + k gets mult[i] (v_i + w_i x p_w) with (w_i, v_i) = Ad_{T_{s,i}} axes[i, k]
+    (row k of S_i), for every body i from `body` to the root. S is (6,) scratch."""
     i = body
     while i >= 0:
-        space_axis(R_s[i], p_s[i], A[i], S)
-        c = coord[i]
         f = sign * mult[i]
-        J[0, c] += f * (S[3] + S[1] * p_w[2] - S[2] * p_w[1])
-        J[1, c] += f * (S[4] + S[2] * p_w[0] - S[0] * p_w[2])
-        J[2, c] += f * (S[5] + S[0] * p_w[1] - S[1] * p_w[0])
+        for k in range(nv_j[i]):
+            space_axis(R_s[i], p_s[i], axes[i, k], S)
+            c = iv[i] + k
+            J[0, c] += f * (S[3] + S[1] * p_w[2] - S[2] * p_w[1])
+            J[1, c] += f * (S[4] + S[2] * p_w[0] - S[0] * p_w[2])
+            J[2, c] += f * (S[5] + S[0] * p_w[1] - S[1] * p_w[0])
         i = parent[i]
 
 
@@ -186,17 +187,20 @@ def frame_twist(V, body, R_bf, p_bf, out):
 
 
 @njit(**INLINE)
-def add_relative_twist_jacobian(parent, coord, mult, A, R_s, p_s, body, R_sb, p_sb, sign, J, S, c6):
-    """J (6, nv) += sign * Ad_{T_{b,s}} J_s(body): the space twist of `body` per unit qd, in the
+def add_relative_twist_jacobian(
+    parent, nv_j, iv, mult, axes, R_s, p_s, body, R_sb, p_sb, sign, J, S, c6
+):
+    """J (6, nv) += sign * Ad_{T_{b,s}} J_s(body): the space twist of `body` per unit v, in the
     axes of frame b at (R_sb, p_sb). S, c6: (6,) scratch."""
     i = body
     while i >= 0:
-        space_axis(R_s[i], p_s[i], A[i], S)
-        twist_to_child(R_sb, p_sb, S, c6)
-        c = coord[i]
         f = sign * mult[i]
-        for k in range(6):
-            J[k, c] += f * c6[k]
+        for k in range(nv_j[i]):
+            space_axis(R_s[i], p_s[i], axes[i, k], S)
+            twist_to_child(R_sb, p_sb, S, c6)
+            c = iv[i] + k
+            for r in range(6):
+                J[r, c] += f * c6[r]
         i = parent[i]
 
 
@@ -264,9 +268,9 @@ def constraint_terms_kernel(ibuf, fbuf, rows, params, q, qd, A, Adot_qd, phi):
     if not all_finite(qd):
         return Status.QD_NOT_FINITE.value
     body_tree = tree(ibuf, fbuf)
-    parent, jtype, coord, mult, offset, Ax, R_home, p_home = body_tree
+    parent, jtype, nv_j, iq, iv, mult, offset, axes, R_home, p_home = body_tree
     nb = parent.shape[0]
-    nv = q.shape[0]
+    nv = qd.shape[0]
     poses = np.empty((2, nb, 3, 3))
     R, R_s = poses[0], poses[1]
     points = np.empty((2, nb, 3))
@@ -283,7 +287,7 @@ def constraint_terms_kernel(ibuf, fbuf, rows, params, q, qd, A, Adot_qd, phi):
     p_sa, p_sb, p_ab = t3[0], t3[1], t3[2]
     J3 = np.empty((3, nv))
     # forward pass at qdd = 0, no gravity: V_i and dV_i = the velocity-product part of the rate
-    forward_pass(body_tree, q, qd, np.zeros(nv), np.zeros(6), R, p, V, dV, S)
+    forward_pass(body_tree, q, qd, np.zeros(nv), np.zeros(6), R, p, V, dV, s6[:2])
     world_poses(parent, R, p, R_s, p_s)
 
     zero_matrix(A)
@@ -294,7 +298,7 @@ def constraint_terms_kernel(ibuf, fbuf, rows, params, q, qd, A, Adot_qd, phi):
             # world velocity of point a (minus that of point b): 3 rows
             point_motion(R_s, p_s, V, dV, body_a, params[o : o + 3], p_a, a_a)
             add_point_jacobian(
-                parent, coord, mult, Ax, R_s, p_s, body_a, p_a, 1.0, A[r0 : r0 + 3], S
+                parent, nv_j, iv, mult, axes, R_s, p_s, body_a, p_a, 1.0, A[r0 : r0 + 3], S
             )
             if kind == POINT_TO_WORLD:
                 for k in range(3):
@@ -303,7 +307,7 @@ def constraint_terms_kernel(ibuf, fbuf, rows, params, q, qd, A, Adot_qd, phi):
             else:
                 point_motion(R_s, p_s, V, dV, body_b, params[o + 3 : o + 6], p_b, a_b)
                 add_point_jacobian(
-                    parent, coord, mult, Ax, R_s, p_s, body_b, p_b, -1.0, A[r0 : r0 + 3], S
+                    parent, nv_j, iv, mult, axes, R_s, p_s, body_b, p_b, -1.0, A[r0 : r0 + 3], S
                 )
             for k in range(3):
                 Adot_qd[r0 + k] = a_a[k] - a_b[k]
@@ -312,7 +316,7 @@ def constraint_terms_kernel(ibuf, fbuf, rows, params, q, qd, A, Adot_qd, phi):
             # n . (world velocity of the point): 1 row
             point_motion(R_s, p_s, V, dV, body_a, params[o : o + 3], p_a, a_a)
             zero_matrix(J3)
-            add_point_jacobian(parent, coord, mult, Ax, R_s, p_s, body_a, p_a, 1.0, J3, S)
+            add_point_jacobian(parent, nv_j, iv, mult, axes, R_s, p_s, body_a, p_a, 1.0, J3, S)
             nrm = params[o + 3 : o + 6]
             for c in range(nv):
                 A[r0, c] = nrm[0] * J3[0, c] + nrm[1] * J3[1, c] + nrm[2] * J3[2, c]
@@ -330,10 +334,10 @@ def constraint_terms_kernel(ibuf, fbuf, rows, params, q, qd, A, Adot_qd, phi):
             frame_in_world(R_s, p_s, body_b, R_bf, p_bf, R_sb, p_sb)
             Arows = A[r0 : r0 + 6]
             add_relative_twist_jacobian(
-                parent, coord, mult, Ax, R_s, p_s, body_b, R_sb, p_sb, 1.0, Arows, S, c6
+                parent, nv_j, iv, mult, axes, R_s, p_s, body_b, R_sb, p_sb, 1.0, Arows, S, c6
             )
             add_relative_twist_jacobian(
-                parent, coord, mult, Ax, R_s, p_s, body_a, R_sb, p_sb, -1.0, Arows, S, c6
+                parent, nv_j, iv, mult, axes, R_s, p_s, body_a, R_sb, p_sb, -1.0, Arows, S, c6
             )
             # T_ba = T_bs T_sa: R_ab holds R_ba here, p_ab holds p_ba
             relative_pose(R_sb, p_sb, R_sa, p_sa, R_ab, p_ab)
@@ -633,9 +637,10 @@ def _world_point(model, q0, name, point):
 
 
 def _table(model, constraints, q0, q0_name="q0"):
+    _args.fixed_base_only(model, "constraints")
     constraints = _as_list(constraints)
     if q0 is not None:
-        q0 = _args.as_state(model, q0, q0_name)
+        q0 = _args.as_q(model, q0, q0_name)
         if q0.ndim != 1:
             raise ValueError(f"{q0_name} must be a single configuration ({model.nv},)")
         if not np.all(np.isfinite(q0)):
@@ -741,6 +746,7 @@ def constraint_table(model, constraints, q0):
 
 
 def _state(model, x, name, what):
+    _args.fixed_base_only(model, what)
     x = _args.as_state(model, x, name)
     if x.ndim != 1:
         raise ValueError(f"{what}: {name} must be a single state ({model.nv},), got {x.shape}")

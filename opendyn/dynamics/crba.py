@@ -1,11 +1,13 @@
 """Mass matrix by the composite-rigid-body algorithm (CRBA):
 
-    M_ij = A_i^T Ad_{T_{j,i}}^T Ic_j A_j   for j a descendant of i (or i itself), else 0
+    M_ij = S_i^T Ad_{T_{j,i}}^T Ic_j S_j   for j a descendant of i (or i itself), else 0
 
-Backward pass, tips to base, composite inertias of the subtrees:
+(blocks nv_i x nv_j; S_i = A_i for a 1-dof joint, I_6 for a free one). Backward pass, tips to
+base, composite inertias of the subtrees:
     Ic_i = G_i + sum_children Ad_{T_{c,i}}^T Ic_c Ad_{T_{c,i}}
-then for each body the wrench F = Ic_i A_i is carried up its ancestors j: F <- Ad_{T_{j',j}}^T F,
-M_ij = F^T A_j. (Featherstone, Rigid Body Dynamics Algorithms, 2008, Section 6.2.)
+then for each row s of S_i the wrench F = Ic_i s gives the entries with the joint's own rows,
+s'^T F, and is carried up its ancestors j: F <- Ad_{T_{j',j}}^T F, M_ij = F^T S_j.
+(Featherstone, Rigid Body Dynamics Algorithms, 2008, Section 6.2.)
 """
 
 from __future__ import annotations
@@ -18,27 +20,26 @@ from ._kernels import (
     BATCH,
     JIT,
     add_rigid_inertia_to_parent,
-    all_finite,
     dot6,
-    joint_transform,
     rigid_inertia_times,
     rigid_inertias,
     run_rows,
     tree,
-
     wrench_to_parent,
     zero_matrix,
 )
 from ..status import Status
+from .joints import configuration_status, joint_transform
 
 
 @njit(**JIT)
 def crba_kernel(ibuf, fbuf, q, M):
-    """M (nv, nv) <- CRBA at one configuration.
-    Returns a Status: OK or Q_NOT_FINITE."""
-    if not all_finite(q):
-        return Status.Q_NOT_FINITE.value
-    parent, jtype, coord, mult, offset, A, R_home, p_home = tree(ibuf, fbuf)
+    """M (nv, nv) <- CRBA at one configuration q (nq,).
+    Returns a Status: OK, Q_NOT_FINITE or Q_NOT_UNIT_QUATERNION."""
+    status = configuration_status(ibuf, q)
+    if status:
+        return status
+    parent, jtype, nv_j, iq, iv, mult, offset, S, R_home, p_home = tree(ibuf, fbuf)
     mass, h, I_o = rigid_inertias(ibuf, fbuf)
     nb = parent.shape[0]
     # one block for the poses (R, p) and one for the composite inertias (I_c, h_c, mass_c):
@@ -47,11 +48,11 @@ def crba_kernel(ibuf, fbuf, q, M):
     R, p = pose[:, :3], pose[:, 3]
     composite = np.empty((nb, 5, 3))
     I_c, h_c, mass_c = composite[:, :3], composite[:, 3], composite[:, 4, 0]
-    S = np.empty((3, 3))
+    scratch = np.empty((3, 3))
     F = np.empty(6)
     for i in range(nb):
         joint_transform(
-            jtype[i], A[i], R_home[i], p_home[i], mult[i] * q[coord[i]] + offset[i], R[i], p[i]
+            jtype[i], S[i], R_home[i], p_home[i], q, iq[i], mult[i], offset[i], R[i], p[i]
         )
         mass_c[i] = mass[i]
         for r in range(3):
@@ -63,27 +64,38 @@ def crba_kernel(ibuf, fbuf, q, M):
         lam = parent[i]
         if lam >= 0:
             add_rigid_inertia_to_parent(
-                R[i], p[i], mass_c[i], h_c[i], I_c[i], mass_c[lam : lam + 1], h_c[lam], I_c[lam], S
+                R[i],
+                p[i],
+                mass_c[i],
+                h_c[i],
+                I_c[i],
+                mass_c[lam : lam + 1],
+                h_c[lam],
+                I_c[lam],
+                scratch,
             )
-    # M_ij = (Ad^T ... Ic_i A_i)^T A_j along the path from i to the root
+    # M_ab = (Ad^T ... Ic_i s_a)^T s_b along the path from i to the root, s_a a row of S_i
     zero_matrix(M)
     for i in range(nb):
-        ci = coord[i]
-        rigid_inertia_times(mass_c[i], h_c[i], I_c[i], A[i], F)
-        M[ci, ci] += mult[i] * mult[i] * dot6(F, A[i])
-        j = i
-        while parent[j] >= 0:
-            wrench_to_parent(R[j], p[j], F)
-            j = parent[j]
-            m_ij = mult[i] * mult[j] * dot6(F, A[j])
-            M[ci, coord[j]] += m_ij
-            M[coord[j], ci] += m_ij
+        for k in range(nv_j[i]):
+            a = iv[i] + k
+            rigid_inertia_times(mass_c[i], h_c[i], I_c[i], S[i, k], F)
+            for k2 in range(nv_j[i]):
+                M[a, iv[i] + k2] += mult[i] * mult[i] * dot6(F, S[i, k2])
+            j = i
+            while parent[j] >= 0:
+                wrench_to_parent(R[j], p[j], F)
+                j = parent[j]
+                for k2 in range(nv_j[j]):
+                    m_ab = mult[i] * mult[j] * dot6(F, S[j, k2])
+                    M[a, iv[j] + k2] += m_ab
+                    M[iv[j] + k2, a] += m_ab
     return Status.OK.value
 
 
 @njit(**BATCH)
 def crba_batch_kernel(ibuf, fbuf, q, M, status, start, stop):
-    """CRBA over rows [start, stop) of a batch of configurations (N, nv) -> M (N, nv, nv)."""
+    """CRBA over rows [start, stop) of a batch of configurations (N, nq) -> M (N, nv, nv)."""
     for n in range(start, stop):
         status[n] = crba_kernel(ibuf, fbuf, q[n], M[n])
 
@@ -91,8 +103,10 @@ def crba_batch_kernel(ibuf, fbuf, q, M, status, start, stop):
 def mass_matrix(model, q):
     """M(q): the (nv, nv) joint-space mass matrix, symmetric positive definite, by CRBA.
 
-    q: (nv,) joint positions (rad or m), or a batch (N, nv) -> (N, nv, nv).
-    Units: kg m^2 (revolute-revolute), kg m (mixed), kg (prismatic-prismatic).
+    q: (nq,) configuration (joint positions in rad or m, after a floating base's (p, quat)),
+    or a batch (N, nq) -> (N, nv, nv).
+    Units: kg m^2 (rotation-rotation), kg m (mixed), kg (translation-translation); a floating
+    base's block is the spatial inertia of the whole robot in the base frame.
     """
     if _args.is_single(model, q):
         M = np.empty(model._matrix_shape)
@@ -100,7 +114,7 @@ def mass_matrix(model, q):
         if status:
             _args.raise_status(status, model, "mass_matrix")
         return M
-    q = _args.as_state(model, q, "q")
+    q = _args.as_q(model, q)
     if q.ndim == 1:
         return mass_matrix(model, q)
     M = np.empty((q.shape[0], model.nv, model.nv))

@@ -7,8 +7,8 @@ so that dU/dq = g(q), the gravity torques (Lynch & Park, Section 8.1). The gradi
 at fixed qd, the force term of the momentum form of the equations of motion
 (d/dt (M qd) = dK/dq - g + tau), takes one forward and one backward pass:
 
-    dV_i/dq_j = Ad_{T_ij} ad_{V_j} A_j     (i in the subtree of j; 0 elsewhere)
-    dK/dq_j   = (ad_{V_j} A_j)^T P_j,      P_j = G_j V_j + sum_children Ad_{T_cj}^T P_c
+    dV_i/dq_j = Ad_{T_ij} ad_{V_j} s_j     (i in the subtree of j; 0 elsewhere; s_j a row of S_j)
+    dK/dq_j   = (ad_{V_j} s_j)^T P_j,      P_j = G_j V_j + sum_children Ad_{T_cj}^T P_c
 
 with P_j the momentum of the subtree of j in {j}.
 """
@@ -28,7 +28,6 @@ from ._kernels import (
     all_finite,
     dot6,
     fill,
-    joint_transform,
     rigid_inertia_times,
     rigid_inertias,
     run_rows,
@@ -38,6 +37,7 @@ from ._kernels import (
 from .kinematics import world_pose
 from .rnea import forward_pass
 from ..status import Status
+from .joints import configuration_status, joint_motion, joint_transform
 
 
 @njit(**INLINE)
@@ -48,18 +48,20 @@ def body_twists(ibuf, fbuf, q, qd):
     nb = body_tree[0].shape[0]
     R, p = np.empty((nb, 3, 3)), np.empty((nb, 3))
     V, dV = np.empty((nb, 6)), np.empty((nb, 6))
-    forward_pass(body_tree, q, qd, np.zeros_like(qd), np.zeros(6), R, p, V, dV, np.empty(6))
+    forward_pass(body_tree, q, qd, np.zeros_like(qd), np.zeros(6), R, p, V, dV, np.empty((2, 6)))
     return R, p, V
 
 
 @njit(**JIT)
 def kinetic_gradient_kernel(ibuf, fbuf, q, qd, dK_dq):
-    """dK_dq (nv,) <- dK/dq at fixed qd (N m or N). Returns a Status: OK or Q/QD_NOT_FINITE."""
-    if not all_finite(q):
-        return Status.Q_NOT_FINITE.value
+    """dK_dq (nv,) <- dK/dq at fixed qd (N m or N). Returns a Status: OK, Q/QD_NOT_FINITE or
+    Q_NOT_UNIT_QUATERNION."""
+    status = configuration_status(ibuf, q)
+    if status:
+        return status
     if not all_finite(qd):
         return Status.QD_NOT_FINITE.value
-    parent, jtype, coord, mult, offset, A, R_home, p_home = tree(ibuf, fbuf)
+    parent, jtype, nv_j, iq, iv, mult, offset, S, R_home, p_home = tree(ibuf, fbuf)
     mass, h, I_o = rigid_inertias(ibuf, fbuf)
     nb = mass.shape[0]
     R, p, V = body_twists(ibuf, fbuf, q, qd)
@@ -70,10 +72,11 @@ def kinetic_gradient_kernel(ibuf, fbuf, q, qd, dK_dq):
         rigid_inertia_times(mass[i], h[i], I_o[i], V[i], P[i])
     fill(dK_dq, 0.0)
     for j in range(nb - 1, -1, -1):
-        # dK/dq_j = (ad_{V_j} A_j)^T P_j = -A_j . (-ad_{V_j}^T P_j)
+        # dK/dq_j = (ad_{V_j} s_j)^T P_j = -s_j . (-ad_{V_j}^T P_j) for each row s_j of S_j
         fill(s, 0.0)
         add_neg_ad_transpose(V[j], P[j], s)
-        dK_dq[coord[j]] -= mult[j] * dot6(A[j], s)
+        for k in range(nv_j[j]):
+            dK_dq[iv[j] + k] -= mult[j] * dot6(S[j, k], s)
         if parent[j] >= 0:
             add_wrench_to_parent(R[j], p[j], P[j], P[parent[j]])
     return Status.OK.value
@@ -83,35 +86,35 @@ def kinetic_gradient_kernel(ibuf, fbuf, q, qd, dK_dq):
 def energy_kernel(ibuf, fbuf, q, qd, gravity, out):
     """out (2,) <- (K(q, qd), U(q)) under the world-frame gravity (3,), in one pass from the
     base to the tips:
-        T_{s,i} = T_{s,lambda} T_{lambda,i},   V_i = Ad_{T_{i,lambda}} V_lambda + A_i qd_i,
+        T_{s,i} = T_{s,lambda} T_{lambda,i},   V_i = Ad_{T_{i,lambda}} V_lambda + S_i qd_i,
         K = sum_i 1/2 V_i^T G_i V_i,           U = -sum_i g . (R_si h_i + m_i p_si).
-    Returns a Status: OK or Q/QD_NOT_FINITE."""
-    if not all_finite(q):
-        return Status.Q_NOT_FINITE.value
+    Returns a Status: OK, Q/QD_NOT_FINITE or Q_NOT_UNIT_QUATERNION."""
+    status = configuration_status(ibuf, q)
+    if status:
+        return status
     if not all_finite(qd):
         return Status.QD_NOT_FINITE.value
-    parent, jtype, coord, mult, offset, A, R_home, p_home = tree(ibuf, fbuf)
+    parent, jtype, nv_j, iq, iv, mult, offset, S, R_home, p_home = tree(ibuf, fbuf)
     mass, h, I_o = rigid_inertias(ibuf, fbuf)
     nb = parent.shape[0]
     R, p = np.empty((3, 3)), np.empty(3)
     R_s, p_s = np.empty((nb, 3, 3)), np.empty((nb, 3))
     V = np.empty((nb, 6))
     s = np.empty(6)
+    V_J = np.empty(6)
     K = 0.0
     U = 0.0
     for i in range(nb):
-        j = coord[i]
-        joint_transform(
-            jtype[i], A[i], R_home[i], p_home[i], mult[i] * q[j] + offset[i], R, p
-        )
+        joint_transform(jtype[i], S[i], R_home[i], p_home[i], q, iq[i], mult[i], offset[i], R, p)
         lam = parent[i]
         world_pose(R_s, p_s, lam, R, p, i)
+        joint_motion(nv_j[i], S[i], mult[i], qd, iv[i], V_J)
         if lam < 0:
             fill(V[i], 0.0)
         else:
             twist_to_child(R, p, V[lam], V[i])
         for k in range(6):
-            V[i, k] += A[i, k] * mult[i] * qd[j]
+            V[i, k] += V_J[k]
         rigid_inertia_times(mass[i], h[i], I_o[i], V[i], s)
         K += 0.5 * dot6(V[i], s)
         for r in range(3):
@@ -136,9 +139,9 @@ def energy_batch_kernel(ibuf, fbuf, q, qd, gravity, out, status, start, stop):
 
 def energies(model, q, qd, gravity=None, what="energies"):
     """(K, U): kinetic energy 1/2 qd^T M qd and potential energy -sum_i m_i g . c_i (J), each a
-    float, or (N,) arrays for batches (N, nv), by one compiled kernel. gravity: optional (3,)
+    float, or (N,) arrays for batches (N, nq), (N, nv), by one compiled kernel. gravity: optional (3,)
     world-frame vector (m/s^2); what: the function named in error messages."""
-    (q, qd), batch = _args.as_states(model, ("q", q), ("qd", qd))
+    (q, qd), batch = _args.as_states(model, q, ("qd", qd))
     g = _args.as_gravity(model, gravity)
     if not batch:
         out = np.empty(2)
@@ -154,14 +157,14 @@ def energies(model, q, qd, gravity=None, what="energies"):
 
 
 def kinetic_energy(model, q, qd):
-    """K = 1/2 qd^T M(q) qd (J): float, or (N,) for a batch of states (N, nv)."""
+    """K = 1/2 qd^T M(q) qd (J): float, or (N,) for a batch of states (q (N, nq), qd (N, nv))."""
     return energies(model, q, qd, what="kinetic_energy")[0]
 
 
 def potential_energy(model, q, gravity=None):
-    """U(q) = -sum_i m_i g . c_i(q) (J), zero at the world origin: float, or (N,) for (N, nv).
+    """U(q) = -sum_i m_i g . c_i(q) (J), zero at the world origin: float, or (N,) for (N, nq).
 
     gravity: optional (3,) world-frame vector (m/s^2), default model.gravity; dU/dq = g(q).
     """
-    q = _args.as_state(model, q, "q")
-    return energies(model, q, np.zeros_like(q), gravity, "potential_energy")[1]
+    q = _args.as_q(model, q)
+    return energies(model, q, np.zeros(q.shape[:-1] + (model.nv,)), gravity, "potential_energy")[1]

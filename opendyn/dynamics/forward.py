@@ -14,62 +14,14 @@ from numba import njit
 
 from . import _args
 from ._kernels import BATCH, JIT, all_finite, run_rows
-from .aba import SINGULAR_PIVOT, aba_kernel
+from .aba import aba_kernel
+from .cholesky import cholesky_solve
 from .crba import crba_kernel
 from .rnea import rnea_kernel
 from ..status import Status
 
 METHODS = ("aba", "crba", "newton_euler")
 NO_ARMATURE = np.zeros(0)  # the rigid-body M: no rotor inertias
-
-
-@njit(**JIT)
-def cholesky_factor(M):
-    """M = L L^T, L in place in M's lower triangle. Returns Status.OK.value, or SINGULAR + k for the
-    first index k whose pivot is not positive (M singular there)."""
-    n = M.shape[0]
-    scale = 0.0
-    for k in range(n):
-        scale = max(scale, M[k, k])
-    for k in range(n):
-        d = M[k, k]
-        for m in range(k):
-            d -= M[k, m] * M[k, m]
-        if not d > SINGULAR_PIVOT * scale:
-            return Status.SINGULAR.value + k
-        d = np.sqrt(d)
-        M[k, k] = d
-        for r in range(k + 1, n):
-            s = M[r, k]
-            for m in range(k):
-                s -= M[r, m] * M[k, m]
-            M[r, k] = s / d
-    return Status.OK.value
-
-
-@njit(**JIT)
-def cholesky_substitute(L, b, x):
-    """x = (L L^T)^-1 b for L from cholesky_factor: L y = b, then L^T x = y."""
-    n = L.shape[0]
-    for r in range(n):
-        s = b[r]
-        for m in range(r):
-            s -= L[r, m] * x[m]
-        x[r] = s / L[r, r]
-    for r in range(n - 1, -1, -1):
-        s = x[r]
-        for m in range(r + 1, n):
-            s -= L[m, r] * x[m]
-        x[r] = s / L[r, r]
-
-
-@njit(**JIT)
-def cholesky_solve(M, b, x):
-    """x = M^-1 b by M = L L^T, in place in M. Returns Status.OK.value or SINGULAR + k."""
-    status = cholesky_factor(M)
-    if status == Status.OK.value:
-        cholesky_substitute(M, b, x)
-    return status
 
 
 @njit(**JIT)
@@ -135,7 +87,8 @@ def forward_kernel(ibuf, fbuf, q, qd, tau, loads, qdd, armature, aba, crba, newt
 def forward_batch_kernel(
     ibuf, fbuf, q, qd, tau, loads, qdd, armature, method, status, start, stop
 ):
-    """Forward dynamics over rows [start, stop) of a batch (N, nv); loads (1 or N, rows, 6);
+    """Forward dynamics over rows [start, stop) of a batch (q (N, nq), the others (N, nv));
+    loads (1 or N, rows, 6);
     armature as in forward_kernel, an argument (a global array would be a read-only constant to
     numba, and the kernel would compile again for it)."""
     shared = loads.shape[0] == 1
@@ -165,7 +118,7 @@ def method_switches(model, method):
     forward dynamics). Models with coupled (mimic) joints solve "aba" by CRBA (ABA needs one
     coordinate a body). A table look-up: it runs on every forward_dynamics call."""
     try:
-        return _SWITCHES["crba" if method == "aba" and model.nb != model.nv else method]
+        return _SWITCHES["crba" if method == "aba" and model.coupled else method]
     except (KeyError, TypeError):
         raise ValueError(
             f"forward_dynamics: method must be one of {', '.join(METHODS)}, got {method!r}"
@@ -176,7 +129,9 @@ def forward_dynamics(model, q, qd, tau, f_tip=None, gravity=None, method="aba"):
     """qdd = M(q)^-1 (tau - c(q, qd) - g(q) - sum_frames J_b(frame)^T F_tip(frame)).
 
     Args:
-      q, qd, tau: (nv,) joint positions (rad or m), velocities, torques (N m or N); or (N, nv).
+      q: (nq,) configuration (joint positions in rad or m, after a floating base's (p, quat));
+      qd, tau: (nv,) velocities and generalized forces (N m or N; a floating base's twist
+        (omega_b, v_b) and wrench (m_b, f_b) in its own frame first); or batches (N, nq), (N, nv).
       f_tip: optional {frame_name: (6,) wrench (m, f)} that each frame applies TO THE
         ENVIRONMENT, in that frame's coordinates.
       gravity: optional (3,) world-frame gravity (m/s^2), default model.gravity.
@@ -207,7 +162,7 @@ def forward_dynamics(model, q, qd, tau, f_tip=None, gravity=None, method="aba"):
         if status:
             _args.raise_status(status, model, "forward_dynamics")
         return qdd
-    (q, qd, tau), batch = _args.as_states(model, ("q", q), ("qd", qd), ("tau", tau))
+    (q, qd, tau), batch = _args.as_states(model, q, ("qd", qd), ("tau", tau))
     if not batch:
         return forward_dynamics(model, q, qd, tau, f_tip, gravity, method)
     n = q.shape[0]

@@ -1,12 +1,14 @@
 """Forward kinematics and Jacobians on the tree, product of exponentials in body frames:
 
-    T_{s,i}(q) = T_{s,lambda(i)} M_{lambda(i), i} exp([A_i] q_i)
+    T_{s,i}(q) = T_{s,lambda(i)} M_{lambda(i), i} X_J(q_i)
     T_{s,frame} = T_{s,body} T_{body,frame}
-    J_s(q)[:, k] = sum over the frame's path of mult_i Ad_{T_{s,i}} A_i (bodies i with coordinate k)
+    J_s(q)[:, k] = sum over the frame's path of mult_i Ad_{T_{s,i}} s_i (rows s_i of S_i with
+                   velocity coordinate k)
     J_b(q) = Ad_{T_{frame,s}} J_s(q)
 
-so that V_s = J_s qd and V_b = J_b qd are the frame's twists in the space and the frame's own
-coordinates (angular first; Lynch & Park, Sections 4.1 and 5.1).
+so that V_s = J_s v and V_b = J_b v are the frame's twists in the space and the frame's own
+coordinates (angular first; Lynch & Park, Sections 4.1 and 5.1). For a floating base v starts
+with the base twist in its own frame, so its columns of J are the base's body-frame axes.
 """
 
 from __future__ import annotations
@@ -19,15 +21,14 @@ from ._kernels import (
     BATCH,
     INLINE,
     JIT,
-    all_finite,
     copy_into,
-    joint_transform,
     run_rows,
     tree,
     twist_to_child,
     zero_matrix,
 )
 from ..status import Status
+from .joints import configuration_status, joint_transform
 
 
 @njit(**INLINE)
@@ -55,7 +56,7 @@ def forward_kinematics(body_tree, q, R_s, p_s, last):
     """R_s[i], p_s[i] <- T_{s,i}(q) (world frame = the root link) for every body, or, when
     last >= 0, only for the bodies on the path from the root to body `last`.
     body_tree is _kernels.tree(ibuf, fbuf)."""
-    parent, jtype, coord, mult, offset, A, R_home, p_home = body_tree
+    parent, jtype, nv_j, iq, iv, mult, offset, S, R_home, p_home = body_tree
     nb = parent.shape[0]
     R = np.empty((3, 3))
     p = np.empty(3)
@@ -70,16 +71,14 @@ def forward_kinematics(body_tree, q, R_s, p_s, last):
     for i in range(nb if last < 0 else last + 1):
         if not wanted[i]:
             continue
-        joint_transform(
-            jtype[i], A[i], R_home[i], p_home[i], mult[i] * q[coord[i]] + offset[i], R, p
-        )
+        joint_transform(jtype[i], S[i], R_home[i], p_home[i], q, iq[i], mult[i], offset[i], R, p)
         world_pose(R_s, p_s, parent[i], R, p, i)
 
 
 @njit(**INLINE)
 def space_axis(R_s, p_s, A_i, S):
-    """S <- Ad_{T_{s,i}} A_i = (R w, p x (R w) + R v), the screw axis of joint i in {s}, with
-    (R, p) = (R_s, p_s) = T_{s,i} and A_i = (w, v)."""
+    """S <- Ad_{T_{s,i}} A_i = (R w, p x (R w) + R v), a motion axis of joint i (a row of
+    S_i) in {s}, with (R, p) = (R_s, p_s) = T_{s,i} and A_i = (w, v)."""
     for r in range(3):
         S[r] = R_s[r, 0] * A_i[0] + R_s[r, 1] * A_i[1] + R_s[r, 2] * A_i[2]
         S[3 + r] = R_s[r, 0] * A_i[3] + R_s[r, 1] * A_i[4] + R_s[r, 2] * A_i[5]
@@ -110,9 +109,11 @@ def compose_frame(R_s, p_s, body, T_bf, T_sf):
 
 @njit(**JIT)
 def frame_pose_kernel(ibuf, fbuf, q, body, T_bf, T_sf):
-    """T_sf (4, 4) <- T_{s,body}(q) T_{body,frame}. Returns a Status: OK or Q_NOT_FINITE."""
-    if not all_finite(q):
-        return Status.Q_NOT_FINITE.value
+    """T_sf (4, 4) <- T_{s,body}(q) T_{body,frame}. Returns a Status: OK, Q_NOT_FINITE or
+    Q_NOT_UNIT_QUATERNION."""
+    status = configuration_status(ibuf, q)
+    if status:
+        return status
     nb = ibuf[0]
     R_s = np.empty((nb, 3, 3))
     p_s = np.empty((nb, 3))
@@ -124,12 +125,13 @@ def frame_pose_kernel(ibuf, fbuf, q, body, T_bf, T_sf):
 
 @njit(**JIT)
 def jacobian_kernel(ibuf, fbuf, q, body, T_bf, body_frame, J):
-    """J (6, nv) <- J_s, or J_b of the frame when body_frame. Returns a Status: OK or
-    Q_NOT_FINITE."""
-    if not all_finite(q):
-        return Status.Q_NOT_FINITE.value
+    """J (6, nv) <- J_s, or J_b of the frame when body_frame. Returns a Status: OK,
+    Q_NOT_FINITE or Q_NOT_UNIT_QUATERNION."""
+    status = configuration_status(ibuf, q)
+    if status:
+        return status
     body_tree = tree(ibuf, fbuf)
-    parent, jtype, coord, mult, offset, A, R_home, p_home = body_tree
+    parent, jtype, nv_j, iq, iv, mult, offset, S_rows, R_home, p_home = body_tree
     nb = parent.shape[0]
     R_s = np.empty((nb, 3, 3))
     p_s = np.empty((nb, 3))
@@ -142,28 +144,29 @@ def jacobian_kernel(ibuf, fbuf, q, body, T_bf, body_frame, J):
     zero_matrix(J)
     i = body
     while i >= 0:
-        space_axis(R_s[i], p_s[i], A[i], S)
-        if body_frame:
-            # Ad_{T_{frame,s}} S = (R^T w, R^T (v + w x p)) with (R, p) = T_sf
-            twist_to_child(T_sf[:3, :3], T_sf[:3, 3], S, col)
-        else:
-            copy_into(S, col)
-        for k in range(6):
-            J[k, coord[i]] += mult[i] * col[k]
+        for k in range(nv_j[i]):
+            space_axis(R_s[i], p_s[i], S_rows[i, k], S)
+            if body_frame:
+                # Ad_{T_{frame,s}} S = (R^T w, R^T (v + w x p)) with (R, p) = T_sf
+                twist_to_child(T_sf[:3, :3], T_sf[:3, 3], S, col)
+            else:
+                copy_into(S, col)
+            for r in range(6):
+                J[r, iv[i] + k] += mult[i] * col[r]
         i = parent[i]
     return Status.OK.value
 
 
 @njit(**BATCH)
 def jacobian_batch_kernel(ibuf, fbuf, q, body, T_bf, body_frame, J, status, start, stop):
-    """Jacobians over rows [start, stop) of a batch of configurations (N, nv) -> (N, 6, nv)."""
+    """Jacobians over rows [start, stop) of a batch of configurations (N, nq) -> (N, 6, nv)."""
     for n in range(start, stop):
         status[n] = jacobian_kernel(ibuf, fbuf, q[n], body, T_bf, body_frame, J[n])
 
 
 @njit(**BATCH)
 def frame_pose_batch_kernel(ibuf, fbuf, q, body, T_bf, T_sf, status, start, stop):
-    """Frame poses over rows [start, stop) of a batch of configurations (N, nv) -> (N, 4, 4)."""
+    """Frame poses over rows [start, stop) of a batch of configurations (N, nq) -> (N, 4, 4)."""
     for n in range(start, stop):
         status[n] = frame_pose_kernel(ibuf, fbuf, q[n], body, T_bf, T_sf[n])
 
@@ -176,11 +179,11 @@ def _frame(model, frame):
 def frame_pose(model, q, frame):
     """T_sf(q): (4, 4) pose of a frame (any URDF link) in the world frame (the root link).
 
-    q: (nv,) or (N, nv) -> (4, 4) or (N, 4, 4); translation in metres.
+    q: (nq,) or (N, nq) -> (4, 4) or (N, 4, 4); translation in metres.
     Raises KeyError naming the frame if it is not a frame of the model.
     """
     if not _args.is_single(model, q):
-        q = _args.as_state(model, q, "q")
+        q = _args.as_q(model, q)
     body, T_bf = _frame(model, frame)
     if q.ndim == 1:
         T = np.empty((4, 4))
@@ -198,16 +201,16 @@ def frame_pose(model, q, frame):
 
 
 def jacobian(model, q, frame, expressed_in="space"):
-    """The (6, nv) Jacobian of a frame: V = J(q) qd, twist (omega, v) angular first.
+    """The (6, nv) Jacobian of a frame: V = J(q) v, twist (omega, v) angular first.
 
     expressed_in="space": J_s, the frame's twist in the world frame (MR eq. 5.11);
     expressed_in="body":  J_b, the twist in the frame's own coordinates (MR eq. 5.18);
-    J_s = Ad_{T_sf} J_b. q: (nv,) or (N, nv) -> (6, nv) or (N, 6, nv).
+    J_s = Ad_{T_sf} J_b. q: (nq,) or (N, nq) -> (6, nv) or (N, 6, nv).
     """
     if expressed_in not in ("space", "body"):
         raise ValueError(f"jacobian: expressed_in must be 'space' or 'body', got {expressed_in!r}")
     if not _args.is_single(model, q):
-        q = _args.as_state(model, q, "q")
+        q = _args.as_q(model, q)
     body, T_bf = _frame(model, frame)
     body_frame = expressed_in == "body"
     if q.ndim == 1:

@@ -2,14 +2,16 @@
 
     tau = M(q) qdd + c(q, qd) + g(q) + sum_frames J_b(frame)^T F_tip(frame)
 
-Forward pass, base to tips, dV_0 = (0, -g) (gravity as a fictitious base acceleration):
-    T_{i,lambda} = exp(-[A_i] q_i) M_{i,lambda}
-    V_i  = Ad_{T_{i,lambda}} V_lambda + A_i qd_i
-    dV_i = Ad_{T_{i,lambda}} dV_lambda + ad_{V_i} A_i qd_i + A_i qdd_i
+Forward pass, base to tips, dV_0 = (0, -g) (gravity as a fictitious base acceleration), joint
+i with motion subspace S_i (A_i for a 1-dof joint, I_6 for a free one; module joints):
+    T_{i,lambda} = X_J(q_i)^-1 M_{i,lambda}
+    V_i  = Ad_{T_{i,lambda}} V_lambda + S_i qd_i
+    dV_i = Ad_{T_{i,lambda}} dV_lambda + ad_{V_i} S_i qd_i + S_i qdd_i
 Backward pass, tips to base:
     F_i = G_i dV_i - ad_{V_i}^T G_i V_i + F_tip,i + sum_children Ad_{T_{c,i}}^T F_c
-    tau_i = F_i^T A_i
-(Lynch & Park, Modern Robotics, Section 8.3.2; the seed notes, "Newton-Euler inverse dynamics".)
+    tau_i = S_i^T F_i
+(Lynch & Park, Modern Robotics, Section 8.3.2; the seed notes, "Newton-Euler inverse dynamics";
+Featherstone, Rigid Body Dynamics Algorithms, Table 5.1, for multi-dof joints.)
 """
 
 from __future__ import annotations
@@ -26,9 +28,8 @@ from ._kernels import (
     add_neg_ad_transpose,
     add_wrench_to_parent,
     all_finite,
-    dot6,
+    copy_into,
     fill,
-    joint_transform,
     rigid_inertia_times,
     rigid_inertias,
     run_rows,
@@ -36,6 +37,7 @@ from ._kernels import (
     twist_to_child,
 )
 from ..status import Status
+from .joints import add_joint_force, configuration_status, joint_motion, joint_transform
 
 
 @njit(**INLINE)
@@ -43,64 +45,69 @@ def forward_pass(body_tree, q, qd, qdd, dV_0, R, p, V, dV, s):
     """Forward pass of RNEA: R[i], p[i] = T_{lambda,i}; V[i], dV[i] twist and its rate in {i}.
 
     body_tree is _kernels.tree(ibuf, fbuf); dV_0 is the base's acceleration, (0, -g) for
-    gravity. s is (6,) scratch. Also used for energies and frame accelerations.
+    gravity. s is (2, 6) scratch. Also used for energies and frame accelerations.
     """
-    parent, jtype, coord, mult, offset, A, R_home, p_home = body_tree
+    parent, jtype, nv_j, iq, iv, mult, offset, S, R_home, p_home = body_tree
+    V_J, a = s[0], s[1]
     for i in range(parent.shape[0]):
-        j = coord[i]
         joint_transform(
-            jtype[i], A[i], R_home[i], p_home[i], mult[i] * q[j] + offset[i], R[i], p[i]
+            jtype[i], S[i], R_home[i], p_home[i], q, iq[i], mult[i], offset[i], R[i], p[i]
         )
         lam = parent[i]
-        # V_i = Ad_{T_{i,lambda}} V_lambda + A_i qd_i  (the world does not move: V_0 = 0)
+        # V_i = Ad_{T_{i,lambda}} V_lambda + S_i qd_i  (the world does not move: V_0 = 0)
+        joint_motion(nv_j[i], S[i], mult[i], qd, iv[i], V_J)
         if lam < 0:
-            fill(V[i], 0.0)
+            copy_into(V_J, V[i])
         else:
             twist_to_child(R[i], p[i], V[lam], V[i])
-        qd_i, qdd_i = mult[i] * qd[j], mult[i] * qdd[j]
-        for k in range(6):
-            V[i, k] += A[i, k] * qd_i
-        # dV_i = Ad_{T_{i,lambda}} dV_lambda + ad_{V_i} A_i qd_i + A_i qdd_i
+            for k in range(6):
+                V[i, k] += V_J[k]
+        # dV_i = Ad_{T_{i,lambda}} dV_lambda + sum_k (ad_{V_i} s_k) qd_k + s_k qdd_k over the
+        # rows s_k of S_i
         twist_to_child(R[i], p[i], dV_0 if lam < 0 else dV[lam], dV[i])
-        ad_twist(V[i], A[i], s)
-        for k in range(6):
-            dV[i, k] += s[k] * qd_i + A[i, k] * qdd_i
+        for k in range(nv_j[i]):
+            qd_k, qdd_k = mult[i] * qd[iv[i] + k], mult[i] * qdd[iv[i] + k]
+            ad_twist(V[i], S[i, k], a)
+            for r in range(6):
+                dV[i, r] += a[r] * qd_k + S[i, k, r] * qdd_k
 
 
 @njit(**JIT)
 def rnea_kernel(ibuf, fbuf, q, qd, qdd, loads, tau):
     """tau (nv,) <- RNEA at one state. loads[0] = dV_0 = (0, -g); loads[1 + i], when present,
-    the wrench body i applies to the environment. Returns a Status: OK, or Q/QD/QDD_NOT_FINITE."""
-    if not all_finite(q):
-        return Status.Q_NOT_FINITE.value
+    the wrench body i applies to the environment. Returns a Status: OK, Q/QD/QDD_NOT_FINITE
+    or Q_NOT_UNIT_QUATERNION."""
+    status = configuration_status(ibuf, q)
+    if status:
+        return status
     if not all_finite(qd):
         return Status.QD_NOT_FINITE.value
     if not all_finite(qdd):
         return Status.QDD_NOT_FINITE.value
     body_tree = tree(ibuf, fbuf)
-    parent, jtype, coord, mult, offset, A, R_home, p_home = body_tree
+    parent, jtype, nv_j, iq, iv, mult, offset, S, R_home, p_home = body_tree
     mass, h, I_o = rigid_inertias(ibuf, fbuf)
     nb = parent.shape[0]
     vec = np.empty((3, nb, 6))
     V, dV, F = vec[0], vec[1], vec[2]
     R = np.empty((nb, 3, 3))
     p = np.empty((nb, 3))
-    s = np.empty(6)
+    s = np.empty((2, 6))
     forward_pass(body_tree, q, qd, qdd, loads[0], R, p, V, dV, s)
 
     # backward pass: F_i = G_i dV_i - ad_{V_i}^T G_i V_i + F_tip,i + sum_children Ad^T F_c,
-    # tau_i = F_i^T A_i
+    # tau_i = S_i^T F_i
     wrenches = loads.shape[0] > 1
     for i in range(nb):
         rigid_inertia_times(mass[i], h[i], I_o[i], dV[i], F[i])
-        rigid_inertia_times(mass[i], h[i], I_o[i], V[i], s)
-        add_neg_ad_transpose(V[i], s, F[i])
+        rigid_inertia_times(mass[i], h[i], I_o[i], V[i], s[0])
+        add_neg_ad_transpose(V[i], s[0], F[i])
         if wrenches:
             for k in range(6):
                 F[i, k] += loads[1 + i, k]
     fill(tau, 0.0)
     for i in range(nb - 1, -1, -1):
-        tau[coord[i]] += mult[i] * dot6(F[i], A[i])
+        add_joint_force(nv_j[i], S[i], mult[i], F[i], iv[i], tau)
         if parent[i] >= 0:
             add_wrench_to_parent(R[i], p[i], F[i], F[parent[i]])
     return Status.OK.value
@@ -108,8 +115,8 @@ def rnea_kernel(ibuf, fbuf, q, qd, qdd, loads, tau):
 
 @njit(**BATCH)
 def rnea_batch_kernel(ibuf, fbuf, q, qd, qdd, loads, tau, status, start, stop):
-    """RNEA over rows [start, stop) of a batch (N, nv); loads (1, rows, 6) shared or (N, ...);
-    """
+    """RNEA over rows [start, stop) of a batch: q (N, nq), qd and qdd (N, nv); loads
+    (1, rows, 6) shared or (N, rows, 6)."""
     shared = loads.shape[0] == 1
     for n in range(start, stop):
         status[n] = rnea_kernel(
@@ -122,7 +129,7 @@ _NO_GRAVITY = np.zeros(3)
 
 def run_rnea(model, q, qd, qdd, f_tip, gravity, what):
     """Checked RNEA for single states (nv,) or batches (N, nv); the public functions' core."""
-    (q, qd, qdd), batch = _args.as_states(model, ("q", q), ("qd", qd), ("qdd", qdd))
+    (q, qd, qdd), batch = _args.as_states(model, q, ("qd", qd), ("qdd", qdd))
     if not batch:
         tau = np.empty(model._vector_shape)
         status = rnea_kernel(
@@ -160,11 +167,14 @@ def inverse_dynamics(model, q, qd, qdd, f_tip=None, gravity=None):
     """tau = M(q) qdd + c(q, qd) + g(q) + sum_frames J_b(frame)^T F_tip(frame), by RNEA.
 
     Args:
-      q, qd, qdd: (nv,) joint positions (rad or m), velocities, accelerations; or batches (N, nv).
+      q: (nq,) configuration: joint positions (rad or m), after the base pose (p, quat) for a
+        floating base; qd, qdd: (nv,) velocities and accelerations (the base twist (omega_b,
+        v_b) in its own frame first, then the joints'); or batches (N, nq), (N, nv).
       f_tip: optional {frame_name: (6,) wrench (m, f)} that each frame applies TO THE
         ENVIRONMENT, in that frame's coordinates (N m, N); (N, 6) per frame for a batch.
       gravity: optional (3,) world-frame gravity (m/s^2), default model.gravity.
-    Returns tau, (nv,) or (N, nv): joint torques (N m) or forces (N).
+    Returns tau, (nv,) or (N, nv): joint torques (N m) or forces (N), after the wrench
+    (m_b, f_b) on a floating base in its own frame.
     """
     if gravity is None and f_tip is None and _args.is_single(model, q, qd, qdd):
         # the common call, with nothing to convert: straight to the kernel
@@ -179,17 +189,18 @@ def inverse_dynamics(model, q, qd, qdd, f_tip=None, gravity=None):
 
 
 def _zeros_like_state(model, q):
+    """q checked, and a zero velocity: (nv,), or (N, nv) for a batch."""
     if _args.is_single(model, q):
         return q, model._zero_v
-    q = _args.as_state(model, q, "q")
-    return q, np.zeros_like(q)
+    q = _args.as_q(model, q)
+    return q, np.zeros(q.shape[:-1] + model._vector_shape)
 
 
 def gravity_forces(model, q, gravity=None):
     """g(q) = dU/dq: the joint torques that hold the robot still against gravity (RNEA with
     qd = qdd = 0).
 
-    q: (nv,) or (N, nv); gravity: optional (3,) world-frame vector (m/s^2).
+    q: (nq,) or (N, nq); gravity: optional (3,) world-frame vector (m/s^2).
     Returns (nv,) or (N, nv).
     """
     q, zero = _zeros_like_state(model, q)
@@ -199,7 +210,7 @@ def gravity_forces(model, q, gravity=None):
 def coriolis_forces(model, q, qd):
     """c(q, qd) = C(q, qd) qd: Coriolis and centripetal torques (RNEA, qdd = 0, no gravity).
 
-    q, qd: (nv,) or (N, nv). Returns (nv,) or (N, nv).
+    q, qd: (nq,) and (nv,), or (N, nq) and (N, nv). Returns (nv,) or (N, nv).
     """
     q, zero = _zeros_like_state(model, q)
     return run_rnea(model, q, qd, zero, None, _NO_GRAVITY, "coriolis_forces")
@@ -208,7 +219,8 @@ def coriolis_forces(model, q, qd):
 def bias_forces(model, q, qd, gravity=None):
     """h(q, qd) = c(q, qd) + g(q): the torques when qdd = 0 (RNEA).
 
-    q, qd: (nv,) or (N, nv); gravity: optional (3,) world-frame vector. Returns (nv,) or (N, nv).
+    q, qd: (nq,) and (nv,), or batches; gravity: optional (3,) world-frame vector. Returns (nv,)
+    or (N, nv).
     """
     q, zero = _zeros_like_state(model, q)
     return run_rnea(model, q, qd, zero, None, gravity, "bias_forces")

@@ -28,7 +28,7 @@ def body_accelerations(ibuf, fbuf, q, qd, qdd, dV_0):
     nb = ibuf[0]
     R, p = np.empty((nb, 3, 3)), np.empty((nb, 3))
     V, dV = np.empty((nb, 6)), np.empty((nb, 6))
-    forward_pass(tree(ibuf, fbuf), q, qd, qdd, dV_0, R, p, V, dV, np.empty(6))
+    forward_pass(tree(ibuf, fbuf), q, qd, qdd, dV_0, R, p, V, dV, np.empty((2, 6)))
     return dV
 
 
@@ -38,7 +38,7 @@ class SingularTaskSpaceError(ValueError):
 
 def _task_space(model, q, frame, damping, what):
     """Lambda (6, 6), J_b (6, nv) and M's Cholesky factor, each computed once."""
-    q = _args.as_state(model, q, "q")
+    q = _args.as_q(model, q)
     if q.ndim != 1:
         raise ValueError(f"{what}: q must be a single configuration (nv,)")
     if damping < 0 or not np.isfinite(damping):
@@ -80,7 +80,7 @@ def frame_acceleration(model, q, qd, qdd, frame):
 
     q, qd, qdd: (nv,) single states; frame: a frame name.
     """
-    (q, qd, qdd), batch = _args.as_states(model, ("q", q), ("qd", qd), ("qdd", qdd))
+    (q, qd, qdd), batch = _args.as_states(model, q, ("qd", qd), ("qdd", qdd))
     if batch:
         raise ValueError("frame_acceleration: q, qd, qdd must be single states (nv,)")
     fr = model.frames[model.frame_index(frame)]
