@@ -2,11 +2,13 @@
 
     python scripts/bench_core.py [--quick]
 
-Prints, for UR5, Panda and talos_full_v2 (fixed base), microseconds per call and the ratio
-opendyn / Pinocchio for inverse dynamics, the mass matrix, forward dynamics (each method),
-the Coriolis matrix and a frame Jacobian; then batched inverse dynamics over N = 10,000 states
-against a Python loop over pin.rnea and against pin.rneaInParallel; then numba's first-call
-compile time and the start-up time with the on-disk cache, measured in fresh processes.
+Prints, for UR5, Panda and talos_full_v2 with a fixed base and for solo12, anymal and
+talos_full_v2 with a floating base (Pinocchio with a JointModelFreeFlyer root), microseconds
+per call and the ratio opendyn / Pinocchio for inverse dynamics, the mass matrix, forward
+dynamics (each method), the Coriolis matrix and a frame Jacobian; then batched inverse dynamics
+over N = 10,000 states against a Python loop over pin.rnea and against pin.rneaInParallel; then
+numba's first-call compile time and the start-up time with the on-disk cache, measured in
+fresh processes. States are converted to Pinocchio's conventions by opendyn.verify's adapter.
 Every call goes through the public API with the argument checks a user gets. Each pair of
 functions is timed in alternation (best of 25 rounds each), so that a slow spell of a shared
 machine hits both sides alike.
@@ -25,8 +27,17 @@ import numpy as np
 import pinocchio as pin
 
 import opendyn as od
+from opendyn.verify import PinocchioOracle
 
-ROBOTS = ("ur5", "panda", "talos_full_v2")
+# (robot, floating base)
+ROBOTS = (
+    ("ur5", False),
+    ("panda", False),
+    ("talos_full_v2", False),
+    ("solo12", True),
+    ("anymal", True),
+    ("talos_full_v2", True),
+)
 
 
 def per_call_us(fn, budget_s):
@@ -50,27 +61,27 @@ def paired_us(ours, theirs, budget_s, rounds=25):
     return best
 
 
-def pin_state(pmodel, model, q, qd):
-    """Pinocchio's q (continuous joints as cos/sin) and v in its joint order."""
-    qp, vp = pin.neutral(pmodel), np.zeros(pmodel.nv)
-    for k, name in enumerate(model.joint_names):
-        joint = pmodel.joints[pmodel.getJointId(name)]
-        if joint.nq == 2:
-            qp[joint.idx_q : joint.idx_q + 2] = np.cos(q[k]), np.sin(q[k])
-        else:
-            qp[joint.idx_q] = q[k]
-        vp[joint.idx_v] = qd[k]
-    return qp, vp
+def load_pair(name, floating_base):
+    """opendyn's model, its Pinocchio oracle (state conversions) and a label."""
+    model = od.load_urdf(name, floating_base=floating_base, check_inertia=False)
+    oracle = PinocchioOracle(model.source, model)
+    return model, oracle, name + (" (floating)" if floating_base else "")
 
 
-def single_state_rows(name, budget):
-    model = od.load_urdf(name, check_inertia=False)
-    pmodel = pin.buildModelFromUrdf(model.source)
-    pdata = pmodel.createData()
-    rng = np.random.default_rng(0)
-    q, qd, qdd = rng.uniform(-1, 1, (3, model.nv))
-    qp, vp = pin_state(pmodel, model, q, qd)
-    ap = pin_state(pmodel, model, q, qdd)[1]
+def random_states(model, rng, n=None):
+    """q, qd, qdd: random configurations (od.random_configuration) and velocities in
+    [-1, 1]; (nq,), (nv,) or, with n, (n, nq), (n, nv)."""
+    rows = 1 if n is None else n
+    q = np.array([od.random_configuration(model, rng) for _ in range(rows)])
+    qd, qdd = rng.uniform(-1, 1, (2, rows, model.nv))
+    return (q[0], qd[0], qdd[0]) if n is None else (q, qd, qdd)
+
+
+def single_state_rows(name, floating_base, budget):
+    model, oracle, label = load_pair(name, floating_base)
+    pmodel, pdata = oracle.model, oracle.data
+    q, qd, qdd = random_states(model, np.random.default_rng(0))
+    qp, vp, ap = oracle.q(q), oracle.v(qd), oracle.v(qdd)
     frame = model.frame_names[-1]
     fid = pmodel.getFrameId(frame)
 
@@ -127,20 +138,17 @@ def single_state_rows(name, budget):
     for ours_name, ours, pin_name, theirs in cases:
         ours(), theirs()
         t_ours, t_pin = paired_us(ours, theirs, budget)
-        rows.append((name, model.nv, ours_name, t_ours, pin_name, t_pin))
+        rows.append((label, model.nv, ours_name, t_ours, pin_name, t_pin))
     return rows
 
 
-def batch_rows(name, n_states, budget):
-    model = od.load_urdf(name, check_inertia=False)
-    pmodel = pin.buildModelFromUrdf(model.source)
-    pdata = pmodel.createData()
-    rng = np.random.default_rng(1)
-    q, qd, qdd = rng.uniform(-1, 1, (3, n_states, model.nv))
-    states = [pin_state(pmodel, model, q[k], qd[k]) for k in range(n_states)]
-    Qp = np.array([s[0] for s in states])
-    Vp = np.array([s[1] for s in states])
-    Ap = np.array([pin_state(pmodel, model, q[k], qdd[k])[1] for k in range(n_states)])
+def batch_rows(name, floating_base, n_states, budget):
+    model, oracle, label = load_pair(name, floating_base)
+    pmodel, pdata = oracle.model, oracle.data
+    q, qd, qdd = random_states(model, np.random.default_rng(1), n_states)
+    Qp = np.array([oracle.q(x) for x in q])
+    Vp = np.array([oracle.v(x) for x in qd])
+    Ap = np.array([oracle.v(x) for x in qdd])
     pool = pin.ModelPool(pmodel, 2)
     QpT, VpT, ApT = (np.asfortranarray(x.T) for x in (Qp, Vp, Ap))
     tau_out = np.zeros((pmodel.nv, n_states), order="F")
@@ -152,7 +160,7 @@ def batch_rows(name, n_states, budget):
     ours = per_call_us(lambda: od.inverse_dynamics(model, q, qd, qdd), budget)
     loop = per_call_us(pin_loop, budget)
     parallel = per_call_us(lambda: pin.rneaInParallel(2, pool, QpT, VpT, ApT, tau_out), budget)
-    return [(name, n_states, ours / n_states, loop / n_states, parallel / n_states)]
+    return [(label, n_states, ours / n_states, loop / n_states, parallel / n_states)]
 
 
 STARTUP = """
@@ -198,8 +206,9 @@ def main():
     )
     print("| robot | nv | opendyn | us | Pinocchio | us | ratio |")
     print("|---|---:|---|---:|---|---:|---:|")
-    for name in ROBOTS:
-        for robot, nv, ours_name, t_ours, pin_name, t_pin in single_state_rows(name, budget):
+    for name, floating_base in ROBOTS:
+        rows = single_state_rows(name, floating_base, budget)
+        for robot, nv, ours_name, t_ours, pin_name, t_pin in rows:
             print(
                 f"| {robot} | {nv} | {ours_name} | {t_ours:.2f} | {pin_name} | {t_pin:.2f} "
                 f"| {t_ours / t_pin:.2f} |"
@@ -212,8 +221,8 @@ def main():
         "| loop / opendyn |"
     )
     print("|---|---:|---:|---:|---:|")
-    for name in ROBOTS:
-        for robot, _, ours, loop, parallel in batch_rows(name, n, budget * 4):
+    for name, floating_base in ROBOTS:
+        for robot, _, ours, loop, parallel in batch_rows(name, floating_base, n, budget * 4):
             print(f"| {robot} | {ours:.3f} | {loop:.3f} | {parallel:.3f} | {loop / ours:.1f}x |")
 
     if not args.no_startup:

@@ -224,17 +224,14 @@ def mat6_vec(G, V, out):
 
 @njit(**INLINE)
 def inertia_times_motion(I, s, out):
-    """out = I s for a (6, 6) inertia and a motion axis s (a row of a joint's S). The axes of
-    opendyn's joints have one zero half, (a, 0) or (0, a), so only three columns of I are read
-    then; the whole product otherwise."""
-    if s[3] == 0.0 and s[4] == 0.0 and s[5] == 0.0:
-        for r in range(6):
-            out[r] = I[r, 0] * s[0] + I[r, 1] * s[1] + I[r, 2] * s[2]
-    elif s[0] == 0.0 and s[1] == 0.0 and s[2] == 0.0:
-        for r in range(6):
-            out[r] = I[r, 3] * s[3] + I[r, 4] * s[4] + I[r, 5] * s[5]
-    else:
-        mat6_vec(I, s, out)
+    """out = I s for a (6, 6) inertia and a motion axis s (a row of a joint's S), reading only
+    the columns of I where s is not zero (three for a revolute or prismatic axis)."""
+    for r in range(6):
+        out[r] = 0.0
+    for c in range(6):
+        if s[c] != 0.0:
+            for r in range(6):
+                out[r] += I[r, c] * s[c]
 
 
 @njit(**JIT)

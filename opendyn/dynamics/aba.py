@@ -47,6 +47,60 @@ from .joints import configuration_status, joint_motion, joint_transform
 
 
 @njit(**JIT)
+def articulate_multi_dof(n, b, S_i, IA_i, pA_i, c_i, tau, armature, scale, U_i, L_i, u_i):
+    """Pass 2 of ABA for a joint with n > 1 velocity coordinates v[b : b + n], in place:
+
+      U_i = IA_i S_i (rows k < n of U_i),  D_i = S_i^T U_i (+ armature) = L_i L_i^T,
+      u_i = tau_i - S_i^T pA_i,
+      IA_i <- IA_i - U_i D_i^-1 U_i^T,     pA_i <- pA_i + IA_i c_i + U_i D_i^-1 u_i.
+
+    Returns Status.OK.value or SINGULAR + k (coordinate k with no inertia). Compiled once and
+    called: ABA's loop keeps only the 1-dof arithmetic inline."""
+    for k in range(n):
+        inertia_times_motion(IA_i, S_i[k], U_i[k])
+        u_i[k] = tau[b + k] - dot6(S_i[k], pA_i)
+    for k in range(n):
+        for k2 in range(n):
+            L_i[k, k2] = dot6(S_i[k], U_i[k2])
+        if armature.shape[0] > 0:
+            L_i[k, k] += armature[b + k]
+    status = cholesky_factor(L_i, n, scale)
+    if status:
+        return status + b
+    x = np.empty(6)
+    s = np.empty(6)
+    for r in range(6):  # column r of D_i^-1 U_i^T, from the factor
+        for k in range(n):
+            s[k] = U_i[k, r]
+        cholesky_substitute(L_i, n, s, x)
+        for col in range(6):
+            for k in range(n):
+                IA_i[col, r] -= U_i[k, col] * x[k]
+    cholesky_substitute(L_i, n, u_i, x)
+    mat6_vec(IA_i, c_i, s)
+    for r in range(6):
+        for k in range(n):
+            s[r] += U_i[k, r] * x[k]
+        pA_i[r] += s[r]
+    return Status.OK.value
+
+
+@njit(**JIT)
+def accelerate_multi_dof(n, b, S_i, U_i, L_i, u_i, dV_i, qdd):
+    """Pass 3 of ABA for a joint with n > 1 velocity coordinates, dV_i holding a_i on entry:
+    qdd_i = D_i^-1 (u_i - U_i^T a_i) by the factor L_i, then dV_i <- a_i + S_i qdd_i."""
+    s = np.empty(6)
+    x = np.empty(6)
+    for k in range(n):
+        s[k] = u_i[k] - dot6(U_i[k], dV_i)
+    cholesky_substitute(L_i, n, s, x)
+    for k in range(n):
+        qdd[b + k] = x[k]
+        for r in range(6):
+            dV_i[r] += S_i[k, r] * x[k]
+
+
+@njit(**JIT)
 def aba_kernel(ibuf, fbuf, q, qd, tau, loads, qdd, armature):
     """qdd (nv,) <- ABA at one state; loads as in rnea_kernel (dV_0, then body wrenches).
     armature: (nv,) rotor inertias added to D_i (M's diagonal), or an empty array for none.
@@ -65,15 +119,15 @@ def aba_kernel(ibuf, fbuf, q, qd, tau, loads, qdd, armature):
     nb = parent.shape[0]
     R = np.empty((nb, 3, 3))
     p = np.empty((nb, 3))
-    # IA_i, and per joint U_i (rows k < nv_i: IA_i s_k) and D_i (its Cholesky factor when
-    # nv_i > 1)
+    # IA_i, and per joint U_i (rows k < nv_i: IA_i s_k) and L_i (D_i, or its Cholesky factor
+    # when nv_i > 1)
     mats = np.empty((3, nb, 6, 6))
     IA, U, L = mats[0], mats[1], mats[2]
     vec = np.empty((5, nb, 6))
     V, c, pA, u, dV = vec[0], vec[1], vec[2], vec[3], vec[4]
     scratch = np.empty((9, 6))
     s = np.empty(6)
-    x = np.empty(6)
+    V_J = np.empty(6)
     wrenches = loads.shape[0] > 1
     rotors = armature.shape[0] > 0
     scale = 0.0
@@ -81,24 +135,21 @@ def aba_kernel(ibuf, fbuf, q, qd, tau, loads, qdd, armature):
         for k in range(6):
             scale = max(scale, G[i, k, k])
 
-    # pass 1: V_i, c_i = ad_{V_i} S_i qd_i, pA_i = -ad_{V_i}^T G_i V_i + F_tip,i; IA_i = G_i
+    # pass 1: V_i = Ad V_lambda + V_J, c_i = ad_{V_i} V_J with V_J = S_i qd_i,
+    # pA_i = -ad_{V_i}^T G_i V_i + F_tip,i; IA_i = G_i
     for i in range(nb):
         joint_transform(
             jtype[i], S[i], R_home[i], p_home[i], q, iq[i], mult[i], offset[i], R[i], p[i]
         )
         lam = parent[i]
-        joint_motion(nv_j[i], S[i], 1.0, qd, iv[i], x)
+        joint_motion(nv_j[i], S[i], 1.0, qd, iv[i], V_J)
         if lam < 0:
-            copy_into(x, V[i])
+            copy_into(V_J, V[i])
         else:
             twist_to_child(R[i], p[i], V[lam], V[i])
             for k in range(6):
-                V[i, k] += x[k]
-        fill(c[i], 0.0)
-        for k in range(nv_j[i]):
-            ad_twist(V[i], S[i, k], s)
-            for r in range(6):
-                c[i, r] += s[r] * qd[iv[i] + k]
+                V[i, k] += V_J[k]
+        ad_twist(V[i], V_J, c[i])
         rigid_inertia_times(mass[i], h[i], I_o[i], V[i], s)
         fill(pA[i], 0.0)
         add_neg_ad_transpose(V[i], s, pA[i])
@@ -112,27 +163,25 @@ def aba_kernel(ibuf, fbuf, q, qd, tau, loads, qdd, armature):
     # pass 2: articulated inertias and bias wrenches, tips to base
     for i in range(nb - 1, -1, -1):
         n, b = nv_j[i], iv[i]
-        # U_i = IA_i S_i, D_i = S_i^T U_i (+ armature), u_i = tau_i - S_i^T pA_i
-        for k in range(n):
-            inertia_times_motion(IA[i], S[i, k], U[i, k])
-            u[i, k] = tau[b + k] - dot6(S[i, k], pA[i])
-        for k in range(n):
-            for k2 in range(n):
-                L[i, k, k2] = dot6(S[i, k], U[i, k2])
+        lam = parent[i]
+        if n > 1:
+            status = articulate_multi_dof(
+                n, b, S[i], IA[i], pA[i], c[i], tau, armature, scale, U[i], L[i], u[i]
+            )
+            if status:
+                return status
+        else:
+            # U_i = IA_i s_i, D_i = s_i^T U_i (+ armature), u_i = tau_i - s_i^T pA_i
+            inertia_times_motion(IA[i], S[i, 0], U[i, 0])
+            L[i, 0, 0] = dot6(S[i, 0], U[i, 0])
             if rotors:
-                L[i, k, k] += armature[b + k]
-        if n == 1:
+                L[i, 0, 0] += armature[b]
+            u[i, 0] = tau[b] - dot6(S[i, 0], pA[i])
             if not L[i, 0, 0] > SINGULAR_PIVOT * scale:
                 return Status.SINGULAR.value + b
-        else:
-            status = cholesky_factor(L[i], n, scale)
-            if status:
-                return status + b
-        lam = parent[i]
-        if lam < 0:
-            continue
-        # Ia = IA_i - U_i D_i^-1 U_i^T,  pa = pA_i + Ia c_i + U_i D_i^-1 u_i  (in place)
-        if n == 1:
+            if lam < 0:
+                continue
+            # Ia = IA_i - U_i U_i^T / D_i,  pa = pA_i + Ia c_i + U_i u_i / D_i  (in place)
             D_inv = 1.0 / L[i, 0, 0]
             for r in range(6):
                 for k in range(6):
@@ -140,39 +189,22 @@ def aba_kernel(ibuf, fbuf, q, qd, tau, loads, qdd, armature):
             mat6_vec(IA[i], c[i], s)
             for r in range(6):
                 pA[i, r] += s[r] + U[i, 0, r] * u[i, 0] * D_inv
-        else:
-            for r in range(6):  # column r of D_i^-1 U_i^T, from the factor
-                for k in range(n):
-                    s[k] = U[i, k, r]
-                cholesky_substitute(L[i], n, s, x)
-                for col in range(6):
-                    for k in range(n):
-                        IA[i, col, r] -= U[i, k, col] * x[k]
-            cholesky_substitute(L[i], n, u[i], x)
-            mat6_vec(IA[i], c[i], s)
-            for r in range(6):
-                for k in range(n):
-                    s[r] += U[i, k, r] * x[k]
-                pA[i, r] += s[r]
-        add_inertia_to_parent(R[i], p[i], IA[i], IA[lam], scratch)
-        add_wrench_to_parent(R[i], p[i], pA[i], pA[lam])
+        if lam >= 0:
+            add_inertia_to_parent(R[i], p[i], IA[i], IA[lam], scratch)
+            add_wrench_to_parent(R[i], p[i], pA[i], pA[lam])
 
-    # pass 3: accelerations, base to tips
+    # pass 3: accelerations, base to tips: a_i = Ad dV_lambda + c_i,
+    # qdd_i = D_i^-1 (u_i - U_i^T a_i), dV_i = a_i + S_i qdd_i
     for i in range(nb):
         n, b = nv_j[i], iv[i]
         lam = parent[i]
-        # a_i = Ad dV_lambda + c_i, qdd_i = D_i^-1 (u_i - U_i^T a_i), dV_i = a_i + S_i qdd_i
         twist_to_child(R[i], p[i], loads[0] if lam < 0 else dV[lam], dV[i])
         for k in range(6):
             dV[i, k] += c[i, k]
-        for k in range(n):
-            s[k] = u[i, k] - dot6(U[i, k], dV[i])
-        if n == 1:
-            x[0] = s[0] / L[i, 0, 0]
+        if n > 1:
+            accelerate_multi_dof(n, b, S[i], U[i], L[i], u[i], dV[i], qdd)
         else:
-            cholesky_substitute(L[i], n, s, x)
-        for k in range(n):
-            qdd[b + k] = x[k]
+            qdd[b] = (u[i, 0] - dot6(U[i, 0], dV[i])) / L[i, 0, 0]
             for r in range(6):
-                dV[i, r] += S[i, k, r] * x[k]
+                dV[i, r] += S[i, 0, r] * qdd[b]
     return Status.OK.value

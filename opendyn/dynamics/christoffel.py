@@ -50,7 +50,9 @@ def space_axes_and_inertias(ibuf, fbuf, q, S, Gs, Gc):
     nb = parent.shape[0]
     R_s = np.empty((nb, 3, 3))
     p_s = np.empty((nb, 3))
-    forward_kinematics(body_tree, q, R_s, p_s, -1)
+    # every body: last = -1, typed int64 as the other callers' body index (a literal -1
+    # would compile forward_kinematics a second time)
+    forward_kinematics(body_tree, q, R_s, p_s, np.int64(-1))
     scratch = np.empty((9, 6))
     for i in range(nb):
         zero_matrix(Gs[i])

@@ -93,6 +93,8 @@ def integrate(model, q, v, dt):
         raise ValueError(f"integrate: dt must be finite, got {dt}")
     if not np.all(np.isfinite(v)):
         raise ValueError("integrate: v must be finite (it has NaN or inf)")
+    if model.nq == model.nv:  # no free joint: q (+) v dt is q + v dt, nothing to compile
+        return q + v * dt
     q_next = np.empty_like(q)
     integrate_rows(model._ibuf, q if batch else q[None], v if batch else v[None], dt,
                    q_next if batch else q_next[None])
@@ -108,13 +110,15 @@ def difference(model, q0, q1):
     """
     q0 = _checked_q(model, q0, "q0", "difference")
     q1 = _checked_q(model, q1, "q1", "difference")
+    if q0.ndim == 2 and q1.ndim == 2 and len(q0) != len(q1) and 1 not in (len(q0), len(q1)):
+        raise ValueError(f"difference: q0 and q1 have {len(q0)} and {len(q1)} states")
+    if model.nq == model.nv:  # no free joint: q1 (-) q0 is q1 - q0
+        return q1 - q0
     if q0.ndim == q1.ndim == 1:
         v = np.empty(model.nv)
         difference_kernel(model._ibuf, q0, q1, v)
         return v
     q0, q1 = np.broadcast_arrays(np.atleast_2d(q0), np.atleast_2d(q1))
-    if q0.shape != q1.shape:
-        raise ValueError(f"difference: q0 and q1 have {len(q0)} and {len(q1)} states")
     q0, q1 = np.ascontiguousarray(q0), np.ascontiguousarray(q1)
     v = np.empty((q0.shape[0], model.nv))
     for n in range(q0.shape[0]):

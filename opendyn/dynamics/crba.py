@@ -44,8 +44,8 @@ def crba_kernel(ibuf, fbuf, q, M):
     nb = parent.shape[0]
     # one block for the poses (R, p) and one for the composite inertias (I_c, h_c, mass_c):
     # two allocations instead of five (measured: 920 -> 840 ns for a UR5)
-    pose = np.empty((nb, 4, 3))
-    R, p = pose[:, :3], pose[:, 3]
+    pose = np.empty(12 * nb)
+    R, p = pose[: 9 * nb].reshape((nb, 3, 3)), pose[9 * nb :].reshape((nb, 3))
     composite = np.empty((nb, 5, 3))
     I_c, h_c, mass_c = composite[:, :3], composite[:, 3], composite[:, 4, 0]
     scratch = np.empty((3, 3))

@@ -51,11 +51,12 @@ def world_pose(R_s, p_s, lam, R, p, i):
         )
 
 
-@njit(**INLINE)
+@njit(**JIT)
 def forward_kinematics(body_tree, q, R_s, p_s, last):
     """R_s[i], p_s[i] <- T_{s,i}(q) (world frame = the root link) for every body, or, when
     last >= 0, only for the bodies on the path from the root to body `last`.
-    body_tree is _kernels.tree(ibuf, fbuf)."""
+    body_tree is _kernels.tree(ibuf, fbuf). Compiled once and called by the kernels that need
+    world poses."""
     parent, jtype, nv_j, iq, iv, mult, offset, S, R_home, p_home = body_tree
     nb = parent.shape[0]
     R = np.empty((3, 3))
