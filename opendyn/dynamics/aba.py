@@ -43,7 +43,7 @@ from ._kernels import (
 )
 from ..status import Status
 from .cholesky import SINGULAR_PIVOT, cholesky_factor, cholesky_substitute
-from .joints import configuration_status, joint_motion, joint_transform
+from .joints import configuration_status, joint_motion, joint_transform, prepare_joint_transforms
 
 
 @njit(**JIT)
@@ -113,7 +113,8 @@ def aba_kernel(ibuf, fbuf, q, qd, tau, loads, qdd, armature):
         return Status.QD_NOT_FINITE.value
     if not all_finite(tau):
         return Status.TAU_NOT_FINITE.value
-    parent, jtype, nv_j, iq, iv, mult, offset, S, R_home, p_home = tree(ibuf, fbuf)
+    body_tree = tree(ibuf, fbuf)
+    parent, jtype, nv_j, iq, iv, mult, offset, S, R_home, p_home = body_tree
     G = spatial_inertias(ibuf, fbuf)
     mass, h, I_o = rigid_inertias(ibuf, fbuf)
     nb = parent.shape[0]
@@ -137,6 +138,7 @@ def aba_kernel(ibuf, fbuf, q, qd, tau, loads, qdd, armature):
 
     # pass 1: V_i = Ad V_lambda + V_J, c_i = ad_{V_i} V_J with V_J = S_i qd_i,
     # pA_i = -ad_{V_i}^T G_i V_i + F_tip,i; IA_i = G_i
+    prepare_joint_transforms(body_tree, q, qd.shape[0], R, p)
     for i in range(nb):
         joint_transform(
             jtype[i], S[i], R_home[i], p_home[i], q, iq[i], mult[i], offset[i], R[i], p[i]

@@ -37,7 +37,7 @@ from ._kernels import (
 from .kinematics import world_pose
 from .rnea import forward_pass
 from ..status import Status
-from .joints import configuration_status, joint_motion, joint_transform
+from .joints import configuration_status, joint_motion, joint_transform, prepare_joint_transforms
 
 
 @njit(**INLINE)
@@ -94,10 +94,12 @@ def energy_kernel(ibuf, fbuf, q, qd, gravity, out):
         return status
     if not all_finite(qd):
         return Status.QD_NOT_FINITE.value
-    parent, jtype, nv_j, iq, iv, mult, offset, S, R_home, p_home = tree(ibuf, fbuf)
+    body_tree = tree(ibuf, fbuf)
+    parent, jtype, nv_j, iq, iv, mult, offset, S, R_home, p_home = body_tree
     mass, h, I_o = rigid_inertias(ibuf, fbuf)
     nb = parent.shape[0]
-    R, p = np.empty((3, 3)), np.empty(3)
+    R, p = np.empty((nb, 3, 3)), np.empty((nb, 3))
+    prepare_joint_transforms(body_tree, q, qd.shape[0], R, p)
     R_s, p_s = np.empty((nb, 3, 3)), np.empty((nb, 3))
     V = np.empty((nb, 6))
     s = np.empty(6)
@@ -105,14 +107,16 @@ def energy_kernel(ibuf, fbuf, q, qd, gravity, out):
     K = 0.0
     U = 0.0
     for i in range(nb):
-        joint_transform(jtype[i], S[i], R_home[i], p_home[i], q, iq[i], mult[i], offset[i], R, p)
+        joint_transform(
+            jtype[i], S[i], R_home[i], p_home[i], q, iq[i], mult[i], offset[i], R[i], p[i]
+        )
         lam = parent[i]
-        world_pose(R_s, p_s, lam, R, p, i)
+        world_pose(R_s, p_s, lam, R[i], p[i], i)
         joint_motion(nv_j[i], S[i], mult[i], qd, iv[i], V_J)
         if lam < 0:
             fill(V[i], 0.0)
         else:
-            twist_to_child(R, p, V[lam], V[i])
+            twist_to_child(R[i], p[i], V[lam], V[i])
         for k in range(6):
             V[i, k] += V_J[k]
         rigid_inertia_times(mass[i], h[i], I_o[i], V[i], s)

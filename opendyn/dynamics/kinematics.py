@@ -28,7 +28,7 @@ from ._kernels import (
     zero_matrix,
 )
 from ..status import Status
-from .joints import configuration_status, joint_transform
+from .joints import configuration_status, joint_transform, prepare_joint_transforms
 
 
 @njit(**INLINE)
@@ -59,8 +59,12 @@ def forward_kinematics(body_tree, q, R_s, p_s, last):
     world poses."""
     parent, jtype, nv_j, iq, iv, mult, offset, S, R_home, p_home = body_tree
     nb = parent.shape[0]
-    R = np.empty((3, 3))
-    p = np.empty(3)
+    R = np.empty((nb, 3, 3))
+    p = np.empty((nb, 3))
+    nv = 0
+    for i in range(nb):
+        nv = max(nv, iv[i] + nv_j[i])
+    prepare_joint_transforms(body_tree, q, nv, R, p)
     wanted = np.empty(nb, dtype=np.bool_)
     for i in range(nb):
         wanted[i] = last < 0
@@ -72,8 +76,10 @@ def forward_kinematics(body_tree, q, R_s, p_s, last):
     for i in range(nb if last < 0 else last + 1):
         if not wanted[i]:
             continue
-        joint_transform(jtype[i], S[i], R_home[i], p_home[i], q, iq[i], mult[i], offset[i], R, p)
-        world_pose(R_s, p_s, parent[i], R, p, i)
+        joint_transform(
+            jtype[i], S[i], R_home[i], p_home[i], q, iq[i], mult[i], offset[i], R[i], p[i]
+        )
+        world_pose(R_s, p_s, parent[i], R[i], p[i], i)
 
 
 @njit(**INLINE)

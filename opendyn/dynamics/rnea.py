@@ -28,7 +28,6 @@ from ._kernels import (
     add_neg_ad_transpose,
     add_wrench_to_parent,
     all_finite,
-    copy_into,
     fill,
     rigid_inertia_times,
     rigid_inertias,
@@ -37,7 +36,12 @@ from ._kernels import (
     twist_to_child,
 )
 from ..status import Status
-from .joints import add_joint_force, configuration_status, joint_motion, joint_transform
+from .joints import (
+    add_joint_force,
+    configuration_status,
+    joint_transform,
+    prepare_joint_transforms,
+)
 
 
 @njit(**INLINE)
@@ -45,23 +49,26 @@ def forward_pass(body_tree, q, qd, qdd, dV_0, R, p, V, dV, s):
     """Forward pass of RNEA: R[i], p[i] = T_{lambda,i}; V[i], dV[i] twist and its rate in {i}.
 
     body_tree is _kernels.tree(ibuf, fbuf); dV_0 is the base's acceleration, (0, -g) for
-    gravity. s is (2, 6) scratch. Also used for energies and frame accelerations.
+    gravity. s is scratch of at least one row of 6. Also used for energies and frame
+    accelerations.
     """
     parent, jtype, nv_j, iq, iv, mult, offset, S, R_home, p_home = body_tree
-    V_J, a = s[0], s[1]
+    a = s[0]
+    prepare_joint_transforms(body_tree, q, qd.shape[0], R, p)
     for i in range(parent.shape[0]):
         joint_transform(
             jtype[i], S[i], R_home[i], p_home[i], q, iq[i], mult[i], offset[i], R[i], p[i]
         )
         lam = parent[i]
         # V_i = Ad_{T_{i,lambda}} V_lambda + S_i qd_i  (the world does not move: V_0 = 0)
-        joint_motion(nv_j[i], S[i], mult[i], qd, iv[i], V_J)
         if lam < 0:
-            copy_into(V_J, V[i])
+            fill(V[i], 0.0)
         else:
             twist_to_child(R[i], p[i], V[lam], V[i])
-            for k in range(6):
-                V[i, k] += V_J[k]
+        for k in range(nv_j[i]):
+            qd_k = mult[i] * qd[iv[i] + k]
+            for r in range(6):
+                V[i, r] += S[i, k, r] * qd_k
         # dV_i = Ad_{T_{i,lambda}} dV_lambda + sum_k (ad_{V_i} s_k) qd_k + s_k qdd_k over the
         # rows s_k of S_i
         twist_to_child(R[i], p[i], dV_0 if lam < 0 else dV[lam], dV[i])
