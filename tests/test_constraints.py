@@ -493,7 +493,8 @@ def test_constraint_between_two_world_frames_is_refused(ur5):
         (lambda: od.FixedPose("a", "b", 2 * np.eye(4)), "T_ab must be a rigid transform"),
         (lambda: od.JointCoupling(np.zeros((0, 6))), "JointCoupling: A must be a"),
         (lambda: od.JointCoupling([[1, np.inf]]), "A must be finite"),
-        (lambda: od.JointCoupling([[1, -1]], q_ref=(0, 0, 0)), "q_ref must have shape"),
+        (lambda: od.JointCoupling([[1, -1]], q_ref=[[0, 0]]), r"q_ref must be a vector"),
+        (lambda: od.JointCoupling([[1, -1]], q_ref=(0, np.nan)), "q_ref must be finite"),
     ],
 )
 def test_bad_constraint_fields_are_named(build, message):
@@ -504,6 +505,11 @@ def test_bad_constraint_fields_are_named(build, message):
 def test_coupling_of_the_wrong_width_is_named(ur5):
     with pytest.raises(ValueError, match=r"constraints\[0\] JointCoupling.*nv=6 columns"):
         od.constraint_jacobian(ur5, np.zeros(6), od.JointCoupling([[1, -1, 0]]))
+    # q_ref is a configuration (nq,): its shape is checked when the constraint is bound
+    coupling = od.JointCoupling(np.ones((1, 6)), q_ref=np.zeros(5))
+    message = r"constraints\[0\] JointCoupling.*q_ref must have shape \(6,\)"
+    with pytest.raises(ValueError, match=message):
+        od.constraint_error(ur5, np.zeros(6), coupling)
 
 
 def test_unbound_defaults_need_q_bound_for_the_error(ur5):
