@@ -1028,7 +1028,7 @@ def constraint_wrench(model, q, frame, A, lam):
     if model.nv != 6:
         raise ValueError(
             f"{what}: J_b of frame {frame!r} is 6 x {model.nv}, not square: F_tip = J_b^-T A^T "
-            f"lam needs a robot with exactly 6 joints (model {model.name!r} has nv={model.nv})"
+            f"lam needs exactly 6 velocity coordinates (model {model.name!r} has nv={model.nv})"
         )
     sv = np.linalg.svd(J_b, compute_uv=False)
     if not sv[-1] > 1e-10 * sv[0]:
