@@ -6,7 +6,14 @@ error phi(q), whose time derivative is A qd:
     PointOnPlane   1 row   a point of a frame kept on a world plane     phi = n . p - offset
     PointToPoint   3 rows  two points of two frames coincide (loop)    phi = p_a - p_b
     FixedPose      6 rows  frame b keeps the pose T_ab relative to a    phi = log(T_ab*^-1 T_ab)
-    JointCoupling  k rows  a constant (k, nv) matrix C: C qd = 0        phi = C (q - q_ref)
+    JointCoupling  k rows  a constant (k, nv) matrix C: C qd = 0        phi = C (q (-) q_ref)
+
+q is a configuration (nq,) and qd a velocity (nv,): on a floating base q = (p, quat, q_joints)
+and qd = v = (omega_b, v_b, qd_joints), so A is (k, nv) and its base columns are the base's
+body-twist coordinates (angular first); Adot qd is the rate of A qd at qdd = 0 with qdd the
+time derivative of v (as everywhere in opendyn), so that d/dt (A qd) = A qdd + Adot qd.
+q (-) q_ref = opendyn.difference(model, q_ref, q), the velocity (nv,) that moves q_ref to q in
+unit time: q - q_ref on a fixed-base model.
 
 Points are in metres, in their frame's coordinates; world vectors (targets, normals) are in the
 world frame (the root link). Point rows are world axes: A qd is the point's velocity in the
@@ -49,14 +56,17 @@ def _name(cls, field, value):
 
 
 def _vector(cls, field, value, size=3):
-    """value as a tuple of `size` finite floats."""
+    """value as a tuple of `size` finite floats; size None: any number of them, at least one
+    (a configuration, checked against the model when bound)."""
     try:
         x = np.asarray(value, dtype=np.float64)
     except (TypeError, ValueError):
-        _fail(
-            cls, field, f"must be {'a number' if size == 1 else f'{size} numbers'}, got {value!r}"
-        )
-    if x.shape != (size,):
+        count = "numbers" if size is None else "a number" if size == 1 else f"{size} numbers"
+        _fail(cls, field, f"must be {count}, got {value!r}")
+    if size is None:
+        if x.ndim != 1 or x.size == 0:
+            _fail(cls, field, f"must be a vector of shape (nq,), got shape {x.shape}")
+    elif x.shape != (size,):
         _fail(cls, field, f"must have shape ({size},), got shape {x.shape}")
     if not np.all(np.isfinite(x)):
         _fail(cls, field, f"must be finite, got {x}")
@@ -209,10 +219,18 @@ class FixedPose:
 
 @dataclass(frozen=True)
 class JointCoupling:
-    """A constant (k, nv) matrix C of joint couplings: C qd = 0 (Adot = 0); e.g. C = [[0, 1, -1]]
-    makes qd_1 = qd_2. Its shape is checked against the model when bound.
+    """A constant (k, nv) matrix C of couplings between velocity coordinates: C qd = 0
+    (Adot = 0); e.g. C = [[0, 1, -1]] makes qd_1 = qd_2. C acts on v-space: on a floating base
+    its first 6 columns weigh the base's body twist (omega_b, v_b). Its shape is checked
+    against the model when bound.
 
-    q_ref None: the configuration the constraint is bound at. phi = C (q - q_ref) (k,).
+    q_ref (nq,) None: the configuration the constraint is bound at. phi (k,) is defined on
+    v-space, as C times the velocity that moves q_ref to q in unit time:
+        phi = C (q (-) q_ref) = C opendyn.difference(model, q_ref, q),
+    which is C (q - q_ref) on a fixed-base model (nq = nv). With a free joint, q - q_ref would
+    not even have nv entries: the base part of the difference is log(T_ref^-1 T) (angular
+    first, base frame), whose rate is the base twist where it is zero, so d/dt phi = A qd there
+    (as for FixedPose) and everywhere for the joint coordinates.
     """
 
     A: tuple
@@ -234,7 +252,7 @@ class JointCoupling:
             _fail(cls, "A", "must be finite")
         object.__setattr__(self, "A", tuple(tuple(float(v) for v in row) for row in C))
         if self.q_ref is not None:
-            object.__setattr__(self, "q_ref", _vector(cls, "q_ref", self.q_ref, C.shape[1]))
+            object.__setattr__(self, "q_ref", _vector(cls, "q_ref", self.q_ref, None))
 
     @property
     def matrix(self):

@@ -13,7 +13,11 @@ Against independent truths:
 - finite differences along a trajectory: d/dt phi = A qd and d/dt (A qd) = A qdd + Adot qd,
   by the five-point central difference (error O(h^4));
 - rank-deficient constraints against numpy's pseudo-inverse;
-- the four-bar's loop-closure equations in Freudenstein's closed form.
+- the four-bar's loop-closure equations in Freudenstein's closed form;
+- floating base (solo12 on four feet, a floating random tree with a loop, a weld to its base, a
+  plane and a coupling): A v and A qdd + Adot v against derivatives of frame_pose along
+  `integrate`, qdd and lam against numpy's KKT solve and Pinocchio's constraintDynamics with a
+  JointModelFreeFlyer root, and a base welded to the world against the fixed-base robot.
 """
 
 from __future__ import annotations
@@ -493,7 +497,8 @@ def test_constraint_between_two_world_frames_is_refused(ur5):
         (lambda: od.FixedPose("a", "b", 2 * np.eye(4)), "T_ab must be a rigid transform"),
         (lambda: od.JointCoupling(np.zeros((0, 6))), "JointCoupling: A must be a"),
         (lambda: od.JointCoupling([[1, np.inf]]), "A must be finite"),
-        (lambda: od.JointCoupling([[1, -1]], q_ref=(0, 0, 0)), "q_ref must have shape"),
+        (lambda: od.JointCoupling([[1, -1]], q_ref=[[0, 0]]), r"q_ref must be a vector"),
+        (lambda: od.JointCoupling([[1, -1]], q_ref=(0, np.nan)), "q_ref must be finite"),
     ],
 )
 def test_bad_constraint_fields_are_named(build, message):
@@ -504,6 +509,11 @@ def test_bad_constraint_fields_are_named(build, message):
 def test_coupling_of_the_wrong_width_is_named(ur5):
     with pytest.raises(ValueError, match=r"constraints\[0\] JointCoupling.*nv=6 columns"):
         od.constraint_jacobian(ur5, np.zeros(6), od.JointCoupling([[1, -1, 0]]))
+    # q_ref is a configuration (nq,): its shape is checked when the constraint is bound
+    coupling = od.JointCoupling(np.ones((1, 6)), q_ref=np.zeros(5))
+    message = r"constraints\[0\] JointCoupling.*q_ref must have shape \(6,\)"
+    with pytest.raises(ValueError, match=message):
+        od.constraint_error(ur5, np.zeros(6), coupling)
 
 
 def test_unbound_defaults_need_q_bound_for_the_error(ur5):
@@ -827,3 +837,375 @@ def test_mimic_finger_rows_match_pinocchio(pin):
         J_r, a_r, _ = _pin_point(P, "panda_rightfinger", r, q, qd)
         assert_close(od.constraint_jacobian(model, q, c), J_l - J_r, "mimic A")
         assert_close(od.constraint_drift(model, q, qd, c), a_l - a_r, "mimic drift")
+
+
+# ------------------------------------------------------------------------------------------
+# floating base: q (nq,) with a quaternion, v (nv,) with the base's body twist (omega_b, v_b)
+# in its first 6 columns; qdd the rate of v
+
+FEET = ("FL_FOOT", "FR_FOOT", "HL_FOOT", "HR_FOOT")
+
+
+@pytest.fixture(scope="module")
+def solo():
+    return od.load_urdf("solo12", floating_base=True)
+
+
+def _welded_solo_urdf(directory):
+    """solo12 with its root link on a URDF floating joint from a `world` link: a free base and
+    a frame of the fixed world to weld it to."""
+    import xml.etree.ElementTree as ET
+
+    tree = ET.parse(od.load_urdf("solo12").source)
+    robot = tree.getroot()
+    ET.SubElement(robot, "link", name="world")
+    joint = ET.SubElement(robot, "joint", name="world_to_base", type="floating")
+    ET.SubElement(joint, "parent", link="world")
+    ET.SubElement(joint, "child", link="base_link")
+    path = directory / "solo12_on_world.urdf"
+    tree.write(path)
+    return path
+
+
+@pytest.fixture(scope="module")
+def welded_solo(tmp_path_factory):
+    path = _welded_solo_urdf(tmp_path_factory.mktemp("solo"))
+    return path, od.load_urdf(str(path))
+
+
+def _branch(model, body):
+    """The child of the floating root (body 0) that `body` hangs from."""
+    while model.parent[body] > 0:
+        body = model.parent[body]
+    return body
+
+
+@pytest.fixture(scope="module")
+def floating_tree(tmp_path_factory):
+    """A floating random tree (16 velocity coordinates) with a loop between the deepest frames
+    of two branches, a weld of the deepest frame (7 joints below the base) to the base's own
+    frame, a plane and a coupling of the base twist and joints: 12 independent rows."""
+    from randtree import write_random_tree
+
+    path = write_random_tree(tmp_path_factory.mktemp("floating_tree"), 3)
+    model = od.load_urdf(str(path), floating_base=True)
+    frames = sorted((f for f in model.frames if f.body > 0), key=lambda f: -_depth(model, f.body))
+    fa = frames[0]
+    fb = next(f for f in frames if _branch(model, f.body) != _branch(model, fa.body))
+    rng = np.random.default_rng(3)
+    r_a, r_b = rng.uniform(-0.2, 0.2, (2, 3))
+    coupling = rng.normal(size=(2, model.nv))
+    constraints = [
+        od.PointToPoint(fa.name, fb.name, r_a, r_b),
+        od.FixedPose(model.body_names[0], fa.name),
+        od.PointOnPlane(fa.name, (0.2, -0.4, 0.9), r_b),
+        od.JointCoupling(coupling),
+    ]
+    return path, model, constraints
+
+
+def _floating_state(model, seed):
+    """A random configuration (unit quaternion) and random v, qdd, tau."""
+    rng = np.random.default_rng(seed)
+    q = od.random_configuration(model, rng)
+    return (q, *rng.normal(size=(3, model.nv)))
+
+
+def _floating_cases(solo, floating_tree):
+    """name -> (model, constraints): solo12 standing on its four feet (points chosen off the
+    foot frames' origins), and the floating tree's loop, weld on its base, plane and coupling."""
+    feet = [od.PointToWorld(f, (0.01 * k, -0.02, 0.015)) for k, f in enumerate(FEET)]
+    _, tree, constraints = floating_tree
+    return {"solo12_feet": (solo, feet), "tree_loop_weld_plane_coupling": (tree, constraints)}
+
+
+def _vee(X):
+    """(w, v) of a (4, 4) twist matrix [[[w], v], [0, 0]]."""
+    return np.r_[X[2, 1], X[0, 2], X[1, 0], X[:3, 3]]
+
+
+def _kinematic_quantity(model, q, c):
+    """What each constraint holds, from frame_pose alone (no constraint code): a point's world
+    position (m), n . p, p_a - p_b, or the relative pose T_ab (4, 4) of a weld."""
+
+    def point(frame, r):
+        return (od.frame_pose(model, q, frame) @ np.r_[r, 1.0])[:3]
+
+    if isinstance(c, od.PointToWorld):
+        return point(c.frame, c.point)
+    if isinstance(c, od.PointOnPlane):
+        return np.atleast_1d(np.dot(c.normal, point(c.frame, c.point)))
+    if isinstance(c, od.PointToPoint):
+        return point(c.frame_a, c.point_a) - point(c.frame_b, c.point_b)
+    return np.linalg.solve(od.frame_pose(model, q, c.frame_a), od.frame_pose(model, q, c.frame_b))
+
+
+def _second_difference(f, h):
+    """f''(0) by the five-point central stencil (error O(h^4))."""
+    return (-(f(2 * h) + f(-2 * h)) + 16 * (f(h) + f(-h)) - 30 * f(0.0)) / (12 * h * h)
+
+
+@pytest.mark.parametrize("case", ["solo12_feet", "tree_loop_weld_plane_coupling"])
+def test_floating_A_v_is_the_velocity_along_integrate(solo, floating_tree, case):
+    """A v equals the rate of what each constraint holds along q (+) v t (frame_pose, central
+    difference): a point's world velocity, a weld's relative body twist T_ab^-1 dT_ab/dt in
+    frame b's axes; a coupling's rows are its matrix C, on v-space."""
+    model, constraints = _floating_cases(solo, floating_tree)[case]
+    for seed in range(2):
+        q, v, _, _ = _floating_state(model, 200 + seed)
+        row = 0
+        for c in constraints:
+            A = od.constraint_jacobian(model, q, c)
+            stacked = od.constraint_jacobian(model, q, constraints)[row : row + len(A)]
+            assert_close(A, stacked, f"{case}: {type(c).__name__} rows in the stack")
+            row += len(A)
+            if isinstance(c, od.JointCoupling):
+                assert_close(A, c.matrix, f"{case}: coupling A = C")
+                continue
+
+            def along(t, c=c):
+                return _kinematic_quantity(model, od.integrate(model, q, v, t), c)
+
+            rate = _five_point(along, FD_STEP)
+            if isinstance(c, od.FixedPose):
+                rate = _vee(np.linalg.solve(along(0.0), rate))
+            assert_close(A @ v, rate, f"{case}: {type(c).__name__} A v")
+
+
+@pytest.mark.parametrize("case", ["solo12_feet", "tree_loop_weld_plane_coupling"])
+def test_floating_A_qdd_plus_drift_is_the_second_derivative_along_a_trajectory(
+    solo, floating_tree, case
+):
+    """A qdd + Adot v = d^2/dt^2 of what each constraint holds along the trajectory
+    q(t) = q (+) (v t + qdd t^2 / 2), which has velocity v and acceleration qdd at t = 0 (the
+    exponential map's right Jacobian I - ad_{xi}/2 + ... adds ad_v v / 2 = 0). A weld's
+    phi(t) = log(T_ab(0)^-1 T_ab(t)) (scipy's matrix logarithm) is zero at t = 0, where its
+    second derivative is the rate of the relative twist; a coupling bound at q has
+    phi(t) = C (v t + qdd t^2 / 2)."""
+    from scipy.linalg import logm
+
+    model, constraints = _floating_cases(solo, floating_tree)[case]
+    for seed in range(2):
+        q, v, qdd, _ = _floating_state(model, 210 + seed)
+
+        def q_at(t):
+            return od.integrate(model, q, v * t + 0.5 * qdd * t * t, 1.0)
+
+        for c in constraints:
+            what = f"{case}: {type(c).__name__}"
+            A = od.constraint_jacobian(model, q, c)
+            acceleration = A @ qdd + od.constraint_drift(model, q, v, c)
+            if isinstance(c, od.JointCoupling):
+                phi = lambda t, c=c: od.constraint_error(model, q_at(t), c, q_bound=q)  # noqa: E731
+            elif isinstance(c, od.FixedPose):
+                T_ab0 = _kinematic_quantity(model, q, c)
+                phi = lambda t, c=c, T0=T_ab0: _vee(  # noqa: E731
+                    np.real(logm(np.linalg.solve(T0, _kinematic_quantity(model, q_at(t), c))))
+                )
+            else:
+                phi = lambda t, c=c: _kinematic_quantity(model, q_at(t), c)  # noqa: E731
+            # rounding of the second difference ~ 64 eps |phi| / (12 h^2) ~ 1e-9 |phi|
+            second = _second_difference(phi, FD_STEP)
+            assert_close(acceleration, second, f"{what} A qdd + Adot v", rtol=1e-8)
+            if isinstance(c, od.JointCoupling):
+                assert_close(acceleration, c.matrix @ qdd, f"{what}: C qdd, no drift")
+
+
+def _kkt(model, q, v, tau, A, drift):
+    """qdd, lam from numpy's solve of [[M, A^T], [A, 0]] [qdd; lam] = [tau - h; -Adot v] with
+    M = od.mass_matrix and h = od.bias_forces (independent of the constrained kernels)."""
+    k = A.shape[0]
+    K = np.block([[od.mass_matrix(model, q), A.T], [A, np.zeros((k, k))]])
+    x = np.linalg.solve(K, np.r_[tau - od.bias_forces(model, q, v), -drift])
+    return x[: model.nv], x[model.nv :]
+
+
+@pytest.mark.parametrize("case", ["solo12_feet", "tree_loop_weld_plane_coupling"])
+def test_floating_constrained_dynamics_is_the_kkt_solution_and_P_projects(
+    solo, floating_tree, case
+):
+    """qdd and lam against numpy's KKT solve; A qdd + Adot v = 0; the projection identities of
+    the module docstring: P A^T = 0, P^2 = P, A M^-1 P = 0, P M symmetric,
+    P tau = P (M qdd + h); constrained inverse dynamics gives tau back."""
+    model, constraints = _floating_cases(solo, floating_tree)[case]
+    for seed in range(3):
+        q, v, _, tau = _floating_state(model, 220 + seed)
+        A = od.constraint_jacobian(model, q, constraints)
+        drift = od.constraint_drift(model, q, v, constraints)
+        qdd, lam = od.constrained_forward_dynamics(model, q, v, tau, constraints)
+        qdd_ref, lam_ref = _kkt(model, q, v, tau, A, drift)
+        assert_close(qdd, qdd_ref, f"{case}: qdd")
+        assert_close(lam, lam_ref, f"{case}: lam")
+        assert_close(A @ qdd + drift, np.zeros(len(A)), f"{case}: A qdd + Adot v = 0")
+        qdd_A, lam_A = od.constrained_forward_dynamics(model, q, v, tau, A=A, Adot_qd=drift)
+        assert_close(qdd_A, qdd_ref, f"{case}: qdd from a general A")
+        assert_close(lam_A, lam_ref, f"{case}: lam from a general A")
+
+        M, h = od.mass_matrix(model, q), od.bias_forces(model, q, v)
+        P = od.constraint_projection(model, q, A)
+        assert_close(P @ A.T, np.zeros(A.T.shape), f"{case}: P A^T = 0")
+        assert_close(P @ P, P, f"{case}: P^2 = P")
+        assert_close(A @ np.linalg.solve(M, P), np.zeros(A.shape), f"{case}: A M^-1 P = 0")
+        assert_close(P @ M, (P @ M).T, f"{case}: P M symmetric")
+        assert_close(P @ tau, P @ (M @ qdd + h), f"{case}: P tau = P (M qdd + h)")
+        tau_back = od.constrained_inverse_dynamics(model, q, v, qdd, A, lam=lam)
+        assert_close(tau_back, tau, f"{case}: constrained ID(FD) = tau")
+
+
+def test_floating_feet_and_loops_match_pinocchio_constraint_dynamics(pin, solo, floating_tree):
+    """Against Pinocchio's constraintDynamics with a JointModelFreeFlyer root (zero
+    regularisation): solo12 on four point feet (CONTACT_3D to the world, under g and under
+    the Moon's tilted gravity), and the floating tree's loop (CONTACT_3D between two frames)
+    and the weld of its deepest frame to the base (CONTACT_6D); rows and drifts against its
+    frame Jacobians and accelerations."""
+    from pin_adapter import PinOracle
+
+    g_moon = np.array([0.3, -0.2, -1.62])
+    P_solo = PinOracle(solo.source, solo)
+    feet = _floating_cases(solo, floating_tree)["solo12_feet"][1]
+    path, tree, (loop, weld, _, _) = floating_tree
+    P_tree = PinOracle(path, tree)
+    for seed in range(3):
+        q, v, _, tau = _floating_state(solo, 230 + seed)
+        for c in feet:
+            J, a, p = _pin_point(P_solo, c.frame, c.point, q, v)
+            assert_close(od.constraint_jacobian(solo, q, c), J, f"solo {c.frame} A")
+            assert_close(od.constraint_drift(solo, q, v, c), a, f"solo {c.frame} drift")
+        contacts = [_pin_contact_3d(P_solo, c.frame, c.point) for c in feet]
+        for gravity in (None, g_moon):
+            qdd_ref, lam_pin = _pin_constraint_dynamics(P_solo, q, v, tau, contacts, gravity)
+            qdd, lam = od.constrained_forward_dynamics(solo, q, v, tau, feet, gravity=gravity)
+            assert_close(qdd, qdd_ref, f"solo feet qdd gravity={gravity}")
+            assert_close(lam, -lam_pin, f"solo feet lam gravity={gravity}")
+
+        q, v, _, tau = _floating_state(tree, 240 + seed)
+        J_a, acc_a, _ = _pin_point(P_tree, loop.frame_a, loop.point_a, q, v)
+        J_b, acc_b, _ = _pin_point(P_tree, loop.frame_b, loop.point_b, q, v)
+        assert_close(od.constraint_jacobian(tree, q, loop), J_a - J_b, "tree loop A")
+        assert_close(od.constraint_drift(tree, q, v, loop), acc_a - acc_b, "tree loop drift")
+        cases = [
+            (loop, [_pin_contact_3d(P_tree, loop.frame_a, loop.point_a, loop.frame_b,
+                                    loop.point_b)], False),
+            (weld, [_pin_contact_6d(P_tree, weld.frame_a, weld.frame_b, q)], True),
+        ]
+        for c, cms, six in cases:
+            qdd_ref, lam_pin = _pin_constraint_dynamics(P_tree, q, v, tau, cms)
+            lam_ref = -(np.r_[lam_pin[3:], lam_pin[:3]] if six else lam_pin)
+            qdd, lam = od.constrained_forward_dynamics(tree, q, v, tau, c)
+            assert_close(qdd, qdd_ref, f"tree {type(c).__name__} qdd")
+            assert_close(lam, lam_ref, f"tree {type(c).__name__} lam")
+
+
+def test_a_floating_base_welded_to_the_world_is_the_fixed_base_robot(pin, welded_solo):
+    """solo12 on a URDF floating joint, its base welded to the world frame by a FixedPose at a
+    random pose, at rest (v_b = 0): the base does not accelerate and the legs move as the
+    fixed-base solo12's forward dynamics with gravity in the base's axes, R^T g; qdd and the
+    weld's wrench also against Pinocchio's CONTACT_6D."""
+    from pin_adapter import PinOracle
+
+    path, model = welded_solo
+    fixed = od.load_urdf("solo12")
+    assert model.floating_base and model.joint_names == fixed.joint_names
+    weld = od.FixedPose("world", "base_link")
+    P = PinOracle(path, model)
+    for seed in range(3):
+        q, v, _, tau = _floating_state(model, 250 + seed)
+        v[:6] = 0.0
+        qdd, lam = od.constrained_forward_dynamics(model, q, v, tau, weld)
+        R_sb = od.frame_pose(model, q, "base_link")[:3, :3]
+        qdd_legs = od.forward_dynamics(fixed, q[7:], v[6:], tau[6:], gravity=R_sb.T @ model.gravity)
+        assert_close(qdd[:6], np.zeros(6), "welded base: no base acceleration")
+        assert_close(qdd[6:], qdd_legs, "welded base: the fixed-base legs")
+        qdd_ref, lam_pin = _pin_constraint_dynamics(P, q, v, tau, [_pin_contact_6d(P, None,
+                                                                               "base_link", q)])
+        assert_close(qdd, qdd_ref, "welded base qdd against Pinocchio")
+        assert_close(lam, -np.r_[lam_pin[3:], lam_pin[:3]], "welded base wrench against Pinocchio")
+
+
+def test_floating_coupling_error_lives_on_v_space(floating_tree):
+    """JointCoupling's phi = C (q (-) q_ref): at q = q_ref (+) u (integrate, unit time) it is
+    C u, for a base turned by up to ~1.7 rad and moved along a screw (q - q_ref would not even
+    have nv entries)."""
+    _, model, _ = floating_tree
+    rng = np.random.default_rng(260)
+    C = rng.normal(size=(3, model.nv))
+    for seed in range(3):
+        q_ref, u, _, _ = _floating_state(model, 260 + seed)
+        q = od.integrate(model, q_ref, u, 1.0)
+        c = od.JointCoupling(C, q_ref=q_ref)
+        assert_close(od.constraint_error(model, q, c), C @ u, "coupling phi = C u")
+        assert_close(od.constraint_error(model, q, od.JointCoupling(C), q_bound=q_ref), C @ u,
+                     "coupling phi with q_ref bound at q_bound")
+
+
+def test_floating_compiled_interface_takes_nq_sized_q(solo):
+    """The kernels the simulation step calls, with q (nq,) and v (nv,): constraint_terms_kernel
+    fills what the public functions return; constrained_solve_at and constrained_forward_kernel
+    solve M qdd + A^T lam = tau - h with A qdd + Adot v + 2 alpha A v + beta^2 phi = 0 (numpy
+    KKT from od.mass_matrix, od.bias_forces); a quaternion off unit norm is reported."""
+    feet = [od.PointToWorld(f) for f in FEET]
+    q, v, _, tau = _floating_state(solo, 270)
+    q_bound = od.integrate(solo, q, v, 0.01)  # phi != 0 at q
+    rows, params = dc.constraint_table(solo, feet, q_bound)
+    k = int(rows[:, 2].sum())
+    A, drift, phi = np.empty((k, solo.nv)), np.empty(k), np.empty(k)
+    args = (solo._ibuf, solo._fbuf, rows, params)
+    assert dc.constraint_terms_kernel(*args, q, v, A, drift, phi) == Status.OK
+    assert_close(A, od.constraint_jacobian(solo, q, feet), "kernel A")
+    assert_close(drift, od.constraint_drift(solo, q, v, feet), "kernel drift")
+    assert_close(phi, od.constraint_error(solo, q, feet, q_bound=q_bound), "kernel phi")
+    assert np.abs(phi).max() > 1e-3
+    M, h = od.mass_matrix(solo, q), od.bias_forces(solo, q, v)
+    for gains in (dc.NO_STABILISATION, np.array([5.0, 20.0])):
+        gamma = drift + 2 * gains[0] * A @ v + gains[1] ** 2 * phi
+        qdd_ref, lam_ref = _kkt(solo, q, v, tau, A, gamma)
+        qdd, lam = np.empty(solo.nv), np.empty(k)
+        status = dc.constrained_solve_at(*args, gains, q, v, M.copy(), tau - h, qdd, lam)
+        assert status == Status.OK
+        assert_close(qdd, qdd_ref, f"constrained_solve_at qdd, gains {gains}")
+        assert_close(lam, lam_ref, f"constrained_solve_at lam, gains {gains}")
+        qdd, lam = np.empty(solo.nv), np.empty(k)
+        status = dc.constrained_forward_kernel(
+            *args, gains, q, v, tau, solo._loads, np.zeros(0), qdd, lam
+        )
+        assert status == Status.OK
+        assert_close(qdd, qdd_ref, f"constrained_forward_kernel qdd, gains {gains}")
+        assert_close(lam, lam_ref, f"constrained_forward_kernel lam, gains {gains}")
+    bad = q.copy()
+    bad[3:7] *= 1.1
+    status = dc.constraint_terms_kernel(*args, bad, v, A, drift, phi)
+    assert status == Status.Q_NOT_UNIT_QUATERNION
+
+
+def test_floating_bad_input_names_the_argument(solo):
+    """No constraint function refuses a floating base; shapes are nq for configurations and
+    nv for velocities, and a quaternion off unit norm is named by its slice."""
+    q, v, _, tau = _floating_state(solo, 280)
+    foot = od.PointToWorld("FL_FOOT")
+    A = od.constraint_jacobian(solo, q, foot)
+    off = q.copy()
+    off[3:7] *= 1.1
+    cases = [
+        (lambda: od.constraint_jacobian(solo, q[1:], foot), r"q must have shape \(19,\)"),
+        (lambda: od.constraint_drift(solo, q, q, foot), r"qd must have shape \(18,\)"),
+        (lambda: od.constraint_error(solo, off, foot, q_bound=q), r"quaternion q\[3:7\]"),
+        (lambda: od.constraint_error(solo, q, foot, q_bound=off), r"quaternion q_bound\[3:7\]"),
+        (
+            lambda: od.constraint_error(solo, q, od.JointCoupling(np.eye(18)[:1], q_ref=q[1:])),
+            r"JointCoupling.*q_ref must have shape \(19,\)",
+        ),
+        (
+            lambda: od.constraint_error(solo, q, od.JointCoupling(np.eye(18)[:1], q_ref=off)),
+            r"JointCoupling.*quaternion q_ref\[3:7\]",
+        ),
+        (
+            lambda: od.constraint_jacobian(solo, q, od.JointCoupling(np.eye(19)[:1])),
+            r"JointCoupling.*nv=18 columns",
+        ),
+        (lambda: od.constrained_forward_dynamics(solo, q, v, tau[1:], foot), "tau must have"),
+        (lambda: od.constraint_projection(solo, off, A), r"quaternion q\[3:7\]"),
+        (lambda: od.constrained_inverse_dynamics(solo, q, v, tau, A[:, 1:]), r"A must have"),
+    ]
+    for call, message in cases:
+        with pytest.raises(ValueError, match=message):
+            call()

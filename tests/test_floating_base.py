@@ -169,7 +169,6 @@ def test_functions_not_written_for_a_free_joint_say_so(ur5):
     for call in (
         lambda: od.coriolis_matrix(ur5, q, v),
         lambda: od.christoffel_symbols(ur5, q),
-        lambda: od.constraint_jacobian(ur5, q, od.PointToWorld("tool0")),
     ):
         with pytest.raises(NotImplementedError, match="floating-base"):
             call()

@@ -152,19 +152,19 @@ def fixed_base_only(model, what):
         )
 
 
-def quaternion_problem(model):
-    """What is wrong with q's quaternions, for an error message: the slice of each free
-    joint's quaternion and the tolerance."""
+def quaternion_problem(model, name="q"):
+    """What is wrong with the quaternions of the configuration `name`, for an error message:
+    the slice of each free joint's quaternion and the tolerance."""
     from .joints import QUATERNION_TOLERANCE
 
     slices = ", ".join(
-        f"q[{model.iq[i] + 3}:{model.iq[i] + 7}] ({model.body_names[i]})"
+        f"{name}[{model.iq[i] + 3}:{model.iq[i] + 7}] ({model.body_names[i]})"
         for i in range(model.nb)
         if model.jtype[i] == FREE
     )
     return (
         f"the quaternion {slices} (x, y, z, w) must have unit norm (within "
-        f"{QUATERNION_TOLERANCE:g}); od.normalize(model, q) normalises it"
+        f"{QUATERNION_TOLERANCE:g}); od.normalize(model, {name}) normalises it"
     )
 
 

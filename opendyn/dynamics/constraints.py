@@ -18,10 +18,16 @@ minimum-norm least-squares solution of G lam = A M^-1 (tau - h) + Adot qd, and q
 P are unique when the constraints are consistent (the right-hand side lies in the range of G);
 the numerical rank is the number of eigenvalues kept.
 
+Floating base: q is (nq,), qd, qdd, tau and the columns of A are (nv,) (opendyn.constraints):
+the kernels walk each joint through its rows of S and its index iv into v, so a free joint's
+six columns are its body-twist coordinates (angular first) and nothing here assumes one
+coordinate per body.
+
 Compiled interface (for the simulation step, inside compiled loops):
-  constraint_table(model, constraints, q0) -> rows (n_c, 5) int64, params (p,) float64
+  constraint_table(model, constraints, q0 (nq,)) -> rows (n_c, 5) int64, params (p,) float64
       row: (kind, offset into params, m rows of A, body_a, body_b), body -1 = the fixed world
-  constraint_terms_kernel(ibuf, fbuf, rows, params, q, qd, A, Adot_qd, phi) -> status
+  constraint_terms_kernel(ibuf, fbuf, rows, params, q (nq,), qd (nv,), A, Adot_qd, phi)
+      -> status
   constrained_solve_kernel(M, rhs, A, gamma, qdd, lam) -> Status.OK.value, or SINGULAR + k (pivot k)
   constrained_solve_rank_kernel(M, rhs, A, gamma, qdd, lam, rank) -> the same, rank[0] = rank
   constrained_solve_at(ibuf, fbuf, rows, params, gains, q, qd, M, rhs, qdd, lam) -> status
@@ -61,6 +67,8 @@ from ._kernels import (
 )
 from .crba import crba_kernel, mass_matrix
 from .cholesky import cholesky_solve
+from .configuration import difference_kernel
+from .joints import configuration_status
 from .kinematics import frame_pose, jacobian, space_axis
 from .rnea import forward_pass, rnea_kernel
 from ..status import Status
@@ -259,12 +267,13 @@ def log_se3(R, p, out):
 
 @njit(**JIT)
 def constraint_terms_kernel(ibuf, fbuf, rows, params, q, qd, A, Adot_qd, phi):
-    """A (k, nv), Adot_qd (k,), phi (k,) <- every constraint's rows at (q, qd), k = rows[:, 2]
-    .sum(), in table order. Adot qd is d/dt (A qd) at qdd = 0 (no gravity). Point rows: world
-    axes; FIXED_POSE: frame b axes, angular first (see opendyn.constraints).
-    Returns a Status: OK, Q_NOT_FINITE or QD_NOT_FINITE."""
-    if not all_finite(q):
-        return Status.Q_NOT_FINITE.value
+    """A (k, nv), Adot_qd (k,), phi (k,) <- every constraint's rows at (q (nq,), qd (nv,)),
+    k = rows[:, 2].sum(), in table order. Adot qd is d/dt (A qd) at qdd = 0 (no gravity).
+    Point rows: world axes; FIXED_POSE: frame b axes, angular first (see opendyn.constraints).
+    Returns a Status: OK, Q_NOT_FINITE, Q_NOT_UNIT_QUATERNION or QD_NOT_FINITE."""
+    status = configuration_status(ibuf, q)
+    if status:
+        return status
     if not all_finite(qd):
         return Status.QD_NOT_FINITE.value
     body_tree = tree(ibuf, fbuf)
@@ -286,6 +295,7 @@ def constraint_terms_kernel(ibuf, fbuf, rows, params, q, qd, A, Adot_qd, phi):
     t3 = np.empty((3, 3))
     p_sa, p_sb, p_ab = t3[0], t3[1], t3[2]
     J3 = np.empty((3, nv))
+    dq = np.empty(nv)
     # forward pass at qdd = 0, no gravity: V_i and dV_i = the velocity-product part of the rate
     forward_pass(body_tree, q, qd, np.zeros(nv), np.zeros(6), R, p, V, dV, s6[:2])
     world_poses(parent, R, p, R_s, p_s)
@@ -367,14 +377,14 @@ def constraint_terms_kernel(ibuf, fbuf, rows, params, q, qd, A, Adot_qd, phi):
                 )
             log_se3(R_sa, p_sa, phi[r0 : r0 + 6])
         else:
-            # JOINT_COUPLING: a constant C (m, nv); phi = C (q - q_ref)
-            q_ref = params[o + m * nv : o + m * nv + nv]
+            # JOINT_COUPLING: a constant C (m, nv); phi = C (q (-) q_ref)
+            difference_kernel(ibuf, params[o + m * nv : o + m * nv + q.shape[0]], q, dq)
             for i in range(m):
                 e = 0.0
                 for c in range(nv):
                     C_ic = params[o + i * nv + c]
                     A[r0 + i, c] = C_ic
-                    e += C_ic * (q[c] - q_ref[c])
+                    e += C_ic * dq[c]
                 Adot_qd[r0 + i] = 0.0
                 phi[r0 + i] = e
         r0 += m
@@ -534,10 +544,12 @@ def constrained_solve_kernel(M, rhs, A, gamma, qdd, lam):
 @njit(**JIT)
 def constrained_solve_at(ibuf, fbuf, rows, params, gains, q, qd, M, rhs, qdd, lam):
     """qdd (nv,), lam (k,) <- the solution of M qdd + A^T lam = rhs with the constraint rows at
-    (q, qd) held to second order, with Baumgarte stabilisation gains = (alpha, beta) (1/s):
+    (q (nq,), qd (nv,)) held to second order, with Baumgarte stabilisation gains =
+    (alpha, beta) (1/s):
         A qdd + Adot qd + 2 alpha A qd + beta^2 phi = 0
     ((0, 0): A qdd + Adot qd = 0, the drift of phi left alone). M (nv, nv) is overwritten.
-    Returns a Status: OK, Q/QD_NOT_FINITE, or SINGULAR + j when M is singular at coordinate j."""
+    Returns a Status: OK, Q/QD_NOT_FINITE, Q_NOT_UNIT_QUATERNION, or SINGULAR + j when M is
+    singular at coordinate j."""
     nv = qd.shape[0]
     k = lam.shape[0]
     A = np.empty((k, nv))
@@ -560,14 +572,14 @@ def constrained_solve_at(ibuf, fbuf, rows, params, gains, q, qd, M, rhs, qdd, la
 def constrained_forward_kernel(
     ibuf, fbuf, rows, params, gains, q, qd, tau, loads, armature, qdd, lam
 ):
-    """qdd (nv,), lam (k,) <- constrained forward dynamics at one state: M by CRBA
-    (+ diag(armature), (nv,) or empty), h (and the f_tip wrenches in loads, as in rnea_kernel)
-    by RNEA, then constrained_solve_at with the Baumgarte gains (alpha, beta) (zeros: none).
-    Returns a Status: OK, Q/QD/TAU_NOT_FINITE, or SINGULAR + j
-    when M is singular at coordinate j."""
+    """qdd (nv,), lam (k,) <- constrained forward dynamics at one state (q (nq,); qd, tau
+    (nv,)): M by CRBA (+ diag(armature), (nv,) or empty), h (and the f_tip wrenches in loads,
+    as in rnea_kernel) by RNEA, then constrained_solve_at with the Baumgarte gains
+    (alpha, beta) (zeros: none). Returns a Status: OK, Q/QD/TAU_NOT_FINITE,
+    Q_NOT_UNIT_QUATERNION, or SINGULAR + j when M is singular at coordinate j."""
     if not all_finite(tau):
         return Status.TAU_NOT_FINITE.value
-    nv = q.shape[0]
+    nv = qd.shape[0]
     rhs = np.empty(nv)
     status = rnea_kernel(ibuf, fbuf, q, qd, np.zeros(nv), loads, rhs)
     if status:
@@ -637,14 +649,9 @@ def _world_point(model, q0, name, point):
 
 
 def _table(model, constraints, q0, q0_name="q0"):
-    _args.fixed_base_only(model, "constraints")
     constraints = _as_list(constraints)
     if q0 is not None:
-        q0 = _args.as_q(model, q0, q0_name)
-        if q0.ndim != 1:
-            raise ValueError(f"{q0_name} must be a single configuration ({model.nv},)")
-        if not np.all(np.isfinite(q0)):
-            raise ValueError(f"{q0_name} must be finite (it has NaN or inf)")
+        q0 = _configuration(model, q0, q0_name, "constraints")
     rows = np.zeros((len(constraints), 5), dtype=np.int64)
     params = []
     offset = 0
@@ -711,6 +718,8 @@ def _table(model, constraints, q0, q0_name="q0"):
             q_ref = c.q_ref
             if q_ref is None:
                 q_ref = _bound_at(label, "q_ref", q0, q0_name)
+            else:
+                q_ref = _configuration(model, q_ref, "q_ref", label)
             p = np.concatenate([C.ravel(), q_ref])
         rows[n] = (c.kind, offset, c.n_rows(model.nv), body_a, body_b)
         params.append(np.asarray(p, dtype=np.float64))
@@ -731,12 +740,13 @@ def constraint_table(model, constraints, q0):
       POINT_TO_POINT  r_a (3), r_b (3)                      (a world frame's r is a world point)
       FIXED_POSE      R_{body_a,frame_a} (9, row-major), p (3), R_{body_b,frame_b} (9), p (3),
                       target R_ab (9), p_ab (3)
-      JOINT_COUPLING  C (m * nv, row-major), q_ref (nv)
-    Every None default (target, offset, T_ab, q_ref) is resolved at q0 (nv,), the configuration
+      JOINT_COUPLING  C (m * nv, row-major), q_ref (nq)
+    Every None default (target, offset, T_ab, q_ref) is resolved at q0 (nq,), the configuration
     the constraints are bound at; q0 None is allowed when none is left None.
 
     Raises KeyError naming the constraint and the frame for an unknown frame, ValueError for a
-    constraint between two world frames, a JointCoupling whose A is not (k, nv), a bad q0.
+    constraint between two world frames, a JointCoupling whose A is not (k, nv) or whose q_ref
+    is not (nq,), a bad q0 (shape, NaN, a quaternion far from unit norm).
     """
     return _table(model, constraints, q0, "q0")
 
@@ -745,14 +755,31 @@ def constraint_table(model, constraints, q0):
 # public functions
 
 
-def _state(model, x, name, what):
-    _args.fixed_base_only(model, what)
-    x = _args.as_state(model, x, name)
+def _single(model, x, name, what, n):
+    """x as a finite float64 (n,) array, or ValueError naming it."""
+    try:
+        x = _args.as_state(model, x, name, n)
+    except ValueError as e:
+        raise ValueError(f"{what}: {e}") from None
     if x.ndim != 1:
-        raise ValueError(f"{what}: {name} must be a single state ({model.nv},), got {x.shape}")
+        raise ValueError(f"{what}: {name} must be a single state ({n},), got {x.shape}")
     if not np.all(np.isfinite(x)):
         raise ValueError(f"{what}: {name} must be finite (it has NaN or inf)")
     return x
+
+
+def _state(model, x, name, what):
+    """A velocity-like argument (qd, qdd, tau): a finite (nv,) array."""
+    return _single(model, x, name, what, model.nv)
+
+
+def _configuration(model, q, name, what):
+    """A configuration: a finite (nq,) array whose quaternions (a floating base) have unit
+    norm within joints.QUATERNION_TOLERANCE."""
+    q = _single(model, q, name, what, model.nq)
+    if configuration_status(model._ibuf, q) == Status.Q_NOT_UNIT_QUATERNION:
+        raise ValueError(f"{what}: {_args.quaternion_problem(model, name)}")
+    return q
 
 
 def _matrix_A(model, A, what):
@@ -785,7 +812,7 @@ def _vector_k(x, k, name, what):
 
 
 def _terms(model, q, qd, constraints, q_bound, what):
-    q = _state(model, q, "q", what)
+    q = _configuration(model, q, "q", what)
     qd = model._zero_v if qd is None else _state(model, qd, "qd", what)
     # A and Adot qd do not depend on targets: those two bind None defaults at q
     q0 = q if isinstance(q_bound, str) else q_bound
@@ -801,10 +828,11 @@ def _terms(model, q, qd, constraints, q_bound, what):
 def constraint_jacobian(model, q, constraints):
     """A(q): (k, nv) the constraints' rows stacked in order, A qd = 0 on the motion.
 
-    q: (nv,) configuration; constraints: one constraint object or a sequence
+    q: (nq,) configuration; constraints: one constraint object or a sequence
     (opendyn.constraints). Row units and frames: a point's rows are its world velocity per unit
     qd (world axes, m/s), a plane's the normal velocity, a FixedPose's the twist of frame b
-    relative to frame a in frame b's axes (angular first), a JointCoupling's its matrix.
+    relative to frame a in frame b's axes (angular first), a JointCoupling's its matrix. On a
+    floating base the first 6 columns are per unit base body twist (omega_b, v_b).
     Targets do not enter A, so None targets are simply bound at q.
     """
     return _terms(model, q, None, constraints, "q", "constraint_jacobian")[0]
@@ -816,8 +844,9 @@ def constraint_drift(model, q, qd, constraints):
     (m/s^2); for a FixedPose: the rate of the relative twist (frame b axes, angular first);
     0 for a JointCoupling.
 
-    q, qd: (nv,) single state; constraints: one constraint object or a sequence. Targets do
-    not enter, so None targets are bound at q.
+    q: (nq,) configuration, qd: (nv,) velocity (on a floating base qdd is the rate of the base
+    body twist); constraints: one constraint object or a sequence. Targets do not enter, so
+    None targets are bound at q.
     """
     return _terms(model, q, qd, constraints, "q", "constraint_drift")[1]
 
@@ -825,10 +854,10 @@ def constraint_drift(model, q, qd, constraints):
 def constraint_error(model, q, constraints, q_bound=None):
     """phi(q): (k,) the constraints' position errors, d/dt phi = A qd (for a FixedPose where
     phi = 0): p - target, n . p - offset, p_a - p_b (m, world axes), log(T_ab*^-1 T_ab) (rad, m;
-    frame b axes, angular first), C (q - q_ref).
+    frame b axes, angular first), C (q (-) q_ref) = C difference(model, q_ref, q).
 
-    q: (nv,) configuration; constraints: one constraint object or a sequence;
-    q_bound: (nv,) the configuration at which a None target / offset / T_ab / q_ref is bound.
+    q: (nq,) configuration; constraints: one constraint object or a sequence;
+    q_bound: (nq,) the configuration at which a None target / offset / T_ab / q_ref is bound.
     A None default without q_bound raises ValueError naming the constraint and the field.
     """
     return _terms(model, q, None, constraints, q_bound, "constraint_error")[2]
@@ -842,7 +871,8 @@ def constrained_forward_dynamics(
         lam = (A M^-1 A^T)^+ (A M^-1 (tau - h) + Adot qd),  qdd = M^-1 (tau - h - A^T lam).
 
     Args:
-      q, qd, tau: (nv,) single state (rad or m, rad/s or m/s, N m or N).
+      q: (nq,) configuration; qd, tau: (nv,) single state (rad or m, rad/s or m/s, N m or N;
+        a floating base's body twist and the wrench on it in its frame, angular first).
       constraints: constraint objects (opendyn.constraints), OR
       A, Adot_qd: a general (k, nv) constraint matrix and its (k,) drift Adot qd; exactly one of
         `constraints` and `A` (with `Adot_qd`).
@@ -865,7 +895,7 @@ def constrained_forward_dynamics(
         raise ValueError(f"{what}: Adot_qd goes with A; with `constraints` it is computed")
     if A is not None and Adot_qd is None:
         raise ValueError(f"{what}: A needs its drift Adot_qd ((k,) = d/dt (A) qd)")
-    q = _state(model, q, "q", what)
+    q = _configuration(model, q, "q", what)
     qd = _state(model, qd, "qd", what)
     tau = _state(model, tau, "tau", what)
     loads = _args.loads(model, gravity, f_tip)
@@ -933,11 +963,11 @@ def constraint_projection(model, q, A):
     constrained motion (constrained inverse dynamics). P A^T = 0 (P removes the torques the
     constraints absorb), P^2 = P, A M^-1 P = 0, and P M = M - A^T G^+ A is symmetric.
 
-    q: (nv,) configuration; A: (k, nv) constraint matrix (e.g. constraint_jacobian). For
+    q: (nq,) configuration; A: (k, nv) constraint matrix (e.g. constraint_jacobian). For
     rank-deficient A, (A M^-1 A^T)^+ is the pseudo-inverse (module docstring).
     """
     what = "constraint_projection"
-    q = _state(model, q, "q", what)
+    q = _configuration(model, q, "q", what)
     return _projection(model, q, _matrix_A(model, A, what), what)[0]
 
 
@@ -951,11 +981,11 @@ def constrained_inverse_dynamics(model, q, qd, qdd, A, lam=None, gravity=None):
     Either way constrained_forward_dynamics(tau) gives back qdd (and lam_P or lam) when qdd is
     consistent: A qdd + Adot qd = 0.
 
-    q, qd, qdd: (nv,) single state; A: (k, nv); lam: (k,) constraint force as returned by
+    q: (nq,) configuration; qd, qdd: (nv,); A: (k, nv); lam: (k,) constraint force as returned by
     constrained_forward_dynamics; gravity: optional (3,) world-frame gravity (m/s^2).
     """
     what = "constrained_inverse_dynamics"
-    q = _state(model, q, "q", what)
+    q = _configuration(model, q, "q", what)
     qd = _state(model, qd, "qd", what)
     qdd = _state(model, qdd, "qdd", what)
     A = _matrix_A(model, A, what)
@@ -986,19 +1016,19 @@ def constraint_wrench(model, q, frame, A, lam):
     the frame's coordinates (N m, N), so that J_b^T F_tip = A^T lam (the seed's J^T F_tip =
     A^T lam); J_b is the frame's body Jacobian.
 
-    q: (nv,) configuration; frame: a frame name; A: (k, nv); lam: (k,) (as from
+    q: (nq,) configuration; frame: a frame name; A: (k, nv); lam: (k,) (as from
     constrained_forward_dynamics). Raises ValueError when J_b is not square (nv != 6) or not
     invertible at q (a singular configuration), saying so.
     """
     what = "constraint_wrench"
-    q = _state(model, q, "q", what)
+    q = _configuration(model, q, "q", what)
     A = _matrix_A(model, A, what)
     lam = _vector_k(lam, A.shape[0], "lam", what)
     J_b = jacobian(model, q, frame, expressed_in="body")
     if model.nv != 6:
         raise ValueError(
             f"{what}: J_b of frame {frame!r} is 6 x {model.nv}, not square: F_tip = J_b^-T A^T "
-            f"lam needs a robot with exactly 6 joints (model {model.name!r} has nv={model.nv})"
+            f"lam needs exactly 6 velocity coordinates (model {model.name!r} has nv={model.nv})"
         )
     sv = np.linalg.svd(J_b, compute_uv=False)
     if not sv[-1] > 1e-10 * sv[0]:
