@@ -52,7 +52,7 @@ def space_axes_and_inertias(ibuf, fbuf, q, S, Gs, Gc):
     p_s = np.empty((nb, 3))
     # every body: last = -1, typed int64 as the other callers' body index (a literal -1
     # would compile forward_kinematics a second time)
-    forward_kinematics(body_tree, q, R_s, p_s, np.int64(-1))
+    forward_kinematics(body_tree, q, ibuf[1], R_s, p_s, np.int64(-1))
     scratch = np.empty((9, 6))
     for i in range(nb):
         zero_matrix(Gs[i])
