@@ -20,6 +20,10 @@ inertias Gs_i = Ad_{T_is}^T G_i Ad_{T_is} and Ad_{T_is}^T B_i Ad_{T_is} = B(V_s,
 with Jdot_i = Ad_{T_is} (d/dt J_s,i - ad_{V_s,i} J_s,i) this gives
     C = sum_i J_s,i^T (Gs_i dS + Bs_i J_s,i),
     Bs_i = B(V_s,i) - Gs_i ad_{V_s,i} = -1/2 (Gs_i ad_V + ad_V^T Gs_i) - 1/2 X(Gs_i V),  V = V_s,i.
+For a rigid-body inertia G = [[I, [h]], [[h]^T, m 1]] (h = m c) and V = (w, u), with the
+momentum G V = (I w + h x u, m u - h x w) = (p_ang, p_lin), the blocks multiply out to
+    Bs = [[K, 0], [-[p_lin], 0]],   K = -1/2 (I [w] - [w] I + [h][u] + [u][h] + [p_ang]):
+only the angular columns, 6 x 3.
 Body i's Jacobian holds the columns of the joints from the root to i, so a pair of joints a, b
 meets in the bodies below both; with the composites of a backward pass, tips to base,
     Gc_b = sum over the subtree of b of Gs_i,        Bc_b = the same sum of Bs_i,
@@ -101,14 +105,11 @@ def space_axes_and_inertias(ibuf, fbuf, q, S_s, G_s, Gc):
 
 
 @njit(**INLINE)
-def add_skew(x, y, z, scale, B, r0, c0):
-    """B[r0 : r0 + 3, c0 : c0 + 3] += scale [u], [u] the cross-product matrix of u = (x, y, z)."""
-    B[r0, c0 + 1] -= scale * z
-    B[r0, c0 + 2] += scale * y
-    B[r0 + 1, c0] += scale * z
-    B[r0 + 1, c0 + 2] -= scale * x
-    B[r0 + 2, c0] -= scale * y
-    B[r0 + 2, c0 + 1] += scale * x
+def cross_matrix(x, y, z, out):
+    """out (3, 3) <- [u], the cross-product matrix of u = (x, y, z): [u] a = u x a."""
+    out[0, 0], out[0, 1], out[0, 2] = 0.0, -z, y
+    out[1, 0], out[1, 1], out[1, 2] = z, 0.0, -x
+    out[2, 0], out[2, 1], out[2, 2] = -y, x, 0.0
 
 
 @njit(**JIT)
@@ -122,10 +123,10 @@ def velocity_terms(ibuf, fbuf, v, S_s, G_s, V_s, dS, Bc, idle):
     christoffel_kernel leave most bodies idle)."""
     parent, jtype, nv_j, iq, iv, mult, offset, S, R_home, p_home = tree(ibuf, fbuf)
     nb = parent.shape[0]
-    Y = np.empty((6, 6))
-    e = np.zeros(6)
-    col = np.empty(6)
     P = np.empty(6)
+    # [w], [u], [h], [p_ang] of the body at hand
+    sk = np.empty((4, 3, 3))
+    W, U, H, P_ang = sk[0], sk[1], sk[2], sk[3]
     # forward: idle[i] <- V_s = 0 from the root to i; still[i] <- V_s[i] = 0
     still = np.empty(nb, dtype=np.bool_)
     for i in range(nb):
@@ -147,20 +148,21 @@ def velocity_terms(ibuf, fbuf, v, S_s, G_s, V_s, dS, Bc, idle):
             continue
         for k in range(nv_j[i]):
             ad_twist(V_s[i], S_s[i, k], dS[i, k])
-        # Y = G ad_V column by column; G is symmetric, so ad_V^T G = Y^T
-        for c in range(6):
-            fill(e, 0.0)
-            e[c] = 1.0
-            ad_twist(V_s[i], e, col)
-            mat6_vec(G_s[i], col, Y[:, c])
-        for r in range(6):
-            for c in range(6):
-                Bc[i, r, c] = -0.5 * (Y[r, c] + Y[c, r])
-        # - 1/2 X(P) with the momentum P = (m, f) = G V: X(P) = [[ [m], [f] ], [ [f], 0 ]]
-        mat6_vec(G_s[i], V_s[i], P)
-        add_skew(P[0], P[1], P[2], -0.5, Bc[i], 0, 0)
-        add_skew(P[3], P[4], P[5], -0.5, Bc[i], 0, 3)
-        add_skew(P[3], P[4], P[5], -0.5, Bc[i], 3, 0)
+        # Bs = [[K, 0], [-[p_lin], 0]], K = -1/2 (I [w] - [w] I + [h][u] + [u][h] + [p_ang]),
+        # with I = G[:3, :3], [h] = G[:3, 3:] and (p_ang, p_lin) = G V
+        G = G_s[i]
+        mat6_vec(G, V_s[i], P)
+        cross_matrix(V_s[i, 0], V_s[i, 1], V_s[i, 2], W)
+        cross_matrix(V_s[i, 3], V_s[i, 4], V_s[i, 5], U)
+        cross_matrix(G[2, 4], G[0, 5], G[1, 3], H)
+        cross_matrix(P[0], P[1], P[2], P_ang)
+        for r in range(3):
+            for c in range(3):
+                s = P_ang[r, c]
+                for k in range(3):
+                    s += G[r, k] * W[k, c] - W[r, k] * G[k, c] + H[r, k] * U[k, c] + U[r, k] * H[k, c]
+                Bc[i, r, c] = -0.5 * s
+        cross_matrix(-P[3], -P[4], -P[5], Bc[i, 3:])
     # backward: Bc_lambda += Bc_i, and idle_lambda stays only while every subtree below is still
     # (still[i] <- the whole subtree of i is still)
     for i in range(nb - 1, 0, -1):
@@ -169,7 +171,7 @@ def velocity_terms(ibuf, fbuf, v, S_s, G_s, V_s, dS, Bc, idle):
             still[lam] = False
             idle[lam] = False
             for r in range(6):
-                for c in range(6):
+                for c in range(3):
                     Bc[lam, r, c] += Bc[i, r, c]
 
 
@@ -182,23 +184,24 @@ def assemble(ibuf, fbuf, S_s, Gc, dS, Bc, idle, C):
     zero_matrix(C)
     F = np.empty(6)
     GcS = np.empty(6)
-    BcS = np.empty(6)
-    GcdS = np.empty(6)
+    BcS = np.zeros(6)  # Bc^T S: its linear half is 0
     for b in range(parent.shape[0]):
         if idle[b]:
             continue
         for k in range(nv_j[b]):
             col_b = iv[b] + k
             # F = Gc_b dS_b + Bc_b S_b;  GcS = Gc_b S_b and BcS = Bc_b^T S_b for the row of b
-            mat6_vec(Gc[b], dS[b, k], GcdS)
-            mat6_vec(Bc[b], S_s[b, k], F)
+            # (Bc_b holds the angular columns of the composite Bs, its linear ones are 0)
+            mat6_vec(Gc[b], dS[b, k], F)
             mat6_vec(Gc[b], S_s[b, k], GcS)
             for r in range(6):
-                F[r] += GcdS[r]
+                for c in range(3):
+                    F[r] += Bc[b, r, c] * S_s[b, k, c]
+            for c in range(3):
                 s = 0.0
-                for c in range(6):
-                    s += Bc[b, c, r] * S_s[b, k, c]
-                BcS[r] = s
+                for r in range(6):
+                    s += Bc[b, r, c] * S_s[b, k, r]
+                BcS[c] = s
             a = b
             while a >= 0:
                 for m in range(nv_j[a]):
@@ -219,8 +222,9 @@ def coriolis_matrix_kernel(ibuf, fbuf, q, v, C):
     if not all_finite(v):
         return Status.QD_NOT_FINITE.value
     nb = ibuf[0]
-    work = np.empty((5, nb, 6, 6))
-    S_s, G_s, Gc, dS, Bc = work[0], work[1], work[2], work[3], work[4]
+    work = np.empty((4, nb, 6, 6))
+    S_s, G_s, Gc, dS = work[0], work[1], work[2], work[3]
+    Bc = np.empty((nb, 6, 3))
     V_s = np.empty((nb, 6))
     idle = np.empty(nb, dtype=np.bool_)
     space_axes_and_inertias(ibuf, fbuf, q, S_s, G_s, Gc)
@@ -237,8 +241,9 @@ def christoffel_kernel(ibuf, fbuf, q, Gamma):
     if status:
         return status
     nb, nv = ibuf[0], Gamma.shape[0]
-    work = np.empty((5, nb, 6, 6))
-    S_s, G_s, Gc, dS, Bc = work[0], work[1], work[2], work[3], work[4]
+    work = np.empty((4, nb, 6, 6))
+    S_s, G_s, Gc, dS = work[0], work[1], work[2], work[3]
+    Bc = np.empty((nb, 6, 3))
     V_s = np.empty((nb, 6))
     idle = np.empty(nb, dtype=np.bool_)
     space_axes_and_inertias(ibuf, fbuf, q, S_s, G_s, Gc)
