@@ -27,8 +27,8 @@ only the angular columns, 6 x 3.
 Body i's Jacobian holds the columns of the joints from the root to i, so a pair of joints a, b
 meets in the bodies below both; with the composites of a backward pass, tips to base,
     Gc_b = sum over the subtree of b of Gs_i,        Bc_b = the same sum of Bs_i,
-    C[a, b] = S_a^T (Gc_b dS_b + Bc_b S_b)    for joint a on the path from the root to b (a = b too),
-    C[b, a] = S_b^T (Gc_b dS_a + Bc_b S_a)    for a strictly above b,
+    C[a, b] = S_a^T (Gc_b dS_b + Bc_b S_b)   for a on the path from the root to b (a = b too),
+    C[b, a] = S_b^T (Gc_b dS_a + Bc_b S_a)   for a strictly above b,
 and 0 for joints on different branches: O(n d) for a tree of n bodies and depth d.
 
 The Christoffel symbols: C is linear in v, C(q, v) = sum_k v_k C(q, e_k), so
@@ -115,8 +115,9 @@ def cross_matrix(x, y, z, out):
 @njit(**JIT)
 def velocity_terms(ibuf, fbuf, v, S_s, G_s, V_s, dS, Bc, idle):
     """At velocity v, for every body i (world frame): V_s[i] = V_s[lambda] + sum_k S_s[i, k]
-    v[iv_i + k]; dS[i, k] = ad_{V_s[i]} S_s[i, k], the rate of the axis S_s[i, k]; Bc[i] = the
-    sum over the subtree of i of Bs = -1/2 (G ad_V + ad_V^T G) - 1/2 X(G V) at (G_s, V_s).
+    v[iv_i + k]; dS[i, k] = ad_{V_s[i]} S_s[i, k], the rate of the axis S_s[i, k]; Bc[i] (6, 3)
+    = the angular columns of the sum over the subtree of i of Bs = -1/2 (G ad_V + ad_V^T G)
+    - 1/2 X(G V) at (G_s, V_s) (its linear columns are 0: module docstring).
 
     idle[i]: V_s = 0 on the path from the root to i and in the subtree of i, so that dS = 0 on
     that path and Bc[i] = 0: body i adds nothing to C (the unit velocities of
@@ -160,7 +161,8 @@ def velocity_terms(ibuf, fbuf, v, S_s, G_s, V_s, dS, Bc, idle):
             for c in range(3):
                 s = P_ang[r, c]
                 for k in range(3):
-                    s += G[r, k] * W[k, c] - W[r, k] * G[k, c] + H[r, k] * U[k, c] + U[r, k] * H[k, c]
+                    s += G[r, k] * W[k, c] - W[r, k] * G[k, c]
+                    s += H[r, k] * U[k, c] + U[r, k] * H[k, c]
                 Bc[i, r, c] = -0.5 * s
         cross_matrix(-P[3], -P[4], -P[5], Bc[i, 3:])
     # backward: Bc_lambda += Bc_i, and idle_lambda stays only while every subtree below is still
