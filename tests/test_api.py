@@ -225,8 +225,9 @@ def test_space_and_body_jacobians_are_related_by_the_adjoint(ur5, states):
 
 @pytest.mark.parametrize("mimic", [False, True])
 def test_coriolis_matrix_is_the_christoffel_contraction(mimic):
-    """C[i, j] = sum_k Gamma[i, j, k] qd_k (C in O(n^2), Gamma in O(n^3): two algorithms),
-    C qd = c, and Mdot - 2C skew, also with coupled mimic joints (the Panda's fingers)."""
+    """C[i, j] = sum_k Gamma[i, j, k] qd_k on a fixed base (Gamma symmetrises dC/dqd, so this
+    holds only when C(qd) w = C(w) qd, as for joint coordinates), C qd = c, and Mdot - 2C skew,
+    also with coupled mimic joints (the Panda's fingers)."""
     model = od.load_urdf("panda", mimic=mimic)
     assert (model.nv < model.nb) == mimic
     rng = np.random.default_rng(8)

@@ -164,16 +164,6 @@ def test_quaternions_are_checked_and_normalised(ur5):
         od.inverse_dynamics(ur5, q, np.zeros(13), v)
 
 
-def test_functions_not_written_for_a_free_joint_say_so(ur5):
-    q, v = _state(ur5, 3)
-    for call in (
-        lambda: od.coriolis_matrix(ur5, q, v),
-        lambda: od.christoffel_symbols(ur5, q),
-    ):
-        with pytest.raises(NotImplementedError, match="floating-base"):
-            call()
-
-
 @pytest.mark.parametrize("seed", range(3))
 def test_identities_on_floating_trees(tree, seed):
     """M symmetric positive definite, FD(ID) = identity, the three FD methods agree."""
@@ -189,6 +179,86 @@ def test_identities_on_floating_trees(tree, seed):
         )
     np.testing.assert_allclose(tau, M @ a + od.bias_forces(tree, q, v), rtol=1e-12, atol=1e-12)
     assert od.kinetic_energy(tree, q, v) == pytest.approx(0.5 * v @ M @ v, rel=1e-12)
+
+
+def _mass_matrix_rate(model, q, v, h=1e-6):
+    """Mdot along the motion q(t) = q (+) v t, by a central difference of M."""
+    Mp = od.mass_matrix(model, od.integrate(model, q, v, h))
+    Mm = od.mass_matrix(model, od.integrate(model, q, v, -h))
+    return (Mp - Mm) / (2 * h)
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_coriolis_matrix_identities_on_floating_trees(tree, seed):
+    """C v = c (RNEA) and Mdot - 2C skew, Mdot taken along integrate (the base velocity is a
+    body twist, so q + v t would be no motion at all)."""
+    q, v = _state(tree, seed)
+    C = od.coriolis_matrix(tree, q, v)
+    np.testing.assert_allclose(C @ v, od.coriolis_forces(tree, q, v), rtol=1e-12, atol=1e-12)
+    N = _mass_matrix_rate(tree, q, v) - 2.0 * C
+    scale = np.abs(C).max()
+    np.testing.assert_allclose(N + N.T, np.zeros_like(N), atol=1e-7 * scale)
+    assert np.abs(N).max() > 1e-3 * scale  # skew, not zero: the test can see a wrong C
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_christoffel_symbols_are_the_quadratic_form_of_the_coriolis_forces(tree, seed):
+    """Gamma[i, j, k] symmetric in j, k with v^T Gamma_i v = c_i for any v, and
+    Gamma[:, j, k] = (dC_:j/dv_k + dC_:k/dv_j) / 2 (C is linear in v)."""
+    q, _ = _state(tree, seed)
+    rng = np.random.default_rng(10 + seed)
+    Gamma = od.christoffel_symbols(tree, q)
+    np.testing.assert_array_equal(Gamma, Gamma.transpose(0, 2, 1))
+    for v in rng.normal(size=(3, tree.nv)):
+        np.testing.assert_allclose(
+            np.einsum("ijk,j,k->i", Gamma, v, v),
+            od.coriolis_forces(tree, q, v),
+            rtol=1e-12,
+            atol=1e-12,
+        )
+    E = np.eye(tree.nv)
+    dC = np.stack([od.coriolis_matrix(tree, q, E[k]) for k in range(tree.nv)], axis=-1)
+    np.testing.assert_allclose(Gamma, 0.5 * (dC + dC.transpose(0, 2, 1)), atol=1e-12)
+
+
+def test_on_a_floating_base_the_coriolis_matrix_is_no_contraction_of_gamma(tmp_path):
+    """One free rigid body: M = G is constant, c = -ad_V^T G V, so C must be skew (Mdot = 0);
+    the contraction sum_k Gamma[:, :, k] V_k of the (unique) symmetric Gamma is not, by
+    W^T C_Gamma(V) W = -(ad_V W)^T G W / 2 = (I_2 - I_3) / 2 for V = (e_1, 0),
+    W = (e_2 + e_3, 0) and G = diag(I_1, I_2, I_3, m, m, m)."""
+    urdf = tmp_path / "brick.urdf"
+    urdf.write_text(
+        """<robot name="brick"><link name="body"><inertial><mass value="2"/>
+    <inertia ixx="0.1" iyy="0.2" izz="0.3" ixy="0" ixz="0" iyz="0"/></inertial></link></robot>"""
+    )
+    body = od.load_urdf(str(urdf), floating_base=True)
+    assert (body.nq, body.nv) == (7, 6)
+    q, V = _state(body, 4)
+    G = np.diag([0.1, 0.2, 0.3, 2.0, 2.0, 2.0])
+    w, u = V[:3], V[3:]
+    P = G @ V  # momentum (m, f) in {b}; c = -ad_V^T P = (w x m + u x f, w x f)
+    c = np.r_[np.cross(w, P[:3]) + np.cross(u, P[3:]), np.cross(w, P[3:])]
+    C = od.coriolis_matrix(body, q, V)
+    np.testing.assert_allclose(C @ V, c, atol=1e-12)
+    np.testing.assert_allclose(C, -C.T, atol=1e-12)
+    Gamma = od.christoffel_symbols(body, q)
+    e1, W = np.r_[1.0, 0, 0, 0, 0, 0], np.r_[0, 1.0, 1.0, 0, 0, 0]
+    assert W @ (Gamma @ e1) @ W == pytest.approx((0.2 - 0.3) / 2, rel=1e-12)
+    assert W @ od.coriolis_matrix(body, q, e1) @ W == pytest.approx(0.0, abs=1e-12)
+
+
+def test_coriolis_batches_equal_single_calls(tree):
+    rng = np.random.default_rng(5)
+    Q = np.array([od.random_configuration(tree, rng) for _ in range(4)])
+    V = rng.normal(size=(4, tree.nv))
+    C, Gamma = od.coriolis_matrix(tree, Q, V), od.christoffel_symbols(tree, Q)
+    for n in range(4):
+        np.testing.assert_array_equal(C[n], od.coriolis_matrix(tree, Q[n], V[n]))
+        np.testing.assert_array_equal(Gamma[n], od.christoffel_symbols(tree, Q[n]))
+    bad = Q[1].copy()
+    bad[3:7] *= 2.0
+    with pytest.raises(ValueError, match=r"christoffel_symbols.*q\[3:7\]"):
+        od.christoffel_symbols(tree, bad)
 
 
 def _centre_of_mass(model, q):

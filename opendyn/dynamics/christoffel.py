@@ -1,19 +1,49 @@
-"""Christoffel symbols of the first kind and the Coriolis matrix:
+"""The Coriolis matrix C(q, v) and the Christoffel symbols Gamma(q):
 
-    Gamma_ijk(q) = 1/2 (dM_ij/dq_k + dM_ik/dq_j - dM_jk/dq_i),    C_ij(q, qd) = sum_k Gamma_ijk qd_k
+    C = sum_i J_i^T (G_i Jdot_i + B_i(V_i) J_i),
+    B(V) = 1/2 (G ad_V - ad_V^T G) - 1/2 X(G V),    X(F) W = ad_W^T F,
+    Gamma[i, j, k] = 1/2 (dC_ij/dv_k + dC_ik/dv_j)
 
-so c(q, qd) = C(q, qd) qd = qd^T Gamma(q) qd and Mdot - 2C is skew-symmetric (the seed notes,
-"Christoffel symbols"; Lynch & Park, Section 8.1.2).
+over the bodies i, with J_i body i's Jacobian in its own frame {i} (6 x nv), V_i = J_i v its
+twist and G_i its spatial inertia (constant in {i}). For F = (m, f), X(F) = [[ [m], [f] ],
+[ [f], 0 ]] is skew, so B is skew and B(V) V = -ad_V^T G V. Hence
+    C v = sum_i J_i^T (G_i Jdot_i v - ad_{V_i}^T G_i V_i) = c(q, v)   (RNEA with vdot = 0),
+    Mdot - 2C = sum_i (Jdot_i^T G_i J_i - J_i^T G_i Jdot_i - 2 J_i^T B_i J_i)   is skew.
+This holds for any joint, a free base included, where v's first six entries are the base's
+body twist (quasi-velocities, not derivatives of coordinates); it is the choice of Pinocchio's
+computeCoriolisMatrix (Inertia::variation and the force cross matrix).
 
-dM/dq is exact, not a finite difference. With space-frame screw axes S_i = Ad_{T_si} A_i and
-composite inertias Gc_j = sum_{b >= j} Ad_{T_bs}^T G_b Ad_{T_bs} (b over the subtree of j), for
-i an ancestor of j (or j itself) M_ij = S_i^T Gc_j S_j, and moving joint k turns everything
-outboard of it: dS/dq_k = ad_{S_k} S, dGc/dq_k = -(ad_{S_k}^T Gc + Gc ad_{S_k}). Hence
-    k ancestor of i, or k = i:       dM_ij/dq_k = 0
-    i strictly above k, k <= j:      dM_ij/dq_k = (ad_{S_i} S_k)^T Gc_j S_j
-    k strictly below j:              dM_ij/dq_k = -(ad_{S_k} S_i)^T Gc_k S_j
-                                                  - (Gc_k S_i)^T ad_{S_k} S_j
-    otherwise:                       0
+Computed in the world frame {s}. A column of any body's Jacobian there is the space axis of one
+joint's motion, S_k = mult_k Ad_{T_sk} s_k (s_k a row of S_k in {k}), whichever body's
+Jacobian holds it, and dS_k/dt = ad_{V_k} S_k with V_k the space twist of body k. The world
+inertias Gs_i = Ad_{T_is}^T G_i Ad_{T_is} and Ad_{T_is}^T B_i Ad_{T_is} = B(V_s,i) at Gs_i;
+with Jdot_i = Ad_{T_is} (d/dt J_s,i - ad_{V_s,i} J_s,i) this gives
+    C = sum_i J_s,i^T (Gs_i dS + Bs_i J_s,i),
+    Bs_i = B(V_s,i) - Gs_i ad_{V_s,i} = -1/2 (Gs_i ad_V + ad_V^T Gs_i) - 1/2 X(Gs_i V),  V = V_s,i.
+For a rigid-body inertia G = [[I, [h]], [[h]^T, m 1]] (h = m c) and V = (w, u), with the
+momentum G V = (I w + h x u, m u - h x w) = (p_ang, p_lin), the blocks multiply out to
+    Bs = [[K, 0], [-[p_lin], 0]],   K = -1/2 (I [w] - [w] I + [h][u] + [u][h] + [p_ang]):
+only the angular columns, 6 x 3.
+Body i's Jacobian holds the columns of the joints from the root to i, so a pair of joints a, b
+meets in the bodies below both; with the composites of a backward pass, tips to base,
+    Gc_b = sum over the subtree of b of Gs_i,        Bc_b = the same sum of Bs_i,
+    C[a, b] = S_a^T (Gc_b dS_b + Bc_b S_b)   for a on the path from the root to b (a = b too),
+    C[b, a] = S_b^T (Gc_b dS_a + Bc_b S_a)   for a strictly above b,
+and 0 for joints on different branches: O(n d) for a tree of n bodies and depth d.
+
+The Christoffel symbols: C is linear in v, C(q, v) = sum_k v_k C(q, e_k), so
+Gamma[:, j, k] = 1/2 (C(e_k)[:, j] + C(e_j)[:, k]), symmetric in j, k, with v^T Gamma_i v = c_i:
+one kinematic pass and nv passes of the velocity terms.
+
+Fixed and floating bases. When every coordinate is a joint coordinate (v = qd, fixed base),
+C(q, v) w = C(q, w) v, so C[i, j] = sum_k Gamma[i, j, k] qd_k and Gamma are the Christoffel
+symbols of the first kind, 1/2 (dM_ij/dq_k + dM_ik/dq_j - dM_jk/dq_i) (Lynch & Park, Section
+8.1.2). With a free joint that contraction does not hold, and no C with Mdot - 2C skew is the
+contraction of a symmetric Gamma: for one free rigid body M = G is constant and
+c = -ad_V^T G V, whose symmetric Gamma gives C_Gamma(V) W = -1/2 (ad_V^T G W + ad_W^T G V) and
+W^T C_Gamma(V) W = -1/2 (ad_V W)^T G W, which is not zero (V = (e_1, 0), W = (e_2 + e_3, 0),
+G = diag(I_1, I_2, I_3, m, m, m): (I_2 - I_3) / 2), while Mdot - 2 C_Gamma = -2 C_Gamma would
+have to be skew.
 """
 
 from __future__ import annotations
@@ -24,6 +54,7 @@ from numba import njit
 from . import _args
 from ._kernels import (
     BATCH,
+    INLINE,
     JIT,
     ad_twist,
     add_inertia_to_parent,
@@ -37,15 +68,17 @@ from ._kernels import (
     zero_matrix,
 )
 from ..status import Status
+from .joints import configuration_status
 from .kinematics import forward_kinematics, space_axis
 
 
 @njit(**JIT)
-def space_axes_and_inertias(ibuf, fbuf, q, S, Gs, Gc):
-    """S[i] = Ad_{T_si} A_i (1-dof joints), Gs[i] = Ad_{T_is}^T G_i Ad_{T_is} (space frame) and the composite
-    Gc[i] = sum of Gs over the subtree of i, at q. Compiled once for both kernels below."""
+def space_axes_and_inertias(ibuf, fbuf, q, S_s, G_s, Gc):
+    """At q, for every body i: S_s[i, k] = mult_i Ad_{T_si} S_i[k] for its joint's rows
+    k < nv_i; G_s[i] = Ad_{T_is}^T G_i Ad_{T_is}; Gc[i] = the sum of G_s over the subtree of i
+    (all in the world frame)."""
     body_tree = tree(ibuf, fbuf)
-    parent, jtype, nv_j, iq, iv, mult, offset, axes, R_home, p_home = body_tree
+    parent, jtype, nv_j, iq, iv, mult, offset, S, R_home, p_home = body_tree
     G = spatial_inertias(ibuf, fbuf)
     nb = parent.shape[0]
     R_s = np.empty((nb, 3, 3))
@@ -55,194 +88,226 @@ def space_axes_and_inertias(ibuf, fbuf, q, S, Gs, Gc):
     forward_kinematics(body_tree, q, ibuf[1], R_s, p_s, np.int64(-1))
     scratch = np.empty((9, 6))
     for i in range(nb):
-        zero_matrix(Gs[i])
-        space_axis(R_s[i], p_s[i], axes[i, 0], S[i])
-        add_inertia_to_parent(R_s[i], p_s[i], G[i], Gs[i], scratch)
-    for i in range(nb - 1, -1, -1):
+        for k in range(nv_j[i]):
+            space_axis(R_s[i], p_s[i], S[i, k], S_s[i, k])
+            for r in range(6):
+                S_s[i, k, r] *= mult[i]
+        zero_matrix(G_s[i])
+        add_inertia_to_parent(R_s[i], p_s[i], G[i], G_s[i], scratch)
         for r in range(6):
             for c in range(6):
-                Gc[i, r, c] += Gs[i, r, c]  # Gc[i] holds the children's sum already
-                if parent[i] >= 0:
-                    Gc[parent[i], r, c] += Gc[i, r, c]
+                Gc[i, r, c] = G_s[i, r, c]
+    # Gc_lambda += Gc_i, tips to base (a child's index is larger than its parent's)
+    for i in range(nb - 1, 0, -1):
+        lam = parent[i]
+        if lam >= 0:
+            for r in range(6):
+                for c in range(6):
+                    Gc[lam, r, c] += Gc[i, r, c]
+
+
+@njit(**INLINE)
+def cross_matrix(x, y, z, out):
+    """out (3, 3) <- [u], the cross-product matrix of u = (x, y, z): [u] a = u x a."""
+    out[0, 0], out[0, 1], out[0, 2] = 0.0, -z, y
+    out[1, 0], out[1, 1], out[1, 2] = z, 0.0, -x
+    out[2, 0], out[2, 1], out[2, 2] = -y, x, 0.0
+
+
+@njit(**JIT)
+def velocity_terms(ibuf, fbuf, v, S_s, G_s, V_s, dS, Bc, idle):
+    """At velocity v, for every body i (world frame): V_s[i] = V_s[lambda] + sum_k S_s[i, k]
+    v[iv_i + k]; dS[i, k] = ad_{V_s[i]} S_s[i, k], the rate of the axis S_s[i, k]; Bc[i] (6, 3)
+    = the angular columns of the sum over the subtree of i of Bs = -1/2 (G ad_V + ad_V^T G)
+    - 1/2 X(G V) at (G_s, V_s) (its linear columns are 0: module docstring).
+
+    idle[i]: V_s = 0 on the path from the root to i and in the subtree of i, so that dS = 0 on
+    that path and Bc[i] = 0: body i adds nothing to C (the unit velocities of
+    christoffel_kernel leave most bodies idle)."""
+    parent, jtype, nv_j, iq, iv, mult, offset, S, R_home, p_home = tree(ibuf, fbuf)
+    nb = parent.shape[0]
+    P = np.empty(6)
+    # [w], [u], [h], [p_ang] of the body at hand
+    sk = np.empty((4, 3, 3))
+    W, U, H, P_ang = sk[0], sk[1], sk[2], sk[3]
+    # forward: idle[i] <- V_s = 0 from the root to i; still[i] <- V_s[i] = 0
+    still = np.empty(nb, dtype=np.bool_)
+    for i in range(nb):
+        lam = parent[i]
+        for r in range(6):
+            V_s[i, r] = 0.0 if lam < 0 else V_s[lam, r]
+        for k in range(nv_j[i]):
+            for r in range(6):
+                V_s[i, r] += S_s[i, k, r] * v[iv[i] + k]
+        still[i] = True
+        for r in range(6):
+            still[i] = still[i] and V_s[i, r] == 0.0
+        idle[i] = still[i] and (lam < 0 or idle[lam])
+        if still[i]:  # dS[i] = 0 and Bs_i = 0
+            for k in range(nv_j[i]):
+                fill(dS[i, k], 0.0)
+            for r in range(6):
+                fill(Bc[i, r], 0.0)
+            continue
+        for k in range(nv_j[i]):
+            ad_twist(V_s[i], S_s[i, k], dS[i, k])
+        # Bs = [[K, 0], [-[p_lin], 0]], K = -1/2 (I [w] - [w] I + [h][u] + [u][h] + [p_ang]),
+        # with I = G[:3, :3], [h] = G[:3, 3:] and (p_ang, p_lin) = G V
+        G = G_s[i]
+        mat6_vec(G, V_s[i], P)
+        cross_matrix(V_s[i, 0], V_s[i, 1], V_s[i, 2], W)
+        cross_matrix(V_s[i, 3], V_s[i, 4], V_s[i, 5], U)
+        cross_matrix(G[2, 4], G[0, 5], G[1, 3], H)
+        cross_matrix(P[0], P[1], P[2], P_ang)
+        for r in range(3):
+            for c in range(3):
+                s = P_ang[r, c]
+                for k in range(3):
+                    s += G[r, k] * W[k, c] - W[r, k] * G[k, c]
+                    s += H[r, k] * U[k, c] + U[r, k] * H[k, c]
+                Bc[i, r, c] = -0.5 * s
+        cross_matrix(-P[3], -P[4], -P[5], Bc[i, 3:])
+    # backward: Bc_lambda += Bc_i, and idle_lambda stays only while every subtree below is still
+    # (still[i] <- the whole subtree of i is still)
+    for i in range(nb - 1, 0, -1):
+        lam = parent[i]
+        if lam >= 0 and not still[i]:
+            still[lam] = False
+            idle[lam] = False
+            for r in range(6):
+                for c in range(3):
+                    Bc[lam, r, c] += Bc[i, r, c]
+
+
+@njit(**JIT)
+def assemble(ibuf, fbuf, S_s, Gc, dS, Bc, idle, C):
+    """C (nv, nv) <- C[a, b] = S_a^T (Gc_b dS_b + Bc_b S_b) for a on the path from the root to b,
+    C[b, a] = S_b^T (Gc_b dS_a + Bc_b S_a) for a strictly above b (the module docstring);
+    idle bodies (velocity_terms) add nothing and are skipped."""
+    parent, jtype, nv_j, iq, iv, mult, offset, S, R_home, p_home = tree(ibuf, fbuf)
+    zero_matrix(C)
+    F = np.empty(6)
+    GcS = np.empty(6)
+    BcS = np.zeros(6)  # Bc^T S: its linear half is 0
+    for b in range(parent.shape[0]):
+        if idle[b]:
+            continue
+        for k in range(nv_j[b]):
+            col_b = iv[b] + k
+            # F = Gc_b dS_b + Bc_b S_b;  GcS = Gc_b S_b and BcS = Bc_b^T S_b for the row of b
+            # (Bc_b holds the angular columns of the composite Bs, its linear ones are 0)
+            mat6_vec(Gc[b], dS[b, k], F)
+            mat6_vec(Gc[b], S_s[b, k], GcS)
+            for r in range(6):
+                for c in range(3):
+                    F[r] += Bc[b, r, c] * S_s[b, k, c]
+            for c in range(3):
+                s = 0.0
+                for r in range(6):
+                    s += Bc[b, r, c] * S_s[b, k, r]
+                BcS[c] = s
+            a = b
+            while a >= 0:
+                for m in range(nv_j[a]):
+                    row_a = iv[a] + m
+                    C[row_a, col_b] += dot6(S_s[a, m], F)
+                    if a != b:
+                        C[col_b, row_a] += dot6(GcS, dS[a, m]) + dot6(BcS, S_s[a, m])
+                a = parent[a]
+
+
+@njit(**JIT)
+def coriolis_matrix_kernel(ibuf, fbuf, q, v, C):
+    """C (nv, nv) <- C(q, v) in O(n d). Returns a Status: OK, Q_NOT_FINITE,
+    Q_NOT_UNIT_QUATERNION or QD_NOT_FINITE."""
+    status = configuration_status(ibuf, q)
+    if status:
+        return status
+    if not all_finite(v):
+        return Status.QD_NOT_FINITE.value
+    nb = ibuf[0]
+    work = np.empty((4, nb, 6, 6))
+    S_s, G_s, Gc, dS = work[0], work[1], work[2], work[3]
+    Bc = np.empty((nb, 6, 3))
+    V_s = np.empty((nb, 6))
+    idle = np.empty(nb, dtype=np.bool_)
+    space_axes_and_inertias(ibuf, fbuf, q, S_s, G_s, Gc)
+    velocity_terms(ibuf, fbuf, v, S_s, G_s, V_s, dS, Bc, idle)
+    assemble(ibuf, fbuf, S_s, Gc, dS, Bc, idle, C)
+    return Status.OK.value
 
 
 @njit(**JIT)
 def christoffel_kernel(ibuf, fbuf, q, Gamma):
-    """Gamma (nv, nv, nv) <- Christoffel symbols at q. Returns a Status: OK or Q_NOT_FINITE."""
-    if not all_finite(q):
-        return Status.Q_NOT_FINITE.value
-    parent, jtype, nv_j, iq, iv, mult, offset, axes, R_home, p_home = tree(ibuf, fbuf)
-    nb, nv = parent.shape[0], Gamma.shape[0]
-    S = np.empty((nb, 6))
-    Gs = np.empty((nb, 6, 6))
-    Gc = np.zeros((nb, 6, 6))
-    space_axes_and_inertias(ibuf, fbuf, q, S, Gs, Gc)
-
-    # above[a, b]: a is b or an ancestor of b
-    above = np.zeros((nb, nb), dtype=np.bool_)
-    for b in range(nb):
-        a = b
-        while a >= 0:
-            above[a, b] = True
-            a = parent[a]
-    # adS[a, b] = ad_{S_a} S_b,  GcS[a, b] = Gc_a S_b
-    adS = np.empty((nb, nb, 6))
-    GcS = np.empty((nb, nb, 6))
-    for a in range(nb):
-        for b in range(nb):
-            ad_twist(S[a], S[b], adS[a, b])
-            mat6_vec(Gc[a], S[b], GcS[a, b])
-
-    # dM[a, b, c] = dM_ab / dq_c in coordinates: the body terms mapped by the mimic coupling
-    dM = np.zeros((nv, nv, nv))
-    for j in range(nb):
-        i = j
-        while i >= 0:
-            for k in range(nb):
-                if above[k, i]:
-                    continue
-                if above[i, k] and above[k, j]:
-                    val = dot6(adS[i, k], GcS[j, j])
-                elif above[j, k]:
-                    val = -dot6(adS[k, i], GcS[k, j]) - dot6(GcS[k, i], adS[k, j])
-                else:
-                    continue
-                w = mult[i] * mult[j] * mult[k] * val
-                dM[iv[i], iv[j], iv[k]] += w
-                if i != j:
-                    dM[iv[j], iv[i], iv[k]] += w
-            i = parent[i]
-
-    for a in range(nv):
-        for b in range(nv):
-            for c in range(nv):
-                Gamma[a, b, c] = 0.5 * (dM[a, b, c] + dM[a, c, b] - dM[b, c, a])
-    return Status.OK.value
-
-
-@njit(**JIT)
-def coriolis_matrix_kernel(ibuf, fbuf, q, qd, C):
-    """C (nv, nv) <- sum_k Gamma[:, :, k] qd_k in O(n^2), without forming Gamma.
-    Status 1/2: q/qd not finite.
-
-    C = 1/2 (Mdot + P - P^T) with P[a, b] = d(M qd)_a / dq_b. With space twists
-    V_i = V_lambda + S_i qd_i, subtree momenta H_i = sum_{b >= i} Gs_b V_b and
-    B_j = sum over k strictly below j of (ad_{S_k}^T Gc_k + Gc_k ad_{S_k}) qd_k, for i <= j:
-      Mdot_ij = (ad_{S_i} (V_j - V_i))^T Gc_j S_j - S_i^T B_j S_j
-      P[j, i] = (Gc_j S_j)^T ad_{V_i} S_i
-      P[i, j] = (ad_{S_i} S_j)^T H_j + S_i^T Gc_j ad_{V_j} S_j     (i strictly above j)
-    (the dM/dq terms of the module docstring summed against qd).
-    """
-    if not all_finite(q):
-        return Status.Q_NOT_FINITE.value
-    if not all_finite(qd):
-        return Status.QD_NOT_FINITE.value
-    parent, jtype, nv_j, iq, iv, mult, offset, axes, R_home, p_home = tree(ibuf, fbuf)
-    nb = parent.shape[0]
-    S = np.empty((nb, 6))
-    Gs = np.empty((nb, 6, 6))
-    Gc = np.zeros((nb, 6, 6))
-    space_axes_and_inertias(ibuf, fbuf, q, S, Gs, Gc)
-
-    # forward: space twists V_i; per body Gc_i S_i, ad_{V_i} S_i, Gc_i ad_{V_i} S_i
-    vec = np.zeros((6, nb, 6))
-    V, H, GcS, adVS, GcadVS, BS = vec[0], vec[1], vec[2], vec[3], vec[4], vec[5]
-    qd_b = np.empty(nb)
-    for i in range(nb):
-        qd_b[i] = mult[i] * qd[iv[i]]
-        for k in range(6):
-            V[i, k] = (0.0 if parent[i] < 0 else V[parent[i], k]) + S[i, k] * qd_b[i]
-        mat6_vec(Gc[i], S[i], GcS[i])
-        ad_twist(V[i], S[i], adVS[i])
-        mat6_vec(Gc[i], adVS[i], GcadVS[i])
-    # backward: H_i (subtree momentum) and D_i = X_i + sum_children D_c, with
-    # X_k = (ad_{S_k}^T Gc_k + Gc_k ad_{S_k}) qd_k; B_j = sum over the children c of D_c,
-    # complete when j is reached (children have larger indices)
-    D = np.zeros((nb, 6, 6))
-    B = np.zeros((nb, 6, 6))
-    Y = np.empty((6, 6))
-    e = np.zeros(6)
-    col = np.empty(6)
-    for i in range(nb - 1, -1, -1):
-        mat6_vec(Gs[i], V[i], col)
-        for k in range(6):
-            H[i, k] += col[k]
-        # X_i = Y + Y^T with Y = Gc_i ad_{S_i} (Gc_i is symmetric), column by column
-        for c in range(6):
-            fill(e, 0.0)
-            e[c] = 1.0
-            ad_twist(S[i], e, col)
-            mat6_vec(Gc[i], col, Y[:, c])
-        for r in range(6):
-            for c in range(6):
-                D[i, r, c] += (Y[r, c] + Y[c, r]) * qd_b[i]
-        mat6_vec(B[i], S[i], BS[i])
-        lam = parent[i]
-        if lam >= 0:
-            for r in range(6):
-                H[lam, r] += H[i, r]
-                for c in range(6):
-                    D[lam, r, c] += D[i, r, c]
-                    B[lam, r, c] += D[i, r, c]
-
-    zero_matrix(C)
-    dV = np.empty(6)
-    adSS = np.empty(6)
-    for j in range(nb):
-        i = j
-        while i >= 0:
-            for k in range(6):
-                dV[k] = V[j, k] - V[i, k]
-            ad_twist(S[i], dV, adSS)
-            Mdot = dot6(adSS, GcS[j]) - dot6(S[i], BS[j])
-            P_ji = dot6(GcS[j], adVS[i])
-            if i == j:
-                C[iv[i], iv[i]] += mult[i] * mult[i] * 0.5 * Mdot
-            else:
-                ad_twist(S[i], S[j], adSS)
-                P_ij = dot6(adSS, H[j]) + dot6(S[i], GcadVS[j])
-                w = mult[i] * mult[j] * 0.5
-                C[iv[i], iv[j]] += w * (Mdot + P_ij - P_ji)
-                C[iv[j], iv[i]] += w * (Mdot + P_ji - P_ij)
-            i = parent[i]
+    """Gamma (nv, nv, nv) <- Gamma[:, j, k] = 1/2 (C(e_k)[:, j] + C(e_j)[:, k]) at q.
+    Returns a Status: OK, Q_NOT_FINITE or Q_NOT_UNIT_QUATERNION."""
+    status = configuration_status(ibuf, q)
+    if status:
+        return status
+    nb, nv = ibuf[0], Gamma.shape[0]
+    work = np.empty((4, nb, 6, 6))
+    S_s, G_s, Gc, dS = work[0], work[1], work[2], work[3]
+    Bc = np.empty((nb, 6, 3))
+    V_s = np.empty((nb, 6))
+    idle = np.empty(nb, dtype=np.bool_)
+    space_axes_and_inertias(ibuf, fbuf, q, S_s, G_s, Gc)
+    # C_e[k] = C(e_k), then Gamma[i, j, k] = 1/2 (C_e[k, i, j] + C_e[j, i, k])
+    e_k = np.zeros(nv)
+    C_e = np.empty((nv, nv, nv))
+    for k in range(nv):
+        e_k[k] = 1.0
+        velocity_terms(ibuf, fbuf, e_k, S_s, G_s, V_s, dS, Bc, idle)
+        assemble(ibuf, fbuf, S_s, Gc, dS, Bc, idle, C_e[k])
+        e_k[k] = 0.0
+    for i in range(nv):
+        for j in range(nv):
+            for k in range(nv):
+                Gamma[i, j, k] = 0.5 * (C_e[k, i, j] + C_e[j, i, k])
     return Status.OK.value
 
 
 @njit(**BATCH)
-def christoffel_batch_kernel(ibuf, fbuf, q, qd, out, status, matrix, symbols, start, stop):
-    """Coriolis matrices or Christoffel symbols over rows [start, stop), as the compile-time
-    switches (matrix, symbols) say: the one that is not None (only it is compiled)."""
+def christoffel_batch_kernel(ibuf, fbuf, q, v, out, status, matrix, symbols, start, stop):
+    """Coriolis matrices (q, v) or Christoffel symbols (q; v unused) over rows [start, stop), as
+    the compile-time switches (matrix, symbols) say: the one that is not None (only it is
+    compiled)."""
     for n in range(start, stop):
         if matrix is not None:
-            status[n] = coriolis_matrix_kernel(ibuf, fbuf, q[n], qd[n], out[n])
+            status[n] = coriolis_matrix_kernel(ibuf, fbuf, q[n], v[n], out[n])
         if symbols is not None:
             status[n] = christoffel_kernel(ibuf, fbuf, q[n], out[n])
 
 
-def _run(model, q, qd, matrix, what):
-    _args.fixed_base_only(model, what)
-    (q, qd), batch = _args.as_states(model, q, ("qd", qd))
+def _run(model, q, v, what):
+    """C(q, v), or Gamma(q) when v is None, for a single state or a batch."""
+    matrix = v is not None
+    if matrix:
+        (q, v), batch = _args.as_states(model, q, ("qd", v))
+    else:
+        q = _args.as_q(model, q)
+        batch = q.ndim == 2
     nv = model.nv
     if not batch:
         out = np.empty((nv, nv) if matrix else (nv, nv, nv))
         status = (
-            coriolis_matrix_kernel(model._ibuf, model._fbuf, q, qd, out)
+            coriolis_matrix_kernel(model._ibuf, model._fbuf, q, v, out)
             if matrix
             else christoffel_kernel(model._ibuf, model._fbuf, q, out)
         )
         if status:
             _args.raise_status(status, model, what)
         return out
+    n = q.shape[0]
     # C-contiguous rows out[n]: a strided view would make numba compile the kernel again
-    out = np.empty((q.shape[0], nv, nv) if matrix else (q.shape[0], nv, nv, nv))
-    status = np.zeros(q.shape[0], dtype=np.int64)
+    out = np.empty((n, nv, nv) if matrix else (n, nv, nv, nv))
+    status = np.zeros(n, dtype=np.int64)
     run_rows(
         christoffel_batch_kernel,
-        q.shape[0],
+        n,
         model._ibuf,
         model._fbuf,
         q,
-        qd,
+        v if matrix else q,
         out,
         status,
         *((True, None) if matrix else (None, True)),
@@ -252,16 +317,30 @@ def _run(model, q, qd, matrix, what):
 
 
 def christoffel_symbols(model, q):
-    """Gamma(q): (nv, nv, nv) Christoffel symbols of the first kind, Gamma[i, j, k] symmetric
-    in j, k, with c_i = sum_jk Gamma[i, j, k] qd_j qd_k. q: (nv,) or (N, nv) -> (N, nv, nv, nv).
+    """Gamma(q): (nv, nv, nv), Gamma[i, j, k] = 1/2 d^2 c_i / dv_j dv_k, the symmetric
+    quadratic form of the Coriolis forces: symmetric in j, k, with c_i(q, v) = sum_jk
+    Gamma[i, j, k] v_j v_k (N m or N per (rad/s or m/s)^2).
+
+    q: (nq,) or a batch (N, nq) -> (nv, nv, nv) or (N, nv, nv, nv).
+    Fixed base: the Christoffel symbols of the first kind,
+    1/2 (dM_ij/dq_k + dM_ik/dq_j - dM_jk/dq_i), and C[i, j] = sum_k Gamma[i, j, k] qd_k.
+    Floating base: v's base twist is no derivative of coordinates, and that contraction is not
+    coriolis_matrix (it is not even Mdot - 2C skew-compatible; see the module docstring: for
+    one free rigid body the contraction C_Gamma(V) W = -1/2 (ad_V^T G W + ad_W^T G V) has
+    W^T C_Gamma W = -1/2 (ad_V W)^T G W != 0 while Mdot = 0).
     """
-    _args.fixed_base_only(model, "christoffel_symbols")
-    q = _args.as_q(model, q)
-    return _run(model, q, np.zeros_like(q), False, "christoffel_symbols")
+    return _run(model, q, None, "christoffel_symbols")
 
 
 def coriolis_matrix(model, q, qd):
-    """C(q, qd): (nv, nv) Coriolis matrix C[i, j] = sum_k Gamma[i, j, k] qd_k, so that
-    C qd = c(q, qd) and Mdot - 2C is skew-symmetric. q, qd: (nv,) or (N, nv) -> (N, nv, nv).
+    """C(q, qd): (nv, nv) Coriolis matrix with C qd = c(q, qd) (coriolis_forces) and
+    Mdot - 2C skew-symmetric; Pinocchio's computeCoriolisMatrix, any base.
+
+    q: (nq,), qd: (nv,) (a floating base's twist (omega_b, v_b) in its own frame first), or
+    batches (N, nq), (N, nv) -> (N, nv, nv). Units: N m s (or N s) per joint.
+    Fixed base: C[i, j] = sum_k Gamma[i, j, k] qd_k with Gamma = christoffel_symbols(model, q).
+    Floating base: C is linear in qd and Gamma[i, j, k] = 1/2 (dC_ij/dqd_k + dC_ik/dqd_j), but
+    C != sum_k Gamma[:, :, k] qd_k (module docstring: no C with Mdot - 2C skew is such a
+    contraction for a free body).
     """
-    return _run(model, q, qd, True, "coriolis_matrix")
+    return _run(model, q, qd, "coriolis_matrix")
