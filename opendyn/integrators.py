@@ -8,20 +8,26 @@ through `integrate_kernel(q, v, dt)` (q (+) v dt, opendyn.dynamics.configuration
                          p' = p + dt (dK/dq(q, v) - g(q) + tau(t, q, qd)),  v = (M(q) + ..)^-1 p',
                          q' = q (+) v dt,   qd' = (M(q') + diag(armature))^-1 p'
                        (v by fixed-point iteration at fixed q; dK/dq at fixed velocity,
-                       opendyn.dynamics.energy). Order 1; symplectic for the conservative
-                       forces, so the energy error stays bounded (no secular drift) on
-                       conservative scenes. The velocity form qd' = qd + qdd dt, q' = q + qd' dt
+                       opendyn.dynamics.energy; for a floating base its rows are
+                       ad_{V_b}^T p_b, the Euler-Poincare term of the base momentum p_b in
+                       its own frame, d/dt p_b = ad_{V_b}^T p_b + F_b). Order 1; symplectic
+                       for the conservative forces, so the energy error stays bounded (no
+                       secular drift) on conservative scenes. The velocity form qd' = qd + qdd dt, q' = q + qd' dt
                        is symplectic only for a constant M: on the double pendulum it lost
                        energy steadily (max |E - E(0)| 14.6, 21.2, 31.3 J in successive 20 s at
                        1 ms, E = 79 J). Not for constrained scenes.
   rk4                  classical Runge-Kutta, order 4 (the default).
   dopri5               Dormand-Prince 5(4), adaptive: the local error estimate
                        err = dt sum_i (b_i - b^_i) k_i is kept below atol + rtol |x| (RMS norm
-                       over q and qd) by choosing the step; FSAL (first same as last).
+                       over the 2 nv velocity-space components) by choosing the step; FSAL
+                       (first same as last). The position part is a difference in v-space (the
+                       two solutions' moves q (+) dt sum b_i kq_i differ by dt sum e_i kq_i, a
+                       body twist times dt for a free joint), each row scaled by the size of
+                       the coordinate it moves (size_index).
   implicit_euler       linearly implicit in velocity: the joint-space effects' stiffness
                        K = -dtau/dq and damping D = -dtau/dqd are taken at the end of the step,
                          (M + diag(armature) + dt D + dt^2 K) (qd' - qd) = dt (tau - h - dt K qd),
-                         q' = q + qd' dt,
+                         q' = q (+) qd' dt,
                        which is backward Euler for the stiff linear parts (limits, damping, PD)
                        and stays stable at any step on them. Order 1.
 
@@ -416,6 +422,7 @@ def run_adaptive(
     h,
     rtol,
     atol,
+    size_index,
     output_dt,
     row,
     max_speed,
@@ -432,7 +439,10 @@ def run_adaptive(
     (FSAL: the last stage is the first of the next step), recording row r at
     t = min(r output_dt, t_end).
 
-    Steps are cut so that they land on the output times. k_first (2, nv) holds (qd, qdd),
+    Steps are cut so that they land on the output times. size_index (nv,): the q index whose
+    magnitude scales the position error of each v coordinate (the coordinate itself for a joint,
+    a floating base's position for its translation), -1 for a rotation (scaled by 1 rad).
+    k_first (2, nv) holds (qd, qdd),
     power_first (2,) the power and tau_first (nv,) the control torque of the first stage, at the
     current state (the FSAL stage). scene: step.scene_data(model, table); out: the record
     (t, q, qd, tau, w).
@@ -466,7 +476,7 @@ def run_adaptive(
             counters[2] += 1
             h = 0.25 * dt
             continue
-        # RMS of the error estimate dt sum_i e_i k_i relative to atol + rtol |x|
+        # RMS of the error estimate dt sum_i e_i k_i relative to atol + rtol |x|, over v-space
         err = 0.0
         for j in range(nv):
             eq = 0.0
@@ -474,7 +484,8 @@ def run_adaptive(
             for i in range(s):
                 eq += e[i] * kq[i, j]
                 ev += e[i] * kv[i, j]
-            sq = atol + rtol * max(abs(q[j]), abs(q1[j]))
+            k = size_index[j]
+            sq = atol + rtol * (max(abs(q[k]), abs(q1[k])) if k >= 0 else 1.0)
             sv = atol + rtol * max(abs(qd[j]), abs(qd1[j]))
             err += (dt * eq / sq) ** 2 + (dt * ev / sv) ** 2
         err = np.sqrt(err / max(1, 2 * nv))
