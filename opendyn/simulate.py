@@ -216,7 +216,16 @@ def _fixed_chunk(scene, integ, table, step0, nsteps, every, q, qd, w, out, count
         w,
         out.arrays(),
         counters,
+        free_joints(scene.model),
     )
+
+
+def free_joints(model):
+    """None for a fixed base (the loops then compile no Munthe-Kaas correction), else the
+    first v index of each free joint (int64), for integrators.rk_stages."""
+    if not model.floating_base:
+        return None
+    return np.array([model.iv[i] for i in range(model.nb) if model.jtype[i] == FREE], np.int64)
 
 
 def _adaptive_chunk(scene, integ, table, t, t_stop, h, row, q, qd, w, first, out, counters):
@@ -246,6 +255,7 @@ def _adaptive_chunk(scene, integ, table, t, t_stop, h, row, q, qd, w, first, out
         *first,
         out.arrays(),
         counters,
+        free_joints(scene.model),
     )
 
 
