@@ -12,10 +12,11 @@ through `integrate_kernel(q, v, dt)` (q (+) v dt, opendyn.dynamics.configuration
                        ad_{V_b}^T p_b, the Euler-Poincare term of the base momentum p_b in
                        its own frame, d/dt p_b = ad_{V_b}^T p_b + F_b). Order 1; symplectic
                        for the conservative forces, so the energy error stays bounded (no
-                       secular drift) on conservative scenes. The velocity form qd' = qd + qdd dt, q' = q + qd' dt
-                       is symplectic only for a constant M: on the double pendulum it lost
-                       energy steadily (max |E - E(0)| 14.6, 21.2, 31.3 J in successive 20 s at
-                       1 ms, E = 79 J). Not for constrained scenes.
+                       secular drift) on conservative scenes. The velocity form
+                       qd' = qd + qdd dt, q' = q + qd' dt is symplectic only for a constant M:
+                       on the double pendulum it lost energy steadily (max |E - E(0)| 14.6,
+                       21.2, 31.3 J in successive 20 s at 1 ms, E = 79 J). Not for constrained
+                       scenes.
   rk4                  classical Runge-Kutta, order 4 (the default).
   dopri5               Dormand-Prince 5(4), adaptive: the local error estimate
                        err = dt sum_i (b_i - b^_i) k_i is kept below atol + rtol |x| (RMS norm
@@ -39,7 +40,8 @@ q (+) Theta_i, Theta_i = dt sum_l A_il k_l, and its base velocity V_i enters the
 k_i = dexp^-1(V_i) = V_i + 1/2 [Theta_i, V_i] + 1/12 [Theta_i, [Theta_i, V_i]]
 - 1/720 ad_Theta_i^4 V_i (the body-frame dexp, truncated past the method's order): without it
 the stages' body twists, taken at different orientations, are summed as if they commuted, and
-RK4 falls to order 2 in the base pose (the momentum of a tumbling tree drifted as dt^2). All loops are compiled: a simulation pays no Python overhead per step.
+RK4 falls to order 2 in the base pose (the momentum of a tumbling tree drifted as dt^2).
+All loops are compiled: a simulation pays no Python overhead per step.
 """
 
 from __future__ import annotations

@@ -175,6 +175,8 @@ class Trajectory:
         axes[1].set_ylabel("qd (rad/s or m/s)")
         if len(self.q_names) <= 12:
             axes[0].legend(loc="upper right", fontsize="small", ncol=2)
+        if self.v_names != self.q_names and len(self.v_names) <= 12:  # a floating base's twist
+            axes[1].legend(loc="upper right", fontsize="small", ncol=2)
         energy = self.energy - self.energy[0]
         axes[2].plot(self.t, energy, label="E - E(0)")
         if np.any(self.work_applied):

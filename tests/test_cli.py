@@ -42,7 +42,7 @@ def test_info_says_whether_the_base_floats_and_warns_on_a_welded_mobile_robot(ca
     assert main(["info", "solo12"]) == 0
     out, err = capsys.readouterr()
     assert "base: fixed" in out
-    assert "warning: 'solo12' looks like a mobile robot" in err and "--floating-base" in err
+    assert "warning: 'solo' looks like a mobile robot" in err and "--floating-base" in err
     assert main(["info", "solo12", "--floating-base"]) == 0
     out, err = capsys.readouterr()
     assert "base: floating" in out and "nq = 19" in out and "warning" not in err
