@@ -221,8 +221,8 @@ class Model:
             if i not in follows:
                 iq[i], iv[i] = nq, nv
                 nq, nv = nq + JOINT_NQ[jtype[i]], nv + JOINT_NV[jtype[i]]
-        for i, source in follows.items():  # a mimic joint may come before the one it follows
-            iq[i], iv[i] = iq[source], iv[source]
+        for i, leader in follows.items():  # a mimic joint may come before the one it follows
+            iq[i], iv[i] = iq[leader], iv[leader]
         ibuf = np.zeros(INT_HEADER + buffer_size(INT_AT, nb), dtype=np.int64)
         fbuf = np.zeros(buffer_size(FLOAT_AT, nb), dtype=np.float64)
         ibuf[0], ibuf[1], ibuf[2] = nb, nv, nq
