@@ -32,7 +32,7 @@ from .scene import (
     scene_from_dict,
     shipped_scenes,
 )
-from .urdf import URDFError
+from .urdf import URDFError, looks_mobile
 
 DEFAULT_ROBOT = "double_pendulum"
 # effects that `--enable` can switch on for any robot: their parameters come from the URDF
@@ -116,6 +116,21 @@ def _info(args) -> int:
         floating_base=args.floating_base,
     )
     print(model.summary())
+    if model.floating_base:
+        print(
+            f"base: floating (a free joint: q = (p, quat (x, y, z, w), joints), nq = "
+            f"{model.nq}; v = (omega_b, v_b, joints), nv = {model.nv})"
+        )
+    else:
+        print("base: fixed (the root link is welded to the world)")
+        if looks_mobile(model):
+            print(
+                f"warning: {model.name!r} looks like a mobile robot (its root link carries "
+                f"{model.report.welded_mass:.4g} kg and nothing attaches it to a world link), "
+                f"but its base is welded to the world; load it with --floating-base "
+                f"(load_urdf(..., floating_base=True)) to let it move",
+                file=sys.stderr,
+            )
     print()
     print(model.report)
     return 0
@@ -251,7 +266,12 @@ def _scene_header(scene):
     effects = ", ".join(scene.effects) or "none (free motion)"
     lines = [
         f"scene       {scene.name} ({scene.source})",
-        f"robot       {scene.model.name}, nv = {scene.model.nv}",
+        f"robot       {scene.model.name}, "
+        + (
+            f"floating base, nq = {scene.model.nq}, nv = {scene.model.nv}"
+            if scene.model.floating_base
+            else f"nv = {scene.model.nv}"
+        ),
         f"effects     {effects}",
     ]
     if scene.constraints:
@@ -300,6 +320,13 @@ def summary(scene, traj):
                 f"balance     max |E - E(0) - W| = {error.max():.3g} J "
                 f"({error.max() / scale:.2g} of max |E|): the integration error"
             )
+    if "quaternion_norm_error" in stats:
+        from .simulate import QUATERNION_NORM_BOUND
+
+        lines.append(
+            f"base        max | |quat| - 1 | = {stats['quaternion_norm_error']:.2g} over the "
+            f"samples (bound {QUATERNION_NORM_BOUND:g}: integrate keeps it a unit quaternion)"
+        )
     if len(traj.violation_position):
         gains = scene.baumgarte
         how = (

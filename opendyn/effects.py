@@ -29,6 +29,12 @@ same recursion that gives c, at no extra cost). Each effect:
 Note the sign of a wrench here: an applied wrench F acts ON the robot, so it is -F_tip in the
 dynamics functions' convention (F_tip is what the robot applies to the environment).
 
+Per-joint values act on the joint coordinates: joint k's position is q[iq_k] and its velocity
+qd[iv_k] (model.q_index, model.v_index), so a floating base (q = (p, quat, q_joints), v =
+(omega_b, v_b, qd_joints)) is neither damped, limited nor actuated by them: the base is driven
+only by gravity, applied wrenches and the reaction of the joints. Computed torque on a floating
+base solves for the base acceleration the joint torques produce (see computed_torque_effect).
+
 A scene becomes a tuple with one slot per effect (`stage_table`): the effect's parameters, or
 None when the scene does not name it. Each effect function tests its slot against None, which
 numba decides when it compiles the step for that tuple, so an effect the scene does not name is
@@ -45,7 +51,9 @@ import numpy as np
 from numba import njit
 
 from .dynamics._kernels import JIT, copy_into
+from .dynamics.cholesky import cholesky_solve
 from .dynamics.constraints import constraint_table
+from .dynamics.crba import crba_kernel
 from .dynamics.forward import NO_ARMATURE
 from .dynamics.kinematics import frame_pose_kernel, jacobian_kernel
 from .dynamics.rnea import rnea_kernel
@@ -78,49 +86,58 @@ def gravity_effect(g, dV_0):
 
 
 @njit(**JIT)
-def damping_effect(b, qd, tau, D, jac):
-    """tau -= b qd; D += b. b (nv,), or None (no damping)."""
-    if b is None:
+def damping_effect(p, qd, tau, D, jac):
+    """tau_j -= b_k qd_j; D_j += b_k at each joint's velocity j = iv_k. p = (b (n,), iq, iv),
+    or None (no damping)."""
+    if p is None:
         return
-    for k in range(qd.shape[0]):
-        tau[k] -= b[k] * qd[k]
+    b, _, iv = p
+    for k in range(b.shape[0]):
+        j = iv[k]
+        tau[j] -= b[k] * qd[j]
         if jac:
-            D[k] += b[k]
+            D[j] += b[k]
 
 
 @njit(**JIT)
 def friction_effect(p, qd, tau, D, jac):
-    """tau -= f_c tanh(qd / v_s); D += f_c (1 - tanh^2) / v_s. p = (f_c (nv,), v_s), or None."""
+    """tau_j -= f_c tanh(qd_j / v_s); D_j += f_c (1 - tanh^2) / v_s at each joint's velocity
+    j = iv_k. p = ((f_c (n,), v_s), iq, iv), or None."""
     if p is None:
         return
-    nv = qd.shape[0]
-    v_s = p[nv]
-    for k in range(nv):
-        s = np.tanh(qd[k] / v_s)
-        tau[k] -= p[k] * s
+    f, _, iv = p
+    n = iv.shape[0]
+    v_s = f[n]
+    for k in range(n):
+        j = iv[k]
+        s = np.tanh(qd[j] / v_s)
+        tau[j] -= f[k] * s
         if jac:
-            D[k] += p[k] * (1.0 - s * s) / v_s
+            D[j] += f[k] * (1.0 - s * s) / v_s
 
 
 @njit(**JIT)
 def limits_effect(p, q, qd, tau, K, D, jac):
-    """Spring-dampers past the limits: tau -= k (q - limit) + d qd; K += k, D += d there.
-    p = (k, d, lower, upper), each (nv,); or None."""
+    """Spring-dampers past the limits: tau_j -= k (q_i - limit) + d qd_j; K_j += k, D_j += d
+    there, with i = iq_k, j = iv_k joint k's coordinates. p = ((k, d, lower, upper), each
+    (n,), iq, iv); or None."""
     if p is None:
         return
-    nv = q.shape[0]
-    for j in range(nv):
-        lower, upper = p[2 * nv + j], p[3 * nv + j]
-        if q[j] > upper:
-            depth = q[j] - upper
-        elif q[j] < lower:
-            depth = q[j] - lower
+    params, iq, iv = p
+    n = iv.shape[0]
+    for k in range(n):
+        i, j = iq[k], iv[k]
+        lower, upper = params[2 * n + k], params[3 * n + k]
+        if q[i] > upper:
+            depth = q[i] - upper
+        elif q[i] < lower:
+            depth = q[i] - lower
         else:
             continue
-        tau[j] -= p[j] * depth + p[nv + j] * qd[j]
+        tau[j] -= params[k] * depth + params[n + k] * qd[j]
         if jac:
-            K[j] += p[j]
-            D[j] += p[nv + j]
+            K[j] += params[k]
+            D[j] += params[n + k]
 
 
 @njit(**JIT)
@@ -148,7 +165,7 @@ def wrench_effect(wrenches, ibuf, fbuf, t, q, tau):
     if wrenches is None:
         return
     rows, params = wrenches
-    nv = q.shape[0]
+    nv = tau.shape[0]
     F = np.empty(6)
     F_s = np.empty(6)
     T_sf = np.empty((4, 4))
@@ -173,64 +190,114 @@ def wrench_effect(wrenches, ibuf, fbuf, t, q, tau):
 
 
 @njit(**JIT)
-def constant_effect(tau_0, tau):
-    """tau += tau_0 (nv,), or nothing for None."""
-    if tau_0 is None:
+def constant_effect(p, tau):
+    """tau_j += tau_0k at each joint's velocity j = iv_k. p = (tau_0 (n,), iq, iv), or None."""
+    if p is None:
         return
-    for j in range(tau.shape[0]):
-        tau[j] += tau_0[j]
+    tau_0, _, iv = p
+    for k in range(iv.shape[0]):
+        tau[iv[k]] += tau_0[k]
 
 
 @njit(**JIT)
 def pd_effect(p, q, qd, tau, K, D, jac):
-    """tau += kp (q_set - q) - kd qd; K += kp, D += kd. p = (kp, kd, q_set), each (nv,); or
-    None."""
+    """tau_j += kp (q_set - q_i) - kd qd_j; K_j += kp, D_j += kd, with i = iq_k, j = iv_k
+    joint k's coordinates. p = ((kp, kd, q_set), each (n,), iq, iv); or None."""
     if p is None:
         return
-    nv = q.shape[0]
-    for j in range(nv):
-        tau[j] += p[j] * (p[2 * nv + j] - q[j]) - p[nv + j] * qd[j]
+    gains, iq, iv = p
+    n = iv.shape[0]
+    for k in range(n):
+        i, j = iq[k], iv[k]
+        tau[j] += gains[k] * (gains[2 * n + k] - q[i]) - gains[n + k] * qd[j]
         if jac:
-            K[j] += p[j]
-            D[j] += p[nv + j]
+            K[j] += gains[k]
+            D[j] += gains[n + k]
+
+
+@njit(**JIT)
+def base_reaction(ibuf, fbuf, q, tau_c):
+    """A floating base is unactuated: given tau_c (nv,) = RNEA(q, qd, (0, qdd_c)) = M_{:,j} qdd_c
+    + h, the base accelerates with a_b = -M_bb^-1 tau_c[:6] (its rows of M a + h vanish), and
+    the joints need tau_j = tau_c[j] + M_jb a_b. tau_c <- (0, tau_j). Returns a Status
+    (SINGULAR when the whole body has no inertia)."""
+    nv = tau_c.shape[0]
+    M = np.empty((nv, nv))
+    crba_kernel(ibuf, fbuf, q, M)
+    M_bb = np.empty((6, 6))
+    minus_h_b = np.empty(6)
+    for r in range(6):
+        minus_h_b[r] = -tau_c[r]
+        for c in range(6):
+            M_bb[r, c] = M[r, c]
+    a_b = np.empty(6)
+    status = cholesky_solve(M_bb, minus_h_b, a_b)
+    if status:
+        return status
+    for r in range(6):
+        tau_c[r] = 0.0
+    for j in range(6, nv):
+        for c in range(6):
+            tau_c[j] += M[j, c] * a_b[c]
+    return Status.OK.value
 
 
 @njit(**JIT)
 def computed_torque_effect(p, ibuf, fbuf, t, q, qd, dV_0, armature, tau):
-    """tau += M(q) qdd_c + h(q, qd) by RNEA (plus armature qdd_c), with
-    qdd_c = qdd_r + kp (q_r - q) + kd (qd_r - qd) and q_r = offset + amplitude sin(w t + phase),
-    w = 2 pi frequency. p = (kp, kd, offset, amplitude, frequency, phase), each (nv,); or None.
-    Returns the RNEA's Status."""
+    """tau += the joint torques that give the joints the acceleration
+    qdd_c = qdd_r + kp (q_r - q) + kd (qd_r - qd), q_r = offset + amplitude sin(w t + phase),
+    w = 2 pi frequency (joint k's position q[iq_k], velocity qd[iv_k]):
+
+      fixed base      tau = M(q) qdd_c + h(q, qd) + armature qdd_c          (RNEA)
+      floating base   tau_j = M_jb a_b + M_jj qdd_c + h_j + armature qdd_c,
+                      a_b = -M_bb^-1 (M_bj qdd_c + h_b): the acceleration of the unactuated
+                      base under those torques (base_reaction)
+
+    p = ((kp, kd, offset, amplitude, frequency, phase) each (n,), iq, iv, base) with base None
+    for a fixed base and True for a floating one (a compile-time switch: a fixed-base scene
+    does not compile base_reaction); or None. Returns a Status."""
     if p is None:
         return Status.OK.value
-    nv = q.shape[0]
-    qdd_c = np.empty(nv)
-    for j in range(nv):
-        w = 2.0 * np.pi * p[4 * nv + j]
-        a, phase = p[3 * nv + j], p[5 * nv + j]
+    params, iq, iv, base = p
+    n = iv.shape[0]
+    qdd_c = np.zeros(qd.shape[0])  # the base's rows stay 0 in the RNEA call
+    for k in range(n):
+        i, j = iq[k], iv[k]
+        w = 2.0 * np.pi * params[4 * n + k]
+        a, phase = params[3 * n + k], params[5 * n + k]
         s, c = np.sin(w * t + phase), np.cos(w * t + phase)
-        q_r = p[2 * nv + j] + a * s
+        q_r = params[2 * n + k] + a * s
         qd_r = a * w * c
         qdd_r = -a * w * w * s
-        qdd_c[j] = qdd_r + p[j] * (q_r - q[j]) + p[nv + j] * (qd_r - qd[j])
+        qdd_c[j] = qdd_r + params[k] * (q_r - q[i]) + params[n + k] * (qd_r - qd[j])
     loads = np.empty((1, 6))
     copy_into(dV_0, loads[0])
-    tau_c = np.empty(nv)
+    tau_c = np.empty(qd.shape[0])
     status = rnea_kernel(ibuf, fbuf, q, qd, qdd_c, loads, tau_c)
-    for j in range(nv):
+    if status:
+        return status
+    if base is not None:
+        status = base_reaction(ibuf, fbuf, q, tau_c)
+        if status:
+            return status
+    for k in range(n):
+        j = iv[k]
         tau[j] += tau_c[j]
-    for j in range(armature.shape[0]):
-        tau[j] += armature[j] * qdd_c[j]
-    return status
+        if armature.shape[0]:
+            tau[j] += armature[j] * qdd_c[j]
+    return Status.OK.value
 
 
 @njit(**JIT)
-def clip_effect(limit, tau):
-    """tau <- clip(tau, -limit, limit); limit = effort limits (nv,), +inf where none; or None."""
-    if limit is None:
+def clip_effect(p, tau):
+    """tau_j <- clip(tau_j, -limit_k, limit_k) at each joint's velocity j = iv_k; p = (effort
+    limits (n,), +inf where none, iq, iv); or None."""
+    if p is None:
         return
-    for j in range(tau.shape[0]):
-        tau[j] = min(max(tau[j], -limit[j]), limit[j])
+    limit, _, iv = p
+    for k in range(iv.shape[0]):
+        j = iv[k]
+        tau[j] = min(max(tau[j], -limit[k]), limit[k])
 
 
 @dataclass(frozen=True)
@@ -240,10 +307,13 @@ class StageTable:
     effects: a tuple with one slot per effect (GRAVITY ... CLIP): its parameters, or None when
       the scene does not name it. numba compiles the step for the tuple's types, and each effect
       function tests its slot against None when it compiles, so an effect the scene does not
-      name is neither compiled nor run. Slots: gravity g (3,); damping b (nv,); friction
-      (f_c (nv,), v_s); limits (k, d, lower, upper); wrench (rows (k, 4) int64, params), see
-      wrench_effect; constant tau_0 (nv,); pd (kp, kd, q_set); computed torque (kp, kd,
-      offset, amplitude, frequency, phase); clip the effort limits (nv,).
+      name is neither compiled nor run. Slots: gravity g (3,); wrench (rows (k, 4) int64,
+      params), see wrench_effect; the per-joint effects (values, iq, iv) with iq, iv (n,) the
+      joints' indices into q and v (model.q_index, model.v_index) and values: damping b (n,);
+      friction (f_c (n,), v_s); limits (k, d, lower, upper); constant tau_0 (n,); pd (kp, kd,
+      q_set); clip the effort limits (n,); computed torque (kp, kd, offset, amplitude,
+      frequency, phase), iq, iv and a fourth item, True for a floating base, None for a fixed
+      one.
     names: the stages the scene names, in the order they run (for reports).
     slots: each named stage's slot in `effects`.
     method: forward dynamics by "aba", "crba" (CRBA + Cholesky: coupled mimic joints) or
@@ -264,6 +334,13 @@ class StageTable:
     constraints: tuple | None = None
 
 
+def _in_v(model, per_joint):
+    """A per-joint array (n,) as a velocity-space array (nv,): zero on a floating base."""
+    out = np.zeros(model.nv)
+    out[model.v_index] = per_joint
+    return out
+
+
 def _params(*values):
     return np.ascontiguousarray(
         np.concatenate([np.ravel(np.asarray(v, dtype=np.float64)) for v in values])
@@ -276,15 +353,18 @@ def stage_table(scene) -> StageTable:
     model = scene.model
     slots = [None] * len(SLOT_NAMES)
     names = {}
+    # where each per-joint value acts: joint k's position q[iq_k] and velocity qd[iv_k]
+    iq = np.array(model.q_index, dtype=np.int64)
+    iv = np.array(model.v_index, dtype=np.int64)
     if scene.gravity is not None:
         slots[GRAVITY] = _params(scene.gravity)
     if scene.damping is not None:
-        slots[DAMPING] = _params(scene.damping)
+        slots[DAMPING] = (_params(scene.damping), iq, iv)
     if scene.friction is not None:
-        slots[FRICTION] = _params(scene.friction.coulomb, scene.friction.smoothing)
+        slots[FRICTION] = (_params(scene.friction.coulomb, scene.friction.smoothing), iq, iv)
     if scene.limits is not None:
         lim = scene.limits
-        slots[LIMITS] = _params(lim.stiffness, lim.damping, lim.lower, lim.upper)
+        slots[LIMITS] = (_params(lim.stiffness, lim.damping, lim.lower, lim.upper), iq, iv)
     rows, chunks, frames, offset = [], [], [], 0
     for w in scene.wrenches:
         frame = model.frames[model.frame_index(w.frame)]
@@ -301,11 +381,11 @@ def stage_table(scene) -> StageTable:
     control = scene.control
     if control is not None:
         if control.kind == "constant":
-            slots[CONSTANT] = _params(control.tau)
+            slots[CONSTANT] = (_params(control.tau), iq, iv)
         elif control.kind == "pd":
-            slots[PD] = _params(control.kp, control.kd, control.setpoint)
+            slots[PD] = (_params(control.kp, control.kd, control.setpoint), iq, iv)
         else:
-            slots[COMPUTED_TORQUE] = _params(
+            gains = _params(
                 control.kp,
                 control.kd,
                 control.offset,
@@ -313,8 +393,9 @@ def stage_table(scene) -> StageTable:
                 control.frequency,
                 control.phase,
             )
+            slots[COMPUTED_TORQUE] = (gains, iq, iv, True if model.floating_base else None)
         if control.clip:
-            slots[CLIP] = _params(model.effort_limit)
+            slots[CLIP] = (_params(model.effort_limit), iq, iv)
     constraints = None
     if scene.constraints:
         c_rows, c_params = constraint_table(model, scene.constraints, scene.q0)
@@ -326,7 +407,7 @@ def stage_table(scene) -> StageTable:
         names=tuple(names.get(k, SLOT_NAMES[k]) for k in present),
         slots=present,
         method="crba" if model.coupled else "aba",
-        armature=NO_ARMATURE if scene.armature is None else np.array(scene.armature, float),
+        armature=NO_ARMATURE if scene.armature is None else _in_v(model, scene.armature),
         constraints=constraints,
     )
 

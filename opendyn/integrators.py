@@ -8,26 +8,40 @@ through `integrate_kernel(q, v, dt)` (q (+) v dt, opendyn.dynamics.configuration
                          p' = p + dt (dK/dq(q, v) - g(q) + tau(t, q, qd)),  v = (M(q) + ..)^-1 p',
                          q' = q (+) v dt,   qd' = (M(q') + diag(armature))^-1 p'
                        (v by fixed-point iteration at fixed q; dK/dq at fixed velocity,
-                       opendyn.dynamics.energy). Order 1; symplectic for the conservative
-                       forces, so the energy error stays bounded (no secular drift) on
-                       conservative scenes. The velocity form qd' = qd + qdd dt, q' = q + qd' dt
-                       is symplectic only for a constant M: on the double pendulum it lost
-                       energy steadily (max |E - E(0)| 14.6, 21.2, 31.3 J in successive 20 s at
-                       1 ms, E = 79 J). Not for constrained scenes.
+                       opendyn.dynamics.energy; for a floating base its rows are
+                       ad_{V_b}^T p_b, the Euler-Poincare term of the base momentum p_b in
+                       its own frame, d/dt p_b = ad_{V_b}^T p_b + F_b). Order 1; symplectic
+                       for the conservative forces, so the energy error stays bounded (no
+                       secular drift) on conservative scenes. The velocity form
+                       qd' = qd + qdd dt, q' = q + qd' dt is symplectic only for a constant M:
+                       on the double pendulum it lost energy steadily (max |E - E(0)| 14.6,
+                       21.2, 31.3 J in successive 20 s at 1 ms, E = 79 J). Not for constrained
+                       scenes.
   rk4                  classical Runge-Kutta, order 4 (the default).
   dopri5               Dormand-Prince 5(4), adaptive: the local error estimate
                        err = dt sum_i (b_i - b^_i) k_i is kept below atol + rtol |x| (RMS norm
-                       over q and qd) by choosing the step; FSAL (first same as last).
+                       over the 2 nv velocity-space components) by choosing the step; FSAL
+                       (first same as last). The position part is a difference in v-space (the
+                       two solutions' moves q (+) dt sum b_i kq_i differ by dt sum e_i kq_i, a
+                       body twist times dt for a free joint), each row scaled by the size of
+                       the coordinate it moves (size_index).
   implicit_euler       linearly implicit in velocity: the joint-space effects' stiffness
                        K = -dtau/dq and damping D = -dtau/dqd are taken at the end of the step,
                          (M + diag(armature) + dt D + dt^2 K) (qd' - qd) = dt (tau - h - dt K qd),
-                         q' = q + qd' dt,
+                         q' = q (+) qd' dt,
                        which is backward Euler for the stiff linear parts (limits, damping, PD)
                        and stays stable at any step on them. Order 1.
 
 The explicit Runge-Kutta methods are data (Butcher tableaux, Hairer, Norsett & Wanner, Solving
 Ordinary Differential Equations I, 2nd ed., Table 1.2 (RK4) and Table 5.2 (DOPRI5)) run by one
-compiled loop. All loops are compiled: a simulation pays no Python overhead per step.
+compiled loop. On a floating base they are Runge-Kutta-Munthe-Kaas methods (Hairer, Lubich &
+Wanner, Geometric Numerical Integration, 2nd ed., Section IV.8.2): stage i sits at
+q (+) Theta_i, Theta_i = dt sum_l A_il k_l, and its base velocity V_i enters the sums as
+k_i = dexp^-1(V_i) = V_i + 1/2 [Theta_i, V_i] + 1/12 [Theta_i, [Theta_i, V_i]]
+- 1/720 ad_Theta_i^4 V_i (the body-frame dexp, truncated past the method's order): without it
+the stages' body twists, taken at different orientations, are summed as if they commuted, and
+RK4 falls to order 2 in the base pose (the momentum of a tumbling tree drifted as dt^2).
+All loops are compiled: a simulation pays no Python overhead per step.
 """
 
 from __future__ import annotations
@@ -37,7 +51,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numba import njit
 
-from .dynamics._kernels import JIT, copy_into
+from .dynamics._kernels import JIT, ad_twist, copy_into
 from .dynamics.configuration import integrate_kernel
 from .dynamics.constraints import constrained_solve_at
 from .dynamics.crba import crba_kernel
@@ -156,12 +170,35 @@ def rk_work(s, nq, nv):
 
 
 @njit(**JIT)
-def rk_stages(scene, A, c, t, dt, q, qd, work, first, tau_stage, tau):
+def dexp_inverse(free, theta, k):
+    """k <- dexp^-1_Theta(k) = k + 1/2 ad_Theta k + 1/12 ad_Theta^2 k - 1/720 ad_Theta^4 k on
+    the six rows of each free joint, whose first v index is in `free`; theta (nv,) holds the
+    stage's increments Theta (a body twist times dt for a free joint). The velocity of the
+    increment Theta with which q (+) Theta moves at body twist V (the right-trivialised
+    derivative of exp on SE(3); Hairer, Lubich & Wanner, Lemma III.4.2 with Theta -> -Theta)."""
+    ad1 = np.empty(6)
+    ad2 = np.empty(6)
+    ad3 = np.empty(6)
+    ad4 = np.empty(6)
+    for b in free:
+        th, v = theta[b : b + 6], k[b : b + 6]
+        ad_twist(th, v, ad1)
+        ad_twist(th, ad1, ad2)
+        ad_twist(th, ad2, ad3)
+        ad_twist(th, ad3, ad4)
+        for r in range(6):
+            v[r] += 0.5 * ad1[r] + ad2[r] / 12.0 - ad4[r] / 720.0
+
+
+@njit(**JIT)
+def rk_stages(scene, A, c, t, dt, q, qd, work, first, tau_stage, tau, free):
     """Stages first..s-1 of an explicit Runge-Kutta step from (t, q, qd): stage i at
-    q_i = q (+) dt sum_l A_il kq_l, qd_i = qd + dt sum_l A_il kv_l, kq_i = qd_i,
+    q_i = q (+) dt sum_l A_il kq_l, qd_i = qd + dt sum_l A_il kv_l, kq_i = qd_i (a floating
+    base's rows through dexp_inverse: the Munthe-Kaas stage),
     kv_i = qdd(t + c_i dt, q_i, qd_i), kw_i = power there, with work = rk_work(...) =
     (kq, kv, kw, qs, qds, v, stage_tau). first = 1 when stage 0 is already in kq, kv, kw (FSAL).
-    tau <- the control torque at stage tau_stage. Returns (status, evaluations)."""
+    free: None (a fixed base: the correction is not compiled) or the first v index of each free
+    joint (int64). tau <- the control torque at stage tau_stage. Returns (status, evaluations)."""
     kq, kv, kw, qs, qds, v, stage_tau = work
     ibuf = scene[0]
     nv = qd.shape[0]
@@ -176,6 +213,10 @@ def rk_stages(scene, A, c, t, dt, q, qd, work, first, tau_stage, tau):
             qds[j] = qd[j] + dt * dv
         integrate_kernel(ibuf, q, v, dt, qs)
         copy_into(qds, kq[i])
+        if free is not None and i > 0:
+            for j in range(nv):
+                v[j] *= dt  # Theta_i
+            dexp_inverse(free, v, kq[i])
         status = evaluate(scene, t + c[i] * dt, qs, qds, kv[i], stage_tau, kw[i])
         if i == tau_stage:
             copy_into(stage_tau, tau)
@@ -337,14 +378,16 @@ def rk_stage_count(tableau):
 
 
 @njit(**JIT)
-def fixed_step(tableau, implicit, symplectic, scene, t, dt, q, qd, w, work, q1, qd1, w1, tau):
+def fixed_step(
+    tableau, implicit, symplectic, scene, t, dt, q, qd, w, work, q1, qd1, w1, tau, free
+):
     """One fixed step of dt from (t, q, qd, w) to (q1, qd1, w1), tau <- the control torque at
     its start, by the integrator the compile-time switches (tableau, implicit, symplectic)
     name (Integrator.switches): numba drops the code behind the None ones when it compiles.
-    Returns (status, dynamics evaluations)."""
+    free: as in rk_stages. Returns (status, dynamics evaluations)."""
     if tableau is not None:
         A, b, c = tableau
-        status, evaluations = rk_stages(scene, A, c, t, dt, q, qd, work, 0, 0, tau)
+        status, evaluations = rk_stages(scene, A, c, t, dt, q, qd, work, 0, 0, tau, free)
         if status == Status.OK.value:
             rk_combine(scene[0], b, dt, q, qd, w, work, q1, qd1, w1)
         return status, evaluations
@@ -370,6 +413,7 @@ def run_fixed(
     w,
     out,
     counters,
+    free,
 ):
     """Advance (q, qd, w) in place by up to nsteps fixed steps of dt from global step step0,
     at time t0 + step0 dt (t0: the time of global step 0), by the integrator the compile-time
@@ -378,6 +422,7 @@ def run_fixed(
     control torque there. Stops at the first step whose result is not finite, faster than
     max_speed, or whose dynamics fail; the state stays the last good one, the start of the
     failed step. scene: step.scene_data(model, table); out: the record (t, q, qd, tau, w).
+    free: None, or the free joints' first v indices (rk_stages).
     Returns (status, steps done); counters[0] += dynamics evaluations."""
     nv = qd.shape[0]
     tableau, implicit, symplectic = switches
@@ -388,7 +433,7 @@ def run_fixed(
         g = step0 + n
         t = t0 + g * dt
         status, evaluations = fixed_step(
-            tableau, implicit, symplectic, scene, t, dt, q, qd, w, work, q1, qd1, w1, tau
+            tableau, implicit, symplectic, scene, t, dt, q, qd, w, work, q1, qd1, w1, tau, free
         )
         counters[0] += evaluations
         if status == Status.OK.value:
@@ -416,6 +461,7 @@ def run_adaptive(
     h,
     rtol,
     atol,
+    size_index,
     output_dt,
     row,
     max_speed,
@@ -427,15 +473,19 @@ def run_adaptive(
     tau_first,
     out,
     counters,
+    free,
 ):
     """Advance (q, qd, w) in place from t to t_stop with an embedded explicit Runge-Kutta pair
     (FSAL: the last stage is the first of the next step), recording row r at
     t = min(r output_dt, t_end).
 
-    Steps are cut so that they land on the output times. k_first (2, nv) holds (qd, qdd),
+    Steps are cut so that they land on the output times. size_index (nv,): the q index whose
+    magnitude scales the position error of each v coordinate (the coordinate itself for a joint,
+    a floating base's position for its translation), -1 for a rotation (scaled by 1 rad).
+    k_first (2, nv) holds (qd, qdd),
     power_first (2,) the power and tau_first (nv,) the control torque of the first stage, at the
     current state (the FSAL stage). scene: step.scene_data(model, table); out: the record
-    (t, q, qd, tau, w).
+    (t, q, qd, tau, w); free: None, or the free joints' first v indices (rk_stages).
     Returns (status, t, h, row); counters += (evaluations, accepted, rejected)."""
     nv = qd.shape[0]
     s = A.shape[0]
@@ -454,7 +504,9 @@ def run_adaptive(
         copy_into(k_first[0], kq[0])
         copy_into(k_first[1], kv[0])
         copy_into(power_first, kw[0])
-        status, evaluations = rk_stages(scene, A, c, t, dt, q, qd, work, 1, s - 1, stage_tau)
+        status, evaluations = rk_stages(
+            scene, A, c, t, dt, q, qd, work, 1, s - 1, stage_tau, free
+        )
         counters[0] += evaluations
         if status == 0:
             rk_combine(scene[0], b, dt, q, qd, w, work, q1, qd1, w1)
@@ -466,7 +518,7 @@ def run_adaptive(
             counters[2] += 1
             h = 0.25 * dt
             continue
-        # RMS of the error estimate dt sum_i e_i k_i relative to atol + rtol |x|
+        # RMS of the error estimate dt sum_i e_i k_i relative to atol + rtol |x|, over v-space
         err = 0.0
         for j in range(nv):
             eq = 0.0
@@ -474,7 +526,8 @@ def run_adaptive(
             for i in range(s):
                 eq += e[i] * kq[i, j]
                 ev += e[i] * kv[i, j]
-            sq = atol + rtol * max(abs(q[j]), abs(q1[j]))
+            k = size_index[j]
+            sq = atol + rtol * (max(abs(q[k]), abs(q1[k])) if k >= 0 else 1.0)
             sv = atol + rtol * max(abs(qd[j]), abs(qd1[j]))
             err += (dt * eq / sq) ** 2 + (dt * ev / sv) ** 2
         err = np.sqrt(err / max(1, 2 * nv))
@@ -487,8 +540,9 @@ def run_adaptive(
         copy_into(q1, q)
         copy_into(qd1, qd)
         copy_into(w1, w)
-        # FSAL: the last stage was evaluated at the new state (c = 1, A's last row = b)
-        copy_into(kq[s - 1], k_first[0])
+        # FSAL: the last stage was evaluated at the new state (c = 1, A's last row = b); its
+        # velocity without the Munthe-Kaas correction (Theta = 0 at the next step's start)
+        copy_into(qd1, k_first[0])
         copy_into(kv[s - 1], k_first[1])
         copy_into(kw[s - 1], power_first)
         copy_into(stage_tau, tau_first)

@@ -35,10 +35,20 @@ The file format (every key optional unless marked required):
     # name = "ur5"                         # or a robot name that load_urdf resolves
     mimic = false                          # passed to load_urdf
     check_inertia = true                   # passed to load_urdf
+    floating_base = false                  # passed to load_urdf: true makes the root link a
+                                           # free body (a 6-dof base, unactuated)
 
     [initial]
-    q = { shoulder = 1.0 }                 # a table {joint = value} (others 0) or a list of nv
+    q = { shoulder = 1.0 }                 # a table {joint = value} (others 0) or a list with
+                                           # one number per joint (model.joint_names)
     qd = [0.0, 0.0]                        # the same; default zeros
+    # a floating base only (each optional; default: at the origin, upright, at rest):
+    base_position = [0.0, 0.0, 0.5]        # m, the root frame's origin in the world
+    base_orientation = [0.0, 0.0, 0.0, 1.0]  # unit quaternion (x, y, z, w), root frame in world
+    # base_rpy = [0.0, 0.0, 0.0]           # or roll, pitch, yaw (rad, as a URDF <origin>);
+                                           # not both
+    base_velocity = [0.0, 0.0, 0.0]        # m/s, the root frame origin's velocity, world axes
+    base_angular_velocity = [0.0, 0.0, 0.0]  # rad/s, the root's angular velocity, world axes
 
     [run]
     duration = 10.0                        # s, > 0 (default 5)
@@ -56,7 +66,8 @@ The file format (every key optional unless marked required):
                                            # in m/s^2; false or absent = no gravity
     [effects.damping]                      # a table that is present switches the effect on
     coefficients = "urdf"                  # "urdf" (default: <dynamics damping>), a number (every
-                                           # joint), a list of nv, or a table {joint = value}
+                                           # joint), a list (one per joint), or a table
+                                           # {joint = value}
     [effects.friction]
     coefficients = "urdf"                  # as damping, from <dynamics friction>
     smoothing = 0.01                       # rad/s or m/s, > 0
@@ -105,9 +116,15 @@ The file format (every key optional unless marked required):
     alpha = 10.0                           # 1/s   A qdd + Adot qd + 2 alpha A qd
     beta = 10.0                            # 1/s                 + beta^2 phi = 0
 
-Every per-joint value (gains, coefficients, tau...) is a number for every joint, a list of nv
-numbers, or a table by joint name; joints a table does not name take the key's default (0, or
-q0 for ``setpoint`` and ``offset``).
+Every per-joint value (gains, coefficients, tau...) is a number for every joint, a list of one
+number per joint (model.joint_names), or a table by joint name; joints a table does not name take
+the key's default (0, or q0 for ``setpoint`` and ``offset``). They act on the joint coordinates
+only: a floating base is moved by gravity, wrenches and the joints' reactions, never damped or
+actuated directly.
+
+A floating base's initial motion is given in world axes (as one thinks of it) and stored as the
+body twist of the convention, v = (omega_b, v_b, qd_joints) with omega_b = R^T omega_s and
+v_b = R^T p_dot (R the base's orientation in the world); q0 = (p, quat, q_joints).
 
 Constraints (the seed's Pfaffian constraints A(q) qd = 0) add the forces A^T lambda that keep
 them, lambda solved with the accelerations at every evaluation (opendyn.dynamics.constraints).
@@ -132,7 +149,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from .constraints import FixedPose, JointCoupling, PointOnPlane, PointToPoint, PointToWorld
-from .model import Model
+from .model import FREE, Model
 from .urdf import URDFError, load_urdf, shipped_robots_dir
 
 try:
@@ -174,8 +191,17 @@ _TOP_KEYS = (
     "constraints",
     "baumgarte",
 )
-_ROBOT_KEYS = ("urdf", "name", "mimic", "check_inertia")
-_INITIAL_KEYS = ("q", "qd")
+_ROBOT_KEYS = ("urdf", "name", "mimic", "check_inertia", "floating_base")
+_BASE_KEYS = (
+    "base_position",
+    "base_orientation",
+    "base_rpy",
+    "base_velocity",
+    "base_angular_velocity",
+)
+_INITIAL_KEYS = ("q", "qd") + _BASE_KEYS
+# a base_orientation quaternion whose norm is off 1 by more than this is refused as a mistake
+BASE_QUATERNION_TOLERANCE = 1e-6
 _RUN_KEYS = ("duration", "integrator", "dt", "output_dt", "rtol", "atol", "max_speed")
 _EFFECT_KEYS = ("gravity", "damping", "friction", "armature", "limits", "wrench")
 _CONTROL_KEYS = {
@@ -224,7 +250,7 @@ class Run:
 class Friction:
     """Smoothed Coulomb friction: generalized force -coulomb * tanh(qd / smoothing).
 
-    coulomb: (nv,) N m or N, >= 0. smoothing: rad/s or m/s, > 0.
+    coulomb: (n,) per joint, N m or N, >= 0. smoothing: rad/s or m/s, > 0.
     """
 
     coulomb: np.ndarray
@@ -237,8 +263,8 @@ class Limits:
     -stiffness (q - upper) - damping qd where q > upper, -stiffness (q - lower) - damping qd
     where q < lower.
 
-    stiffness: (nv,) N m/rad or N/m, >= 0; damping: (nv,) N m s/rad or N s/m, >= 0; both 0 where
-    the joint has no finite limit. lower, upper: (nv,) rad or m, the model's limits.
+    stiffness: (n,) per joint, N m/rad or N/m, >= 0; damping: (n,) N m s/rad or N s/m, >= 0;
+    both 0 where the joint has no finite limit. lower, upper: (n,) rad or m, the model's limits.
     """
 
     stiffness: np.ndarray
@@ -273,9 +299,10 @@ class Wrench:
 class Control:
     """A joint-space controller; fields that its kind does not use are None.
 
-    kind: "constant", "pd" or "computed_torque". tau: (nv,) N m or N (constant). kp, kd: (nv,)
-    gains (pd, computed_torque). setpoint: (nv,) rad or m (pd: tau = kp (setpoint - q) - kd qd).
-    offset, amplitude: (nv,) rad or m; frequency: (nv,) Hz; phase: (nv,) rad (computed_torque
+    kind: "constant", "pd" or "computed_torque"; every array has one entry per joint (n,), in
+    model.joint_names order. tau: N m or N (constant). kp, kd: gains (pd, computed_torque).
+    setpoint: rad or m (pd: tau = kp (setpoint - q) - kd qd).
+    offset, amplitude: rad or m; frequency: Hz; phase: rad (computed_torque
     reference q_r(t) = offset + amplitude sin(2 pi frequency t + phase)). clip: clip the torque
     to +-model.effort_limit.
     """
@@ -296,8 +323,12 @@ class Control:
 class Scene:
     """A robot, its initial state, the effects that exist, the control and the run settings.
 
-    q0: (nq,) = (nv,) rad or m; qd0: (nv,) rad/s or m/s. gravity: (3,) world-frame m/s^2 or
-    None. damping: (nv,) viscous coefficients or None. armature: (nv,) or None. wrenches: ()
+    q0: (nq,) rad or m, with a floating base (p, quat (x, y, z, w), q_joints); qd0: (nv,)
+    rad/s or m/s, with a floating base (omega_b, v_b, qd_joints) the base twist in its own
+    frame. gravity: (3,) world-frame m/s^2 or None. The per-joint arrays (damping, friction,
+    armature, limits, control) have one entry per joint, in model.joint_names order (n = nv
+    without a floating base, nv - 6 with one). damping: (n,) viscous coefficients or None.
+    armature: (n,) or None. wrenches: ()
     when none is applied. control: None = zero torque. source: the scene file, "<dict>" or
     "<robot NAME>". settings: the scene as read (plain TOML types), for provenance records.
     An effect that is None (or, for wrenches, empty) is never computed.
@@ -411,6 +442,8 @@ def default_scene(robot, **run) -> Scene:
     if isinstance(robot, Model):
         model = robot
         spec = {"urdf": model.source} if model.source else {"name": model.name}
+        if model.floating_base:
+            spec["floating_base"] = True
     else:
         try:
             model = load_urdf(robot)
@@ -454,11 +487,7 @@ def _build(data, source, base_dir, default_name=None, model=None) -> Scene:
     r.string(name, "name")
     if "description" in data:
         r.string(data["description"], "description")
-    initial = r.table(data.get("initial", {}), "initial")
-    r.keys(initial, "initial", _INITIAL_KEYS)
-    zeros = np.zeros(model.nv)
-    q0 = r.per_joint(initial.get("q"), "initial.q", zeros, scalar=False)
-    qd0 = r.per_joint(initial.get("qd"), "initial.qd", zeros, scalar=False)
+    q0, qd0 = r.initial(data.get("initial", {}))
     run = r.run(data.get("run", {}))
     effects = r.table(data.get("effects", {}), "effects")
     r.keys(effects, "effects", _EFFECT_KEYS)
@@ -474,7 +503,7 @@ def _build(data, source, base_dir, default_name=None, model=None) -> Scene:
         armature=r.armature(effects.get("armature")),
         limits=r.limits(effects.get("limits")),
         wrenches=r.wrenches(effects.get("wrench")),
-        control=r.control(data.get("control"), q0),
+        control=r.control(data.get("control"), q0[model.q_index]),
         source=source,
         settings=copy.deepcopy(data),
         constraints=r.constraints(data.get("constraints"), q0, qd0),
@@ -546,8 +575,8 @@ class _Reader:
         return _frozen([self.number(v, f"{key}[{i}]", minimum) for i, v in enumerate(value)])
 
     def per_joint(self, value, key, default, scalar=True, minimum=None) -> np.ndarray:
-        """(nv,) from a number (every joint; if scalar), a list of nv or a table {joint: value}
-        (joints not named keep ``default``); None -> default."""
+        """(n,) per joint from a number (every joint; if scalar), a list of n or a table
+        {joint: value} (joints not named keep ``default``); None -> default."""
         names = self.model.joint_names
         nv = len(names)
         if value is None:
@@ -600,6 +629,9 @@ class _Reader:
         options = {
             "mimic": self.boolean(table.get("mimic", False), "robot.mimic"),
             "check_inertia": self.boolean(table.get("check_inertia", True), "robot.check_inertia"),
+            "floating_base": self.boolean(
+                table.get("floating_base", False), "robot.floating_base"
+            ),
         }
         if given[0] == "urdf":
             path = pathlib.Path(target)
@@ -614,6 +646,62 @@ class _Reader:
             return load_urdf(target, **options)
         except URDFError as e:
             self.fail(key, str(e))
+
+    def initial(self, table) -> tuple[np.ndarray, np.ndarray]:
+        """[initial] -> (q0 (nq,), qd0 (nv,)): the joints from q and qd, a floating base from
+        the base_* keys (world-frame motion turned into the body twist)."""
+        m = self.model
+        self.keys(table, "initial", _INITIAL_KEYS)
+        given = [k for k in _BASE_KEYS if k in table]
+        if given and not m.floating_base:
+            self.fail(
+                f"initial.{given[0]}",
+                f"{m.name!r} is loaded with a fixed base (welded to the world), so it has no base "
+                f"state; set floating_base = true under [robot] to make its root link free",
+            )
+        zeros = np.zeros(len(m.joint_names))
+        q0, qd0 = np.zeros(m.nq), np.zeros(m.nv)
+        q0[m.q_index] = self.per_joint(table.get("q"), "initial.q", zeros, scalar=False)
+        qd0[m.v_index] = self.per_joint(table.get("qd"), "initial.qd", zeros, scalar=False)
+        if m.floating_base:
+            self.base_state(table, q0, qd0)
+        return _frozen(q0), _frozen(qd0)
+
+    def base_state(self, table, q0, qd0):
+        """q0's (p, quat) and qd0's (omega_b, v_b) of the free joint from the base_* keys:
+        omega_b = R^T omega_s, v_b = R^T p_dot."""
+        m = self.model
+        free = int(np.flatnonzero(m.jtype == FREE)[0])
+        a, b = int(m.iq[free]), int(m.iv[free])
+
+        def vec3(key):
+            value = table.get(key)
+            return np.zeros(3) if value is None else self.vector(value, f"initial.{key}", 3)
+
+        if "base_orientation" in table and "base_rpy" in table:
+            self.fail(
+                "initial.base_rpy",
+                "both base_orientation and base_rpy given; give the base's orientation once: "
+                "a quaternion [x, y, z, w] or roll, pitch, yaw in rad",
+            )
+        if "base_orientation" in table:
+            key = "initial.base_orientation"
+            quat = self.vector(table["base_orientation"], key, 4)
+            norm = float(np.linalg.norm(quat))
+            if not abs(norm - 1.0) <= BASE_QUATERNION_TOLERANCE:
+                self.fail(
+                    key,
+                    f"expected a unit quaternion [x, y, z, w] (norm within "
+                    f"{BASE_QUATERNION_TOLERANCE:g} of 1), found norm {norm:.6g}",
+                )
+            R_sb = Rotation.from_quat(quat)
+        else:
+            R_sb = Rotation.from_euler("xyz", vec3("base_rpy"))
+        q0[a : a + 3] = vec3("base_position")
+        q0[a + 3 : a + 7] = R_sb.as_quat()
+        R = R_sb.as_matrix()
+        qd0[b : b + 3] = R.T @ vec3("base_angular_velocity")
+        qd0[b + 3 : b + 6] = R.T @ vec3("base_velocity")
 
     def run(self, table) -> Run:
         table = self.table(table, "run")
@@ -671,19 +759,19 @@ class _Reader:
             if value != "urdf":
                 self.fail(
                     full,
-                    f'expected "urdf", a number, a list of {self.model.nv} numbers or a table '
-                    f"{{joint = number}}, found {_found(value)}",
+                    f'expected "urdf", a number, a list of {len(self.model.joint_names)} '
+                    f"numbers or a table {{joint = number}}, found {_found(value)}",
                 )
             if not np.any(urdf_values > 0):
                 self.fail(
                     full,
                     f'"urdf" asks for the URDF\'s <dynamics {element}>, but '
                     f"{self.model.source or self.model.name} gives none (all joints 0); give "
-                    f"the coefficients: a number, a list of {self.model.nv} or a table "
-                    f"{{joint = number}}",
+                    f"the coefficients: a number, a list of {len(self.model.joint_names)} or a "
+                    f"table {{joint = number}}",
                 )
             return _frozen(urdf_values)
-        return self.per_joint(value, full, np.zeros(self.model.nv), minimum=0.0)
+        return self.per_joint(value, full, np.zeros(len(self.model.joint_names)), minimum=0.0)
 
     def damping(self, table) -> np.ndarray | None:
         if table is None:
@@ -709,7 +797,7 @@ class _Reader:
         if "values" not in table:
             self.fail(f"{key}.values", "missing: give a number, a list or a table {joint = kg m^2}")
         return self.per_joint(
-            table["values"], f"{key}.values", np.zeros(self.model.nv), minimum=0.0
+            table["values"], f"{key}.values", np.zeros(len(self.model.joint_names)), minimum=0.0
         )
 
     def limits(self, table) -> Limits | None:
@@ -733,7 +821,7 @@ class _Reader:
         for field in ("stiffness", "damping"):
             full = f"{key}.{field}"
             value = table.get(field, 0.0)
-            arr = self.per_joint(value, full, np.zeros(m.nv), minimum=0.0)
+            arr = self.per_joint(value, full, np.zeros(len(m.joint_names)), minimum=0.0)
             if isinstance(value, (dict, list)):
                 for j in np.flatnonzero((arr != 0) & ~finite):
                     name = m.joint_names[j]
@@ -904,19 +992,25 @@ class _Reader:
         return name
 
     def coupling(self, table, key) -> np.ndarray:
-        """joint_coupling: one row as a table {joint = coefficient}, or matrix = k lists of nv."""
+        """joint_coupling: one row as a table {joint = coefficient}, or matrix = k lists of nv
+        (every velocity coordinate, a floating base's six first)."""
         if ("coefficients" in table) == ("matrix" in table):
             self.fail(
                 key,
                 "give exactly one of coefficients = {joint = number} (one row: the sum of "
                 "coefficient x joint velocity is 0) and matrix = [[nv numbers], ...]",
             )
-        nv = self.model.nv
+        m = self.model
+        nv = m.nv
         if "coefficients" in table:
-            row = self.per_joint(
-                table["coefficients"], f"{key}.coefficients", np.zeros(nv), scalar=False
+            row = np.zeros((1, nv))
+            row[0, m.v_index] = self.per_joint(
+                table["coefficients"],
+                f"{key}.coefficients",
+                np.zeros(len(m.joint_names)),
+                scalar=False,
             )
-            return row[None, :]
+            return row
         rows = table["matrix"]
         if not isinstance(rows, list) or not rows:
             self.fail(f"{key}.matrix", f"expected a list of rows, found {_found(rows)}")
@@ -929,7 +1023,7 @@ class _Reader:
 
         try:
             phi = constraint_error(self.model, q0, constraints, q_bound=q0)
-        except ValueError as e:
+        except (ValueError, NotImplementedError) as e:  # the latter: not yet on a floating base
             self.fail("constraints", str(e))
         velocity = constraint_jacobian(self.model, q0, constraints) @ qd0
         row = 0
@@ -975,7 +1069,7 @@ class _Reader:
         if kind == "none":
             return None
         m = self.model
-        zeros = np.zeros(m.nv)
+        zeros = np.zeros(len(m.joint_names))
         clip = self.boolean(table.get("clip", False), "control.clip")
         if clip and not np.isfinite(m.effort_limit).any():
             self.fail(
@@ -989,7 +1083,7 @@ class _Reader:
                 self.fail(
                     f"control.{field}",
                     f"missing: control type {kind!r} needs {field} (a number, a list of "
-                    f"{m.nv} or a table {{joint = number}})",
+                    f"{len(m.joint_names)} or a table {{joint = number}})",
                 )
             return self.per_joint(table[field], f"control.{field}", zeros, minimum=minimum)
 
@@ -1007,7 +1101,7 @@ class _Reader:
             kd=kd,
             offset=optional("offset", q0),
             amplitude=optional("amplitude", zeros),
-            frequency=optional("frequency", np.full(m.nv, 0.5), 0.0),
+            frequency=optional("frequency", np.full(len(m.joint_names), 0.5), 0.0),
             phase=optional("phase", zeros),
             clip=clip,
         )

@@ -7,6 +7,11 @@ The loops run in chunks of about a tenth of a second of wall time, so that a pro
 Ctrl-C is answered, and a failure keeps everything computed before it. A failure (a state that is
 not finite or faster than the run's max_speed, a singular mass matrix, an adaptive step that
 underflows) stops the run with a message naming the time, the step and the likely cause.
+
+A floating base changes nothing here: positions advance through integrate (the exponential map
+for the base, which keeps its quaternion a unit one), and the record carries q (nq) and v (nv)
+with the model's coordinate names. The largest deviation of a recorded quaternion's norm from 1
+is the run's `quaternion_norm_error` (bound QUATERNION_NORM_BOUND).
 """
 
 from __future__ import annotations
@@ -23,8 +28,8 @@ import numpy as np
 from . import __version__
 from ._compile import compile_seconds, compiling
 from ._kernel_cache import kernel_cache
-from .dynamics._args import fixed_base_only
 from .dynamics.energy import energies
+from .model import FREE
 from .scene import SceneError
 from .status import Status, decode
 
@@ -34,6 +39,9 @@ with kernel_cache():
 
 _CHUNK_SECONDS = 0.1  # wall time of one compiled chunk: progress and Ctrl-C granularity
 _FIRST_CHUNK = 64  # steps in the first chunk
+# integrate renormalises the quaternion at every step, so a recorded one is a product of unit
+# quaternions rounded a few times: its norm is 1 within a few units of float64 rounding (2.2e-16)
+QUATERNION_NORM_BOUND = 1e-14
 # what compiling a scene's pieces takes on a 2-core machine, by integrator (measured by
 # scripts/bench_coldstart.py; constraints add about half again)
 _COMPILE_ESTIMATE = {
@@ -85,7 +93,6 @@ def simulate(scene, *, progress=False, raise_on_failure=True):
     """
     run = scene.run
     model = scene.model
-    fixed_base_only(model, "simulate")
     integ = integrators.INTEGRATORS[run.integrator]
     if scene.constraints and integ.kind == integrators.SEMI_IMPLICIT:
         raise SceneError(
@@ -142,6 +149,10 @@ def simulate(scene, *, progress=False, raise_on_failure=True):
         "load_s": load,
         "simulated_s": float(out.t[out.filled - 1]) if out.filled else 0.0,
     }
+    if model.floating_base:
+        stats["quaternion_norm_error"] = float(
+            quaternion_norm_error(model, out.q[: out.filled]).max(initial=0.0)
+        )
     traj = _trajectory(scene, table, out, status == 0, message, stats)
     if status and raise_on_failure:
         raise SimulationError(message, traj)
@@ -205,7 +216,16 @@ def _fixed_chunk(scene, integ, table, step0, nsteps, every, q, qd, w, out, count
         w,
         out.arrays(),
         counters,
+        free_joints(scene.model),
     )
+
+
+def free_joints(model):
+    """None for a fixed base (the loops then compile no Munthe-Kaas correction), else the
+    first v index of each free joint (int64), for integrators.rk_stages."""
+    if not model.floating_base:
+        return None
+    return np.array([model.iv[i] for i in range(model.nb) if model.jtype[i] == FREE], np.int64)
 
 
 def _adaptive_chunk(scene, integ, table, t, t_stop, h, row, q, qd, w, first, out, counters):
@@ -225,6 +245,7 @@ def _adaptive_chunk(scene, integ, table, t, t_stop, h, row, q, qd, w, first, out
         h,
         run.rtol,
         run.atol,
+        error_size_index(scene.model),
         run.output_dt,
         row,
         run.max_speed,
@@ -234,7 +255,19 @@ def _adaptive_chunk(scene, integ, table, t, t_stop, h, row, q, qd, w, first, out
         *first,
         out.arrays(),
         counters,
+        free_joints(scene.model),
     )
+
+
+def error_size_index(model):
+    """(nv,) int64 for run_adaptive's error norm: for each v coordinate, the q index whose
+    magnitude sets its tolerance atol + rtol |q_k| (a joint's own coordinate; a floating base's
+    position for its translation rows), -1 for a floating base's rotation rows (1 rad)."""
+    index = np.full(model.nv, -1, dtype=np.int64)
+    index[model.v_index] = model.q_index
+    for i in np.flatnonzero(model.jtype == FREE):
+        index[model.iv[i] + 3 : model.iv[i] + 6] = model.iq[i] + np.arange(3)
+    return index
 
 
 class _Samples:
@@ -356,6 +389,15 @@ def _record_state(scene, table, t, q, qd, w, out):
     out.filled = r + 1
 
 
+def quaternion_norm_error(model, q):
+    """(K,) max over the free joints of | |quat| - 1 | at each configuration of q (K, nq)."""
+    error = np.zeros(len(q))
+    for i in np.flatnonzero(model.jtype == FREE):
+        k = int(model.iq[i]) + 3
+        error = np.maximum(error, np.abs(np.linalg.norm(q[:, k : k + 4], axis=1) - 1.0))
+    return error
+
+
 def _trajectory(scene, table, out, complete, message, stats):
     from .trajectory import Trajectory
 
@@ -364,7 +406,7 @@ def _trajectory(scene, table, out, complete, message, stats):
     t, q, qd, tau, w = out.t[:n], out.q[:n], out.qd[:n], out.tau[:n], out.w[:n]
     kinetic, potential = energies(model, q, qd, _gravity(scene)) if n else (np.zeros(0),) * 2
     if scene.armature is not None and n:
-        kinetic = kinetic + 0.5 * (qd**2) @ scene.armature
+        kinetic = kinetic + 0.5 * (qd[:, model.v_index] ** 2) @ scene.armature
     violation = _violation(model, table, q, qd) if scene.constraints else (np.zeros(0),) * 2
     return Trajectory(
         violation_position=violation[0],
@@ -378,6 +420,8 @@ def _trajectory(scene, table, out, complete, message, stats):
         work_applied=w[:, 0].copy(),
         work_passive=w[:, 1].copy(),
         joint_names=tuple(model.joint_names),
+        q_names=tuple(model.q_names),
+        v_names=tuple(model.v_names),
         complete=complete,
         message=message,
         stats=stats,
@@ -413,7 +457,13 @@ def _provenance(scene, table):
             "effects": list(scene.effects),
             "stages": list(table.names) + (["armature"] if scene.armature is not None else []),
         },
-        "robot": {"name": scene.model.name, "urdf": scene.model.source, "nv": scene.model.nv},
+        "robot": {
+            "name": scene.model.name,
+            "urdf": scene.model.source,
+            "floating_base": scene.model.floating_base,
+            "nq": scene.model.nq,
+            "nv": scene.model.nv,
+        },
         "run": {
             "integrator": run.integrator,
             "duration": run.duration,
@@ -442,7 +492,7 @@ def failure_message(scene, status, t, steps, q, qd):
     where = f"at t = {t:.6g} s (step {steps})"
     status, coordinate = decode(status)
     if status == Status.SINGULAR:
-        joint = model.joint_names[coordinate]
+        joint = model.v_names[coordinate]
         return (
             f"singular mass matrix {where}: nothing with mass or inertia moves with joint "
             f"{joint!r}. Give the links below it inertia, or name the armature effect for it."
@@ -466,8 +516,8 @@ def failure_message(scene, status, t, steps, q, qd):
     }.get(status, f"the dynamics failed ({status.name})")
     fastest = int(np.argmax(np.abs(qd))) if model.nv else 0
     state = (
-        f"the last good state has |qd| up to {np.abs(qd).max():.3g} on joint "
-        f"{model.joint_names[fastest]!r}"
+        f"the last good state has |qd| up to {np.abs(qd).max():.3g} on coordinate "
+        f"{model.v_names[fastest]!r}"
         if model.nv
         else ""
     )
@@ -500,7 +550,7 @@ def _stiffness_cause(scene, q):
     if run.integrator == "implicit_euler" or not scene.model.nv:
         return None
     try:
-        m = np.diag(mass_matrix(scene.model, q)).copy()
+        m = np.diag(mass_matrix(scene.model, q))[scene.model.v_index]  # the joints' entries
     except ValueError:
         return None
     if scene.armature is not None:

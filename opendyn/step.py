@@ -108,7 +108,7 @@ def generalized_forces(scene, t, q, qd, tau, tau_ctrl, power, K, D, jac):
             return status
     applied = 0.0
     passive = 0.0
-    for j in range(q.shape[0]):
+    for j in range(qd.shape[0]):
         applied += qd[j] * (tau_ctrl[j] + tau_app[j])
         passive += qd[j] * tau_pas[j]
         tau[j] = tau_ctrl[j] + tau_app[j] + tau_pas[j]

@@ -28,10 +28,16 @@ class Trajectory:
     """Samples of a simulation.
 
     t (K,) s; q (K, nq) rad or m; qd (K, nv) rad/s or m/s; tau (K, nv) the control torque
-    (N m or N; zero without control); kinetic, potential (K,) J; work_applied, work_passive (K,) J,
+    (N m or N; zero without control). With a floating base q = (p, quat (x, y, z, w),
+    q_joints) and qd = (omega_b, v_b, qd_joints), the base twist in its own frame.
+    joint_names: the model's joint names; q_names (nq,), v_names (nv,): the name of every
+    column of q and of qd and tau (model.q_names, model.v_names: base_x ... base_qw,
+    base_wx ... base_vz, then the joints; the joint names alone for a fixed base);
+    kinetic, potential (K,) J; work_applied, work_passive (K,) J,
     the work done since t = 0 by control and applied wrenches, and by damping, friction and limits.
     complete: False when the run stopped early (failure or interrupt); message says why.
-    stats: steps, rejected steps, dynamics evaluations, wall time (s), kernel load time (s).
+    stats: steps, rejected steps, dynamics evaluations, wall time (s), kernel load time (s);
+      with a floating base quaternion_norm_error, the largest | |quat| - 1 | of the samples.
     violation_position, violation_velocity: (K,) max_i |phi_i(q)| (m or rad) and max_i |(A qd)_i|
     (m/s or rad/s) over the scene's constraints at each sample; empty (0,) without constraints.
     provenance: the scene, integrator, versions and timing, as plain JSON types.
@@ -46,12 +52,21 @@ class Trajectory:
     work_applied: np.ndarray
     work_passive: np.ndarray
     joint_names: tuple[str, ...]
+    q_names: tuple[str, ...] = ()
+    v_names: tuple[str, ...] = ()
     complete: bool = True
     message: str = ""
     stats: dict = field(default_factory=dict)
     provenance: dict = field(default_factory=dict)
     violation_position: np.ndarray = field(default_factory=lambda: np.zeros(0))
     violation_velocity: np.ndarray = field(default_factory=lambda: np.zeros(0))
+
+    def __post_init__(self):
+        # a fixed-base record (nq = nv = the joints) names its columns by the joints
+        if not self.q_names:
+            self.q_names = tuple(self.joint_names)
+        if not self.v_names:
+            self.v_names = tuple(self.joint_names)
 
     @property
     def energy(self) -> np.ndarray:
@@ -75,6 +90,8 @@ class Trajectory:
             path,
             **arrays,
             joint_names=np.array(self.joint_names, dtype=str),
+            q_names=np.array(self.q_names, dtype=str),
+            v_names=np.array(self.v_names, dtype=str),
             provenance=np.array(json.dumps(record)),
         )
         path.with_suffix(".json").write_text(json.dumps(record, indent=2) + "\n")
@@ -98,6 +115,11 @@ class Trajectory:
             arrays = {name: data[name] for name in _ARRAYS}
             arrays.update({name: data[name] for name in _VIOLATION if name in data})
             names = tuple(str(n) for n in data["joint_names"])
+            columns = {
+                key: tuple(str(n) for n in data[key])
+                for key in ("q_names", "v_names")
+                if key in data
+            }
         stats = record.pop("stats", {})
         complete = record.pop("complete", True)
         message = record.pop("message", "")
@@ -105,6 +127,7 @@ class Trajectory:
         return cls(
             **arrays,
             joint_names=names,
+            **columns,
             complete=complete,
             message=message,
             stats=stats,
@@ -112,13 +135,13 @@ class Trajectory:
         )
 
     def to_csv(self, path) -> pathlib.Path:
-        """One row per sample: t, q_<joint>..., qd_<joint>..., tau_<joint>..., kinetic,
-        potential, work_applied, work_passive (SI units), and with constraints
+        """One row per sample: t, q_<name> for each of q_names, qd_<name> and tau_<name> for
+        each of v_names (a floating base's q_base_x ... q_base_qw, qd_base_wx ... qd_base_vz
+        first), kinetic, potential, work_applied, work_passive (SI units), and with constraints
         violation_position, violation_velocity."""
         path = pathlib.Path(path)
-        names = self.joint_names
-        header = ["t", *(f"q_{n}" for n in names), *(f"qd_{n}" for n in names)]
-        header += [*(f"tau_{n}" for n in names), "kinetic", "potential"]
+        header = ["t", *(f"q_{n}" for n in self.q_names), *(f"qd_{n}" for n in self.v_names)]
+        header += [*(f"tau_{n}" for n in self.v_names), "kinetic", "potential"]
         header += ["work_applied", "work_passive"]
         columns = [self.t, self.q, self.qd, self.tau, self.kinetic, self.potential]
         columns += [self.work_applied, self.work_passive]
@@ -130,7 +153,8 @@ class Trajectory:
         return path
 
     def plot(self, path) -> pathlib.Path:
-        """A PNG with three panels over time: joint positions, joint velocities, and the energy
+        """A PNG with three panels over time: positions, velocities (a floating base's position,
+        quaternion and body twist among them), and the energy
         (E - E(0), the work of the non-conservative forces, and the integration error)."""
         import matplotlib
 
@@ -143,13 +167,16 @@ class Trajectory:
         fig, axes = plt.subplots(
             panels, 1, figsize=(9, 3 * panels), sharex=True, constrained_layout=True
         )
-        for k, name in enumerate(self.joint_names):
+        for k, name in enumerate(self.q_names):
             axes[0].plot(self.t, self.q[:, k], label=name)
+        for k, name in enumerate(self.v_names):
             axes[1].plot(self.t, self.qd[:, k], label=name)
-        axes[0].set_ylabel("q (rad or m)")
+        axes[0].set_ylabel("q (rad or m; quaternion)")
         axes[1].set_ylabel("qd (rad/s or m/s)")
-        if len(self.joint_names) <= 12:
+        if len(self.q_names) <= 12:
             axes[0].legend(loc="upper right", fontsize="small", ncol=2)
+        if self.v_names != self.q_names and len(self.v_names) <= 12:  # a floating base's twist
+            axes[1].legend(loc="upper right", fontsize="small", ncol=2)
         energy = self.energy - self.energy[0]
         axes[2].plot(self.t, energy, label="E - E(0)")
         if np.any(self.work_applied):

@@ -51,12 +51,15 @@ class FidelityReport:
     honoured:    content that is part of the model exactly as written
     transformed: content that was changed on the way in (lumped links, normalised axes, ...)
     ignored:     content the model does not use (collision geometry, transmissions, ...)
+    welded_mass: the mass (kg) of the links welded to the fixed world, whose inertia is unused
+                 (0 with a floating base)
     """
 
     source: str
     honoured: list[str] = field(default_factory=list)
     transformed: list[str] = field(default_factory=list)
     ignored: list[str] = field(default_factory=list)
+    welded_mass: float = 0.0
 
     def __str__(self) -> str:
         lines = [f"URDF fidelity report for {self.source}"]
@@ -97,6 +100,20 @@ def load_urdf(
     _check_numbers(file, root)
     urdf = _parse_yourdfpy(file, root)
     return _Builder(file, root, urdf.robot, mimic, check_inertia, floating_base).build()
+
+
+def looks_mobile(model) -> bool:
+    """Whether a model loaded with a welded base looks like a robot meant to move freely (a
+    legged robot, a humanoid, a drone): its root link and the links welded to it carry mass,
+    none of them is a "world" link that the URDF attaches it to, and either two or more joints
+    leave them (legs, arms and a torso: an arm on a pedestal has one) or nothing moves at all (a
+    single free body). Such a robot is usually meant for load_urdf(..., floating_base=True)."""
+    if model.floating_base or model.report.welded_mass <= 0:
+        return False
+    welded = [f.name for f in model.frames if f.body < 0]
+    if any(name.lower() == "world" for name in welded):
+        return False
+    return model.nb == 0 or int(np.sum(model.parent < 0)) >= 2
 
 
 def resolve_robot(path) -> str:
@@ -496,6 +513,7 @@ class _Builder:
                 G_link = spatial_inertia(mass, com, I, R_com)
             except ValueError as e:
                 if body_of[name] < 0 and mass >= 0:
+                    self.report.welded_mass += mass
                     self.report.ignored.append(
                         f"{where}: not a rigid-body inertia ({e}), but "
                         f"welded to the fixed root, so unused"
@@ -515,6 +533,7 @@ class _Builder:
             if body_of[name] >= 0:
                 G[body_of[name]] += G_link
             elif mass > 0:
+                self.report.welded_mass += mass
                 self.report.ignored.append(
                     f"inertia of link {name!r} ({mass:g} kg): welded to the fixed root"
                 )

@@ -5,7 +5,7 @@ Each ``<visual>`` v of link L is drawn in the world frame {s} at
     T_sv(t) = T_sL(q(t)) T_Lv
 
 with ``T_sL = frame_pose(model, q, L)`` and ``T_Lv`` the visual's ``<origin>`` (times the mesh
-scale). The motion (t (K,) s, q (K, nv)) is resampled by linear interpolation to the page's
+scale). The motion (t (K,) s, q (K, nq)) is resampled by linear interpolation to the page's
 frame rate and stored as one meshcat animation clip per link (position and quaternion tracks),
 so the browser interpolates between frames and the time slider scrubs the motion.
 
@@ -30,6 +30,7 @@ from urllib.parse import unquote, urlparse
 
 import numpy as np
 
+from .dynamics.configuration import normalize
 from .dynamics.kinematics import frame_pose
 
 MESHCAT_HINT = "playback needs meshcat: pip install 'opendyn[viz]'"
@@ -269,8 +270,10 @@ def _package_candidates(pkg, urdf_dir):
 def resample(t, q, fps):
     """The motion at an even frame rate, by linear interpolation of each coordinate.
 
-    t: (K,) s, non-decreasing; q: (K, nv). Returns (times (F,) s from t[0], Q (F, nv)) with F
-    frames evenly spaced over [t[0], t[-1]], both ends included, about ``fps`` per second.
+    t: (K,) s, non-decreasing; q: (K, nq). Returns (times (F,) s from t[0], Q (F, nq)) with F
+    frames evenly spaced over [t[0], t[-1]], both ends included, about ``fps`` per second. A
+    floating base's quaternion is interpolated the same way and normalised by the caller
+    (``_build_scene``), which is the normalised linear interpolation of rotations.
     """
     duration = float(t[-1] - t[0])
     if duration <= 0.0:
@@ -289,10 +292,10 @@ def _check_motion(model, t, q, fps):
         raise ValueError(f"t must be a non-empty 1-D array of times (K,) in s, got shape {t.shape}")
     if q.ndim == 1 and t.size == 1:
         q = q[None, :]
-    if q.ndim != 2 or q.shape != (t.size, model.nv):
+    if q.ndim != 2 or q.shape != (t.size, model.nq):
         raise ValueError(
-            f"q must have shape (K, nv) = ({t.size}, {model.nv}) for {t.size} times and the "
-            f"{model.nv} coordinates of {model.name!r}, got shape {q.shape}"
+            f"q must have shape (K, nq) = ({t.size}, {model.nq}) for {t.size} times and the "
+            f"{model.nq} coordinates of {model.name!r}, got shape {q.shape}"
         )
     if not np.all(np.isfinite(t)):
         raise ValueError("t has non-finite entries")
@@ -402,6 +405,8 @@ def _build_scene(vis, model, t, q, fps, visuals):
     mc = _meshcat()
     mg = mc.geometry
     times, Q = resample(t, q, fps)
+    if model.floating_base:
+        Q = normalize(model, Q)  # the base's quaternion between samples
     root = vis[_node_name(model.name)]
     root.delete()
     _ground_grid(vis, mg)
@@ -684,7 +689,8 @@ def write_html(model, t, q, path, *, fps=None) -> pathlib.Path:
       model: the Model; its visual geometry is read from the URDF it was loaded from
         (``load_visuals``).
       t: (K,) sample times in s, non-decreasing.
-      q: (K, nv) joint coordinates at those times (rad or m).
+      q: (K, nq) coordinates at those times (rad or m; a floating base's position and
+        quaternion first: the base moves in the playback).
       path: the .html file to write.
       fps: frames per second of the animation (the motion is linearly interpolated to it);
         default the trajectory's own rate, at most 30.
@@ -711,7 +717,7 @@ def view(model, t, q, *, open_browser=False, fps=None) -> str:
     """Play the motion of ``model`` in a live meshcat viewer; returns the viewer's URL.
 
     Starts a meshcat server (``meshcat.Visualizer()``, a subprocess that lives as long as this
-    Python process), sends the visual geometry and the animation (t (K,) s, q (K, nv), as in
+    Python process), sends the visual geometry and the animation (t (K,) s, q (K, nq), as in
     ``write_html``), and opens the page in a web browser when ``open_browser``. The scene
     stays on the server: a browser that connects later sees it and plays it.
     """

@@ -37,6 +37,25 @@ def test_info_lists_what_the_loader_did(capsys):
     assert "<transmission>" in out
 
 
+def test_info_says_whether_the_base_floats_and_warns_on_a_welded_mobile_robot(capsys):
+    # solo12's trunk carries mass and four legs leave it: it looks mobile
+    assert main(["info", "solo12"]) == 0
+    out, err = capsys.readouterr()
+    assert "base: fixed" in out
+    assert "warning: 'solo' looks like a mobile robot" in err and "--floating-base" in err
+    assert main(["info", "solo12", "--floating-base"]) == 0
+    out, err = capsys.readouterr()
+    assert "base: floating" in out and "nq = 19" in out and "warning" not in err
+    # an arm: the UR5 is attached to a world link, the Panda has one chain off its base link
+    for arm in ("ur5", "panda"):
+        assert main(["info", arm]) == 0
+        out, err = capsys.readouterr()
+        assert "base: fixed" in out and "warning" not in err
+    # a single free body welded down: nothing moves at all
+    assert main(["info", "t_handle"]) == 0
+    assert "looks like a mobile robot" in capsys.readouterr().err
+
+
 def test_unknown_robot_is_an_error_with_the_closest_names(capsys):
     assert main(["demo", "ur_5"]) == 2
     err = capsys.readouterr().err

@@ -611,6 +611,9 @@ SHIPPED = (
     "ur5_falling",
     "panda_computed_torque",
     "double_pendulum_push",
+    "t_handle_flip",
+    "solo12_falling",
+    "g1_floating",
 )
 
 

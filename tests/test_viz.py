@@ -354,7 +354,7 @@ def test_default_frame_rate_is_the_trajectorys_own_at_most_30(tmp_path, meshcat)
 def test_bad_motion_arguments_are_named(tmp_path, meshcat):
     model = od.load_urdf("double_pendulum")
     out = tmp_path / "page.html"
-    with pytest.raises(ValueError, match=r"q must have shape \(K, nv\) = \(3, 2\)"):
+    with pytest.raises(ValueError, match=r"q must have shape \(K, nq\) = \(3, 2\)"):
         viz.write_html(model, [0, 1, 2], np.zeros((3, 3)), out)
     with pytest.raises(ValueError, match="t must be non-decreasing"):
         viz.write_html(model, [0, 2, 1], np.zeros((3, 2)), out)
