@@ -461,13 +461,31 @@ def test_the_playback_moves_the_floating_base(tmp_path):
     np.testing.assert_allclose(np.abs(np.sum(quaternion * expected, axis=1)), 1.0, atol=1e-9)
 
 
-def test_a_constrained_floating_scene_is_refused_naming_the_constraints():
-    """The constraint functions are not yet written for a free joint: the scene says so at load
-    time, naming its [[constraints]], rather than failing inside the run."""
-    with pytest.raises(SceneError, match="constraints: .*floating-base"):
-        _scene(
-            {
-                "robot": {"name": "solo12", "floating_base": True},
-                "constraints": [{"type": "point_to_world", "frame": "FL_FOOT"}],
-            }
-        )
+def test_a_floating_quadruped_on_pinned_feet_sags_without_losing_energy():
+    """Solo12 with its four feet held by point_to_world constraints (12 rows on 18 velocities),
+    no control, no damping: it sags under gravity (the trunk drops 0.2 m in 0.2 s, before the
+    knees fold flat, a singular configuration), the ideal constraints do no work, so the energy
+    stays constant (measured 3e-11 J), and the feet stay where they were (measured 6e-12 m)."""
+    feet = ("FL_FOOT", "FR_FOOT", "HL_FOOT", "HR_FOOT")
+    scene = _scene(
+        {
+            "robot": {"name": "solo12", "floating_base": True},
+            "initial": {
+                "base_position": [0.0, 0.0, 0.3],
+                "q": {"FL_HFE": 0.8, "FL_KFE": -1.6, "FR_HFE": 0.8, "FR_KFE": -1.6,
+                      "HL_HFE": -0.8, "HL_KFE": 1.6, "HR_HFE": -0.8, "HR_KFE": 1.6},
+            },
+            "constraints": [{"type": "point_to_world", "frame": f} for f in feet],
+            "effects": {"gravity": True},
+            "run": {"duration": 0.2, "dt": 1e-3},
+        }
+    )
+    traj = od.simulate(scene)
+    assert traj.complete
+    assert traj.violation_position.max() < 1e-8
+    assert np.abs(traj.energy - traj.energy[0]).max() < 1e-6 * np.abs(traj.energy).max()
+    assert traj.q[0, 2] - traj.q[-1, 2] > 1e-3  # the trunk really sags
+    for foot in feet:
+        start = od.frame_pose(scene.model, traj.q[0], foot)[:3, 3]
+        end = od.frame_pose(scene.model, traj.q[-1], foot)[:3, 3]
+        np.testing.assert_allclose(end, start, atol=1e-8)

@@ -143,15 +143,6 @@ def raise_status(status, model, what):
     raise RuntimeError(f"{what}: kernel failed with status {status.name}")
 
 
-def fixed_base_only(model, what):
-    """NotImplementedError for the functions not yet written for a free joint."""
-    if model.floating_base:
-        raise NotImplementedError(
-            f"{what}: not available yet for floating-base models ({model.name!r} has a free "
-            f"joint); load it with floating_base=False to weld its root to the world"
-        )
-
-
 def quaternion_problem(model, name="q"):
     """What is wrong with the quaternions of the configuration `name`, for an error message:
     the slice of each free joint's quaternion and the tolerance."""
