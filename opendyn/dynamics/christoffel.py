@@ -216,6 +216,22 @@ def assemble(ibuf, fbuf, S_s, Gc, dS, Bc, idle, C):
                 a = parent[a]
 
 
+@njit(**INLINE)
+def workspace(nb):
+    """The per-body arrays of the kernels below: S_s, G_s, Gc, dS (nb, 6, 6), Bc (nb, 6, 3),
+    V_s (nb, 6) and the idle flags (nb,)."""
+    work = np.empty((4, nb, 6, 6))
+    return (
+        work[0],
+        work[1],
+        work[2],
+        work[3],
+        np.empty((nb, 6, 3)),
+        np.empty((nb, 6)),
+        np.empty(nb, dtype=np.bool_),
+    )
+
+
 @njit(**JIT)
 def coriolis_matrix_kernel(ibuf, fbuf, q, v, C):
     """C (nv, nv) <- C(q, v) in O(n d). Returns a Status: OK, Q_NOT_FINITE,
@@ -226,11 +242,7 @@ def coriolis_matrix_kernel(ibuf, fbuf, q, v, C):
     if not all_finite(v):
         return Status.QD_NOT_FINITE.value
     nb = ibuf[0]
-    work = np.empty((4, nb, 6, 6))
-    S_s, G_s, Gc, dS = work[0], work[1], work[2], work[3]
-    Bc = np.empty((nb, 6, 3))
-    V_s = np.empty((nb, 6))
-    idle = np.empty(nb, dtype=np.bool_)
+    S_s, G_s, Gc, dS, Bc, V_s, idle = workspace(nb)
     space_axes_and_inertias(ibuf, fbuf, q, S_s, G_s, Gc)
     velocity_terms(ibuf, fbuf, v, S_s, G_s, V_s, dS, Bc, idle)
     assemble(ibuf, fbuf, S_s, Gc, dS, Bc, idle, C)
@@ -245,11 +257,7 @@ def christoffel_kernel(ibuf, fbuf, q, Gamma):
     if status:
         return status
     nb, nv = ibuf[0], Gamma.shape[0]
-    work = np.empty((4, nb, 6, 6))
-    S_s, G_s, Gc, dS = work[0], work[1], work[2], work[3]
-    Bc = np.empty((nb, 6, 3))
-    V_s = np.empty((nb, 6))
-    idle = np.empty(nb, dtype=np.bool_)
+    S_s, G_s, Gc, dS, Bc, V_s, idle = workspace(nb)
     space_axes_and_inertias(ibuf, fbuf, q, S_s, G_s, Gc)
     # C_e[k] = C(e_k), then Gamma[i, j, k] = 1/2 (C_e[k, i, j] + C_e[j, i, k])
     e_k = np.zeros(nv)
