@@ -53,6 +53,11 @@ FREE_V_NAMES = ("wx", "wy", "wz", "vx", "vy", "vz")
 # start_k * nb; field k of _ibuf at INT_HEADER + start_k * nb, after the header [nb, nv, nq].
 # S holds each joint's motion subspace as nv_i rows of 6 (rows past nv_i are zero).
 INT_HEADER = 3
+# The int buffer's dtype says, to the compiler, whether the model has free joints: the kernels
+# compile the free joint's code (its transform, its configuration check, ABA's multi-dof passes,
+# the exponential map) only for int32 buffers, so a fixed-base model compiles none of it.
+FIXED_JOINTS_INT = np.int64
+FREE_JOINTS_INT = np.int32
 INT_FIELDS = (("parent", ()), ("jtype", ()), ("nv_j", ()), ("iq", ()), ("iv", ()))
 FLOAT_FIELDS = (
     ("mult", ()),
@@ -223,7 +228,10 @@ class Model:
                 nq, nv = nq + JOINT_NQ[jtype[i]], nv + JOINT_NV[jtype[i]]
         for i, leader in follows.items():  # a mimic joint may come before the one it follows
             iq[i], iv[i] = iq[leader], iv[leader]
-        ibuf = np.zeros(INT_HEADER + buffer_size(INT_AT, nb), dtype=np.int64)
+        ibuf = np.zeros(
+            INT_HEADER + buffer_size(INT_AT, nb),
+            dtype=FREE_JOINTS_INT if np.any(jtype == FREE) else FIXED_JOINTS_INT,
+        )
         fbuf = np.zeros(buffer_size(FLOAT_AT, nb), dtype=np.float64)
         ibuf[0], ibuf[1], ibuf[2] = nb, nv, nq
         for key, arr in (

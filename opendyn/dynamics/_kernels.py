@@ -83,11 +83,18 @@ def field(buf, nb, where):
 
 
 @njit(**INLINE)
+def body_count(ibuf):
+    """nb from the model's int buffer, as int64 whatever the buffer's dtype
+    (opendyn.model.FREE_JOINTS_INT), so that shapes built from it type alike."""
+    return np.int64(ibuf[0])
+
+
+@njit(**INLINE)
 def tree(ibuf, fbuf):
     """Views of the model's tree: parent, jtype, nv_j, iq, iv, mult, offset, S, R_home, p_home
     (fields of model.INT_FIELDS and model.FLOAT_FIELDS). Each kernel takes only the views it
     needs (a reshaped view costs about 20 ns)."""
-    nb = ibuf[0]
+    nb = body_count(ibuf)
     return (
         field(ibuf, nb, _PARENT),
         field(ibuf, nb, _JTYPE),
@@ -106,7 +113,7 @@ def tree(ibuf, fbuf):
 def rigid_inertias(ibuf, fbuf):
     """Views of the body inertias in rigid-body form: mass (nb,), h = m c (nb, 3),
     I_o (nb, 3, 3)."""
-    nb = ibuf[0]
+    nb = body_count(ibuf)
     return (
         field(fbuf, nb, _MASS),
         field(fbuf, nb, _H).reshape((nb, 3)),
@@ -117,7 +124,7 @@ def rigid_inertias(ibuf, fbuf):
 @njit(**INLINE)
 def spatial_inertias(ibuf, fbuf):
     """View of the (nb, 6, 6) spatial inertias G_i."""
-    nb = ibuf[0]
+    nb = body_count(ibuf)
     return field(fbuf, nb, _G).reshape((nb, 6, 6))
 
 

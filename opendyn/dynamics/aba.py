@@ -43,7 +43,13 @@ from ._kernels import (
 )
 from ..status import Status
 from .cholesky import SINGULAR_PIVOT, cholesky_factor, cholesky_substitute
-from .joints import configuration_status, joint_motion, joint_transform, prepare_joint_transforms
+from .joints import (
+    configuration_status,
+    free_joints_only,
+    joint_motion,
+    joint_transform,
+    prepare_joint_transforms,
+)
 
 
 @njit(**JIT)
@@ -100,6 +106,11 @@ def accelerate_multi_dof(n, b, S_i, U_i, L_i, u_i, dV_i, qdd):
             dV_i[r] += S_i[k, r] * x[k]
 
 
+# the multi-dof passes, compiled only for models with free joints
+articulate_free_joint = free_joints_only(articulate_multi_dof)
+accelerate_free_joint = free_joints_only(accelerate_multi_dof)
+
+
 @njit(**JIT)
 def aba_kernel(ibuf, fbuf, q, qd, tau, loads, qdd, armature):
     """qdd (nv,) <- ABA at one state; loads as in rnea_kernel (dV_0, then body wrenches).
@@ -138,7 +149,7 @@ def aba_kernel(ibuf, fbuf, q, qd, tau, loads, qdd, armature):
 
     # pass 1: V_i = Ad V_lambda + V_J, c_i = ad_{V_i} V_J with V_J = S_i qd_i,
     # pA_i = -ad_{V_i}^T G_i V_i + F_tip,i; IA_i = G_i
-    prepare_joint_transforms(body_tree, q, qd.shape[0], R, p)
+    prepare_joint_transforms(body_tree, q, R, p)
     for i in range(nb):
         joint_transform(
             jtype[i], S[i], R_home[i], p_home[i], q, iq[i], mult[i], offset[i], R[i], p[i]
@@ -167,8 +178,20 @@ def aba_kernel(ibuf, fbuf, q, qd, tau, loads, qdd, armature):
         n, b = nv_j[i], iv[i]
         lam = parent[i]
         if n > 1:
-            status = articulate_multi_dof(
-                n, b, S[i], IA[i], pA[i], c[i], tau, armature, scale, U[i], L[i], u[i]
+            status = articulate_free_joint(
+                ibuf,
+                n,
+                b,
+                S[i],
+                IA[i],
+                pA[i],
+                c[i],
+                tau,
+                armature,
+                scale,
+                U[i],
+                L[i],
+                u[i],
             )
             if status:
                 return status
@@ -204,7 +227,7 @@ def aba_kernel(ibuf, fbuf, q, qd, tau, loads, qdd, armature):
         for k in range(6):
             dV[i, k] += c[i, k]
         if n > 1:
-            accelerate_multi_dof(n, b, S[i], U[i], L[i], u[i], dV[i], qdd)
+            accelerate_free_joint(ibuf, n, b, S[i], U[i], L[i], u[i], dV[i], qdd)
         else:
             qdd[b] = (u[i, 0] - dot6(U[i, 0], dV[i])) / L[i, 0, 0]
             for r in range(6):

@@ -53,6 +53,7 @@ from numba import njit
 
 from . import _args
 from ._kernels import (
+    body_count,
     BATCH,
     INLINE,
     JIT,
@@ -85,7 +86,7 @@ def space_axes_and_inertias(ibuf, fbuf, q, S_s, G_s, Gc):
     p_s = np.empty((nb, 3))
     # every body: last = -1, typed int64 as the other callers' body index (a literal -1
     # would compile forward_kinematics a second time)
-    forward_kinematics(body_tree, q, ibuf[1], R_s, p_s, np.int64(-1))
+    forward_kinematics(body_tree, q, R_s, p_s, np.int64(-1))
     scratch = np.empty((9, 6))
     for i in range(nb):
         for k in range(nv_j[i]):
@@ -241,7 +242,7 @@ def coriolis_matrix_kernel(ibuf, fbuf, q, v, C):
         return status
     if not all_finite(v):
         return Status.QD_NOT_FINITE.value
-    nb = ibuf[0]
+    nb = body_count(ibuf)
     S_s, G_s, Gc, dS, Bc, V_s, idle = workspace(nb)
     space_axes_and_inertias(ibuf, fbuf, q, S_s, G_s, Gc)
     velocity_terms(ibuf, fbuf, v, S_s, G_s, V_s, dS, Bc, idle)
@@ -256,7 +257,7 @@ def christoffel_kernel(ibuf, fbuf, q, Gamma):
     status = configuration_status(ibuf, q)
     if status:
         return status
-    nb, nv = ibuf[0], Gamma.shape[0]
+    nb, nv = body_count(ibuf), Gamma.shape[0]
     S_s, G_s, Gc, dS, Bc, V_s, idle = workspace(nb)
     space_axes_and_inertias(ibuf, fbuf, q, S_s, G_s, Gc)
     # C_e[k] = C(e_k), then Gamma[i, j, k] = 1/2 (C_e[k, i, j] + C_e[j, i, k])

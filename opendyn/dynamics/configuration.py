@@ -16,26 +16,26 @@ from numba import njit
 
 from ..model import FREE, PRISMATIC
 from . import _args
-from ._kernels import INLINE, JIT, field, _IQ, _IV, _JTYPE
+from ._kernels import INLINE, JIT, body_count, field, _IQ, _IV, _JTYPE
 from .joints import joint_difference, joint_integrate, normalize_quaternion
 
 
 @njit(**INLINE)
 def integrate_kernel(ibuf, q, v, dt, q_next):
     """q_next (nq,) <- q (+) v dt, with v (nv,) a velocity held for dt seconds."""
-    nb = ibuf[0]
+    nb = body_count(ibuf)
     jtype, iq, iv = field(ibuf, nb, _JTYPE), field(ibuf, nb, _IQ), field(ibuf, nb, _IV)
     for i in range(nb):
-        joint_integrate(jtype[i], q, iq[i], v, iv[i], dt, q_next)
+        joint_integrate(ibuf, jtype[i], q, iq[i], v, iv[i], dt, q_next)
 
 
 @njit(**JIT)
 def difference_kernel(ibuf, q0, q1, v):
     """v (nv,) <- q1 (-) q0."""
-    nb = ibuf[0]
+    nb = body_count(ibuf)
     jtype, iq, iv = field(ibuf, nb, _JTYPE), field(ibuf, nb, _IQ), field(ibuf, nb, _IV)
     for i in range(nb):
-        joint_difference(jtype[i], q0, q1, iq[i], iv[i], v)
+        joint_difference(ibuf, jtype[i], q0, q1, iq[i], iv[i], v)
 
 
 @njit(**JIT)
@@ -48,7 +48,7 @@ def integrate_rows(ibuf, q, v, dt, q_next):
 @njit(**JIT)
 def normalize_kernel(ibuf, q):
     """Each free joint's quaternion in q (nq,) <- itself / its norm."""
-    nb = ibuf[0]
+    nb = body_count(ibuf)
     jtype, iq = field(ibuf, nb, _JTYPE), field(ibuf, nb, _IQ)
     for i in range(nb):
         if jtype[i] == FREE:

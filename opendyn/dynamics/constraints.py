@@ -68,7 +68,7 @@ from ._kernels import (
 from .crba import crba_kernel, mass_matrix
 from .cholesky import cholesky_solve
 from .configuration import difference_kernel
-from .joints import configuration_status
+from .joints import configuration_status, quaternion_status
 from .kinematics import frame_pose, jacobian, space_axis
 from .rnea import forward_pass, rnea_kernel
 from ..status import Status
@@ -777,7 +777,7 @@ def _configuration(model, q, name, what):
     """A configuration: a finite (nq,) array whose quaternions (a floating base) have unit
     norm within joints.QUATERNION_TOLERANCE."""
     q = _single(model, q, name, what, model.nq)
-    if configuration_status(model._ibuf, q) == Status.Q_NOT_UNIT_QUATERNION:
+    if model.floating_base and quaternion_status(model._ibuf, q) == Status.Q_NOT_UNIT_QUATERNION:
         raise ValueError(f"{what}: {_args.quaternion_problem(model, name)}")
     return q
 

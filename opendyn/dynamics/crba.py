@@ -51,7 +51,7 @@ def crba_kernel(ibuf, fbuf, q, M):
     I_c, h_c, mass_c = composite[:, :3], composite[:, 3], composite[:, 4, 0]
     scratch = np.empty((3, 3))
     F = np.empty(6)
-    prepare_joint_transforms(body_tree, q, M.shape[0], R, p)
+    prepare_joint_transforms(body_tree, q, R, p)
     for i in range(nb):
         joint_transform(
             jtype[i], S[i], R_home[i], p_home[i], q, iq[i], mult[i], offset[i], R[i], p[i]

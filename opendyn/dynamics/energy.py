@@ -99,7 +99,7 @@ def energy_kernel(ibuf, fbuf, q, qd, gravity, out):
     mass, h, I_o = rigid_inertias(ibuf, fbuf)
     nb = parent.shape[0]
     R, p = np.empty((nb, 3, 3)), np.empty((nb, 3))
-    prepare_joint_transforms(body_tree, q, qd.shape[0], R, p)
+    prepare_joint_transforms(body_tree, q, R, p)
     R_s, p_s = np.empty((nb, 3, 3)), np.empty((nb, 3))
     V = np.empty((nb, 6))
     s = np.empty(6)

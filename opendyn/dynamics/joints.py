@@ -24,10 +24,37 @@ from __future__ import annotations
 
 import numpy as np
 from numba import njit
+from numba.np.numpy_support import from_dtype
+from numba.extending import overload
 
-from ..model import FREE, PRISMATIC
+from ..model import FREE, FREE_JOINTS_INT, PRISMATIC
 from ..status import Status
-from ._kernels import INLINE, JIT, all_finite, field, _IQ, _JTYPE
+from ._kernels import INLINE, JIT, all_finite, body_count, field, _IQ, _JTYPE
+
+def has_free_joints(int_array):
+    """At compile time, from the numba type of the model's int buffer (or a view of it): True
+    when the model has free joints (its dtype is opendyn.model.FREE_JOINTS_INT)."""
+    return int_array.dtype == from_dtype(np.dtype(FREE_JOINTS_INT))
+
+
+def free_joints_only(fn):
+    """call(int_array, *args): fn(*args) in compiled code when the model (whose int buffer
+    int_array views) has free joints; 0 (Status OK), with fn never compiled, when it has none.
+    The choice is made at compile time from int_array's dtype: a fixed-base model's kernels
+    compile no free-joint code (transforms, quaternion checks, ABA's multi-dof passes, the
+    exponential map). fn is bound here, not passed at the call, so the kernels stay cacheable."""
+
+    def call(int_array, *args):
+        """fn(*args) for a model with free joints (compiled code only)."""
+
+    @overload(call)
+    def _choose(int_array, *args):
+        if has_free_joints(int_array):
+            return lambda int_array, *args: fn(*args)
+        return lambda int_array, *args: 0
+
+    return call
+
 
 # A quaternion's norm may differ from 1 by this much: it is used normalised. Further off it is
 # refused as a mistake (Euler angles, a zero or a scaled vector), not silently rescaled.
@@ -106,16 +133,16 @@ def free_joint_transforms(body_tree, q, R, p):
             free_transform(R_home[i], p_home[i], q, iq[i], R[i], p[i])
 
 
+transform_free_joints = free_joints_only(free_joint_transforms)
+
+
 @njit(**INLINE)
-def prepare_joint_transforms(body_tree, q, nv, R, p):
+def prepare_joint_transforms(body_tree, q, R, p):
     """R[i], p[i] (R (nb, 3, 3), p (nb, 3)) <- the transforms of the free joints, before a
-    kernel's loop calls joint_transform for each body; nv the model's velocity count (a model
-    has free joints exactly when q's length nq differs from nv). A fixed-base model calls
-    nothing: its kernels' loops hold only the 1-dof calc, and the free joint's code is compiled
-    once (measured: a free-joint branch with a call inside RNEA's loop made talos 10-20%
-    slower)."""
-    if q.shape[0] != nv:
-        free_joint_transforms(body_tree, q, R, p)
+    kernel's loop calls joint_transform for each body. A fixed-base model's kernels compile
+    nothing here, and their loops hold only the 1-dof calc (measured: a free-joint branch with
+    a call inside RNEA's loop made talos 10-20% slower)."""
+    transform_free_joints(body_tree[0], body_tree, q, R, p)
 
 
 @njit(**INLINE)
@@ -141,24 +168,11 @@ def add_joint_force(nv_i, S_i, mult, F, iv, tau):
         tau[iv + k] += mult * s
 
 
-@njit(**INLINE)
-def configuration_status(ibuf, q):
-    """Status of a configuration: Q_NOT_FINITE if q has NaN or inf, Q_NOT_UNIT_QUATERNION if
-    a free joint's quaternion norm is further than QUATERNION_TOLERANCE from 1, else OK. A
-    fixed-base model (nq = nv) has no quaternion: its check is inline, the free joints' is
-    called."""
-    if ibuf[2] == ibuf[1]:
-        return Status.OK.value if all_finite(q) else Status.Q_NOT_FINITE.value
-    return free_configuration_status(ibuf, q)
-
-
 @njit(**JIT)
-def free_configuration_status(ibuf, q):
-    """configuration_status of a model with free joints: q finite, each quaternion's norm
-    within QUATERNION_TOLERANCE of 1."""
-    if not all_finite(q):
-        return Status.Q_NOT_FINITE.value
-    nb = ibuf[0]
+def quaternion_status(ibuf, q):
+    """Q_NOT_UNIT_QUATERNION if a free joint's quaternion in q has a norm further than
+    QUATERNION_TOLERANCE from 1, else OK."""
+    nb = body_count(ibuf)
     jtype, iq = field(ibuf, nb, _JTYPE), field(ibuf, nb, _IQ)
     for i in range(nb):
         if jtype[i] == FREE:
@@ -167,6 +181,18 @@ def free_configuration_status(ibuf, q):
             if not abs(n - 1.0) <= QUATERNION_TOLERANCE:
                 return Status.Q_NOT_UNIT_QUATERNION.value
     return Status.OK.value
+
+
+check_quaternions = free_joints_only(quaternion_status)
+
+
+@njit(**INLINE)
+def configuration_status(ibuf, q):
+    """Status of a configuration: Q_NOT_FINITE if q has NaN or inf, Q_NOT_UNIT_QUATERNION if
+    a free joint's quaternion norm is further than QUATERNION_TOLERANCE from 1, else OK."""
+    if not all_finite(q):
+        return Status.Q_NOT_FINITE.value
+    return check_quaternions(ibuf, ibuf, q)
 
 
 # ---- the configuration space: q (+) v and its inverse, per joint ----------------------------
@@ -302,21 +328,26 @@ def free_difference(q0, q1, iq, iv, v):
     v[iv + 5] = dp[2] - 0.5 * x1[2] + d * (phi[0] * x1[1] - phi[1] * x1[0])
 
 
+integrate_free_joint = free_joints_only(free_integrate)
+difference_free_joint = free_joints_only(free_difference)
+
+
 @njit(**INLINE)
-def joint_integrate(jtype, q, iq, v, iv, dt, q_next):
+def joint_integrate(ibuf, jtype, q, iq, v, iv, dt, q_next):
     """q_next's coordinates of one joint <- its q_i (+) v_i dt: the exponential map of SE(3)
-    for a free joint, q_i + v_i dt for a 1-dof joint."""
+    for a free joint, q_i + v_i dt for a 1-dof joint. ibuf: the model's int buffer."""
     if jtype == FREE:
-        free_integrate(q, iq, v, iv, dt, q_next)
+        integrate_free_joint(ibuf, q, iq, v, iv, dt, q_next)
     else:
         q_next[iq] = q[iq] + v[iv] * dt
 
 
 @njit(**INLINE)
-def joint_difference(jtype, q0, q1, iq, iv, v):
+def joint_difference(ibuf, jtype, q0, q1, iq, iv, v):
     """v's coordinates of one joint <- q1_i (-) q0_i, the velocity that integrates q0_i to q1_i
-    in unit time: log(T_0^-1 T_1) for a free joint, q1_i - q0_i for a 1-dof joint."""
+    in unit time: log(T_0^-1 T_1) for a free joint, q1_i - q0_i for a 1-dof joint. ibuf: the
+    model's int buffer."""
     if jtype == FREE:
-        free_difference(q0, q1, iq, iv, v)
+        difference_free_joint(ibuf, q0, q1, iq, iv, v)
     else:
         v[iv] = q1[iq] - q0[iq]

@@ -18,6 +18,7 @@ from numba import njit
 
 from . import _args
 from ._kernels import (
+    body_count,
     BATCH,
     INLINE,
     JIT,
@@ -52,16 +53,16 @@ def world_pose(R_s, p_s, lam, R, p, i):
 
 
 @njit(**JIT)
-def forward_kinematics(body_tree, q, nv, R_s, p_s, last):
+def forward_kinematics(body_tree, q, R_s, p_s, last):
     """R_s[i], p_s[i] <- T_{s,i}(q) (world frame = the root link) for every body, or, when
     last >= 0, only for the bodies on the path from the root to body `last`.
-    body_tree is _kernels.tree(ibuf, fbuf), nv the model's velocity count. Compiled once and called by the kernels that need
+    body_tree is _kernels.tree(ibuf, fbuf). Compiled once and called by the kernels that need
     world poses."""
     parent, jtype, nv_j, iq, iv, mult, offset, S, R_home, p_home = body_tree
     nb = parent.shape[0]
     R = np.empty((nb, 3, 3))
     p = np.empty((nb, 3))
-    prepare_joint_transforms(body_tree, q, nv, R, p)
+    prepare_joint_transforms(body_tree, q, R, p)
     wanted = np.empty(nb, dtype=np.bool_)
     for i in range(nb):
         wanted[i] = last < 0
@@ -118,11 +119,11 @@ def frame_pose_kernel(ibuf, fbuf, q, body, T_bf, T_sf):
     status = configuration_status(ibuf, q)
     if status:
         return status
-    nb = ibuf[0]
+    nb = body_count(ibuf)
     R_s = np.empty((nb, 3, 3))
     p_s = np.empty((nb, 3))
     if body >= 0:
-        forward_kinematics(tree(ibuf, fbuf), q, ibuf[1], R_s, p_s, body)
+        forward_kinematics(tree(ibuf, fbuf), q, R_s, p_s, body)
     compose_frame(R_s, p_s, body, T_bf, T_sf)
     return Status.OK.value
 
@@ -140,7 +141,7 @@ def jacobian_kernel(ibuf, fbuf, q, body, T_bf, body_frame, J):
     R_s = np.empty((nb, 3, 3))
     p_s = np.empty((nb, 3))
     if body >= 0:
-        forward_kinematics(body_tree, q, ibuf[1], R_s, p_s, body)
+        forward_kinematics(body_tree, q, R_s, p_s, body)
     T_sf = np.empty((4, 4))
     compose_frame(R_s, p_s, body, T_bf, T_sf)
     S = np.empty(6)

@@ -54,7 +54,7 @@ def forward_pass(body_tree, q, qd, qdd, dV_0, R, p, V, dV, s):
     """
     parent, jtype, nv_j, iq, iv, mult, offset, S, R_home, p_home = body_tree
     a = s[0]
-    prepare_joint_transforms(body_tree, q, qd.shape[0], R, p)
+    prepare_joint_transforms(body_tree, q, R, p)
     for i in range(parent.shape[0]):
         joint_transform(
             jtype[i], S[i], R_home[i], p_home[i], q, iq[i], mult[i], offset[i], R[i], p[i]

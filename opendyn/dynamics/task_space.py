@@ -16,7 +16,7 @@ from numba import njit
 
 from ..spatial import angular, linear
 from . import _args
-from ._kernels import JIT, tree
+from ._kernels import JIT, body_count, tree
 from .crba import mass_matrix
 from .kinematics import jacobian
 from .rnea import bias_forces, forward_pass
@@ -25,7 +25,7 @@ from .rnea import bias_forces, forward_pass
 @njit(**JIT)
 def body_accelerations(ibuf, fbuf, q, qd, qdd, dV_0):
     """dV (nb, 6): every body's twist rate in its own frame, from the RNEA forward pass."""
-    nb = ibuf[0]
+    nb = body_count(ibuf)
     R, p = np.empty((nb, 3, 3)), np.empty((nb, 3))
     V, dV = np.empty((nb, 6)), np.empty((nb, 6))
     forward_pass(tree(ibuf, fbuf), q, qd, qdd, dV_0, R, p, V, dV, np.empty((2, 6)))
