@@ -44,11 +44,11 @@ from ._kernels import (
 from ..status import Status
 from .cholesky import SINGULAR_PIVOT, cholesky_factor, cholesky_substitute
 from .joints import (
-    configuration_status,
     free_joints_only,
     joint_motion,
     joint_transform,
     prepare_joint_transforms,
+    state_status,
 )
 
 
@@ -117,11 +117,9 @@ def aba_kernel(ibuf, fbuf, q, qd, tau, loads, qdd, armature):
     armature: (nv,) rotor inertias added to D_i (M's diagonal), or an empty array for none.
     Returns a Status: OK, Q/QD/TAU_NOT_FINITE, Q_NOT_UNIT_QUATERNION, or SINGULAR + k when
     velocity coordinate k has no inertia moving with it (a pivot of D_i ~ 0)."""
-    status = configuration_status(ibuf, q)
+    status = state_status(ibuf, q, qd)
     if status:
         return status
-    if not all_finite(qd):
-        return Status.QD_NOT_FINITE.value
     if not all_finite(tau):
         return Status.TAU_NOT_FINITE.value
     body_tree = tree(ibuf, fbuf)

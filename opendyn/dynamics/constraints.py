@@ -68,7 +68,7 @@ from ._kernels import (
 from .crba import crba_kernel, mass_matrix
 from .cholesky import cholesky_solve
 from .configuration import difference_kernel
-from .joints import configuration_status, quaternion_status
+from .joints import quaternion_status, state_status
 from .kinematics import frame_pose, jacobian, space_axis
 from .rnea import forward_pass, rnea_kernel
 from ..status import Status
@@ -271,11 +271,9 @@ def constraint_terms_kernel(ibuf, fbuf, rows, params, q, qd, A, Adot_qd, phi):
     k = rows[:, 2].sum(), in table order. Adot qd is d/dt (A qd) at qdd = 0 (no gravity).
     Point rows: world axes; FIXED_POSE: frame b axes, angular first (see opendyn.constraints).
     Returns a Status: OK, Q_NOT_FINITE, Q_NOT_UNIT_QUATERNION or QD_NOT_FINITE."""
-    status = configuration_status(ibuf, q)
+    status = state_status(ibuf, q, qd)
     if status:
         return status
-    if not all_finite(qd):
-        return Status.QD_NOT_FINITE.value
     body_tree = tree(ibuf, fbuf)
     parent, jtype, nv_j, iq, iv, mult, offset, axes, R_home, p_home = body_tree
     nb = parent.shape[0]

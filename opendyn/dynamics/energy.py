@@ -25,7 +25,6 @@ from ._kernels import (
     JIT,
     add_neg_ad_transpose,
     add_wrench_to_parent,
-    all_finite,
     dot6,
     fill,
     rigid_inertia_times,
@@ -37,7 +36,12 @@ from ._kernels import (
 from .kinematics import world_pose
 from .rnea import forward_pass
 from ..status import Status
-from .joints import configuration_status, joint_motion, joint_transform, prepare_joint_transforms
+from .joints import (
+    joint_motion,
+    joint_transform,
+    prepare_joint_transforms,
+    state_status,
+)
 
 
 @njit(**INLINE)
@@ -56,11 +60,9 @@ def body_twists(ibuf, fbuf, q, qd):
 def kinetic_gradient_kernel(ibuf, fbuf, q, qd, dK_dq):
     """dK_dq (nv,) <- dK/dq at fixed qd (N m or N). Returns a Status: OK, Q/QD_NOT_FINITE or
     Q_NOT_UNIT_QUATERNION."""
-    status = configuration_status(ibuf, q)
+    status = state_status(ibuf, q, qd)
     if status:
         return status
-    if not all_finite(qd):
-        return Status.QD_NOT_FINITE.value
     parent, jtype, nv_j, iq, iv, mult, offset, S, R_home, p_home = tree(ibuf, fbuf)
     mass, h, I_o = rigid_inertias(ibuf, fbuf)
     nb = mass.shape[0]
@@ -89,11 +91,9 @@ def energy_kernel(ibuf, fbuf, q, qd, gravity, out):
         T_{s,i} = T_{s,lambda} T_{lambda,i},   V_i = Ad_{T_{i,lambda}} V_lambda + S_i qd_i,
         K = sum_i 1/2 V_i^T G_i V_i,           U = -sum_i g . (R_si h_i + m_i p_si).
     Returns a Status: OK, Q/QD_NOT_FINITE or Q_NOT_UNIT_QUATERNION."""
-    status = configuration_status(ibuf, q)
+    status = state_status(ibuf, q, qd)
     if status:
         return status
-    if not all_finite(qd):
-        return Status.QD_NOT_FINITE.value
     body_tree = tree(ibuf, fbuf)
     parent, jtype, nv_j, iq, iv, mult, offset, S, R_home, p_home = body_tree
     mass, h, I_o = rigid_inertias(ibuf, fbuf)

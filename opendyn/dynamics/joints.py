@@ -195,6 +195,16 @@ def configuration_status(ibuf, q):
     return check_quaternions(ibuf, ibuf, q)
 
 
+@njit(**INLINE)
+def state_status(ibuf, q, qd):
+    """Status of a state (q, qd): configuration_status(q), then QD_NOT_FINITE if qd has NaN or
+    inf, else OK: the checks every kernel taking a state opens with."""
+    status = configuration_status(ibuf, q)
+    if status:
+        return status
+    return Status.OK.value if all_finite(qd) else Status.QD_NOT_FINITE.value
+
+
 # ---- the configuration space: q (+) v and its inverse, per joint ----------------------------
 
 

@@ -38,9 +38,9 @@ from ._kernels import (
 from ..status import Status
 from .joints import (
     add_joint_force,
-    configuration_status,
     joint_transform,
     prepare_joint_transforms,
+    state_status,
 )
 
 
@@ -84,11 +84,9 @@ def rnea_kernel(ibuf, fbuf, q, qd, qdd, loads, tau):
     """tau (nv,) <- RNEA at one state. loads[0] = dV_0 = (0, -g); loads[1 + i], when present,
     the wrench body i applies to the environment. Returns a Status: OK, Q/QD/QDD_NOT_FINITE
     or Q_NOT_UNIT_QUATERNION."""
-    status = configuration_status(ibuf, q)
+    status = state_status(ibuf, q, qd)
     if status:
         return status
-    if not all_finite(qd):
-        return Status.QD_NOT_FINITE.value
     if not all_finite(qdd):
         return Status.QDD_NOT_FINITE.value
     body_tree = tree(ibuf, fbuf)
