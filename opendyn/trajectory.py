@@ -9,6 +9,11 @@ friction and the joint-limit spring-dampers, each integrated with the state by t
 integrator; the residual `energy_error` measures how well the integrator keeps the balance.
 Ideal constraint forces A^T lambda do no work while A qd = 0; their work through the drift and
 the Baumgarte terms is left in `energy_error`, beside the recorded constraint violation.
+
+With ground contact, U also holds the contact springs' energy sum_p 1/2 k delta_p^2 (delta_p the
+penetration of point p), and W_passive the work of the rest of the contact forces (the normal
+dampers, friction, and the spring energy a clamped normal force lets go), so that the balance
+closes as it does for the joint effects.
 """
 
 from __future__ import annotations
@@ -21,6 +26,7 @@ import numpy as np
 
 _ARRAYS = ("t", "q", "qd", "tau", "kinetic", "potential", "work_applied", "work_passive")
 _VIOLATION = ("violation_position", "violation_velocity")  # empty without constraints
+_CONTACT = ("contact_point", "contact_force", "penetration")  # empty without contact
 
 
 @dataclass
@@ -40,6 +46,11 @@ class Trajectory:
       with a floating base quaternion_norm_error, the largest | |quat| - 1 | of the samples.
     violation_position, violation_velocity: (K,) max_i |phi_i(q)| (m or rad) and max_i |(A qd)_i|
     (m/s or rad/s) over the scene's constraints at each sample; empty (0,) without constraints.
+    contact_names (P,): the scene's contact points (the frame's name, with [k] when a frame has
+    several); contact_point (K, P, 3) m: each point's lowest point of its sphere, world frame;
+    contact_force (K, P, 3) N: the force the ground applies to the robot there, world frame;
+    penetration (K, P) m: delta = max(0, ground_height - (z - r)); ground_height (m) the plane
+    z = ground_height, None without contact. Empty (K, 0, ...) without contact.
     provenance: the scene, integrator, versions and timing, as plain JSON types.
     """
 
@@ -60,6 +71,11 @@ class Trajectory:
     provenance: dict = field(default_factory=dict)
     violation_position: np.ndarray = field(default_factory=lambda: np.zeros(0))
     violation_velocity: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    contact_names: tuple[str, ...] = ()
+    contact_point: np.ndarray | None = None
+    contact_force: np.ndarray | None = None
+    penetration: np.ndarray | None = None
+    ground_height: float | None = None
 
     def __post_init__(self):
         # a fixed-base record (nq = nv = the joints) names its columns by the joints
@@ -67,6 +83,18 @@ class Trajectory:
             self.q_names = tuple(self.joint_names)
         if not self.v_names:
             self.v_names = tuple(self.joint_names)
+        k, p = len(self.t), len(self.contact_names)
+        if self.contact_point is None:
+            self.contact_point = np.zeros((k, p, 3))
+        if self.contact_force is None:
+            self.contact_force = np.zeros((k, p, 3))
+        if self.penetration is None:
+            self.penetration = np.zeros((k, p))
+
+    @property
+    def has_contact(self) -> bool:
+        """Whether the scene named ground contact (its points are recorded)."""
+        return self.ground_height is not None
 
     @property
     def energy(self) -> np.ndarray:
@@ -86,6 +114,10 @@ class Trajectory:
             path = path.with_suffix(".npz")
         record = self.record()
         arrays = {name: getattr(self, name) for name in _ARRAYS + _VIOLATION}
+        if self.has_contact:
+            arrays.update({name: getattr(self, name) for name in _CONTACT})
+            arrays["contact_names"] = np.array(self.contact_names, dtype=str)
+            arrays["ground_height"] = np.array(self.ground_height)
         np.savez_compressed(
             path,
             **arrays,
@@ -114,6 +146,10 @@ class Trajectory:
             record = json.loads(str(data["provenance"]))
             arrays = {name: data[name] for name in _ARRAYS}
             arrays.update({name: data[name] for name in _VIOLATION if name in data})
+            if "ground_height" in data:
+                arrays.update({name: data[name] for name in _CONTACT})
+                arrays["contact_names"] = tuple(str(n) for n in data["contact_names"])
+                arrays["ground_height"] = float(data["ground_height"])
             names = tuple(str(n) for n in data["joint_names"])
             columns = {
                 key: tuple(str(n) for n in data[key])
@@ -137,8 +173,9 @@ class Trajectory:
     def to_csv(self, path) -> pathlib.Path:
         """One row per sample: t, q_<name> for each of q_names, qd_<name> and tau_<name> for
         each of v_names (a floating base's q_base_x ... q_base_qw, qd_base_wx ... qd_base_vz
-        first), kinetic, potential, work_applied, work_passive (SI units), and with constraints
-        violation_position, violation_velocity."""
+        first), kinetic, potential, work_applied, work_passive (SI units), with constraints
+        violation_position, violation_velocity, and with contact, for each contact point,
+        fx_<point>, fy_<point>, fz_<point> (N, world frame) and penetration_<point> (m)."""
         path = pathlib.Path(path)
         header = ["t", *(f"q_{n}" for n in self.q_names), *(f"qd_{n}" for n in self.v_names)]
         header += [*(f"tau_{n}" for n in self.v_names), "kinetic", "potential"]
@@ -148,6 +185,9 @@ class Trajectory:
         if len(self.violation_position):
             header += list(_VIOLATION)
             columns += [self.violation_position, self.violation_velocity]
+        for p, name in enumerate(self.contact_names):
+            header += [f"fx_{name}", f"fy_{name}", f"fz_{name}", f"penetration_{name}"]
+            columns += [self.contact_force[:, p], self.penetration[:, p]]
         table = np.column_stack(columns)
         np.savetxt(path, table, delimiter=",", header=",".join(header), comments="", fmt="%.17g")
         return path
