@@ -18,6 +18,10 @@ same recursion that gives c, at no extra cost). Each effect:
              applies TO THE ROBOT at the frame's origin, in the frame's axes, or in world-aligned
              axes at the frame's origin (F_frame = (R_sf^T m, R_sf^T f)); constant or linear
              in time between table samples, held before the first and after the last
+  contact    tau = sum_p J_p^T f_p                            spheres on the ground plane: a
+             spring-damper normal force f_n = max(0, k delta + d delta_dot) and regularised
+             Coulomb friction f_t = -mu f_n v_t / sqrt(|v_t|^2 + v_s^2) at each sphere's lowest
+             point (opendyn.dynamics.contact)
   control    constant  tau = tau_0
              pd        tau = kp (q_set - q) - kd qd
              computed_torque  tau = M(q) qdd_c + h(q, qd) computed by RNEA, with
@@ -38,9 +42,9 @@ base solves for the base acceleration the joint torques produce (see computed_to
 A scene becomes a tuple with one slot per effect (`stage_table`): the effect's parameters, or
 None when the scene does not name it. Each effect function tests its slot against None, which
 numba decides when it compiles the step for that tuple, so an effect the scene does not name is
-neither compiled nor evaluated. The effect functions also add their derivatives to the diagonal
-stiffness K = -d tau / d q and damping D = -d tau / d qd when asked, for the integrator that
-treats them implicitly.
+neither compiled nor evaluated. The effect functions also add their derivatives to the
+stiffness K = -d tau / d q and damping D = -d tau / d qd (nv, nv) when asked, for the integrator
+that treats them implicitly: the per-joint effects on the diagonal, contact as J_p^T K_p J_p.
 """
 
 from __future__ import annotations
@@ -53,6 +57,7 @@ from numba import njit
 from .dynamics._kernels import JIT, copy_into
 from .dynamics.cholesky import cholesky_solve
 from .dynamics.constraints import constraint_table
+from .dynamics.contact import contact_kernel
 from .dynamics.crba import crba_kernel
 from .dynamics.forward import NO_ARMATURE
 from .dynamics.kinematics import frame_pose_kernel, jacobian_kernel
@@ -61,13 +66,14 @@ from .status import Status
 
 # the slots of a scene's effects tuple, in the order the step runs them; a slot holds the
 # effect's parameters, or None when the scene does not name it
-GRAVITY, DAMPING, FRICTION, LIMITS, WRENCH, CONSTANT, PD, COMPUTED_TORQUE, CLIP = range(9)
+GRAVITY, DAMPING, FRICTION, LIMITS, WRENCH, CONTACT, CONSTANT, PD, COMPUTED_TORQUE, CLIP = range(10)
 SLOT_NAMES = (
     "gravity",
     "damping",
     "friction",
     "limits",
     "wrench",
+    "contact",
     "control (constant)",
     "control (pd)",
     "control (computed torque)",
@@ -87,7 +93,7 @@ def gravity_effect(g, dV_0):
 
 @njit(**JIT)
 def damping_effect(p, qd, tau, D, jac):
-    """tau_j -= b_k qd_j; D_j += b_k at each joint's velocity j = iv_k. p = (b (n,), iq, iv),
+    """tau_j -= b_k qd_j; D_jj += b_k at each joint's velocity j = iv_k. p = (b (n,), iq, iv),
     or None (no damping)."""
     if p is None:
         return
@@ -96,12 +102,12 @@ def damping_effect(p, qd, tau, D, jac):
         j = iv[k]
         tau[j] -= b[k] * qd[j]
         if jac:
-            D[j] += b[k]
+            D[j, j] += b[k]
 
 
 @njit(**JIT)
 def friction_effect(p, qd, tau, D, jac):
-    """tau_j -= f_c tanh(qd_j / v_s); D_j += f_c (1 - tanh^2) / v_s at each joint's velocity
+    """tau_j -= f_c tanh(qd_j / v_s); D_jj += f_c (1 - tanh^2) / v_s at each joint's velocity
     j = iv_k. p = ((f_c (n,), v_s), iq, iv), or None."""
     if p is None:
         return
@@ -113,12 +119,12 @@ def friction_effect(p, qd, tau, D, jac):
         s = np.tanh(qd[j] / v_s)
         tau[j] -= f[k] * s
         if jac:
-            D[j] += f[k] * (1.0 - s * s) / v_s
+            D[j, j] += f[k] * (1.0 - s * s) / v_s
 
 
 @njit(**JIT)
 def limits_effect(p, q, qd, tau, K, D, jac):
-    """Spring-dampers past the limits: tau_j -= k (q_i - limit) + d qd_j; K_j += k, D_j += d
+    """Spring-dampers past the limits: tau_j -= k (q_i - limit) + d qd_j; K_jj += k, D_jj += d
     there, with i = iq_k, j = iv_k joint k's coordinates. p = ((k, d, lower, upper), each
     (n,), iq, iv); or None."""
     if p is None:
@@ -136,8 +142,8 @@ def limits_effect(p, q, qd, tau, K, D, jac):
             continue
         tau[j] -= params[k] * depth + params[n + k] * qd[j]
         if jac:
-            K[j] += params[k]
-            D[j] += params[n + k]
+            K[j, j] += params[k]
+            D[j, j] += params[n + k]
 
 
 @njit(**JIT)
@@ -190,6 +196,24 @@ def wrench_effect(wrenches, ibuf, fbuf, t, q, tau):
 
 
 @njit(**JIT)
+def contact_effect(p, ibuf, fbuf, q, qd, tau, K, D, jac, power):
+    """tau += sum_p J_p^T f_p, the ground's forces on the contact spheres; power[1] += their
+    spring's share sum_p k delta_p delta_dot_p (with qd . tau it makes the contacts'
+    non-conservative power); with jac, K, D (nv, nv) += their linearisation
+    (opendyn.dynamics.contact). p = (bodies (P,) int64, params), or None."""
+    if p is None:
+        return
+    bodies, params = p
+    n = bodies.shape[0]
+    x_c = np.empty((n, 3))
+    f_c = np.empty((n, 3))
+    delta = np.empty(n)
+    power[1] += contact_kernel(
+        ibuf, fbuf, bodies, params, q, qd, tau, K, D, jac, x_c, f_c, delta
+    )
+
+
+@njit(**JIT)
 def constant_effect(p, tau):
     """tau_j += tau_0k at each joint's velocity j = iv_k. p = (tau_0 (n,), iq, iv), or None."""
     if p is None:
@@ -201,7 +225,7 @@ def constant_effect(p, tau):
 
 @njit(**JIT)
 def pd_effect(p, q, qd, tau, K, D, jac):
-    """tau_j += kp (q_set - q_i) - kd qd_j; K_j += kp, D_j += kd, with i = iq_k, j = iv_k
+    """tau_j += kp (q_set - q_i) - kd qd_j; K_jj += kp, D_jj += kd, with i = iq_k, j = iv_k
     joint k's coordinates. p = ((kp, kd, q_set), each (n,), iq, iv); or None."""
     if p is None:
         return
@@ -211,8 +235,8 @@ def pd_effect(p, q, qd, tau, K, D, jac):
         i, j = iq[k], iv[k]
         tau[j] += gains[k] * (gains[2 * n + k] - q[i]) - gains[n + k] * qd[j]
         if jac:
-            K[j] += gains[k]
-            D[j] += gains[n + k]
+            K[j, j] += gains[k]
+            D[j, j] += gains[n + k]
 
 
 @njit(**JIT)
@@ -308,7 +332,7 @@ class StageTable:
       the scene does not name it. numba compiles the step for the tuple's types, and each effect
       function tests its slot against None when it compiles, so an effect the scene does not
       name is neither compiled nor run. Slots: gravity g (3,); wrench (rows (k, 4) int64,
-      params), see wrench_effect; the per-joint effects (values, iq, iv) with iq, iv (n,) the
+      params), see wrench_effect; contact (bodies (P,) int64, params), see contact_table; the per-joint effects (values, iq, iv) with iq, iv (n,) the
       joints' indices into q and v (model.q_index, model.v_index) and values: damping b (n,);
       friction (f_c (n,), v_s); limits (k, d, lower, upper); constant tau_0 (n,); pd (kp, kd,
       q_set); clip the effort limits (n,); computed torque (kp, kd, offset, amplitude,
@@ -347,9 +371,29 @@ def _params(*values):
     )
 
 
+def contact_table(model, contact):
+    """(bodies (P,) int64, params) of opendyn.dynamics.contact for a scene's contact
+    (scene.Contact): the shared values (ground height, k, d, mu, v_s), then each point's sphere
+    centre c_b = T_body_frame (position, 1) in its body's frame (m) and radius (m)."""
+    bodies, chunks = [], []
+    for point in contact.points:
+        frame = model.frames[model.frame_index(point.frame)]
+        bodies.append(frame.body)
+        chunks += [(frame.T_body_frame @ np.append(point.position, 1.0))[:3], point.radius]
+    shared = (
+        contact.ground_height,
+        contact.stiffness,
+        contact.damping,
+        contact.friction,
+        contact.slip_velocity,
+    )
+    return np.array(bodies, dtype=np.int64), _params(shared, *chunks)
+
+
 def stage_table(scene) -> StageTable:
     """The compiled step's data for the effects `scene` names, in the order they run:
-    gravity, damping, friction, limits, wrenches, control, clip (armature goes to M)."""
+    gravity, damping, friction, limits, wrenches, contact, control, clip (armature goes to
+    M)."""
     model = scene.model
     slots = [None] * len(SLOT_NAMES)
     names = {}
@@ -378,6 +422,9 @@ def stage_table(scene) -> StageTable:
     if rows:
         slots[WRENCH] = (np.array(rows, dtype=np.int64), np.concatenate(chunks))
         names[WRENCH] = "wrench on " + ", ".join(frames)
+    if scene.contact is not None:
+        slots[CONTACT] = contact_table(model, scene.contact)
+        names[CONTACT] = f"contact ({len(scene.contact.points)} points)"
     control = scene.control
     if control is not None:
         if control.kind == "constant":

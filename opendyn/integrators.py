@@ -25,12 +25,14 @@ through `integrate_kernel(q, v, dt)` (q (+) v dt, opendyn.dynamics.configuration
                        two solutions' moves q (+) dt sum b_i kq_i differ by dt sum e_i kq_i, a
                        body twist times dt for a free joint), each row scaled by the size of
                        the coordinate it moves (size_index).
-  implicit_euler       linearly implicit in velocity: the joint-space effects' stiffness
-                       K = -dtau/dq and damping D = -dtau/dqd are taken at the end of the step,
+  implicit_euler       linearly implicit in velocity: the effects' stiffness K = -dtau/dq and
+                       damping D = -dtau/dqd (nv, nv) are taken at the end of the step,
                          (M + diag(armature) + dt D + dt^2 K) (qd' - qd) = dt (tau - h - dt K qd),
                          q' = q (+) qd' dt,
-                       which is backward Euler for the stiff linear parts (limits, damping, PD)
-                       and stays stable at any step on them. Order 1.
+                       which is backward Euler for the stiff linear parts (limits, damping, PD,
+                       the contacts' springs, dampers and regularised friction, whose
+                       J_p^T K_p J_p fill K and D beyond the diagonal) and stays stable at any
+                       step on them. Order 1.
 
 The explicit Runge-Kutta methods are data (Butcher tableaux, Hairer, Norsett & Wanner, Solving
 Ordinary Differential Equations I, 2nd ed., Table 1.2 (RK4) and Table 5.2 (DOPRI5)) run by one
@@ -261,9 +263,9 @@ def velocity_solve(ibuf, fbuf, con, q, qd, M, rhs, qdd):
 @njit(**JIT)
 def implicit_velocity_step(scene, t, dt, q, qd, w, q1, qd1, w1, tau_ctrl):
     """One linearly implicit Euler step (module docstring). Returns a Status."""
-    ibuf, fbuf, _, armature, _, con, (forces, loads) = scene
+    ibuf, fbuf, _, armature, _, con, (forces, loads, KD) = scene
     nv = qd.shape[0]
-    tau, K, D = forces[0], forces[3], forces[4]
+    tau, K, D = forces[0], KD[0], KD[1]
     power = np.empty(2)
     status = generalized_forces(scene, t, q, qd, tau, tau_ctrl, power, K, D, True)
     if status:
@@ -276,10 +278,12 @@ def implicit_velocity_step(scene, t, dt, q, qd, w, q1, qd1, w1, tau_ctrl):
     crba_kernel(ibuf, fbuf, q, M)
     rhs = np.empty(nv)
     for j in range(nv):
-        M[j, j] += dt * D[j] + dt * dt * K[j]
+        rhs[j] = tau[j] - h[j]
+        for k in range(nv):
+            M[j, k] += dt * D[j, k] + dt * dt * K[j, k]
+            rhs[j] -= dt * K[j, k] * qd[k]
         if armature.shape[0]:
             M[j, j] += armature[j]
-        rhs[j] = tau[j] - h[j] - dt * K[j] * qd[j]
     qdd = np.empty(nv)
     status = velocity_solve(ibuf, fbuf, con, q, qd, M, rhs, qdd)
     if status:
@@ -295,11 +299,11 @@ def implicit_velocity_step(scene, t, dt, q, qd, w, q1, qd1, w1, tau_ctrl):
 @njit(**JIT)
 def symplectic_euler_step(scene, t, dt, q, qd, w, q1, qd1, w1, tau_ctrl):
     """One step of symplectic Euler in momentum form (module docstring). Returns a Status."""
-    ibuf, fbuf, _, armature, _, _, (forces, loads) = scene
+    ibuf, fbuf, _, armature, _, _, (forces, loads, KD) = scene
     nv = qd.shape[0]
     tau = forces[0]
     power = np.empty(2)
-    status = generalized_forces(scene, t, q, qd, tau, tau_ctrl, power, tau, tau, False)
+    status = generalized_forces(scene, t, q, qd, tau, tau_ctrl, power, KD[0], KD[1], False)
     if status:
         return status
     # g(q): RNEA at qd = qdd = 0 under the base acceleration

@@ -17,6 +17,9 @@ of M(q) qdd + h(q, qd) = tau + ..., are:
     armature     M(q) + diag(a)                   a >= 0 per joint (kg m^2 or kg)
     limits       -k (q - upper) - d qd  where q > upper;  -k (q - lower) - d qd  where q < lower
     wrench       J_b(frame)^T F  (or the world-aligned Jacobian for expressed_in = "world")
+    contact      sum_p J_p^T f_p at each contact sphere's lowest point x_p (world frame):
+                 delta = max(0, ground_height - x_z), f_n = max(0, k delta + d delta_dot) along
+                 +z, f_t = -mu f_n v_t / sqrt(|v_t|^2 + slip_velocity^2)
     control      tau of the controller, optionally clipped to +-effort_limit
 
 A wrench F = (m, f) of a scene is the wrench the environment applies TO THE ROBOT at the
@@ -77,6 +80,20 @@ The file format (every key optional unless marked required):
     stiffness = 1e4                        # required: number, list or table; acts only on
                                            # joints with a finite limit (a number is 0 elsewhere)
     damping = 10.0                         # default 0
+
+    [effects.contact]                      # the ground: the plane z = ground_height, normal +z
+    ground_height = 0.0                    # m (world frame; default 0)
+    stiffness = 1e5                        # required: N/m, the normal spring k > 0
+    damping = 0.0                          # N s/m, the normal damper d >= 0 (default 0)
+    friction = 0.8                         # required: the Coulomb coefficient mu >= 0 (0 =
+                                           # frictionless)
+    slip_velocity = 1e-3                   # m/s > 0, regularises friction near zero slip
+    points = "urdf"                        # required: "urdf" (the spheres and box corners of
+                                           # the URDF's <collision> elements) or tables:
+    # [[effects.contact.points]]
+    # frame = "FL_FOOT"                    # required: a frame (link or joint name) that moves
+    # position = [0.0, 0.0, 0.0]           # m, the sphere's centre in the frame (default 0)
+    # radius = 0.02                        # m >= 0 (default 0: a point)
 
     [[effects.wrench]]                     # any number of these
     frame = "tip"                          # required: a frame (link) or joint name
@@ -158,7 +175,9 @@ except ModuleNotFoundError:  # Python 3.10
     import tomli as tomllib
 
 INTEGRATORS = ("euler", "semi_implicit_euler", "rk4", "dopri5", "implicit_euler")
-EFFECTS = ("gravity", "damping", "friction", "armature", "limits", "wrench", "control")
+EFFECTS = (
+    "gravity", "damping", "friction", "armature", "limits", "wrench", "contact", "control"
+)
 CONTROL_TYPES = ("none", "constant", "pd", "computed_torque")
 CONSTRAINT_TYPES = (
     "point_to_world",
@@ -203,7 +222,11 @@ _INITIAL_KEYS = ("q", "qd") + _BASE_KEYS
 # a base_orientation quaternion whose norm is off 1 by more than this is refused as a mistake
 BASE_QUATERNION_TOLERANCE = 1e-6
 _RUN_KEYS = ("duration", "integrator", "dt", "output_dt", "rtol", "atol", "max_speed")
-_EFFECT_KEYS = ("gravity", "damping", "friction", "armature", "limits", "wrench")
+_EFFECT_KEYS = ("gravity", "damping", "friction", "armature", "limits", "wrench", "contact")
+_CONTACT_KEYS = (
+    "ground_height", "stiffness", "damping", "friction", "slip_velocity", "points"
+)
+_CONTACT_POINT_KEYS = ("frame", "position", "radius")
 _CONTROL_KEYS = {
     "none": ("type",),
     "constant": ("type", "tau", "clip"),
@@ -296,6 +319,33 @@ class Wrench:
 
 
 @dataclass(frozen=True, eq=False)
+class ContactPoint:
+    """A contact sphere welded to a frame: centre `position` (3,) m in the frame's coordinates,
+    `radius` m (0: a point). `name` labels it in the trajectory (the frame's name, with [k] for
+    the k-th sphere of a frame that has several); `source` says where it came from."""
+
+    frame: str
+    position: np.ndarray
+    radius: float
+    name: str
+    source: str = "scene"
+
+
+@dataclass(frozen=True, eq=False)
+class Contact:
+    """Compliant contact of spheres with the ground plane z = ground_height (world frame,
+    normal +z; opendyn.dynamics.contact). ground_height m; stiffness k N/m > 0; damping d
+    N s/m >= 0; friction mu >= 0; slip_velocity v_s m/s > 0; points: the spheres."""
+
+    ground_height: float
+    stiffness: float
+    damping: float
+    friction: float
+    slip_velocity: float
+    points: tuple[ContactPoint, ...]
+
+
+@dataclass(frozen=True, eq=False)
 class Control:
     """A joint-space controller; fields that its kind does not use are None.
 
@@ -329,7 +379,7 @@ class Scene:
     armature, limits, control) have one entry per joint, in model.joint_names order (n = nv
     without a floating base, nv - 6 with one). damping: (n,) viscous coefficients or None.
     armature: (n,) or None. wrenches: ()
-    when none is applied. control: None = zero torque. source: the scene file, "<dict>" or
+    when none is applied. contact: ground contact (Contact) or None. control: None = zero torque. source: the scene file, "<dict>" or
     "<robot NAME>". settings: the scene as read (plain TOML types), for provenance records.
     An effect that is None (or, for wrenches, empty) is never computed.
     constraints: Pfaffian constraints A(q) qd = 0 (opendyn.constraints objects), () for none;
@@ -353,6 +403,7 @@ class Scene:
     settings: dict
     constraints: tuple = ()
     baumgarte: tuple[float, float] | None = None
+    contact: Contact | None = None
 
     @property
     def effects(self) -> tuple[str, ...]:
@@ -364,6 +415,7 @@ class Scene:
             "armature": self.armature is not None,
             "limits": self.limits is not None,
             "wrench": len(self.wrenches) > 0,
+            "contact": self.contact is not None,
             "control": self.control is not None,
         }
         return tuple(name for name in EFFECTS if on[name])
@@ -503,6 +555,7 @@ def _build(data, source, base_dir, default_name=None, model=None) -> Scene:
         armature=r.armature(effects.get("armature")),
         limits=r.limits(effects.get("limits")),
         wrenches=r.wrenches(effects.get("wrench")),
+        contact=r.contact(effects.get("contact")),
         control=r.control(data.get("control"), q0[model.q_index]),
         source=source,
         settings=copy.deepcopy(data),
@@ -908,6 +961,79 @@ class _Reader:
                 np.array([self.vector(v, f"{key}.values[{i}]", 6) for i, v in enumerate(raw_v)])
             )
         return Wrench(frame=frame, expressed_in=expressed_in, times=times, values=values)
+
+    def contact(self, table) -> Contact | None:
+        if table is None:
+            return None
+        key = "effects.contact"
+        self.keys(table, key, _CONTACT_KEYS)
+        for field in ("stiffness", "friction", "points"):
+            if field not in table:
+                self.fail(
+                    f"{key}.{field}",
+                    'missing: [effects.contact] needs stiffness (N/m), friction (mu) and points '
+                    '("urdf" or [[effects.contact.points]] tables)',
+                )
+        return Contact(
+            ground_height=self.number(table.get("ground_height", 0.0), f"{key}.ground_height"),
+            stiffness=self.number(table["stiffness"], f"{key}.stiffness", positive=True),
+            damping=self.number(table.get("damping", 0.0), f"{key}.damping", minimum=0.0),
+            friction=self.number(table["friction"], f"{key}.friction", minimum=0.0),
+            slip_velocity=self.number(
+                table.get("slip_velocity", 1e-3), f"{key}.slip_velocity", positive=True
+            ),
+            points=self.contact_points(table["points"], f"{key}.points"),
+        )
+
+    def contact_points(self, value, key) -> tuple[ContactPoint, ...]:
+        """"urdf" (the model's collision spheres on moving frames) or a list of tables."""
+        m = self.model
+        if value == "urdf":
+            spheres = [s for s in m.collision_spheres if m.frames[m.frame_index(s.link)].body >= 0]
+            if not spheres:
+                held = " (those there are belong to the fixed world)" if m.collision_spheres else ""
+                self.fail(
+                    key,
+                    f'"urdf": {m.source or m.name} has no <collision> sphere or box on a moving '
+                    f"link{held}; give [[effects.contact.points]] tables (frame, position, "
+                    "radius)",
+                )
+            found = [(s.link, s.position, s.radius, s.geometry) for s in spheres]
+        else:
+            if isinstance(value, dict):
+                value = [value]
+            if not isinstance(value, list) or not value:
+                self.fail(
+                    key,
+                    f'expected "urdf" or tables [[effects.contact.points]] (frame, position, '
+                    f"radius), found {_found(value)}",
+                )
+            found = []
+            for i, point in enumerate(value):
+                where = f"{key}[{i}]"
+                self.keys(point, where, _CONTACT_POINT_KEYS)
+                if "frame" not in point:
+                    self.fail(f"{where}.frame", f"missing; frames: {', '.join(m.frame_names)}")
+                frame = self.frame(point["frame"], f"{where}.frame")
+                if m.frames[m.frame_index(frame)].body < 0:
+                    self.fail(
+                        f"{where}.frame",
+                        f"{frame!r} is welded to the fixed world: a contact sphere there never "
+                        "moves and can push nothing; name a frame of a moving link",
+                    )
+                position = self.vector(point.get("position", [0.0] * 3), f"{where}.position", 3)
+                radius = self.number(point.get("radius", 0.0), f"{where}.radius", minimum=0.0)
+                found.append((frame, position, radius, "scene"))
+        per_frame = {}
+        for frame, *_ in found:
+            per_frame[frame] = per_frame.get(frame, 0) + 1
+        points, seen = [], {}
+        for frame, position, radius, source in found:
+            k = seen.get(frame, 0)
+            seen[frame] = k + 1
+            name = frame if per_frame[frame] == 1 else f"{frame}[{k}]"
+            points.append(ContactPoint(frame, _frozen(position), float(radius), name, source))
+        return tuple(points)
 
     def constraints(self, value, q0, qd0) -> tuple:
         """[[constraints]] -> constraint objects (opendyn.constraints), checked at (q0, qd0)."""

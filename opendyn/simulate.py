@@ -35,7 +35,9 @@ from .status import Status, decode
 
 with kernel_cache():
     from . import effects, integrators, step
+    from .dynamics._kernels import run_rows
     from .dynamics.constraints import constraint_terms_kernel
+    from .dynamics.contact import contact_record_kernel
 
 _CHUNK_SECONDS = 0.1  # wall time of one compiled chunk: progress and Ctrl-C granularity
 _FIRST_CHUNK = 64  # steps in the first chunk
@@ -168,13 +170,13 @@ def _load_kernels(scene, integ, table, q, qd, w, out, counters):
     nv = model.nv
     data = step.scene_data(model, table)
     first = (np.zeros((2, nv)), np.zeros(2), np.zeros(nv))
-    ibuf, fbuf, _, armature, method, con, (_, loads) = data
-    tau, qdd, unused = np.zeros(nv), np.empty(nv), np.empty(0)
+    ibuf, fbuf, _, armature, method, con, (_, loads, KD) = data
+    tau, qdd = np.zeros(nv), np.empty(nv)
     state = (q[None].copy(), qd[None].copy())
     pieces = [
         lambda: step.dynamics(ibuf, fbuf, armature, method, con, loads, q, qd, tau, qdd),
         lambda: step.generalized_forces(
-            data, 0.0, q, qd, np.empty(nv), np.empty(nv), np.empty(2), unused, unused, False
+            data, 0.0, q, qd, np.empty(nv), np.empty(nv), np.empty(2), KD[0], KD[1], False
         ),
         lambda: _first_stage(scene, table, 0.0, q, qd, *first),
         lambda: _adaptive_chunk(
@@ -186,6 +188,8 @@ def _load_kernels(scene, integ, table, q, qd, w, out, counters):
     ]
     if scene.constraints:
         pieces.append(lambda: _violation(model, table, *state))
+    if scene.contact is not None:
+        pieces.append(lambda: _contact_record(model, table, *state))
     what = f"the simulation step for {integ.name} with {', '.join(table.names) or 'no effects'}"
     with compiling(what, len(pieces), _COMPILE_ESTIMATE[integ.kind]) as done:
         for piece in pieces:
@@ -408,7 +412,19 @@ def _trajectory(scene, table, out, complete, message, stats):
     if scene.armature is not None and n:
         kinetic = kinetic + 0.5 * (qd[:, model.v_index] ** 2) @ scene.armature
     violation = _violation(model, table, q, qd) if scene.constraints else (np.zeros(0),) * 2
+    contact = {}
+    if scene.contact is not None:
+        points, forces, depth = _contact_record(model, table, q, qd)
+        potential = potential + 0.5 * scene.contact.stiffness * (depth**2).sum(axis=1)
+        contact = dict(
+            contact_names=tuple(p.name for p in scene.contact.points),
+            contact_point=points,
+            contact_force=forces,
+            penetration=depth,
+            ground_height=scene.contact.ground_height,
+        )
     return Trajectory(
+        **contact,
         violation_position=violation[0],
         violation_velocity=violation[1],
         t=t,
@@ -443,6 +459,19 @@ def _violation(model, table, q, qd):
         position[i] = np.abs(phi).max()
         velocity[i] = np.abs(A @ qd[i]).max()
     return position, velocity
+
+
+def _contact_record(model, table, q, qd):
+    """(points (K, P, 3) m, forces (K, P, 3) N, penetrations (K, P) m) of the scene's contact
+    spheres at the samples (q (K, nq), qd (K, nv)), world frame (opendyn.dynamics.contact)."""
+    bodies, params = table.effects[effects.CONTACT]
+    shape = (len(q), len(bodies))
+    points, forces, depth = np.empty(shape + (3,)), np.empty(shape + (3,)), np.empty(shape)
+    run_rows(
+        contact_record_kernel, len(q), model._ibuf, model._fbuf, bodies, params, q, qd,
+        points, forces, depth,
+    )
+    return points, forces, depth
 
 
 def _provenance(scene, table):

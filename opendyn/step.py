@@ -13,7 +13,9 @@ base does not accelerate). With constraints A(q) qd = 0 the forward dynamics is 
 non-conservative forces for the energy balance dE/dt = qd . tau_applied + qd . tau_passive,
 where E = T + U_gravity:
   applied = control torques and applied wrenches (work put in),
-  passive = damping, friction and joint-limit spring-dampers (work taken out, mostly).
+  passive = damping, friction, joint-limit spring-dampers and the contacts' dampers and friction
+            (work taken out, mostly); the contacts' springs are conservative (their energy is
+            in E, see opendyn.dynamics.contact).
 
 Only the effects the scene names are compiled and run: an effect it does not name has None in
 its slot of the effects tuple, and numba drops its call when it compiles the step (not even a
@@ -25,13 +27,14 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .dynamics._kernels import INLINE, JIT, fill
+from .dynamics._kernels import INLINE, JIT, fill, zero_matrix
 from .dynamics.constraints import constrained_forward_kernel
 from .dynamics.forward import forward_kernel, method_switches
 from .effects import (
     CLIP,
     COMPUTED_TORQUE,
     CONSTANT,
+    CONTACT,
     DAMPING,
     FRICTION,
     GRAVITY,
@@ -42,6 +45,7 @@ from .effects import (
     clip_effect,
     computed_torque_effect,
     constant_effect,
+    contact_effect,
     damping_effect,
     friction_effect,
     gravity_effect,
@@ -53,9 +57,13 @@ from .status import Status
 
 
 @njit(**INLINE)
-def run_slot(slot, effects, ibuf, fbuf, armature, t, q, qd, dV_0, tau_ctrl, tau_app, tau_pas, K, D, jac):
+def run_slot(
+    slot, effects, ibuf, fbuf, armature, t, q, qd, dV_0, tau_ctrl, tau_app, tau_pas, power, K, D,
+    jac,
+):
     """One effect of the scene's effects tuple: adds its generalized force to tau_ctrl
-    (control), tau_app (applied wrenches) or tau_pas (passive effects), or sets dV_0 (gravity).
+    (control), tau_app (applied wrenches) or tau_pas (passive effects and contact), or sets
+    dV_0 (gravity); contact adds its springs' share of the power to power[1].
     An empty slot (None) compiles to nothing: its effect function compiles to a bare return
     and the test `is not None` on a None-typed slot is a constant, so the call is dropped
     (a call left in, with its array arguments, cost about 60 ns per empty slot and evaluation).
@@ -70,6 +78,8 @@ def run_slot(slot, effects, ibuf, fbuf, armature, t, q, qd, dV_0, tau_ctrl, tau_
         limits_effect(effects[LIMITS], q, qd, tau_pas, K, D, jac)
     elif slot == WRENCH and effects[WRENCH] is not None:
         wrench_effect(effects[WRENCH], ibuf, fbuf, t, q, tau_app)
+    elif slot == CONTACT and effects[CONTACT] is not None:
+        contact_effect(effects[CONTACT], ibuf, fbuf, q, qd, tau_pas, K, D, jac, power)
     elif slot == CONSTANT and effects[CONSTANT] is not None:
         constant_effect(effects[CONSTANT], tau_ctrl)
     elif slot == PD and effects[PD] is not None:
@@ -87,33 +97,31 @@ def run_slot(slot, effects, ibuf, fbuf, armature, t, q, qd, dV_0, tau_ctrl, tau_
 def generalized_forces(scene, t, q, qd, tau, tau_ctrl, power, K, D, jac):
     """Run every effect the scene names: tau (nv,) <- their total generalized force, tau_ctrl
     (nv,) <- the control's share, the scene's base acceleration dV_0 (6,) <- (0, -g) or 0,
-    power (2,) <- (applied, passive) power qd . tau_applied and qd . tau_passive (W). With jac,
-    K and D (nv,) <- the diagonal stiffness -d tau/dq and damping -d tau/dqd of the joint-space
-    effects; without, K and D are not touched. Returns a Status."""
-    ibuf, fbuf, effects, armature, _, _, (forces, loads) = scene
+    power (2,) <- (applied, passive) power qd . tau_applied and qd . tau_passive (W), the
+    passive one less the work of the contacts' springs. With jac, K and D (nv, nv) <- the
+    stiffness -d tau/dq and damping -d tau/dqd of the effects; without, K and D are not
+    touched. Returns a Status."""
+    ibuf, fbuf, effects, armature, _, _, (forces, loads, _) = scene
     tau_app, tau_pas, dV_0 = forces[1], forces[2], loads[0]
     fill(tau_app, 0.0)
     fill(tau_pas, 0.0)
     fill(tau_ctrl, 0.0)
     fill(dV_0, 0.0)
+    fill(power, 0.0)
     if jac:
-        fill(K, 0.0)
-        fill(D, 0.0)
+        zero_matrix(K)
+        zero_matrix(D)
     for slot in range(len(SLOT_NAMES)):
         status = run_slot(
             slot, effects, ibuf, fbuf, armature, t, q, qd, dV_0, tau_ctrl, tau_app,
-            tau_pas, K, D, jac,
+            tau_pas, power, K, D, jac,
         )
         if status:
             return status
-    applied = 0.0
-    passive = 0.0
     for j in range(qd.shape[0]):
-        applied += qd[j] * (tau_ctrl[j] + tau_app[j])
-        passive += qd[j] * tau_pas[j]
+        power[0] += qd[j] * (tau_ctrl[j] + tau_app[j])
+        power[1] += qd[j] * tau_pas[j]
         tau[j] = tau_ctrl[j] + tau_app[j] + tau_pas[j]
-    power[0] = applied
-    power[1] = passive
     return Status.OK.value
 
 
@@ -138,13 +146,14 @@ def dynamics(ibuf, fbuf, armature, method, con, loads, q, qd, tau, qdd):
 
 def scene_data(model, table):
     """The scene as the compiled step takes it: one tuple (ibuf, fbuf, effects, armature,
-    method, con, (forces, loads)) of the model's buffers, the stage table
+    method, con, (forces, loads, KD)) of the model's buffers, the stage table
     (effects.StageTable: its effects tuple, armature, the forward-dynamics method as the
     compile-time switches of dynamics.forward.forward_kernel, none with constraints, and its
-    constraints or None), and the step's own scratch: forces (5, nv)
-    (tau, tau_applied, tau_passive, K, D), loads (1, 6) with dV_0."""
+    constraints or None), and the step's own scratch: forces (3, nv)
+    (tau, tau_applied, tau_passive), loads (1, 6) with dV_0, KD (2, nv, nv) the stiffness K and
+    damping D of the effects for the implicit integrator."""
     method = method_switches(model, None if table.constraints else table.method)
-    scratch = (np.empty((5, model.nv)), np.zeros((1, 6)))
+    scratch = (np.empty((3, model.nv)), np.zeros((1, 6)), np.empty((2, model.nv, model.nv)))
     return (
         model._ibuf,
         model._fbuf,
@@ -161,9 +170,9 @@ def evaluate(scene, t, q, qd, qdd, tau_ctrl, power):
     """qdd (nv,) <- the scene's forward dynamics at (t, q, qd); tau_ctrl (nv,) <- the control
     torque; power (2,) <- (applied, passive) power. scene: scene_data(model, table).
     Compiled once and called by every loop. Returns a Status."""
-    ibuf, fbuf, _, armature, method, con, (forces, loads) = scene
-    tau, unused = forces[0], forces[3]
-    status = generalized_forces(scene, t, q, qd, tau, tau_ctrl, power, unused, unused, False)
+    ibuf, fbuf, _, armature, method, con, (forces, loads, KD) = scene
+    tau = forces[0]
+    status = generalized_forces(scene, t, q, qd, tau, tau_ctrl, power, KD[0], KD[1], False)
     if status:
         return status
     return dynamics(ibuf, fbuf, armature, method, con, loads, q, qd, tau, qdd)
@@ -181,8 +190,7 @@ def stage_cost_kernel(scene, which, t, q, qd):
     tau_pas = np.empty(nv)
     qdd = np.empty(nv)
     power = np.empty(2)
-    unused = np.empty(0)
-    ibuf, fbuf, effects, armature, method, con, (_, loads) = scene
+    ibuf, fbuf, effects, armature, method, con, (_, loads, KD) = scene
     fill(loads[0], 0.0)
     gravity_effect(effects[GRAVITY], loads[0])
     total = 0.0
@@ -193,7 +201,7 @@ def stage_cost_kernel(scene, which, t, q, qd):
             fill(tau_pas, 0.0)
             run_slot(
                 which, effects, ibuf, fbuf, armature, t[n], q[n], qd[n], loads[0],
-                tau_ctrl, tau_app, tau_pas, unused, unused, False,
+                tau_ctrl, tau_app, tau_pas, power, KD[0], KD[1], False,
             )
             for j in range(nv):
                 total += tau_ctrl[j] + tau_app[j] + tau_pas[j]
