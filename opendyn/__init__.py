@@ -27,7 +27,7 @@ from .dynamics.task_space import (
     task_space_bias,
     task_space_mass_matrix,
 )
-from .model import Frame, Model
+from .model import CollisionSphere, Frame, Model
 from .urdf import FidelityReport, URDFError, available_robots, load_urdf
 
 with kernel_cache():  # compiled kernels cache in the folder named by the sources' hash
@@ -62,6 +62,7 @@ __all__ = [
     "scene_from_dict",
     "simulate",
     "FixedPose",
+    "CollisionSphere",
     "Frame",
     "JointCoupling",
     "PointOnPlane",

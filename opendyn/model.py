@@ -118,6 +118,30 @@ class Frame:
 
 
 @dataclass(frozen=True, eq=False)
+class CollisionSphere:
+    """A contact sphere of a URDF ``<collision>``: centre ``position`` (3,) in metres in the frame
+    of link ``link``, ``radius`` in metres.
+
+    ``geometry`` says where it comes from: "sphere" (a ``<sphere>`` at the collision origin) or
+    "box corner" (a corner of a ``<box>``, radius 0; a box's 8 come with the signs of
+    (x, y, z) in the order (-,-,-), (-,-,+), (-,+,-), ..., (+,+,+), z fastest). ``link`` is
+    always a frame of the model (``model.frame_index(link)``), also for links merged by fixed
+    joints or welded to the world; ``position`` is read-only.
+    """
+
+    link: str
+    position: np.ndarray
+    radius: float
+    geometry: str
+
+    def __post_init__(self):
+        position = np.array(self.position, dtype=np.float64).reshape(3)
+        position.flags.writeable = False
+        object.__setattr__(self, "position", position)
+        object.__setattr__(self, "radius", float(self.radius))
+
+
+@dataclass(frozen=True, eq=False)
 class Model:
     """A frozen kinematic tree with its inertias, as the dynamics kernels see it.
 
@@ -152,6 +176,9 @@ class Model:
       continuous      (nj,) bool, joint is continuous (unbounded angle)
       frames          tuple of Frame, one per URDF link, by name; a joint's name also finds the
                       frame of its child link (the URDF joint frame)
+      collision_spheres tuple of CollisionSphere: the spheres and box corners (radius 0) of the
+                      URDF's <collision> elements, each centre in its link's frame (m), by link
+                      in URDF order, then by <collision> in document order
       gravity         (3,) default gravity vector in the world frame (m/s^2)
       report          the loader's FidelityReport (what was honoured, transformed, ignored)
     """
@@ -175,6 +202,7 @@ class Model:
     _fbuf: np.ndarray
     report: object = None
     source: str = ""
+    collision_spheres: tuple[CollisionSphere, ...] = ()
     _frame_index: dict = field(default_factory=dict, repr=False)
 
     @classmethod
@@ -206,6 +234,7 @@ class Model:
         report=None,
         source="",
         frame_aliases=None,
+        collision_spheres=(),
     ):
         """Pack per-body arrays into the kernels' flat buffers and freeze everything.
 
@@ -215,6 +244,7 @@ class Model:
         JOINT_NV[jtype] of v from iv.
         frame_aliases: {other name: frame name}, e.g. each URDF joint's name for its child link
         (the URDF joint frame is the child link's frame); a frame's own name always wins.
+        collision_spheres: CollisionSpheres, each on a link that is one of the frames.
         """
         nb = len(body_names)
         jtype = np.asarray(jtype, dtype=np.int64).reshape(nb)
@@ -293,6 +323,7 @@ class Model:
             _fbuf=fbuf,
             report=report,
             source=source,
+            collision_spheres=tuple(collision_spheres),
             _frame_index=_frame_index(frames, frame_aliases or {}),
         )
 

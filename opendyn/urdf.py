@@ -12,13 +12,21 @@ and its inertia is lumped into that body. The root link and the links welded to 
 fixed world, and their inertia plays no part (as in Pinocchio), unless the base floats: with
 floating_base=True the root link is body 0 on a free joint ("root_joint", M = identity), so q
 starts with the root link frame's pose in the world. Every URDF link stays a named frame.
+
+The spheres and boxes of the links' <collision> elements become model.collision_spheres, each in
+its own link's frame: a <sphere> gives one at the collision origin's xyz, a <box> of size
+(sx, sy, sz) its 8 corners T_origin (+-sx/2, +-sy/2, +-sz/2), radius 0, in the order of
+BOX_CORNERS; meshes and cylinders give none.
 """
 
 from __future__ import annotations
 
+import collections
+import dataclasses
 import difflib
 import importlib.metadata
 import io
+import itertools
 import math
 import os
 from dataclasses import dataclass, field
@@ -27,7 +35,7 @@ from pathlib import Path
 import numpy as np
 from lxml import etree
 
-from .model import FREE, PRISMATIC, REVOLUTE, Frame, Model
+from .model import FREE, PRISMATIC, REVOLUTE, CollisionSphere, Frame, Model
 from .spatial import spatial_inertia
 
 MOVING_TYPES = {
@@ -38,6 +46,10 @@ MOVING_TYPES = {
 }
 SUPPORTED_TYPES = set(MOVING_TYPES) | {"fixed"}
 ROOT_JOINT = "root_joint"  # the name of the free joint that floating_base=True adds
+# A box's corners as fractions of its size, in the order its collision spheres take: the signs
+# (x, y, z) run (-,-,-), (-,-,+), (-,+,-), (-,+,+), (+,-,-), ..., (+,+,+) (z fastest, x slowest)
+BOX_CORNERS = np.array(list(itertools.product((-0.5, 0.5), repeat=3)))
+CONTACT_GEOMETRIES = ("sphere", "box")  # the <collision> geometries that give contact spheres
 
 
 class URDFError(ValueError):
@@ -50,7 +62,7 @@ class FidelityReport:
 
     honoured:    content that is part of the model exactly as written
     transformed: content that was changed on the way in (lumped links, normalised axes, ...)
-    ignored:     content the model does not use (collision geometry, transmissions, ...)
+    ignored:     content the model does not use (visuals, collision meshes, transmissions, ...)
     welded_mass: the mass (kg) of the links welded to the fixed world, whose inertia is unused
                  (0 with a floating base)
     """
@@ -203,14 +215,18 @@ _NUMERIC = {  # element tag -> {attribute: number of values}
     "limit": {"lower": 1, "upper": 1, "effort": 1, "velocity": 1},
     "dynamics": {"damping": 1, "friction": 1},
     "mimic": {"multiplier": 1, "offset": 1},
+    "sphere": {"radius": 1},
+    "box": {"size": 3},
 }
 
 
 def _check_numbers(file, root) -> None:
-    """Every numeric attribute of the kinematic and inertial elements parses and is finite."""
+    """Every numeric attribute of the kinematic and inertial elements, and of the <collision>
+    elements that give contact spheres, parses and is finite."""
     for owner in root.iterchildren("link", "joint"):
         for el in owner.iter(*_NUMERIC):
-            if any(a.tag in ("visual", "collision") for a in el.iterancestors()):
+            outer = next(el.iterancestors("visual", "collision"), None)
+            if outer is not None and not _gives_contact_spheres(outer):
                 continue
             for attr, count in _NUMERIC[el.tag].items():
                 text = el.get(attr)
@@ -218,6 +234,12 @@ def _check_numbers(file, root) -> None:
                     _check_values(file, el, attr, text, count)
             if el.tag in ("mass", "inertia") and el.getparent().tag == "inertial" and not el.attrib:
                 raise URDFError(f"{file}: {_where(el)}: <{el.tag}> has no values")
+
+
+def _gives_contact_spheres(el) -> bool:
+    """Whether a <visual> or <collision> element is a <collision> whose shape is a sphere or box."""
+    shape = el.find("geometry/*")
+    return el.tag == "collision" and shape is not None and shape.tag in CONTACT_GEOMETRIES
 
 
 def _check_values(file, el, attr, text, count):
@@ -316,7 +338,8 @@ class _Builder:
 
         G = self._body_inertias(links, body_of, T_body_link, len(body_names))
         frames = [Frame(name, body_of[name], T_body_link[name]) for name in links]
-        self._report_content(links, joints, body_of)
+        collision_spheres = self._collision_spheres(links)
+        self._report_content(links, joints, body_of, collision_spheres)
 
         follows, mult, offset = {}, [], []
         for i, name in enumerate(body_joints):
@@ -347,6 +370,7 @@ class _Builder:
             },
             report=self.report,
             source=self.file,
+            collision_spheres=collision_spheres,
             **limits,
         )
 
@@ -539,6 +563,32 @@ class _Builder:
                 )
         return G
 
+    def _collision_spheres(self, links):
+        """The CollisionSpheres of the links' <collision> spheres and box corners, each in its
+        link's frame: by link in URDF order, then by <collision> in document order."""
+        spheres = []
+        for name, link in links.items():
+            for c in link.collisions:
+                kind = _geometry_kind(c.geometry)
+                if kind not in CONTACT_GEOMETRIES:
+                    continue
+                T = c.origin if c.origin is not None else np.eye(4)
+                where = f'<link name="{name}"> <collision> <{kind}>'
+                if kind == "sphere":
+                    radius = float(c.geometry.sphere.radius)
+                    if radius < 0:
+                        self.fail(f"{where}: negative radius {radius:g}")
+                    spheres.append(CollisionSphere(name, T[:3, 3], radius, "sphere"))
+                    continue
+                size = np.asarray(c.geometry.box.size, dtype=float)
+                if np.any(size < 0):
+                    self.fail(f"{where}: negative size {' '.join(f'{x:g}' for x in size)}")
+                spheres.extend(
+                    CollisionSphere(name, T[:3, :3] @ corner + T[:3, 3], 0.0, "box corner")
+                    for corner in BOX_CORNERS * size
+                )
+        return spheres
+
     def _limits(self, coords, joints):
         n = len(coords)
         out = {
@@ -584,7 +634,7 @@ class _Builder:
                         )
         return out
 
-    def _report_content(self, links, joints, body_of):
+    def _report_content(self, links, joints, body_of, collision_spheres):
         r = self.report
         moving = [j for j in joints.values() if j.type != "fixed"]
         fixed = [j for j in joints.values() if j.type == "fixed"]
@@ -621,11 +671,25 @@ class _Builder:
                 f"links without <inertial> taken as massless: {', '.join(massless)}"
             )
         n_vis = sum(len(l.visuals) for l in links.values())
-        n_col = sum(len(l.collisions) for l in links.values())
         if n_vis:
             r.ignored.append(f"{n_vis} <visual> elements (used only for playback)")
-        if n_col:
-            r.ignored.append(f"{n_col} <collision> elements (no contact model)")
+        kinds = collections.Counter(
+            _geometry_kind(c.geometry) for l in links.values() for c in l.collisions
+        )
+        used = [(kinds[k], k) for k in CONTACT_GEOMETRIES if kinds[k]]
+        unused = [(kinds[k], k) for k in sorted(kinds) if k not in CONTACT_GEOMETRIES]
+        if used:
+            corners = "; a box corner is one of radius 0" if kinds["box"] else ""
+            r.honoured.append(
+                f'contact points for [effects.contact] points = "urdf" from '
+                f"{_collision_counts(used)}: {len(collision_spheres)} spheres in all "
+                f"(model.collision_spheres{corners})"
+            )
+        if unused:
+            r.ignored.append(
+                f"{_collision_counts(unused)} (no contact points: only spheres and box "
+                f"corners are used)"
+            )
         for tag, what in (
             ("safety_controller", "soft limits"),
             ("calibration", "calibration"),
@@ -639,3 +703,20 @@ class _Builder:
         others = sorted({el.tag for el in self.root if isinstance(el.tag, str)} - known)
         if others:
             r.ignored.append(f"unknown top-level elements: {', '.join(others)}")
+
+
+def _geometry_kind(geometry) -> str:
+    """The shape of a yourdfpy Geometry: "sphere", "box", "cylinder" or "mesh"."""
+    return next(
+        f.name for f in dataclasses.fields(geometry) if getattr(geometry, f.name) is not None
+    )
+
+
+def _collision_counts(counts) -> str:
+    """'4 <collision> spheres and 18 boxes' for [(4, "sphere"), (18, "box")]."""
+    words = [
+        f"{n} {'<collision> ' if k == 0 else ''}{kind}"
+        + ("" if n == 1 else "es" if kind.endswith(("x", "sh")) else "s")
+        for k, (n, kind) in enumerate(counts)
+    ]
+    return words[0] if len(words) == 1 else f"{', '.join(words[:-1])} and {words[-1]}"

@@ -9,10 +9,13 @@ T_origin exp([A] q); an inertial origin places the centre of mass and the axes o
 
 from __future__ import annotations
 
+import itertools
 import os
+import xml.etree.ElementTree as ET
 
 import numpy as np
 import pytest
+from scipy.spatial.transform import Rotation
 
 import opendyn as od
 
@@ -76,6 +79,14 @@ def joint(
         + _element("mimic", mimic)
         + extra
         + "</joint>"
+    )
+
+
+def collision(shape, attrs, xyz=(0, 0, 0), rpy=(0, 0, 0)) -> str:
+    """A <collision> of one shape (sphere, box, cylinder, mesh) at an origin."""
+    return (
+        f"<collision>{_element('origin', {'xyz': xyz, 'rpy': rpy})}"
+        f"<geometry>{_element(shape, attrs)}</geometry></collision>"
     )
 
 
@@ -316,6 +327,30 @@ BAD_URDFS = [
         "negative_damping",
         chain(joints={2: {"dynamics": {"damping": -0.5}}}),
         ['<joint name="j2"> <dynamics>', "negative damping"],
+        {},
+    ),
+    (
+        "nan_collision_sphere_radius",
+        chain(links={2: {"extra": collision("sphere", {"radius": "nan"})}}),
+        ['<link name="link2"> <sphere>', "radius='nan'", "not finite"],
+        {},
+    ),
+    (
+        "word_in_collision_box_origin",
+        chain(links={2: {"extra": collision("box", {"size": (1, 1, 1)}, rpy="0 x 0")}}),
+        ['<link name="link2"> <origin>', "rpy='0 x 0'", "not a number"],
+        {},
+    ),
+    (
+        "negative_collision_sphere_radius",
+        chain(links={2: {"extra": collision("sphere", {"radius": -0.1})}}),
+        ['<link name="link2"> <collision> <sphere>', "negative radius -0.1"],
+        {},
+    ),
+    (
+        "negative_collision_box_size",
+        chain(links={2: {"extra": collision("box", {"size": (0.1, -0.2, 0.3)})}}),
+        ['<link name="link2"> <collision> <box>', "negative size 0.1 -0.2 0.3"],
         {},
     ),
     (
@@ -730,7 +765,7 @@ def test_robot_names_resolve_to_example_robot_data(name, nv):
 
 def test_fidelity_report_lists_lumped_and_ignored_content(tmp_path):
     text = chain(
-        links={1: {"extra": '<collision><geometry><box size="1 1 1"/></geometry></collision>'}},
+        links={1: {"extra": collision("cylinder", {"radius": 0.1, "length": 0.5})}},
         joints={
             2: {
                 "extra": '<safety_controller soft_lower_limit="-1" soft_upper_limit="1" '
@@ -844,3 +879,166 @@ def test_a_joint_name_finds_the_frame_of_its_child_link(tmp_path):
     T_link1 = od.frame_pose(clash, q, "link1")
     np.testing.assert_array_equal(T_link1, od.frame_pose(clash, q, "j1"))
     assert not np.allclose(T_link1, od.frame_pose(clash, q, "link2"))
+
+
+# --- D. collision spheres --------------------------------------------------------------------
+
+
+def spheres_of(model):
+    """(link, position, radius, geometry) of each collision sphere, in order."""
+    return [(c.link, tuple(c.position), c.radius, c.geometry) for c in model.collision_spheres]
+
+
+def test_a_collision_sphere_sits_at_its_origin_xyz_and_the_rpy_does_not_move_it(tmp_path):
+    xyz = (0.03, -0.02, -0.25)
+    models = [
+        load(
+            tmp_path,
+            chain(links={2: {"extra": collision("sphere", {"radius": 0.04}, xyz, rpy)}}),
+            name=f"{k}.urdf",
+        )
+        for k, rpy in enumerate([(0.7, -1.1, 2.3), (0, 0, 0)])
+    ]
+    for model in models:
+        assert spheres_of(model) == [("link2", xyz, 0.04, "sphere")]
+    sphere = models[0].collision_spheres[0]
+    assert models[0].frame_names[models[0].frame_index(sphere.link)] == "link2"
+    with pytest.raises(ValueError):
+        sphere.position[0] = 1.0
+
+
+def test_a_box_collision_gives_its_eight_corners_through_the_origin_transform(tmp_path):
+    size, xyz, rpy = np.array([0.2, 0.1, 0.06]), np.array([0.1, -0.2, 0.3]), (0.3, -0.5, 0.9)
+    model = load(
+        tmp_path, chain(links={1: {"extra": collision("box", {"size": size}, xyz, rpy)}})
+    )
+    R = Rotation.from_euler("xyz", rpy).as_matrix()  # URDF rpy: extrinsic x, then y, then z
+    signs = list(itertools.product((-1, 1), repeat=3))  # the documented order, z fastest
+    expected = [xyz + R @ (np.array(sign) * size / 2) for sign in signs]
+    corners = model.collision_spheres
+    assert [(c.link, c.radius, c.geometry) for c in corners] == [("link1", 0.0, "box corner")] * 8
+    np.testing.assert_allclose([c.position for c in corners], expected, atol=1e-15)
+    np.testing.assert_allclose(
+        [np.linalg.norm(c.position - xyz) for c in corners],
+        np.full(8, np.linalg.norm(size) / 2),
+        rtol=1e-14,
+    )
+
+
+def test_meshes_and_cylinders_give_no_spheres_and_the_report_counts_each_kind(tmp_path):
+    """Spheres follow the links in URDF order (here not the tree's depth-first order), then the
+    <collision> elements in document order."""
+    model = load(
+        tmp_path,
+        robot(
+            link("base"),
+            link(
+                "b",
+                extra=collision("sphere", {"radius": 0.01}, (0, 0, 0.1))
+                + collision("mesh", {"filename": "package://bot/foot.stl"})
+                + collision("cylinder", {"radius": 0.02, "length": 0.3})
+                + collision("sphere", {"radius": 0.02}, (0, 0, -0.1)),
+            ),
+            link(
+                "a",
+                extra=collision("cylinder", {"radius": 0.05, "length": 0.1})
+                + collision("box", {"size": (0.1, 0.2, 0.3)}),
+            ),
+            joint("ja", "base", "a"),
+            joint("jb", "a", "b"),
+        ),
+    )
+    assert model.joint_names == ("ja", "jb")
+    assert [(c.link, c.geometry) for c in model.collision_spheres] == [
+        ("b", "sphere"),
+        ("b", "sphere"),
+    ] + [("a", "box corner")] * 8
+    assert [c.radius for c in model.collision_spheres[:2]] == [0.01, 0.02]
+    report = model.report
+    assert any(
+        "1 box" in line and "2 <collision> spheres" in line and "10 spheres in all" in line
+        for line in report.honoured
+    )
+    assert any(
+        "2 <collision> cylinders and 1 mesh (no contact points" in line for line in report.ignored
+    )
+    assert not any("no contact model" in line for line in report.ignored)
+    only_meshes = load(
+        tmp_path, chain(links={1: {"extra": collision("mesh", {"filename": "a.stl"})}}), "m.urdf"
+    )
+    assert only_meshes.collision_spheres == ()
+    assert not any("collision" in line for line in only_meshes.report.honoured)
+
+
+FOOT_URDF = robot(
+    link("base", extra=collision("sphere", {"radius": 0.05}, (0.2, 0, 0))),
+    link("leg"),
+    link("foot", mass=None, extra=collision("sphere", {"radius": 0.02}, (0, 0, 0.1))),
+    link("toe"),
+    joint("hip", "base", "leg", xyz=(0, 0, 1), rpy=(0, 0, np.pi / 2)),
+    joint("ankle", "leg", "foot", type="fixed", xyz=(0.5, 0, 0), rpy=(0, np.pi / 2, 0)),
+    joint("toe_joint", "foot", "toe", mimic={"joint": "hip", "multiplier": 2.0}),
+)
+
+
+@pytest.mark.parametrize("kwargs", [{}, {"floating_base": True}, {"mimic": True}])
+def test_spheres_of_a_link_merged_by_a_fixed_joint_name_it_and_sit_in_its_frame(
+    tmp_path, kwargs
+):
+    """foot is welded to leg: its sphere keeps foot's name and its position in foot's frame.
+    By hand at q = 0: Ry(pi/2) (0, 0, 0.1) + (0.5, 0, 0) = (0.6, 0, 0) in leg; Rz(pi/2) of that
+    + (0, 0, 1) = (0, 0.6, 1) in the world. The root's sphere is kept, on the root link."""
+    model = load(tmp_path, FOOT_URDF, **kwargs)
+    assert spheres_of(model) == [
+        ("base", (0.2, 0.0, 0.0), 0.05, "sphere"),
+        ("foot", (0.0, 0.0, 0.1), 0.02, "sphere"),
+    ]
+    assert model.frames[model.frame_index("foot")].body == model.body_names.index("leg")
+    q = od.neutral(model)
+    for sphere, world in zip(model.collision_spheres, [(0.2, 0, 0), (0, 0.6, 1)]):
+        np.testing.assert_allclose(
+            od.frame_pose(model, q, sphere.link) @ [*sphere.position, 1], [*world, 1], atol=1e-15
+        )
+
+
+def urdf_collisions(path):
+    """(link, shape element, origin xyz) of every <collision>, read from the file itself."""
+    out = []
+    for link_el in ET.parse(path).getroot().iter("link"):
+        for c in link_el.iter("collision"):
+            origin = c.find("origin")
+            xyz = [0.0] * 3 if origin is None else [float(v) for v in origin.get("xyz").split()]
+            out.append((link_el.get("name"), c.find("geometry")[0], tuple(xyz)))
+    return out
+
+
+@pytest.mark.parametrize(
+    "name, count, sphere_links, radius",
+    [
+        ("go1", 4, {"FR_foot", "FL_foot", "RR_foot", "RL_foot"}, 0.02),
+        ("g1_29dof_rev_1_0", 8, {"left_ankle_roll_link", "right_ankle_roll_link"}, 0.005),
+    ],
+)
+def test_example_robot_data_feet_carry_the_spheres_their_urdf_gives(
+    name, count, sphere_links, radius
+):
+    model = od.load_urdf(name)
+    in_file = urdf_collisions(model.source)
+    file_spheres = [
+        (link, xyz, float(shape.get("radius")))
+        for link, shape, xyz in in_file
+        if shape.tag == "sphere"
+    ]
+    boxes = sum(1 for _, shape, _ in in_file if shape.tag == "box")
+    assert len(file_spheres) == count
+    assert {link for link, _, _ in file_spheres} == sphere_links
+    assert {r for _, _, r in file_spheres} == {radius}
+    assert [
+        (c.link, tuple(c.position), c.radius)
+        for c in model.collision_spheres
+        if c.geometry == "sphere"
+    ] == file_spheres
+    assert len(model.collision_spheres) == len(file_spheres) + 8 * boxes
+    for c in model.collision_spheres:
+        model.frame_index(c.link)
+
