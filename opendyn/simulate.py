@@ -101,6 +101,7 @@ def simulate(scene, *, progress=False, raise_on_failure=True):
             f"{scene.source}: run.integrator: semi_implicit_euler (symplectic, in momentum form) "
             "does not support constraints; use rk4, dopri5, euler or implicit_euler"
         )
+    check_contact_step(scene)
     table = effects.stage_table(scene)
     if integ.adaptive:
         rows = int(np.ceil(run.duration / run.output_dt - 1e-9)) + 1
@@ -568,56 +569,132 @@ def failure_message(scene, status, t, steps, q, qd):
 
 
 def _stiffness_cause(scene, q):
-    """The joint-space effects too stiff for the step: for each joint the natural frequency
-    w = sqrt(k / M_jj) of its springs (limits, PD) and the rate d / M_jj of its dampers. Explicit
-    methods need dt w below about 2 (Euler) to 2.8 (RK4): every effect above 2 is named, the
-    stiffest first (which of them set the motion off depends on which acted: a limit acts only
-    past it), with the step that suits them all."""
+    """The effects too stiff for the step. For each joint, the natural frequency
+    w = sqrt(k / M_jj) of its springs (limits, PD) and the rate d / M_jj of its dampers; for each
+    contact point, those of the contact's spring and damper over the point's apparent mass
+    m_p = 1 / (e_z^T J_p M^-1 J_p^T e_z), and of friction near zero slip, mu f_n / (v_s m_p)
+    with f_n the point's share of the robot's weight. Explicit methods need dt w below about 2
+    (Euler) to 2.8 (RK4): every effect above 2 is named, the stiffest first (which of them set
+    the motion off depends on which acted: a limit acts only past it), with the step that suits
+    them all."""
     from .dynamics.crba import mass_matrix
 
     run = scene.run
-    if run.integrator == "implicit_euler" or not scene.model.nv:
+    model = scene.model
+    if run.integrator == "implicit_euler" or not model.nv:
         return None
     try:
-        m = np.diag(mass_matrix(scene.model, q))[scene.model.v_index]  # the joints' entries
+        M = mass_matrix(model, q)
     except ValueError:
         return None
     if scene.armature is not None:
-        m += scene.armature
+        M[model.v_index, model.v_index] += scene.armature
+    m = np.diag(M)[model.v_index]  # the joints' entries
+    joints = [f"joint {name!r}" for name in model.joint_names]
     candidates = []
     if scene.limits is not None:
         lim = scene.limits
         candidates += [
-            ("joint-limit stiffness", np.sqrt(lim.stiffness / m)),
-            ("joint-limit damping", lim.damping / m),
+            ("joint-limit stiffness", np.sqrt(lim.stiffness / m), joints),
+            ("joint-limit damping", lim.damping / m, joints),
         ]
     if scene.damping is not None:
-        candidates.append(("viscous damping", scene.damping / m))
+        candidates.append(("viscous damping", scene.damping / m, joints))
     if scene.friction is not None:
         candidates.append(
-            ("friction smoothing", scene.friction.coulomb / scene.friction.smoothing / m)
+            ("friction smoothing", scene.friction.coulomb / scene.friction.smoothing / m, joints)
         )
     control = scene.control
     if control is not None and control.kind == "pd":
-        candidates += [("PD stiffness", np.sqrt(control.kp / m)), ("PD damping", control.kd / m)]
+        candidates += [
+            ("PD stiffness", np.sqrt(control.kp / m), joints),
+            ("PD damping", control.kd / m, joints),
+        ]
+    if scene.contact is not None:
+        candidates += _contact_rates(scene, q, M)
+    return _too_stiff(candidates, run.dt, 2.0)
+
+
+def _too_stiff(candidates, dt, limit):
+    """The candidates (name, rates, where) with dt x rate >= limit, as a sentence naming each
+    (the stiffest first) and the step that suits them all; None when there are none."""
     stiff = []
-    for name, rate in candidates:
+    for name, rate, where in candidates:
         j = int(np.argmax(rate))
-        if rate[j] * run.dt >= 2.0:
-            stiff.append((rate[j], name, j))
+        if rate[j] * dt >= limit:
+            stiff.append((rate[j], name, where[j]))
     if not stiff:
         return None
     stiff.sort(reverse=True)
     named = "; ".join(
-        f"{name} on joint {scene.model.joint_names[j]!r} has rate {rate:.3g} 1/s "
-        f"(dt x rate = {rate * run.dt:.3g})"
-        for rate, name, j in stiff
+        f"{name} on {where} has rate {rate:.3g} 1/s (dt x rate = {rate * dt:.3g})"
+        for rate, name, where in stiff
     )
-    effects = "a stiff effect" if len(stiff) == 1 else "stiff effects"
+    effects_ = "a stiff effect" if len(stiff) == 1 else "stiff effects"
     return (
-        f"the step is too large for {effects}: {named}, above 2. Use dt below "
-        f"{2.0 / stiff[0][0]:.2g} s, or integrator implicit_euler"
+        f"the step is too large for {effects_}: {named}, above {limit:g}. Use dt below "
+        f"{limit / stiff[0][0]:.2g} s, or integrator implicit_euler"
     )
+
+
+def check_contact_step(scene):
+    """Refuse a fixed-step explicit run whose step the contact makes unstable: at q0, the
+    contact's rates (_contact_rates) times dt must stay inside the method's stability interval
+    on the real and imaginary axes (RK4 about 2.8, Euler and semi-implicit Euler 2). Beyond it
+    a contact does not always blow up (the clamp f_n >= 0 and friction's saturation bound it):
+    the feet chatter and the run returns nonsense, so it is refused before it starts.
+    Raises SceneError naming the contact point, the rate and the step that suits it."""
+    from .dynamics.crba import mass_matrix
+
+    run = scene.run
+    integ = integrators.INTEGRATORS[run.integrator]
+    if scene.contact is None or integ.adaptive or integ.kind == integrators.IMPLICIT:
+        return
+    M = mass_matrix(scene.model, scene.q0)
+    if scene.armature is not None:
+        M[scene.model.v_index, scene.model.v_index] += scene.armature
+    limit = 2.8 if integ.order == 4 else 2.0
+    cause = _too_stiff(_contact_rates(scene, scene.q0, M), run.dt, limit)
+    if cause is not None:
+        raise SceneError(
+            f"{scene.source}: run.dt: {run.integrator} at dt = {run.dt:g} s is unstable for "
+            f"the contact at the initial state: {cause}"
+        )
+
+
+def _contact_rates(scene, q, M):
+    """[(name, rates (P,), where (P,))] of the contact's spring, damper and friction at each
+    point, over its apparent mass m_p (see _stiffness_cause)."""
+    from .dynamics.contact import contact_jacobians_kernel
+
+    contact, model = scene.contact, scene.model
+    bodies, params = effects.contact_table(model, contact)
+    J = np.empty((len(bodies), 3, model.nv))
+    contact_jacobians_kernel(model._ibuf, model._fbuf, bodies, params, q, J)
+    try:
+        M_inv_J = np.linalg.solve(M, J.transpose(1, 2, 0).reshape(model.nv, -1))
+    except np.linalg.LinAlgError:
+        return []
+    M_inv_J = M_inv_J.reshape(model.nv, 3, len(bodies))
+    inverse_mass = np.einsum("prv,vrp->pr", J, M_inv_J)  # e_r^T J_p M^-1 J_p^T e_r
+    normal = 1.0 / np.maximum(inverse_mass[:, 2], 1e-300)
+    tangential = 1.0 / np.maximum(inverse_mass[:, :2].max(axis=1), 1e-300)
+    where = [f"contact point {p.name!r}" for p in contact.points]
+    rates = [
+        ("contact stiffness", np.sqrt(contact.stiffness / normal), where),
+        ("contact damping", contact.damping / normal, where),
+    ]
+    if scene.gravity is not None and contact.friction > 0:
+        weight = float(np.linalg.norm(scene.gravity)) * float(np.sum(model.mass))
+        f_n = weight / len(contact.points)
+        rates.append(
+            (
+                "contact friction near zero slip",
+                contact.friction * f_n / contact.slip_velocity / tangential,
+                where,
+            )
+        )
+    return rates
 
 
 def stage_costs(scene, *, steps=2000, evaluations=20000):
