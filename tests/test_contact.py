@@ -1,0 +1,412 @@
+"""Ground contact against closed forms and identities.
+
+Closed forms (a point mass on a linear spring under gravity; Coulomb friction at constant
+deceleration mu g) for the shipped ball_drop and box_slide scenes, statics for the quadruped
+that stands (the ground carries exactly its weight), and the contact law itself recomputed in
+numpy from Jacobians of od.jacobian, with its linearisation against finite differences.
+"""
+
+import copy
+
+import numpy as np
+import pytest
+
+import opendyn as od
+from opendyn import effects
+from opendyn.dynamics.contact import contact_kernel
+from opendyn.scene import SceneError
+from opendyn.urdf import shipped_robots_dir
+
+G = 9.81
+ROBOTS = shipped_robots_dir()
+
+
+def variant(name, **contact):
+    """The shipped scene `name` with [effects.contact] keys replaced."""
+    data = copy.deepcopy(od.load_scene(name).settings)
+    data["effects"]["contact"].update(contact)
+    return od.scene_from_dict(data, source=f"<{name} variant>", base_dir=ROBOTS)
+
+
+def crossings(t, z):
+    """The times where z (K,) changes sign, by linear interpolation between samples."""
+    i = np.flatnonzero(np.sign(z[:-1]) != np.sign(z[1:]))
+    return t[i] + z[i] / (z[i] - z[i + 1]) * (t[i + 1] - t[i])
+
+
+# ------------------------------------------------------------------------------ the ball
+
+
+BALL_M, BALL_R, BALL_K, BALL_H = 1.0, 0.1, 1e5, 0.5  # kg, m, N/m, m (robots/ball_drop.toml)
+
+
+@pytest.fixture(scope="module")
+def ball_bounce():
+    """The ball's fall, bounce and rise at RK4, 0.1 ms, sampled at every step."""
+    scene = od.load_scene("ball_drop")
+    assert scene.contact.damping == 0 and scene.contact.friction == 0
+    return od.simulate(scene.replace_run(duration=0.7, output_dt=scene.run.dt))
+
+
+def test_ball_penetrates_to_the_closed_form_depth(ball_bounce):
+    """Energy from the fall and into the spring: m g (h + delta) = k delta^2 / 2, so
+    delta_max = (m g + sqrt((m g)^2 + 2 k m g h)) / k. The largest sampled penetration
+    misses the peak by at most 1/2 (w dt / 2)^2 = 1.25e-4 of it (w = sqrt(k / m), samples every
+    dt); RK4's own error is below that."""
+    mg = BALL_M * G
+    expected = (mg + np.sqrt(mg**2 + 2 * BALL_K * mg * BALL_H)) / BALL_K
+    assert ball_bounce.penetration.max() == pytest.approx(expected, rel=2e-4)
+    assert ball_bounce.contact_force[:, 0, 2].max() == pytest.approx(BALL_K * expected, rel=2e-4)
+    # frictionless: the force is normal
+    assert not ball_bounce.contact_force[:, :, :2].any()
+
+
+def test_ball_contact_lasts_the_spring_with_gravity_time(ball_bounce):
+    """In contact, m delta'' = m g - k delta from delta = 0, delta' = v0 = sqrt(2 g h): delta =
+    m g / k + A sin(w t + phi) with A = sqrt((m g / k)^2 + (v0 / w)^2), which is positive for
+    (pi + 2 asin(m g / (k A))) / w. The contact's start and end are the crossings of the
+    lowest point through the ground (interpolated to O(dt^2 g / v0) = 3e-8 s)."""
+    w = np.sqrt(BALL_K / BALL_M)
+    v0 = np.sqrt(2 * G * BALL_H)
+    offset = BALL_M * G / BALL_K
+    amplitude = np.hypot(offset, v0 / w)
+    expected = (np.pi + 2 * np.arcsin(offset / amplitude)) / w
+    bottom = ball_bounce.q[:, 2] - BALL_R
+    start, end = crossings(ball_bounce.t, bottom)[:2]
+    assert start == pytest.approx(np.sqrt(2 * BALL_H / G), abs=1e-7)
+    assert end - start == pytest.approx(expected, abs=1e-7)
+
+
+def test_undamped_frictionless_ball_conserves_energy_and_returns_to_its_height(ball_bounce):
+    """E = T + U_gravity + k delta^2 / 2 stays constant; the touch-down and lift-off kinks of
+    the force cost RK4 its order there (measured: 1.8e-5 of E at 0.1 ms, 1.6e-5 at 0.05 ms), so
+    the bound is 1e-4 of E, and the ball's apex after the bounce is h within that energy over
+    m g."""
+    E = ball_bounce.energy
+    assert np.abs(E - E[0]).max() < 1e-4 * E[0]
+    assert not ball_bounce.work_passive.any() and not ball_bounce.work_applied.any()
+    after = ball_bounce.t > 0.5
+    apex = ball_bounce.q[after, 2].max() - BALL_R
+    assert apex == pytest.approx(BALL_H, abs=1e-4 * E[0] / (BALL_M * G))
+
+
+def test_damped_ball_comes_to_rest_at_its_static_penetration_and_the_balance_closes():
+    """With a normal damper it bounces lower each time and rests where k delta = m g; the
+    energy it loses is the work of the damper (and of the clamp that lets the spring go while
+    f_n would pull), W_passive, to the integrator's error."""
+    scene = variant("ball_drop", damping=200.0).replace_run(duration=3.0)
+    traj = od.simulate(scene)
+    assert traj.penetration[-1, 0] == pytest.approx(BALL_M * G / BALL_K, rel=1e-9)
+    assert traj.contact_force[-1, 0, 2] == pytest.approx(BALL_M * G, rel=1e-9)
+    lost = traj.energy[0] - traj.energy[-1]
+    assert lost > 0.99 * BALL_M * G * BALL_H  # nearly all of it
+    assert traj.work_passive[-1] == pytest.approx(-lost, rel=1e-4)
+    assert np.abs(traj.energy_error).max() < 1e-4 * lost
+
+
+# ------------------------------------------------------------------------------- the box
+
+
+def regularised_stop(v0, mu, v_s):
+    """Where a point mass sliding at v0 stops under the regularised friction
+    a = -mu g v / sqrt(v^2 + v_s^2): dx = v dt = sqrt(v^2 + v_s^2) dv / (mu g), so
+    x = (v0 sqrt(v0^2 + v_s^2) + v_s^2 asinh(v0 / v_s)) / (2 mu g)."""
+    return (v0 * np.hypot(v0, v_s) + v_s**2 * np.arcsinh(v0 / v_s)) / (2 * mu * G)
+
+
+def test_box_slides_to_rest_after_v0_squared_over_two_mu_g():
+    """The box slides at 1 m/s on mu = 0.5 and stops after v0^2 / (2 mu g) = 0.1019 m, plus the
+    regularisation's share x_reg - v0^2 / (2 mu g) <= (v_s^2 / (2 mu g)) (1/2 + asinh(v0 / v_s))
+    (8.3e-7 m here); its four bottom corners carry its weight throughout. RK4 at 0.1 ms (the
+    friction damper near zero slip, mu f_n / v_s per corner, needs a small explicit step)
+    follows the regularised law to 1e-6 m."""
+    scene = od.load_scene("box_slide").replace_run(integrator="rk4", dt=1e-4, duration=0.4)
+    traj = od.simulate(scene)
+    v0, mu, v_s = 1.0, scene.contact.friction, scene.contact.slip_velocity
+    travelled = traj.q[-1, 0] - traj.q[0, 0]
+    coulomb = v0**2 / (2 * mu * G)
+    bound = v_s**2 / (2 * mu * G) * (0.5 + np.arcsinh(v0 / v_s))
+    assert 0 < travelled - coulomb <= bound
+    assert travelled == pytest.approx(regularised_stop(v0, mu, v_s), abs=1e-6)
+    # stopped, and not earlier than Coulomb's v0 / (mu g)
+    assert np.abs(traj.qd[-1, 3:]).max() < 1e-6
+    moving = traj.t[np.abs(traj.qd[:, 3]) > 1e-3]
+    assert moving[-1] == pytest.approx(v0 / (mu * G), abs=2e-3)
+    weight = 2.0 * G
+    np.testing.assert_allclose(traj.contact_force[:, :, 2].sum(axis=1), weight, rtol=1e-3)
+
+
+def test_implicit_euler_box_stops_within_its_first_order_error():
+    """The shipped scene (implicit Euler at 1 ms): the stop is off the regularised closed form
+    by Euler's O(dt) error, about v0 dt / 2, and halving the step halves it."""
+    scene = od.load_scene("box_slide")
+    x = regularised_stop(1.0, scene.contact.friction, scene.contact.slip_velocity)
+    errors = []
+    for dt in (1e-3, 5e-4):
+        traj = od.simulate(scene.replace_run(dt=dt, output_dt=1e-3, duration=0.4))
+        errors.append(abs(traj.q[-1, 0] - x))
+    assert errors[0] < 1.0 * 1e-3
+    assert errors[0] / errors[1] == pytest.approx(2.0, rel=0.1)
+
+
+def test_frictionless_box_never_slows():
+    """mu = 0: every contact force is vertical, so the horizontal momentum is conserved."""
+    scene = variant("box_slide", friction=0.0).replace_run(integrator="rk4", dt=1e-4)
+    traj = od.simulate(scene)
+    R = od.frame_pose(scene.model, traj.q, "box")[:, :3, :3]
+    v_world = np.einsum("kij,kj->ki", R, traj.qd[:, 3:6])
+    np.testing.assert_allclose(v_world[:, 0], 1.0, rtol=0, atol=1e-12)
+    assert traj.q[-1, 0] == pytest.approx(scene.run.duration, abs=1e-9)
+    assert not traj.contact_force[:, :, :2].any()
+
+
+# ------------------------------------------------------------------------- the quadruped
+
+
+@pytest.fixture(scope="module")
+def quadruped():
+    scene = od.load_scene("quadruped_drop")
+    return scene, od.simulate(scene)
+
+
+def test_quadruped_lands_and_the_ground_carries_its_weight(quadruped):
+    """Once settled (t >= 1 s), the trunk's acceleration vanishes, so the contact forces sum
+    to the weight m g: within 1e-6 of it at every sample; before, the landing (at about
+    0.25 s) pushed harder."""
+    scene, traj = quadruped
+    weight = float(np.sum(scene.model.mass)) * G
+    total = traj.contact_force.sum(axis=1)
+    settled = traj.t >= 1.0
+    assert np.abs(total[settled, 2] / weight - 1).max() < 1e-6
+    assert np.abs(total[settled, :2]).max() < 1e-6 * weight
+    assert total[:, 2].max() > 3 * weight  # the impact
+    assert traj.complete and traj.penetration.max() < 2e-3
+
+
+def test_quadruped_stands_at_a_steady_height_without_sliding(quadruped):
+    """After settling the trunk stays within 0.5 mm of its height for 5 s (it sinks as the
+    regularised friction lets the splayed feet creep, 0.1 mm a second) and no foot slides more
+    than 1 mm; the trunk stays level to 1 mrad."""
+    scene, traj = quadruped
+    settled = traj.t >= 1.0
+    z = traj.q[settled, 2]
+    assert z.max() - z.min() < 5e-4
+    assert 0.2 < z.min()  # standing, not lying on the ground (its legs are 0.32 m long)
+    feet = traj.contact_point[settled][:, :, :2]
+    assert np.linalg.norm(feet - feet[0], axis=2).max() < 1e-3
+    assert (traj.penetration[settled] > 0).all()  # every foot on the ground
+    quat = traj.q[settled, 3:7]
+    tilt = 2 * np.arcsin(np.linalg.norm(quat[:, :2], axis=1))
+    assert tilt.max() < 1e-3
+
+
+def test_humanoid_stands_on_the_spheres_of_its_feet():
+    """G1 on the eight foot spheres of its URDF: after settling the ground carries its weight
+    within 1e-6, all eight spheres touch, and the pelvis holds its height within 0.5 mm."""
+    scene = od.load_scene("humanoid_stand")
+    assert len(scene.contact.points) == 8
+    traj = od.simulate(scene.replace_run(duration=2.0))
+    weight = float(np.sum(scene.model.mass)) * G
+    settled = traj.t >= 1.0
+    np.testing.assert_allclose(traj.contact_force[settled, :, 2].sum(axis=1), weight, rtol=1e-6)
+    assert (traj.penetration[settled] > 0).all()
+    assert np.ptp(traj.q[settled, 2]) < 5e-4
+
+
+# ---------------------------------------------------------------- the law and its linearisation
+
+
+def _solo_in_contact(friction, damping):
+    """Solo12 at a random state with its four feet 1 mm into the ground at h = 0.05 m."""
+    data = copy.deepcopy(od.load_scene("quadruped_drop").settings)
+    data["effects"]["contact"].update(friction=friction, damping=damping, ground_height=0.0)
+    scene = od.scene_from_dict(data, base_dir=ROBOTS)
+    model = scene.model
+    rng = np.random.default_rng(7)
+    q = scene.q0.copy()
+    q[7:] += rng.uniform(-0.1, 0.1, model.nv - 6)
+    feet = [od.frame_pose(model, q, p.frame)[2, 3] - p.radius for p in scene.contact.points]
+    q[2] -= max(feet) + 1e-3  # every foot at least 1 mm in
+    qd = rng.normal(0, 0.3, model.nv)
+    return scene, q, qd
+
+
+def _contact_tau(scene, q, qd, jac=False):
+    model = scene.model
+    bodies, params = effects.contact_table(model, scene.contact)
+    n = len(bodies)
+    tau, K, D = np.zeros(model.nv), np.zeros((model.nv,) * 2), np.zeros((model.nv,) * 2)
+    x, f, delta = np.empty((n, 3)), np.empty((n, 3)), np.empty(n)
+    contact_kernel(model._ibuf, model._fbuf, bodies, params, q, qd, tau, K, D, jac, x, f, delta)
+    return tau, K, D, x, f, delta
+
+
+def test_contact_force_is_the_law_at_the_point_mapped_by_the_jacobian_transpose():
+    """Recomputed in numpy: each foot's lowest point x_p from frame_pose, its velocity
+    v_p = v + w x x_p from the space Jacobian (w, v) of od.jacobian, the law
+    f_n = k delta + d delta_dot, f_t = -mu f_n v_t / sqrt(|v_t|^2 + v_s^2), and
+    tau = sum_p J_p^T f_p with J_p = J_v - [x_p] J_w."""
+    scene, q, qd = _solo_in_contact(friction=0.8, damping=300.0)
+    c = scene.contact
+    tau, _, _, x, f, delta = _contact_tau(scene, q, qd)
+    expected = np.zeros(scene.model.nv)
+    for p, point in enumerate(scene.contact.points):
+        T = od.frame_pose(scene.model, q, point.frame)
+        x_p = T[:3, :3] @ point.position + T[:3, 3] - [0, 0, point.radius]
+        J = od.jacobian(scene.model, q, point.frame, expressed_in="space")
+        J_p = J[3:] - np.cross(x_p, J[:3].T).T
+        v = J_p @ qd
+        d = c.ground_height - x_p[2]
+        f_n = max(0.0, c.stiffness * d - c.damping * v[2])
+        f_t = -c.friction * f_n * v[:2] / np.sqrt(v[0] ** 2 + v[1] ** 2 + c.slip_velocity**2)
+        force = np.array([*f_t, f_n])
+        np.testing.assert_allclose(x[p], x_p, atol=1e-15)
+        assert delta[p] == pytest.approx(d, abs=1e-15) and d > 0
+        np.testing.assert_allclose(f[p], force, rtol=1e-12, atol=1e-12)
+        expected += J_p.T @ force
+    np.testing.assert_allclose(tau, expected, rtol=1e-12, atol=1e-10)
+
+
+def test_contact_damping_matrix_is_minus_the_velocity_derivative():
+    """D = -dtau/dv, exactly (central differences, step 1e-7) when f_n does not depend on the
+    velocity (no normal damper): the friction slope mu f_n (I / s - v_t v_t^T / s^3) mapped
+    by J_p; symmetric positive semi-definite."""
+    scene, q, qd = _solo_in_contact(friction=0.8, damping=0.0)
+    _, _, D, *_ = _contact_tau(scene, q, qd, jac=True)
+    eps = 1e-7
+    fd = np.empty_like(D)
+    for j in range(scene.model.nv):
+        e = np.zeros(scene.model.nv)
+        e[j] = eps
+        fd[:, j] = -(_contact_tau(scene, q, qd + e)[0] - _contact_tau(scene, q, qd - e)[0]) / (
+            2 * eps
+        )
+    assert np.abs(D).max() > 100
+    np.testing.assert_allclose(D, fd, rtol=0, atol=1e-6 * np.abs(D).max())
+    np.testing.assert_allclose(D, D.T, atol=1e-9 * np.abs(D).max())
+    assert np.linalg.eigvalsh(D).min() > -1e-9 * np.abs(D).max()
+
+
+def test_contact_stiffness_matrix_is_minus_the_position_derivative_up_to_geometric_stiffness():
+    """K = k J_z^T J_z is -dtau/dq (central differences along integrate) but for the
+    geometric term -(dJ_p^T/dq) f, which is O(f) = O(k delta): with feet 1 mm in, it is below
+    1e-2 of K. Frictionless and undamped, so that only the spring acts."""
+    scene, q, _ = _solo_in_contact(friction=0.0, damping=0.0)
+    model = scene.model
+    qd = np.zeros(model.nv)
+    _, K, _, *_ = _contact_tau(scene, q, qd, jac=True)
+    eps = 1e-7
+    fd = np.empty_like(K)
+    for j in range(model.nv):
+        e = np.zeros(model.nv)
+        e[j] = eps
+        plus = _contact_tau(scene, od.integrate(model, q, e), qd)[0]
+        minus = _contact_tau(scene, od.integrate(model, q, -e), qd)[0]
+        fd[:, j] = -(plus - minus) / (2 * eps)
+    assert np.abs(K - fd).max() < 1e-2 * np.abs(K).max()
+    np.testing.assert_allclose(K, K.T, atol=1e-9 * np.abs(K).max())
+
+
+# ------------------------------------------------------------------------- scenes and records
+
+
+def test_rk4_step_too_large_for_the_contact_is_refused_naming_it():
+    scene = od.load_scene("quadruped_drop").replace_run(integrator="rk4", duration=0.5)
+    with pytest.raises(SceneError, match=r"run\.dt.*contact .* on contact point 'H?F?[LR]?_?FOOT"):
+        od.simulate(scene)
+
+
+def test_contact_points_from_the_urdf_are_its_collision_spheres():
+    scene = od.load_scene("ball_drop")
+    (point,) = scene.contact.points
+    assert point.frame == "ball" and point.radius == 0.1 and point.name == "ball"
+    box = od.load_scene("box_slide")
+    assert len(box.contact.points) == 8
+    assert [p.name for p in box.contact.points][:2] == ["box[0]", "box[1]"]
+
+
+@pytest.mark.parametrize(
+    "contact, message",
+    [
+        ({"friction": 0.5, "points": "urdf"}, r"effects\.contact\.stiffness: missing"),
+        ({"stiffness": -1.0, "friction": 0.5, "points": "urdf"}, r"stiffness: expected .*> 0"),
+        ({"stiffness": 1e5, "friction": -0.1, "points": "urdf"}, r"friction: expected .*>= 0"),
+        ({"stiffness": 1e5, "friction": 0.5, "points": "urdf", "slip": 1.0}, r"unknown key"),
+        (
+            {"stiffness": 1e5, "friction": 0.5, "points": [{"frame": "nope"}]},
+            r"points\[0\]\.frame: 'nope' is not a frame",
+        ),
+        (
+            {"stiffness": 1e5, "friction": 0.5, "points": [{"frame": "box", "radius": -1}]},
+            r"points\[0\]\.radius: expected a number >= 0",
+        ),
+        ({"stiffness": 1e5, "friction": 0.5, "points": 3}, r'expected "urdf" or tables'),
+    ],
+)
+def test_bad_contact_settings_are_errors_naming_the_key(contact, message):
+    data = copy.deepcopy(od.load_scene("box_slide").settings)
+    data["effects"]["contact"] = contact
+    with pytest.raises(SceneError, match=message):
+        od.scene_from_dict(data, base_dir=ROBOTS)
+
+
+def test_urdf_points_need_collision_spheres_and_frames_that_move():
+    data = copy.deepcopy(od.load_scene("quadruped_drop").settings)
+    data["effects"]["contact"]["points"] = "urdf"
+    with pytest.raises(SceneError, match=r"solo12\.urdf has no <collision> sphere or box"):
+        od.scene_from_dict(data, base_dir=ROBOTS)
+    fixed = {
+        "robot": {"urdf": str(ROBOTS / "double_pendulum.urdf")},
+        "effects": {
+            "contact": {"stiffness": 1e5, "friction": 0.5, "points": [{"frame": "base_link"}]}
+        },
+    }
+    with pytest.raises(SceneError, match=r"'base_link' is welded to the fixed world"):
+        od.scene_from_dict(fixed)
+
+
+def test_contact_record_survives_save_load_and_csv(tmp_path):
+    traj = od.simulate(od.load_scene("ball_drop").replace_run(duration=0.35, output_dt=0.01))
+    assert traj.has_contact and traj.contact_names == ("ball",)
+    back = od.Trajectory.load(traj.save(tmp_path / "ball.npz"))
+    assert back.ground_height == 0.0 and back.contact_names == ("ball",)
+    np.testing.assert_array_equal(back.contact_force, traj.contact_force)
+    np.testing.assert_array_equal(back.penetration, traj.penetration)
+    header = (tmp_path / "ball.csv").write_text("") or traj.to_csv(tmp_path / "ball.csv")
+    columns = header.read_text().splitlines()[0].split(",")
+    assert columns[-4:] == ["fx_ball", "fy_ball", "fz_ball", "penetration_ball"]
+    # a scene without contact records none
+    plain = od.simulate(od.load_scene("double_pendulum_swing").replace_run(duration=0.05))
+    assert not plain.has_contact and plain.contact_force.shape == (len(plain.t), 0, 3)
+
+
+def test_contact_works_on_a_fixed_base_arm():
+    """A fixed-base double pendulum swinging into a raised floor: its tip stops on it, and the
+    floor's force on the tip balances the torque gravity applies about the joints at rest."""
+    scene = od.scene_from_dict(
+        {
+            "robot": {"urdf": str(ROBOTS / "double_pendulum.urdf")},
+            "initial": {"q": [1.0, 0.0]},
+            "run": {"duration": 3.0, "integrator": "implicit_euler", "dt": 1e-3},
+            "effects": {
+                "gravity": True,
+                "damping": {"coefficients": 0.5},
+                "contact": {
+                    "ground_height": -1.5,
+                    "stiffness": 1e5,
+                    "damping": 100.0,
+                    "friction": 0.5,
+                    "points": [{"frame": "tip"}],
+                },
+            },
+        }
+    )
+    traj = od.simulate(scene)
+    assert traj.penetration[-1, 0] > 0
+    q = traj.q[-1]
+    g = od.gravity_forces(scene.model, q)
+    J = od.jacobian(scene.model, q, "tip", expressed_in="space")
+    x = traj.contact_point[-1, 0]
+    J_p = J[3:] - np.cross(x, J[:3].T).T
+    # at rest: g(q) = J_p^T f (the joints' damping and velocities have died out)
+    np.testing.assert_allclose(J_p.T @ traj.contact_force[-1, 0], g, atol=1e-6 * np.abs(g).max())
