@@ -1,6 +1,6 @@
 """Playback (opendyn.viz): the URDF's visual geometry, the meshcat scene and its animation, the
-ground and contact-force arrows, the self-contained page as headless Chromium draws it, and the
-live viewer.
+ground and contact-force arrows, the self-contained page as headless Chromium draws it, the live
+viewer, and the plot's contact panel.
 
 Independent truths: the double pendulum's closed-form kinematics (robots/double_pendulum.urdf:
 the elbow at (-L1 sin q1, 0, 2 - L1 cos q1), link 1 turned by q1 about y), the pinhole camera
@@ -821,3 +821,59 @@ def test_live_viewer_serves_the_robot_its_animation_and_the_contact_forces(meshc
         "/ContactForces/point_0/shaft",
         "/ContactForces/point_0/head",
     }
+
+
+# --------------------------------------------------------------------------------------------
+# the plot's contact panel
+
+
+def test_the_plot_with_contact_adds_a_panel_of_the_normal_forces_and_their_sum(
+    tmp_path, monkeypatch
+):
+    """The same record with and without contact: one more panel, whose lines are each point's
+    f_z over time and their sum, named in the legend."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.image
+    import matplotlib.pyplot as plt
+
+    model = od.load_urdf("double_pendulum")
+    t, q = swing()
+    zeros = np.zeros(len(t))
+    forces = np.zeros((len(t), 2, 3))
+    forces[t < 1.0, 0, 2] = 10.0
+    forces[:, 1] = np.column_stack([zeros + 1.0, zeros, 5.0 * t])
+    record = {"t": t, "q": q, "qd": np.zeros_like(q), "tau": np.zeros_like(q)}
+    record.update(kinetic=zeros, potential=zeros, work_applied=zeros, work_passive=zeros)
+    record["joint_names"] = model.joint_names
+    figures, close = [], plt.close
+    monkeypatch.setattr(plt, "close", figures.append)  # keep the figures to look at
+    plain = od.Trajectory(**record).plot(tmp_path / "plain.png")
+    touching = od.Trajectory(
+        **record,
+        contact_names=("left_foot", "right_foot"),
+        contact_point=np.zeros((len(t), 2, 3)),
+        contact_force=forces,
+        ground_height=0.0,
+    ).plot(tmp_path / "contact.png")
+    without, with_contact = (figure.axes for figure in figures)
+    assert len(with_contact) == len(without) + 1
+    panel = with_contact[-1]
+    assert "normal force" in panel.get_ylabel() and "(N)" in panel.get_ylabel()
+    lines = {line.get_label(): line for line in panel.get_lines()}
+    assert set(lines) == {"left_foot", "right_foot", "sum"}
+    for label, expected in (
+        ("left_foot", forces[:, 0, 2]),
+        ("right_foot", forces[:, 1, 2]),
+        ("sum", forces[:, :, 2].sum(axis=1)),
+    ):
+        np.testing.assert_array_equal(lines[label].get_xdata(), t)
+        np.testing.assert_array_equal(lines[label].get_ydata(), expected)
+    legend = [text.get_text() for text in panel.get_legend().get_texts()]
+    assert legend == ["left_foot", "right_foot", "sum"]
+    # the PNG is a panel taller
+    tall = matplotlib.image.imread(touching).shape[0] - matplotlib.image.imread(plain).shape[0]
+    assert tall == matplotlib.image.imread(plain).shape[0] // 3
+    for figure in figures:
+        close(figure)
