@@ -289,8 +289,10 @@ def resample(t, q, fps):
     n = max(2, int(round(duration * fps)) + 1)
     times = np.linspace(0.0, duration, n)
     rel = t - t[0]
-    Q = np.column_stack([np.interp(times, rel, q[:, j]) for j in range(q.shape[1])])
-    return times, Q.reshape(n, q.shape[1])
+    Q = np.empty((n, q.shape[1]))
+    for j in range(q.shape[1]):
+        Q[:, j] = np.interp(times, rel, q[:, j])
+    return times, Q
 
 
 def _check_motion(model, t, q, fps):
@@ -514,9 +516,11 @@ def _build_scene(vis, model, t, q, fps, visuals, contact=None):
             scene.radii.append(np.full(len(times), _extent(v)))
     if contact is not None:
         ground_height, points, forces = contact
-        frames = len(times)
-        points = resample(t, points.reshape(len(t), -1), fps)[1].reshape(frames, -1, 3)
-        forces = resample(t, forces.reshape(len(t), -1), fps)[1].reshape(frames, -1, 3)
+        shape = (len(t), 3 * points.shape[1])
+        points, forces = (
+            resample(t, a.reshape(shape), fps)[1].reshape(len(times), -1, 3)
+            for a in (points, forces)
+        )
         _ground(vis, mg, ground_height, points)
         _force_arrows(vis, mc, anim, scene, times, points, forces)
     if anim.clips:
@@ -576,7 +580,8 @@ def _force_arrows(vis, mc, anim, scene, times, points, forces):
     zero force has scale zero (nothing drawn)."""
     mg = mc.geometry
     size = _robot_size(scene)
-    per_newton, scene.arrows = _force_scale(float(np.linalg.norm(forces, axis=-1).max()), size)
+    largest = float(np.linalg.norm(forces, axis=-1).max(initial=0.0))
+    per_newton, scene.arrows = _force_scale(largest, size)
     radius, head_radius, head = 0.01 * size, 0.025 * size, 0.08 * size
     material = _material(mg, ARROW_RGBA)
     lengths = per_newton * np.linalg.norm(forces, axis=-1)  # (F, P)
@@ -617,7 +622,7 @@ def _force_scale(largest, size):
     (so it is longer than 0.16 times); stated per a power of ten metres no longer than that
     arrow, e.g. "100 N per 0.1 m"."""
     if largest <= 0.0:
-        return 0.0, "red arrows: contact forces (none in this run)"
+        return 0.0, "red arrows: contact forces, none in this run"
     least = largest / (0.4 * size)
     power = 10.0 ** math.floor(math.log10(least))
     per_metre = next(m * power for m in (1.0, 2.0, 5.0, 10.0) if m * power >= least * (1 - 1e-12))

@@ -537,6 +537,26 @@ def test_contact_draws_the_ground_at_its_height_and_moves_the_grid_onto_it(tmp_p
     )
 
 
+def test_a_run_that_never_touches_draws_the_ground_and_no_visible_arrow(tmp_path, meshcat):
+    """Zero forces throughout (and a scene without contact points): the ground is drawn, the
+    arrows are scaled to nothing at every key, and the page says there is no contact force."""
+    model = od.load_urdf("double_pendulum")
+    t, q = swing()
+    for count in (2, 0):
+        nothing = np.zeros((len(t), count, 3))
+        html = viz.write_html(
+            model, t, q, tmp_path / f"{count}.html", contact=(0.0, nothing, nothing)
+        ).read_text()
+        commands = page_commands(html)
+        assert "/Ground" in objects_by_path(commands)
+        assert "(red arrows: contact forces, none in this run)</title>" in html
+        clips = clips_by_path(commands)
+        arrows = [path for path in clips if path.startswith("/ContactForces/")]
+        assert len(arrows) == 2 * count
+        for path in arrows:
+            assert np.all(clips[path][".scale"][1] == 0)
+
+
 def test_without_contact_the_page_has_no_ground_arrows_or_caption(tmp_path, meshcat):
     t, q = swing()
     html = viz.write_html(od.load_urdf("double_pendulum"), t, q, tmp_path / "p.html").read_text()
