@@ -235,10 +235,15 @@ def _write_outputs(scene, traj, args):
     if args.html or args.view:
         from . import viz
 
+        contact = (
+            (traj.ground_height, traj.contact_point, traj.contact_force)
+            if traj.has_contact
+            else None
+        )
         if args.html:
-            written.append(viz.write_html(scene.model, traj.t, traj.q, args.html))
+            written.append(viz.write_html(scene.model, traj.t, traj.q, args.html, contact=contact))
         if args.view:
-            url = viz.view(scene.model, traj.t, traj.q, open_browser=True)
+            url = viz.view(scene.model, traj.t, traj.q, open_browser=True, contact=contact)
             print(f"meshcat viewer at {url} (Ctrl-C to quit)")
             _wait_for_interrupt()
     return written

@@ -195,7 +195,9 @@ class Trajectory:
     def plot(self, path) -> pathlib.Path:
         """A PNG with three panels over time: positions, velocities (a floating base's position,
         quaternion and body twist among them), and the energy
-        (E - E(0), the work of the non-conservative forces, and the integration error)."""
+        (E - E(0), the work of the non-conservative forces, and the integration error); with
+        constraints a fourth, their violation; with contact one more, the normal force (the z
+        component of contact_force, N) at each contact point and their sum."""
         import matplotlib
 
         matplotlib.use("Agg")
@@ -203,7 +205,7 @@ class Trajectory:
 
         path = pathlib.Path(path)
         constrained = len(self.violation_position) > 0
-        panels = 4 if constrained else 3
+        panels = 3 + constrained + self.has_contact
         fig, axes = plt.subplots(
             panels, 1, figsize=(9, 3 * panels), sharex=True, constrained_layout=True
         )
@@ -231,6 +233,14 @@ class Trajectory:
             axes[3].semilogy(self.t, self.violation_velocity, label="max |A qd| (m/s or rad/s)")
             axes[3].set_ylabel("constraint violation")
             axes[3].legend(loc="best", fontsize="small")
+        if self.has_contact:
+            normal = self.contact_force[:, :, 2]
+            for p, name in enumerate(self.contact_names):
+                axes[-1].plot(self.t, normal[:, p], label=name)
+            axes[-1].plot(self.t, normal.sum(axis=1), label="sum", color="black", linewidth=2)
+            axes[-1].set_ylabel("contact normal force f_z (N)")
+            if len(self.contact_names) <= 12:
+                axes[-1].legend(loc="upper right", fontsize="small", ncol=2)
         axes[-1].set_xlabel("t (s)")
         title = self.provenance.get("scene", {}).get("name", "")
         if not self.complete:

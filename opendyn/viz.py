@@ -9,6 +9,11 @@ scale). The motion (t (K,) s, q (K, nq)) is resampled by linear interpolation to
 frame rate and stored as one meshcat animation clip per link (position and quaternion tracks),
 so the browser interpolates between frames and the time slider scrubs the motion.
 
+With ground contact the scene also draws the ground (the plane z = ground_height) and, at each
+contact point, the force the ground applies there as a red arrow from the point along the force,
+its length proportional to the force's magnitude (one scale for the whole run, stated on the
+page), resampled and animated with the motion.
+
 ``write_html`` writes a self-contained page (meshcat's static export: the viewer's JavaScript,
 the geometry and the animation inlined; no network access); ``view`` plays the same scene in a
 live meshcat viewer. meshcat is an optional dependency (``pip install 'opendyn[viz]'``),
@@ -40,6 +45,9 @@ STAND_IN_RGBA = (0.5, 0.5, 0.5, 1.0)
 STAND_IN_SIZE = 0.05  # m, edge of the grey box drawn in place of an unusable mesh
 DEFAULT_FPS = 30.0
 CAMERA_FOV = 45.0  # degrees, vertical field of view of the page's camera
+ARROW_RGBA = (0.9, 0.1, 0.1, 1.0)  # red, the contact-force arrows
+GROUND_RGBA = (0.8, 0.82, 0.85, 0.6)  # light grey-blue, slightly transparent
+GROUND_THICKNESS = 0.02  # m, of the slab whose top face is the ground
 
 
 class PlaybackWarning(UserWarning):
@@ -281,8 +289,10 @@ def resample(t, q, fps):
     n = max(2, int(round(duration * fps)) + 1)
     times = np.linspace(0.0, duration, n)
     rel = t - t[0]
-    Q = np.column_stack([np.interp(times, rel, q[:, j]) for j in range(q.shape[1])])
-    return times, Q.reshape(n, q.shape[1])
+    Q = np.empty((n, q.shape[1]))
+    for j in range(q.shape[1]):
+        Q[:, j] = np.interp(times, rel, q[:, j])
+    return times, Q
 
 
 def _check_motion(model, t, q, fps):
@@ -320,16 +330,71 @@ def _check_motion(model, t, q, fps):
     return t, q, float(fps)
 
 
+def _check_contact(t, contact):
+    """``contact`` as (ground_height float m, points (K, P, 3) m, forces (K, P, 3) N), or None;
+    ValueError naming what is wrong."""
+    if contact is None:
+        return None
+    form = "contact must be None or (ground_height, points (K, P, 3), forces (K, P, 3))"
+    try:
+        ground_height, points, forces = contact
+        ground_height = float(ground_height)
+        points = np.asarray(points, dtype=float)
+        forces = np.asarray(forces, dtype=float)
+    except (TypeError, ValueError) as e:
+        raise ValueError(f"{form}: {e}") from None
+    if not math.isfinite(ground_height):
+        raise ValueError(f"contact: ground_height must be finite, got {ground_height}")
+    for name, a in (("points", points), ("forces", forces)):
+        if a.ndim != 3 or a.shape[0] != t.size or a.shape[2] != 3:
+            raise ValueError(
+                f"{form}: {name} must have shape ({t.size}, P, 3) for the {t.size} times, got "
+                f"shape {a.shape}"
+            )
+        if not np.all(np.isfinite(a)):
+            raise ValueError(f"contact: {name} has non-finite entries")
+    if forces.shape != points.shape:
+        raise ValueError(f"{form}: points {points.shape} and forces {forces.shape} differ in shape")
+    return ground_height, points, forces
+
+
 def _quaternions_xyzw(R):
     """(F, 3, 3) rotations -> (F, 4) unit quaternions (x, y, z, w), signs made continuous."""
     from scipy.spatial.transform import Rotation
 
-    quat = Rotation.from_matrix(R).as_quat()
+    return _continuous(Rotation.from_matrix(R).as_quat())
+
+
+def _continuous(quat):
+    """(F, 4) unit quaternions with signs flipped so that neighbours are on the same side
+    (the browser interpolates between neighbours along the short way)."""
     if len(quat) > 1:
         flips = np.einsum("ij,ij->i", quat[1:], quat[:-1]) < 0
         sign = np.cumprod(np.where(flips, -1.0, 1.0))
         quat[1:] *= sign[:, None]
     return quat
+
+
+def _turn_z_onto(d):
+    """(F, 3) unit vectors -> (F, 4) quaternions (x, y, z, w) of the shortest turns taking the
+    z axis onto them (half way between z and d: normalise (z x d, 1 + z . d)); -z is reached
+    by a half turn about x."""
+    quat = np.column_stack([-d[:, 1], d[:, 0], np.zeros(len(d)), 1.0 + d[:, 2]])
+    quat[quat[:, 3] < 1e-9] = (1.0, 0.0, 0.0, 0.0)
+    return quat / np.linalg.norm(quat, axis=1, keepdims=True)
+
+
+def _directions(f):
+    """(F, 3) forces -> (F, 3) unit vectors along them; where a force is zero, the direction of
+    the last nonzero one before it (else the first after it; +z when all are zero), so that a
+    vanishing arrow shrinks without turning."""
+    size = np.linalg.norm(f, axis=1)
+    nonzero = np.flatnonzero(size > 0)
+    if nonzero.size == 0:
+        return np.tile([0.0, 0.0, 1.0], (len(f), 1))
+    last = np.searchsorted(nonzero, np.arange(len(f)), side="right") - 1
+    source = nonzero[np.maximum(last, 0)]
+    return f[source] / size[source, None]
 
 
 # --------------------------------------------------------------------------------------------
@@ -394,14 +459,17 @@ def _material(mg, rgba):
 
 @dataclass
 class _Scene:
-    """What a built scene shows: the world positions of its geometry (for the camera)."""
+    """What a built scene shows: the world positions of its geometry (for the camera) and the
+    words that give the contact-force arrows' scale ("" without contact)."""
 
     points: list = field(default_factory=list)  # (N, 3) arrays of world points
     radii: list = field(default_factory=list)  # (N,) extent about each point
+    arrows: str = ""
 
 
-def _build_scene(vis, model, t, q, fps, visuals):
-    """Send the robot's geometry and its animation to a meshcat Visualizer ``vis``."""
+def _build_scene(vis, model, t, q, fps, visuals, contact=None):
+    """Send the robot's geometry and its animation to a meshcat Visualizer ``vis``; with
+    ``contact`` (``_check_contact``'s form), the ground and the contact-force arrows too."""
     mc = _meshcat()
     mg = mc.geometry
     times, Q = resample(t, q, fps)
@@ -409,7 +477,7 @@ def _build_scene(vis, model, t, q, fps, visuals):
         Q = normalize(model, Q)  # the base's quaternion between samples
     root = vis[_node_name(model.name)]
     root.delete()
-    _ground_grid(vis, mg)
+    _ground_grid(vis, mg, 0.0 if contact is None else contact[0])
     scene = _Scene()
     by_link: dict[str, list[Visual]] = {}
     for v in visuals:
@@ -440,25 +508,37 @@ def _build_scene(vis, model, t, q, fps, visuals):
         T_sL = np.asarray(frame_pose(model, Q, link)).reshape(len(times), 4, 4)
         node.set_transform(T_sL[0])
         if len(times) > 1 and model.frames[model.frame_index(link)].body >= 0:
-            anim.clips[node.path] = _clip(mc.animation, times, T_sL)
+            anim.clips[node.path] = _clip(
+                mc.animation, times, T_sL[:, :3, 3], _quaternions_xyzw(T_sL[:, :3, :3])
+            )
         for v in items:
             scene.points.append((T_sL @ v.T_link_visual)[:, :3, 3])
             scene.radii.append(np.full(len(times), _extent(v)))
+    if contact is not None:
+        ground_height, points, forces = contact
+        shape = (len(t), 3 * points.shape[1])
+        points, forces = (
+            resample(t, a.reshape(shape), fps)[1].reshape(len(times), -1, 3)
+            for a in (points, forces)
+        )
+        _ground(vis, mg, ground_height, points)
+        _force_arrows(vis, mc, anim, scene, times, points, forces)
     if anim.clips:
         # a loop: the page plays the motion over and over (pause and scrub in the controls)
         vis.set_animation(anim, play=True, repetitions=10**9)
     return scene
 
 
-def _ground_grid(vis, mg, half_width=10.0, cell=0.5):
+def _ground_grid(vis, mg, height=0.0, half_width=10.0, cell=0.5):
     """Replace meshcat's ground grid by the same one (20 m square, 0.5 m cells, darker centre
-    lines) drawn as one short segment per cell side, 1 mm below z = 0 (so the world axes
-    show). Software WebGL (headless browsers) drops whole grid lines that pass behind the
-    camera; short segments lose only the part behind it."""
+    lines) drawn as one short segment per cell side, 1 mm below z = ``height`` (m; 0, the
+    default, lets the world axes show; with contact the ground's height). Software WebGL
+    (headless browsers) drops whole grid lines that pass behind the camera; short segments
+    lose only the part behind it."""
     ticks = np.arange(-half_width, half_width + cell / 2, cell)
     a, b = np.meshgrid(ticks[:-1], ticks)  # segment start along a line, the line's offset
     a, b = a.ravel(), b.ravel()
-    z = np.full_like(a, -1e-3)
+    z = np.full_like(a, height - 1e-3)
     along_x = np.stack([np.stack([a, b, z], 1), np.stack([a + cell, b, z], 1)], 1)
     along_y = along_x[:, :, [1, 0, 2]]
     points = np.concatenate([along_x, along_y]).reshape(-1, 3)
@@ -473,19 +553,113 @@ def _ground_grid(vis, mg, half_width=10.0, cell=0.5):
     )
 
 
-def _clip(animation, times, T_sL):
-    """A meshcat clip with key times in seconds (clip fps 1): position and quaternion tracks."""
+def _ground(vis, mg, height, points, margin=1.0):
+    """The ground z = ``height`` (m): a light, slightly transparent slab whose top face is 2 mm
+    below that plane (under the grid), a square about the origin that holds the contact
+    ``points`` (F, P, 3) m with ``margin`` (m) to spare and is at least as wide as the grid."""
+    reach = float(np.abs(points[..., :2]).max()) if points.size else 0.0
+    half_width = max(10.0, reach + margin)
+    slab = vis["/Ground"]
+    slab.set_object(
+        mg.Box([2 * half_width, 2 * half_width, GROUND_THICKNESS]), _material(mg, GROUND_RGBA)
+    )
+    slab.set_transform(_translation(0.0, 0.0, height - 2e-3 - GROUND_THICKNESS / 2))
+
+
+def _force_arrows(vis, mc, anim, scene, times, points, forces):
+    """One red arrow per contact point, animated: from the point p (F, P, 3) m along the force
+    f (F, P, 3) N, of length |f| times one scale for the run (``_force_scale``, from the
+    robot's size; the words go to ``scene.arrows``). The camera frames the robot's motion
+    alone: the arrows start at its contact points and are at most 0.4 times its size.
+
+    An arrow is two nodes under ``/ContactForces/point_<p>``, each posed by position, quaternion
+    and scale tracks: "shaft", a cylinder of unit length along its node's z axis from the
+    node's origin, at p, scaled by (k, k, L - k h); and "head", a cone of length h along z,
+    at p + (L - k h) d, scaled by k, where L is the arrow's length, d = f / |f| and
+    k = min(1, L / h): an arrow shorter than the head is a smaller copy of the head, and a
+    zero force has scale zero (nothing drawn)."""
+    mg = mc.geometry
+    size = _robot_size(scene)
+    largest = float(np.linalg.norm(forces, axis=-1).max(initial=0.0))
+    per_newton, scene.arrows = _force_scale(largest, size)
+    radius, head_radius, head = 0.01 * size, 0.025 * size, 0.08 * size
+    material = _material(mg, ARROW_RGBA)
+    lengths = per_newton * np.linalg.norm(forces, axis=-1)  # (F, P)
+    k = np.minimum(1.0, lengths / head)
+    shaft = lengths - k * head
+    upright = _rotation_x(math.pi / 2)  # meshcat's cylinders and cones lie along y
+    for p in range(points.shape[1]):
+        d = _directions(forces[:, p])
+        quat = _continuous(_turn_z_onto(d))
+        node = vis["/ContactForces"][f"point_{p}"]
+        node["shaft"]["cylinder"].set_object(mg.Cylinder(1.0, radius), material)
+        node["shaft"]["cylinder"].set_transform(_translation(0.0, 0.0, 0.5) @ upright)
+        node["head"]["cone"].set_object(
+            mg.Cylinder(head, radiusTop=0.0, radiusBottom=head_radius), material
+        )
+        node["head"]["cone"].set_transform(_translation(0.0, 0.0, head / 2) @ upright)
+        shaft_scale = np.column_stack([k[:, p], k[:, p], shaft[:, p]])
+        _pose(mc.animation, anim, node["shaft"], times, points[:, p], quat, shaft_scale)
+        tail = points[:, p] + shaft[:, p, None] * d
+        head_scale = np.repeat(k[:, p, None], 3, axis=1)
+        _pose(mc.animation, anim, node["head"], times, tail, quat, head_scale)
+
+
+def _robot_size(scene, least=0.1):
+    """The robot's size (m): the largest diagonal, over the frames, of the box that holds its
+    geometry at one frame; at least ``least``."""
+    if not scene.points:
+        return least
+    pts, rad = np.stack(scene.points), np.stack(scene.radii)[..., None]  # (V, F, 3), (V, F, 1)
+    diagonal = np.linalg.norm((pts + rad).max(axis=0) - (pts - rad).min(axis=0), axis=1)
+    return max(least, float(diagonal.max()))
+
+
+def _force_scale(largest, size):
+    """(metres of arrow per newton, the page's words for it) for the largest force of the run
+    (N) and the robot's size (m): a round number of newtons per metre (1, 2 or 5 times a power
+    of ten), the least at which the largest force's arrow is at most 0.4 times the robot's size
+    (so it is longer than 0.16 times); stated per a power of ten metres no longer than that
+    arrow, e.g. "100 N per 0.1 m"."""
+    if largest <= 0.0:
+        return 0.0, "red arrows: contact forces, none in this run"
+    least = largest / (0.4 * size)
+    power = 10.0 ** math.floor(math.log10(least))
+    per_metre = next(m * power for m in (1.0, 2.0, 5.0, 10.0) if m * power >= least * (1 - 1e-12))
+    reference = 10.0 ** math.floor(math.log10(largest / per_metre))
+    words = f"red arrows: contact forces, {per_metre * reference:g} N per {reference:g} m"
+    return 1.0 / per_metre, words
+
+
+def _pose(animation, anim, node, times, position, quat, scale):
+    """Pose ``node`` at frame 0 by its position (F, 3), quaternion (F, 4) (x, y, z, w) and scale
+    (F, 3), and animate all three over ``times`` in ``anim`` when there are several frames
+    (``animation``: the meshcat.animation module)."""
+    node.set_property("position", position[0].tolist())
+    node.set_property("quaternion", quat[0].tolist())
+    node.set_property("scale", scale[0].tolist())
+    if len(times) > 1:
+        anim.clips[node.path] = _clip(animation, times, position, quat, scale)
+
+
+def _translation(x, y, z):
+    T = np.eye(4)
+    T[:3, 3] = x, y, z
+    return T
+
+
+def _clip(animation, times, position, quat, scale=None):
+    """A meshcat clip with key times in seconds (clip fps 1): position (F, 3) and quaternion
+    (F, 4) (x, y, z, w) tracks, and a scale (F, 3) track when given."""
     track = animation.AnimationTrack
     keys = times.tolist()
-    return animation.AnimationClip(
-        tracks={
-            "position": track("position", "vector3", keys, T_sL[:, :3, 3].tolist()),
-            "quaternion": track(
-                "quaternion", "quaternion", keys, _quaternions_xyzw(T_sL[:, :3, :3]).tolist()
-            ),
-        },
-        fps=1,
-    )
+    tracks = {
+        "position": track("position", "vector3", keys, position.tolist()),
+        "quaternion": track("quaternion", "quaternion", keys, quat.tolist()),
+    }
+    if scale is not None:
+        tracks["scale"] = track("scale", "vector3", keys, scale.tolist())
+    return animation.AnimationClip(tracks=tracks, fps=1)
 
 
 def _extent(v):
@@ -606,7 +780,9 @@ class _SceneRecorder:
             out.append(self.animation)
         return out
 
-    def page(self, title, camera):
+    def page(self, title, camera, caption=""):
+        """The page: ``title``, the (target, position) ``camera``, and a ``caption`` line at the
+        bottom left (none when "")."""
         import meshcat
 
         js_file = pathlib.Path(meshcat.__file__).parent / "viewer" / "dist" / "main.min.js"
@@ -617,6 +793,7 @@ class _SceneRecorder:
         target, position = camera
         return _PAGE.format(
             title=_html_escape(title),
+            caption=_CAPTION.format(text=_html_escape(caption)) if caption else "",
             viewer_js=viewer_js,
             commands="\n".join(lines),
             target=_three_js(target),
@@ -638,6 +815,10 @@ def _html_escape(text):
     return text.replace("&", "&amp;").replace("<", "&lt;").replace(">", "&gt;")
 
 
+_CAPTION = """
+<div id="opendyn-caption" style="position: absolute; left: 8px; bottom: 8px; padding: 2px 6px; \
+font: 13px sans-serif; color: #222; background: rgba(255, 255, 255, 0.75);">{text}</div>"""
+
 _PAGE = """<!DOCTYPE html>
 <html>
 <head>
@@ -649,7 +830,7 @@ body {{ margin: 0; }}
 </style>
 </head>
 <body>
-<div id="meshcat-pane"></div>
+<div id="meshcat-pane"></div>{caption}
 <script>
 {viewer_js}
 </script>
@@ -682,7 +863,7 @@ function command(b64) {{
 """
 
 
-def write_html(model, t, q, path, *, fps=None) -> pathlib.Path:
+def write_html(model, t, q, path, *, fps=None, contact=None) -> pathlib.Path:
     """Write a self-contained HTML page that plays the motion of ``model``.
 
     Args:
@@ -694,40 +875,54 @@ def write_html(model, t, q, path, *, fps=None) -> pathlib.Path:
       path: the .html file to write.
       fps: frames per second of the animation (the motion is linearly interpolated to it);
         default the trajectory's own rate, at most 30.
+      contact: None, or (ground_height, points, forces) sampled at the times t: the ground is
+        the plane z = ground_height (m); points (K, P, 3) m, world frame, where each contact
+        point touches (or would touch) the ground; forces (K, P, 3) N, world frame, the force
+        the ground applies to the robot at each point. The page then draws the ground (a
+        light slab, the grid moved onto it) and each force as a red arrow from its point,
+        |f| times one scale for the run (a round number of newtons per metre, at which the
+        largest force is drawn 0.16 to 0.4 times the robot's size), stated in the page's title
+        and at its bottom left; the arrows are interpolated like q and vanish where the force
+        is zero.
 
     The page is meshcat's static export (viewer JavaScript, geometry, meshes and animation
     inlined; it opens offline, from a file). It loops the motion; the controls at the top
     right pause it and scrub the time. Missing meshes warn (PlaybackWarning) and are drawn as
     small grey boxes. Returns the path written. Raises ImportError naming the install command
-    without meshcat, ValueError naming the argument for bad t, q or fps.
+    without meshcat, ValueError naming the argument for bad t, q, fps or contact.
     """
     t, q, fps = _check_motion(model, t, q, fps)
+    contact = _check_contact(t, contact)
     _meshcat()
     from meshcat.visualizer import Visualizer
 
     recorder = _SceneRecorder()
     vis = Visualizer(window=recorder)
-    scene = _build_scene(vis, model, t, q, fps, load_visuals(model))
+    scene = _build_scene(vis, model, t, q, fps, load_visuals(model), contact)
+    title = f"{model.name} - opendyn" + (f" ({scene.arrows})" if scene.arrows else "")
     out = pathlib.Path(path)
-    out.write_text(recorder.page(f"{model.name} - opendyn", _camera(scene)), encoding="utf-8")
+    out.write_text(recorder.page(title, _camera(scene), scene.arrows), encoding="utf-8")
     return out
 
 
-def view(model, t, q, *, open_browser=False, fps=None) -> str:
+def view(model, t, q, *, open_browser=False, fps=None, contact=None) -> str:
     """Play the motion of ``model`` in a live meshcat viewer; returns the viewer's URL.
 
     Starts a meshcat server (``meshcat.Visualizer()``, a subprocess that lives as long as this
-    Python process), sends the visual geometry and the animation (t (K,) s, q (K, nq), as in
-    ``write_html``), and opens the page in a web browser when ``open_browser``. The scene
-    stays on the server: a browser that connects later sees it and plays it.
+    Python process), sends the visual geometry and the animation (t (K,) s, q (K, nq), and
+    the ground and contact-force arrows for ``contact``, as in ``write_html``; the live viewer
+    has no caption, so the arrows' scale is not stated there), and opens the page in a web
+    browser when ``open_browser``. The scene stays on the server: a browser that connects
+    later sees it and plays it.
     """
     t, q, fps = _check_motion(model, t, q, fps)
+    contact = _check_contact(t, contact)
     _meshcat()
     from meshcat.visualizer import Visualizer
 
     with contextlib.redirect_stdout(io.StringIO()):  # meshcat prints the URL; we return it
         vis = Visualizer()
-    scene = _build_scene(vis, model, t, q, fps, load_visuals(model))
+    scene = _build_scene(vis, model, t, q, fps, load_visuals(model), contact)
     eye = _live_camera(scene)
     # the camera's coordinates are three.js's world (y up): meshcat's (x, y, z) is (x, z, -y)
     vis["/Cameras/default/rotated/<object>"].set_property(

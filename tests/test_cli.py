@@ -5,6 +5,7 @@ from __future__ import annotations
 import re
 
 import numpy as np
+import pytest
 
 import opendyn as od
 from opendyn.cli import main
@@ -205,3 +206,32 @@ def test_info_cache_names_the_cache_folder(capsys):
     assert main(["info", "--cache"]) == 0
     out = capsys.readouterr().out
     assert f"kernel cache  {CACHE_DIR}" in out and "chosen as" in out
+
+
+def test_simulate_html_draws_the_ground_and_the_recorded_contact_forces(tmp_path, monkeypatch):
+    """A run that recorded contact (here the default scene's record with one point under 10 N
+    added) gives a page with the ground and an arrow, its scale in the title."""
+    import dataclasses
+    import sys
+
+    pytest.importorskip("meshcat")
+    module = sys.modules["opendyn.simulate"]
+    run = module.simulate
+
+    def with_contact(scene, **kwargs):
+        traj = run(scene, **kwargs)
+        k = len(traj.t)
+        return dataclasses.replace(
+            traj,
+            contact_names=("tip",),
+            contact_point=np.zeros((k, 1, 3)),
+            contact_force=np.tile([0.0, 0.0, 10.0], (k, 1, 1)),
+            penetration=np.zeros((k, 1)),
+            ground_height=0.0,
+        )
+
+    monkeypatch.setattr(module, "simulate", with_contact)
+    page = tmp_path / "run.html"
+    assert main(["simulate", "--quiet", "--duration", "0.1", "--html", str(page)]) == 0
+    html = page.read_text()
+    assert re.search(r"<title>double_pendulum - opendyn \(red arrows: contact forces, ", html)

@@ -1,9 +1,11 @@
 """Playback (opendyn.viz): the URDF's visual geometry, the meshcat scene and its animation, the
-self-contained page as headless Chromium draws it, and the live viewer.
+ground and contact-force arrows, the self-contained page as headless Chromium draws it, the live
+viewer, and the plot's contact panel.
 
 Independent truths: the double pendulum's closed-form kinematics (robots/double_pendulum.urdf:
 the elbow at (-L1 sin q1, 0, 2 - L1 cos q1), link 1 turned by q1 about y), the pinhole camera
-model for where a point appears on the screenshot, and files written here by hand.
+model for where a point appears on the screenshot, scipy's rotations, and files and contact
+records written here by hand.
 """
 
 from __future__ import annotations
@@ -122,6 +124,28 @@ def transforms_by_path(commands):
         for c in commands
         if c["type"] == "set_transform"
     }
+
+
+def clips_by_path(commands):
+    """Each animated node's tracks: {path: {track name: (key times (F,) s, values (F, n))}}."""
+    (animation,) = [c for c in commands if c["type"] == "set_animation"]
+    return {
+        a["path"]: {
+            tr["name"]: (
+                np.array([k["time"] for k in tr["keys"]]) / a["clip"]["fps"],
+                np.array([k["value"] for k in tr["keys"]], dtype=float),
+            )
+            for tr in a["clip"]["tracks"]
+        }
+        for a in animation["animations"]
+    }
+
+
+def metres_per_newton(html):
+    """The arrows' scale the page states in its title, "... X N per Y m"."""
+    title = re.search(r"<title>(.*)</title>", html).group(1)
+    newtons, metres = re.search(r" ([\d.e+-]+) N per ([\d.e+-]+) m\)$", title).groups()
+    return float(metres) / float(newtons)
 
 
 def rot_y(angle):
@@ -384,6 +408,191 @@ def test_the_page_loads_nothing_from_the_network(tmp_path, meshcat):
 
 
 # --------------------------------------------------------------------------------------------
+# ground contact
+
+
+def swing(samples=21, duration=2.0):
+    """(t (K,), q (K, 2)) of the double pendulum, q1 = 0.5 t, q2 = -0.25 t."""
+    t = np.linspace(0.0, duration, samples)
+    return t, np.column_stack([0.5 * t, -0.25 * t])
+
+
+def test_each_contact_force_is_an_arrow_from_its_point_along_it_at_the_stated_scale(
+    tmp_path, meshcat
+):
+    """Point 0 stands still under 100 N straight up for t < 1 s and nothing after; point 1
+    moves under a force that turns. At every key (the samples: 10 per second, fps 10) the
+    arrow's shaft starts at the point, the node's z axis is along f / |f|, the head sits on
+    the shaft's end, and its tip is at p + s f for the scale s the page's title states; where
+    the force is zero, shaft and head are scaled to nothing."""
+    from scipy.spatial.transform import Rotation
+
+    t, q = swing()
+    points = np.zeros((len(t), 2, 3))
+    points[:, 0] = [0.5, 0.3, 0.0]
+    points[:, 1] = np.column_stack([0.1 * t, -0.2 + 0 * t, 0.05 + 0 * t])
+    forces = np.zeros((len(t), 2, 3))
+    forces[t < 1.0, 0] = [0.0, 0.0, 100.0]
+    forces[:, 1] = np.column_stack([30 * np.sin(2 * t), -20 + 0 * t, 60 + 10 * t])
+    page = viz.write_html(
+        od.load_urdf("double_pendulum"),
+        t,
+        q,
+        tmp_path / "c.html",
+        fps=10,
+        contact=(0.0, points, forces),
+    )
+    html = page.read_text()
+    commands = page_commands(html)
+    objects, transforms = objects_by_path(commands), transforms_by_path(commands)
+    parts = {
+        f"/ContactForces/point_{p}/{part}"
+        for p in (0, 1)
+        for part in ("shaft/cylinder", "head/cone")
+    }
+    assert {path for path in objects if path.startswith("/ContactForces")} == parts
+    cone = objects["/ContactForces/point_0/head/cone"]["geometries"][0]
+    shaft = objects["/ContactForces/point_0/shaft/cylinder"]["geometries"][0]
+    assert cone["radiusTop"] == 0.0 and shaft["height"] == 1.0
+    head = cone["height"]
+    # the cylinder spans z in [0, 1] of its node, the cone z in [0, head] with its tip up
+    for path, centre in (("shaft/cylinder", 0.5), ("head/cone", head / 2)):
+        T = transforms[f"/ContactForces/point_0/{path}"]
+        np.testing.assert_allclose(T[:3, :3] @ [0, 1, 0], [0, 0, 1], atol=1e-12)
+        np.testing.assert_allclose(T[:3, 3], [0, 0, centre], atol=1e-12)
+
+    scale = metres_per_newton(html)
+    mantissa = 1 / scale / 10 ** math.floor(math.log10(1 / scale))
+    assert min(abs(mantissa - m) for m in (1, 2, 5)) < 1e-9, "N per m is not 1, 2 or 5 x 10^n"
+    assert 0.2 < scale * np.linalg.norm(forces, axis=-1).max() < 1.0  # a robot 2.3 m across
+    clips = clips_by_path(commands)
+    for p in (0, 1):
+        tracks = clips[f"/ContactForces/point_{p}/shaft"]
+        heads = clips[f"/ContactForces/point_{p}/head"]
+        for name in (".position", ".quaternion", ".scale"):
+            np.testing.assert_allclose(tracks[name][0], t, atol=1e-12)
+            np.testing.assert_allclose(heads[name][0], t, atol=1e-12)
+        base, length = tracks[".position"][1], tracks[".scale"][1][:, 2]
+        np.testing.assert_allclose(base, points[:, p], atol=1e-12)
+        along = Rotation.from_quat(tracks[".quaternion"][1]).apply([0.0, 0.0, 1.0])
+        np.testing.assert_allclose(
+            Rotation.from_quat(heads[".quaternion"][1]).apply([0.0, 0.0, 1.0]), along, atol=1e-12
+        )
+        np.testing.assert_allclose(
+            heads[".position"][1], base + length[:, None] * along, atol=1e-12
+        )
+        k = heads[".scale"][1]
+        tip = heads[".position"][1] + k[:, 2:] * head * along
+        magnitude = np.linalg.norm(forces[:, p], axis=1)
+        on = magnitude > 0
+        np.testing.assert_allclose(along[on], forces[on, p] / magnitude[on, None], atol=1e-12)
+        np.testing.assert_allclose(tip[on], points[on, p] + scale * forces[on, p], atol=1e-12)
+        np.testing.assert_allclose(tracks[".scale"][1][on, :2], k[on, :2])  # one thickness
+        assert np.all(tracks[".scale"][1][~on] == 0) and np.all(k[~on] == 0)
+
+
+def test_the_arrows_follow_the_force_between_samples_as_q_does(tmp_path, meshcat):
+    """Samples every 0.5 s, playback at 10 fps: the keys between samples carry the linearly
+    interpolated force (a force growing linearly in time grows linearly along the arrow)."""
+    t, q = swing(samples=5)
+    points = np.tile([0.2, 0.0, 0.0], (len(t), 1, 1))
+    forces = np.zeros((len(t), 1, 3))
+    forces[:, 0, 2] = 40.0 * t
+    html = viz.write_html(
+        od.load_urdf("double_pendulum"),
+        t,
+        q,
+        tmp_path / "c.html",
+        fps=10,
+        contact=(0.0, points, forces),
+    ).read_text()
+    commands = page_commands(html)
+    head = objects_by_path(commands)["/ContactForces/point_0/head/cone"]["geometries"][0]["height"]
+    heads = clips_by_path(commands)["/ContactForces/point_0/head"]
+    times, position = heads[".position"]
+    np.testing.assert_allclose(times, np.linspace(0.0, 2.0, 21), atol=1e-12)
+    tip_z = position[:, 2] + heads[".scale"][1][:, 2] * head
+    np.testing.assert_allclose(tip_z, metres_per_newton(html) * 40.0 * times, atol=1e-12)
+
+
+def test_contact_draws_the_ground_at_its_height_and_moves_the_grid_onto_it(tmp_path, meshcat):
+    t, q = swing()
+    points = np.tile([0.5, 0.3, 0.3], (len(t), 1, 1))
+    forces = np.tile([0.0, 0.0, 50.0], (len(t), 1, 1))
+    html = viz.write_html(
+        od.load_urdf("double_pendulum"), t, q, tmp_path / "c.html", contact=(0.3, points, forces)
+    ).read_text()
+    commands = page_commands(html)
+    objects, transforms = objects_by_path(commands), transforms_by_path(commands)
+    slab = objects["/Ground"]["geometries"][0]
+    assert slab["type"] == "BoxGeometry" and min(slab["width"], slab["height"]) >= 20.0
+    top = transforms["/Ground"][2, 3] + slab["depth"] / 2
+    assert 0.3 - 5e-3 < top < 0.3  # just under the grid and the contact points
+    grid = objects["/Grid"]["geometries"][0]["data"]["attributes"]["position"]["array"]
+    z = np.frombuffer(grid.data, dtype=np.float32).reshape(-1, 3)[:, 2]
+    np.testing.assert_allclose(z, 0.3 - 1e-3, atol=1e-6)
+    words = re.search(r'<div id="opendyn-caption"[^>]*>([^<]*)</div>', html).group(1)
+    assert (
+        words.startswith("red arrows: contact forces, ") and words in html[: html.index("</title>")]
+    )
+
+
+def test_a_run_that_never_touches_draws_the_ground_and_no_visible_arrow(tmp_path, meshcat):
+    """Zero forces throughout (and a scene without contact points): the ground is drawn, the
+    arrows are scaled to nothing at every key, and the page says there is no contact force."""
+    model = od.load_urdf("double_pendulum")
+    t, q = swing()
+    for count in (2, 0):
+        nothing = np.zeros((len(t), count, 3))
+        html = viz.write_html(
+            model, t, q, tmp_path / f"{count}.html", contact=(0.0, nothing, nothing)
+        ).read_text()
+        commands = page_commands(html)
+        assert "/Ground" in objects_by_path(commands)
+        assert "(red arrows: contact forces, none in this run)</title>" in html
+        clips = clips_by_path(commands)
+        arrows = [path for path in clips if path.startswith("/ContactForces/")]
+        assert len(arrows) == 2 * count
+        for path in arrows:
+            assert np.all(clips[path][".scale"][1] == 0)
+
+
+def test_without_contact_the_page_has_no_ground_arrows_or_caption(tmp_path, meshcat):
+    t, q = swing()
+    html = viz.write_html(od.load_urdf("double_pendulum"), t, q, tmp_path / "p.html").read_text()
+    commands = page_commands(html)
+    assert not [c for c in commands if c["path"].startswith(("/Ground", "/ContactForces"))]
+    assert set(clips_by_path(commands)) == {
+        "/meshcat/double_pendulum/link1",
+        "/meshcat/double_pendulum/link2",
+    }
+    assert "<title>double_pendulum - opendyn</title>" in html and "opendyn-caption" not in html
+    grid = objects_by_path(commands)["/Grid"]["geometries"][0]["data"]["attributes"]["position"]
+    z = np.frombuffer(grid["array"].data, dtype=np.float32).reshape(-1, 3)[:, 2]
+    np.testing.assert_allclose(z, -1e-3, atol=1e-6)
+
+
+def test_bad_contact_arguments_are_named(tmp_path, meshcat):
+    model = od.load_urdf("double_pendulum")
+    t, q = swing(samples=3)
+    out = tmp_path / "page.html"
+    good = np.zeros((3, 2, 3))
+    with pytest.raises(ValueError, match=r"contact must be None or \(ground_height, points"):
+        viz.write_html(model, t, q, out, contact=(0.0, good))
+    with pytest.raises(ValueError, match=r"points must have shape \(3, P, 3\).*\(3, 2, 2\)"):
+        viz.write_html(model, t, q, out, contact=(0.0, np.zeros((3, 2, 2)), good))
+    with pytest.raises(ValueError, match=r"forces must have shape \(3, P, 3\).*\(4, 2, 3\)"):
+        viz.write_html(model, t, q, out, contact=(0.0, good, np.zeros((4, 2, 3))))
+    with pytest.raises(ValueError, match=r"points \(3, 2, 3\) and forces \(3, 1, 3\) differ"):
+        viz.write_html(model, t, q, out, contact=(0.0, good, np.zeros((3, 1, 3))))
+    with pytest.raises(ValueError, match="ground_height must be finite"):
+        viz.write_html(model, t, q, out, contact=(np.nan, good, good))
+    with pytest.raises(ValueError, match="forces has non-finite entries"):
+        viz.write_html(model, t, q, out, contact=(0.0, good, np.full((3, 2, 3), np.inf)))
+    assert not out.exists()
+
+
+# --------------------------------------------------------------------------------------------
 # headless Chromium
 
 
@@ -507,6 +716,44 @@ def test_chromium_plays_the_motion_at_the_times_of_the_trajectory(tmp_path, mesh
         assert math.dist((cols.mean(), rows.mean()), expected) < 8.0, (time, expected)
 
 
+def red(image) -> np.ndarray:
+    """Pixels of the arrows' red (0.9, 0.1, 0.1), lit or shaded: red well above green and
+    blue (the bob's orange has green about half its red)."""
+    r, g, b = image[..., 0], image[..., 1], image[..., 2]
+    return (r > 0.35) & (g < 0.3) & (b < 0.3) & (r - g > 0.3) & (np.abs(g - b) < 0.12)
+
+
+def test_chromium_draws_an_upward_force_as_a_red_arrow_above_its_point(tmp_path, meshcat):
+    """Still pose q = (0.9, -1.4) with 150 N straight up at p = (-0.1, 0.3, 0.9) (in front
+    of the pendulum, inside the box the camera frames, so both pages have the same view):
+    the pixels red on the page with contact and not on the page without are the arrow's; they
+    run from where the camera projects p up to where it projects the tip p + (0, 0, s 150 N),
+    s the scale the page states."""
+    model = od.load_urdf("double_pendulum")
+    q = np.array([[0.9, -1.4]])
+    p = np.array([-0.1, 0.3, 0.9])
+    contact = (0.0, p[None, None], np.array([[[0.0, 0.0, 150.0]]]))
+    with_arrow = viz.write_html(model, [0.0], q, tmp_path / "arrow.html", contact=contact)
+    without = viz.write_html(model, [0.0], q, tmp_path / "plain.html")
+    html = with_arrow.read_text()
+    camera = camera_of(html)
+    for mine, other in zip(camera, camera_of(without.read_text())):
+        np.testing.assert_array_equal(mine, other)
+    shot = screenshot(with_arrow.as_uri(), tmp_path / "arrow.png")
+    plain = screenshot(without.as_uri(), tmp_path / "plain.png")
+    arrow = red(shot) & ~red(plain)
+    assert arrow.sum() > 300, f"only {arrow.sum()} pixels of the arrow's red"
+    rows, cols = np.nonzero(arrow)
+    base = project(p, *camera)
+    tip = project(p + [0.0, 0.0, 150.0 * metres_per_newton(html)], *camera)
+    assert tip[1] < base[1] - 50  # the tip is well above the point on screen
+    assert abs(rows.max() - base[1]) < 8.0 and abs(rows.min() - tip[1]) < 8.0
+    assert abs(np.median(cols) - base[0]) < 8.0
+    # the page without contact has nothing red along the arrow
+    column = slice(int(base[0]) - 10, int(base[0]) + 11)
+    assert red(plain)[int(tip[1]) : int(base[1]) + 1, column].sum() == 0
+
+
 def test_chromium_draws_the_ur5_meshes_where_kinematics_puts_its_links(
     tmp_path, meshcat, monkeypatch
 ):
@@ -543,26 +790,37 @@ def test_chromium_draws_the_ur5_meshes_where_kinematics_puts_its_links(
 # the live viewer
 
 
-def test_live_viewer_serves_the_robot_and_its_animation(meshcat):
-    """A browser that connects to the viewer's URL receives the pendulum's geometry and the
-    animation over the websocket (meshcat's protocol: msgpack commands)."""
+def test_live_viewer_serves_the_robot_its_animation_and_the_contact_forces(meshcat):
+    """A browser that connects to the viewer's URL receives the pendulum's geometry, the
+    ground, a contact-force arrow and the animation of both over the websocket (meshcat's
+    protocol: msgpack commands)."""
     import umsgpack
     from tornado.ioloop import IOLoop
     from tornado.websocket import websocket_connect
 
     t = np.linspace(0.0, 1.0, 11)
-    url = viz.view(od.load_urdf("double_pendulum"), t, np.column_stack([t, -t]))
+    points = np.tile([0.5, 0.0, 0.0], (len(t), 1, 1))
+    forces = np.tile([0.0, 0.0, 20.0], (len(t), 1, 1))
+    url = viz.view(
+        od.load_urdf("double_pendulum"), t, np.column_stack([t, -t]), contact=(0.0, points, forces)
+    )
     assert url.startswith("http://") and url.endswith("/static/")
     ws_url = "ws://" + url[len("http://") : -len("static/")]
 
     bobs = {"/meshcat/double_pendulum/link1/visual_1", "/meshcat/double_pendulum/link2/visual_2"}
+    contact = {
+        "/Ground",
+        "/ContactForces/point_0/shaft/cylinder",
+        "/ContactForces/point_0/head/cone",
+    }
 
     async def receive():
-        """The scene's commands, until the two bobs and the animation have arrived."""
+        """The scene's commands, until the two bobs, the ground, the arrow and the animation
+        have arrived."""
         connection = await websocket_connect(ws_url)
         commands = []
         while not (
-            bobs <= {c["path"] for c in commands if c["type"] == "set_object"}
+            bobs | contact <= {c["path"] for c in commands if c["type"] == "set_object"}
             and any(c["type"] == "set_animation" for c in commands)
         ):
             message = await connection.read_message()
@@ -580,4 +838,62 @@ def test_live_viewer_serves_the_robot_and_its_animation(meshcat):
     assert {a["path"] for a in animation["animations"]} == {
         "/meshcat/double_pendulum/link1",
         "/meshcat/double_pendulum/link2",
+        "/ContactForces/point_0/shaft",
+        "/ContactForces/point_0/head",
     }
+
+
+# --------------------------------------------------------------------------------------------
+# the plot's contact panel
+
+
+def test_the_plot_with_contact_adds_a_panel_of_the_normal_forces_and_their_sum(
+    tmp_path, monkeypatch
+):
+    """The same record with and without contact: one more panel, whose lines are each point's
+    f_z over time and their sum, named in the legend."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.image
+    import matplotlib.pyplot as plt
+
+    model = od.load_urdf("double_pendulum")
+    t, q = swing()
+    zeros = np.zeros(len(t))
+    forces = np.zeros((len(t), 2, 3))
+    forces[t < 1.0, 0, 2] = 10.0
+    forces[:, 1] = np.column_stack([zeros + 1.0, zeros, 5.0 * t])
+    record = {"t": t, "q": q, "qd": np.zeros_like(q), "tau": np.zeros_like(q)}
+    record.update(kinetic=zeros, potential=zeros, work_applied=zeros, work_passive=zeros)
+    record["joint_names"] = model.joint_names
+    figures, close = [], plt.close
+    monkeypatch.setattr(plt, "close", figures.append)  # keep the figures to look at
+    plain = od.Trajectory(**record).plot(tmp_path / "plain.png")
+    touching = od.Trajectory(
+        **record,
+        contact_names=("left_foot", "right_foot"),
+        contact_point=np.zeros((len(t), 2, 3)),
+        contact_force=forces,
+        ground_height=0.0,
+    ).plot(tmp_path / "contact.png")
+    without, with_contact = (figure.axes for figure in figures)
+    assert len(with_contact) == len(without) + 1
+    panel = with_contact[-1]
+    assert "normal force" in panel.get_ylabel() and "(N)" in panel.get_ylabel()
+    lines = {line.get_label(): line for line in panel.get_lines()}
+    assert set(lines) == {"left_foot", "right_foot", "sum"}
+    for label, expected in (
+        ("left_foot", forces[:, 0, 2]),
+        ("right_foot", forces[:, 1, 2]),
+        ("sum", forces[:, :, 2].sum(axis=1)),
+    ):
+        np.testing.assert_array_equal(lines[label].get_xdata(), t)
+        np.testing.assert_array_equal(lines[label].get_ydata(), expected)
+    legend = [text.get_text() for text in panel.get_legend().get_texts()]
+    assert legend == ["left_foot", "right_foot", "sum"]
+    # the PNG is a panel taller
+    tall = matplotlib.image.imread(touching).shape[0] - matplotlib.image.imread(plain).shape[0]
+    assert tall == matplotlib.image.imread(plain).shape[0] // 3
+    for figure in figures:
+        close(figure)
