@@ -332,6 +332,8 @@ def summary(scene, traj):
             f"base        max | |quat| - 1 | = {stats['quaternion_norm_error']:.2g} over the "
             f"samples (bound {QUATERNION_NORM_BOUND:g}: integrate keeps it a unit quaternion)"
         )
+    if traj.has_contact and len(traj.t):
+        lines.append(_contact_line(traj))
     if len(traj.violation_position):
         gains = scene.baumgarte
         how = (
@@ -345,6 +347,20 @@ def summary(scene, traj):
             f"rad, max |A qd| = {traj.violation_velocity.max():.3g} m/s or rad/s"
         )
     return "\n".join(lines)
+
+
+def _contact_line(traj):
+    """The contact in one line: the points, the largest penetration and force, where and when."""
+    names = traj.contact_names
+    depth = traj.penetration
+    force = np.linalg.norm(traj.contact_force, axis=2)
+    k, p = np.unravel_index(np.argmax(depth), depth.shape)
+    kf, pf = np.unravel_index(np.argmax(force), force.shape)
+    return (
+        f"contact     {len(names)} points on the ground z = {traj.ground_height:g} m: max "
+        f"penetration {depth[k, p] * 1e3:.3g} mm ({names[p]} at t = {traj.t[k]:.4g} s), max "
+        f"force {force[kf, pf]:.4g} N ({names[pf]} at t = {traj.t[kf]:.4g} s)"
+    )
 
 
 def main(argv=None) -> int:

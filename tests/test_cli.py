@@ -208,30 +208,17 @@ def test_info_cache_names_the_cache_folder(capsys):
     assert f"kernel cache  {CACHE_DIR}" in out and "chosen as" in out
 
 
-def test_simulate_html_draws_the_ground_and_the_recorded_contact_forces(tmp_path, monkeypatch):
-    """A run that recorded contact (here the default scene's record with one point under 10 N
-    added) gives a page with the ground and an arrow, its scale in the title."""
-    import dataclasses
-    import sys
-
+def test_simulate_reports_contact_and_draws_the_ground_and_its_forces(tmp_path, capsys):
+    """The ball drop (its first bounce at 0.32 s): the summary names the largest penetration
+    and force, and the page has the ground and an arrow, its scale in the title."""
     pytest.importorskip("meshcat")
-    module = sys.modules["opendyn.simulate"]
-    run = module.simulate
-
-    def with_contact(scene, **kwargs):
-        traj = run(scene, **kwargs)
-        k = len(traj.t)
-        return dataclasses.replace(
-            traj,
-            contact_names=("tip",),
-            contact_point=np.zeros((k, 1, 3)),
-            contact_force=np.tile([0.0, 0.0, 10.0], (k, 1, 1)),
-            penetration=np.zeros((k, 1)),
-            ground_height=0.0,
-        )
-
-    monkeypatch.setattr(module, "simulate", with_contact)
     page = tmp_path / "run.html"
-    assert main(["simulate", "--quiet", "--duration", "0.1", "--html", str(page)]) == 0
+    assert main(["simulate", "ball_drop", "--duration", "0.4", "--html", str(page)]) == 0
+    out = capsys.readouterr().out
+    line = re.search(r"contact +1 points on the ground z = 0 m: max penetration ([0-9.]+) mm "
+                     r"\(ball at t = ([0-9.]+) s\), max force ([0-9.]+) N", out)
+    assert line, out
+    depth, t, force = (float(x) for x in line.groups())
+    assert 9.9 < depth < 10.1 and 0.32 < t < 0.34 and force == pytest.approx(depth * 100, rel=1e-3)
     html = page.read_text()
-    assert re.search(r"<title>double_pendulum - opendyn \(red arrows: contact forces, ", html)
+    assert re.search(r"<title>ball - opendyn \(red arrows: contact forces, ", html)

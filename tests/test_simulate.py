@@ -114,6 +114,14 @@ def _full_scene():
                 "armature": {"values": 0.01},
                 "limits": {"stiffness": 1e3, "damping": 5.0},
                 "wrench": [{"frame": "tip", "expressed_in": "world", "value": [0, 0, 0, 1, 0, 2]}],
+                "contact": {  # a raised floor the tip swings down into (it starts at 2.82 m)
+                    "ground_height": 2.6,
+                    "stiffness": 1e3,
+                    "damping": 10.0,
+                    "friction": 0.3,
+                    "slip_velocity": 1.0,
+                    "points": [{"frame": "tip", "radius": 0.05}],
+                },
             },
             "control": {"type": "pd", "kp": 5.0, "kd": 1.0, "setpoint": [0.0, 0.0]},
         }
@@ -121,7 +129,7 @@ def _full_scene():
 
 
 @pytest.mark.parametrize(
-    "effect", ["gravity", "damping", "friction", "limits", "wrench", "control"]
+    "effect", ["gravity", "damping", "friction", "limits", "wrench", "contact", "control"]
 )
 def test_disabled_effect_never_runs(effect):
     """A scene without an effect has None in its slot of the effects tuple, which the compiled
@@ -172,12 +180,13 @@ _COMPILED_FOR_DEFAULT_SCENE = r"""
 import json
 import opendyn as od
 from opendyn import effects
-from opendyn.dynamics import aba, crba, forward, rnea
+from opendyn.dynamics import aba, contact, crba, forward, rnea
 od.simulate(od.load_scene("double_pendulum_swing").replace_run(duration=0.01))
 functions = {name: getattr(effects, name) for name in dir(effects) if name.endswith("_effect")}
 functions.update(
     aba=aba.aba_kernel, crba=crba.crba_kernel, rnea=rnea.rnea_kernel,
     newton_euler=forward.newton_euler_mass_matrix, mass_matrix_solve=forward.mass_matrix_solve,
+    contact=contact.contact_kernel,
 )
 print(json.dumps({name: [str(sig[0]) for sig in f.signatures] for name, f in functions.items()}))
 """
@@ -203,6 +212,7 @@ def test_a_scene_compiles_no_effect_it_does_not_name(tmp_path):
         "friction_effect",
         "limits_effect",
         "wrench_effect",
+        "contact_effect",
         "constant_effect",
         "pd_effect",
         "computed_torque_effect",
@@ -211,7 +221,7 @@ def test_a_scene_compiles_no_effect_it_does_not_name(tmp_path):
         assert set(compiled[name]) == {"none"}, f"{name} compiled for {compiled[name]}"
     assert compiled["aba"] and compiled["rnea"] == []
     assert compiled["crba"] == [] and compiled["newton_euler"] == []
-    assert compiled["mass_matrix_solve"] == []
+    assert compiled["mass_matrix_solve"] == [] and compiled["contact"] == []
     # and the run said so, once, on stderr
     assert proc.stderr.count("opendyn: compiling the simulation step for rk4 with gravity") == 1
 
@@ -226,11 +236,13 @@ def _evaluate(scene, t, q, qd):
 
 def test_each_effect_is_its_stated_generalized_force():
     """The step's qdd equals (M + diag(a))^-1 (tau_effects - h), with each effect's law written
-    out here from the documentation and M, h, J_b from the core."""
+    out here from the documentation and M, h, J_b from the core; the power is qd . tau of the
+    applied and passive forces, less the work of the contact's spring, k delta delta_dot."""
     scene = _full_scene()
     model = scene.model
     rng = np.random.default_rng(3)
-    for _ in range(5):
+    touched = 0
+    for _ in range(8):
         t = rng.uniform(0, 0.5)
         q = rng.uniform(-3.5, 3.5, 2)
         qd = rng.normal(size=2)
@@ -245,15 +257,33 @@ def test_each_effect_is_its_stated_generalized_force():
         F_tip = np.concatenate([R_sf.T @ F_world[:3], R_sf.T @ F_world[3:]])
         applied = od.jacobian(model, q, "tip", expressed_in="body").T @ F_tip
         control = scene.control.kp * (scene.control.setpoint - q) - scene.control.kd * qd
+        c = scene.contact
+        (point,) = c.points
+        J = od.jacobian(model, q, "tip", expressed_in="space")
+        x_p = od.frame_pose(model, q, "tip")[:3, 3] - [0, 0, point.radius]
+        v_p = (J[3:] - np.cross(x_p, J[:3].T).T) @ qd
+        delta = max(0.0, c.ground_height - x_p[2])
+        f_n = max(0.0, c.stiffness * delta - c.damping * v_p[2]) if delta > 0 else 0.0
+        f_t = -c.friction * f_n * v_p[:2] / np.sqrt(v_p[0] ** 2 + v_p[1] ** 2 + c.slip_velocity**2)
+        tau_contact = (J[3:] - np.cross(x_p, J[:3].T).T).T @ np.array([*f_t, f_n])
+        touched += delta > 0
         M = od.mass_matrix(model, q) + np.diag(scene.armature)
         h = od.bias_forces(model, q, qd, gravity=scene.gravity)
         np.testing.assert_allclose(
-            qdd, np.linalg.solve(M, passive + applied + control - h), rtol=1e-10, atol=1e-10
+            qdd,
+            np.linalg.solve(M, passive + tau_contact + applied + control - h),
+            rtol=1e-10,
+            atol=1e-10,
         )
         np.testing.assert_allclose(tau_ctrl, control, rtol=1e-12, atol=1e-12)
+        spring = c.stiffness * delta * -v_p[2]
         np.testing.assert_allclose(
-            power, [qd @ (control + applied), qd @ passive], rtol=1e-10, atol=1e-12
+            power,
+            [qd @ (control + applied), qd @ (passive + tau_contact) + spring],
+            rtol=1e-10,
+            atol=1e-12,
         )
+    assert 0 < touched < 8  # states in contact and out of it
 
 
 def test_applied_wrench_is_minus_f_tip():
@@ -322,7 +352,9 @@ def test_clip_limits_control_torque_to_effort_limits():
 
 def test_armature_adds_to_the_mass_matrix_diagonal():
     scene = _full_scene()
-    only = scene.without("gravity", "damping", "friction", "limits", "wrench", "control")
+    only = scene.without(
+        "gravity", "damping", "friction", "limits", "wrench", "contact", "control"
+    )
     assert only.effects == ("armature",)
     q, qd = np.array([0.4, -0.3]), np.array([1.0, 2.0])
     qdd, _, _ = _evaluate(only, 0.0, q, qd)
