@@ -208,8 +208,9 @@ def contact_effect(p, ibuf, fbuf, q, qd, tau, K, D, jac, power):
     x_c = np.empty((n, 3))
     f_c = np.empty((n, 3))
     delta = np.empty(n)
+    # np.bool_(jac): a run-time flag, so that the kernel compiles once for both values
     power[1] += contact_kernel(
-        ibuf, fbuf, bodies, params, q, qd, tau, K, D, jac, x_c, f_c, delta
+        ibuf, fbuf, bodies, params, q, qd, tau, K, D, np.bool_(jac), x_c, f_c, delta
     )
 
 

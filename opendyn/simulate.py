@@ -611,7 +611,7 @@ def _stiffness_cause(scene, q):
             ("PD damping", control.kd / m, joints),
         ]
     if scene.contact is not None:
-        candidates += _contact_rates(scene, q, M)
+        candidates += _contact_rates(scene, q)
     return _too_stiff(candidates, run.dt, 2.0)
 
 
@@ -644,17 +644,12 @@ def check_contact_step(scene):
     a contact does not always blow up (the clamp f_n >= 0 and friction's saturation bound it):
     the feet chatter and the run returns nonsense, so it is refused before it starts.
     Raises SceneError naming the contact point, the rate and the step that suits it."""
-    from .dynamics.crba import mass_matrix
-
     run = scene.run
     integ = integrators.INTEGRATORS[run.integrator]
     if scene.contact is None or integ.adaptive or integ.kind == integrators.IMPLICIT:
         return
-    M = mass_matrix(scene.model, scene.q0)
-    if scene.armature is not None:
-        M[scene.model.v_index, scene.model.v_index] += scene.armature
     limit = 2.8 if integ.order == 4 else 2.0
-    cause = _too_stiff(_contact_rates(scene, scene.q0, M), run.dt, limit)
+    cause = _too_stiff(_contact_rates(scene, scene.q0), run.dt, limit)
     if cause is not None:
         raise SceneError(
             f"{scene.source}: run.dt: {run.integrator} at dt = {run.dt:g} s is unstable for "
@@ -662,21 +657,33 @@ def check_contact_step(scene):
         )
 
 
-def _contact_rates(scene, q, M):
+def _contact_rates(scene, q):
     """[(name, rates (P,), where (P,))] of the contact's spring, damper and friction at each
-    point, over its apparent mass m_p (see _stiffness_cause)."""
+    point, over its apparent mass m_p = 1 / (e_r^T J_p M^-1 J_p^T e_r) (see _stiffness_cause).
+    M^-1 J_p^T e_r is the scene's own forward dynamics at rest without gravity, so that the check
+    compiles nothing the run does not."""
     from .dynamics.contact import contact_jacobians_kernel
+    from .dynamics.forward import method_switches
 
     contact, model = scene.contact, scene.model
-    bodies, params = effects.contact_table(model, contact)
+    q = np.array(q, dtype=np.float64)  # writable, as in the run: no new specialisation
+    table = effects.stage_table(scene)
+    bodies, params = table.effects[effects.CONTACT]
     J = np.empty((len(bodies), 3, model.nv))
     contact_jacobians_kernel(model._ibuf, model._fbuf, bodies, params, q, J)
-    try:
-        M_inv_J = np.linalg.solve(M, J.transpose(1, 2, 0).reshape(model.nv, -1))
-    except np.linalg.LinAlgError:
-        return []
-    M_inv_J = M_inv_J.reshape(model.nv, 3, len(bodies))
-    inverse_mass = np.einsum("prv,vrp->pr", J, M_inv_J)  # e_r^T J_p M^-1 J_p^T e_r
+    method = method_switches(model, table.method)
+    at_rest, no_loads, qdd = np.zeros(model.nv), np.zeros((1, 6)), np.empty(model.nv)
+    inverse_mass = np.empty((len(bodies), 3))
+    for p in range(len(bodies)):
+        for r in range(3):
+            tau = np.ascontiguousarray(J[p, r])
+            status = step.dynamics(
+                model._ibuf, model._fbuf, table.armature, method, None, no_loads, q, at_rest,
+                tau, qdd,
+            )
+            if status:
+                return []
+            inverse_mass[p, r] = tau @ qdd
     normal = 1.0 / np.maximum(inverse_mass[:, 2], 1e-300)
     tangential = 1.0 / np.maximum(inverse_mass[:, :2].max(axis=1), 1e-300)
     where = [f"contact point {p.name!r}" for p in contact.points]

@@ -167,9 +167,10 @@ def contact_record_kernel(ibuf, fbuf, bodies, params, q, qd, x_c, f_c, delta, st
     recorded states q (N, nq), qd (N, nv), rows [start, stop)."""
     tau = np.empty(qd.shape[1])
     unused = np.empty((0, 0))
+    no_jac = np.bool_(False)  # a run-time flag, as the step passes it: one compiled kernel
     for n in range(start, stop):
         contact_kernel(
-            ibuf, fbuf, bodies, params, q[n], qd[n], tau, unused, unused, False,
+            ibuf, fbuf, bodies, params, q[n], qd[n], tau, unused, unused, no_jac,
             x_c[n], f_c[n], delta[n],
         )
 
