@@ -108,11 +108,17 @@ def timed_run(scene, repeats):
     return traj, wall
 
 
+def sample_rows(traj, ref):
+    """The rows of the reference's record at the run's sample times (the reference records
+    every one of them: same output_dt, or the run's a multiple of it)."""
+    rows = np.minimum(np.searchsorted(ref.t, traj.t - 1e-9), len(ref.t) - 1)
+    assert np.allclose(ref.t[rows], traj.t, atol=1e-9), "sample times differ"
+    return rows
+
+
 def state_error(traj, ref):
-    """(final, max over samples) of max_j |q_j - q_ref,j| on the shared sample times."""
-    n = min(len(traj.t), len(ref.t))
-    assert np.allclose(traj.t[:n], ref.t[:n], atol=1e-9), "sample times differ"
-    err = np.max(np.abs(traj.q[:n] - ref.q[:n]), axis=1)
+    """(final, max over samples) of max_j |q_j - q_ref,j| at the run's sample times."""
+    err = np.max(np.abs(traj.q - ref.q[sample_rows(traj, ref)]), axis=1)
     return float(err[-1]), float(err.max())
 
 
@@ -126,6 +132,17 @@ def fit_order(x, err, floor):
     if len(keep) < 3:
         return None
     return float(np.polyfit(np.log(x[keep]), np.log(err[keep]), 1)[0])
+
+
+def convergence_orders(runs, floor):
+    """{integrator: fit_order of its complete runs' final errors against their steps}."""
+    orders = {}
+    for name in LABEL:
+        done = [r for r in runs if r["integrator"] == name and r["complete"]]
+        orders[name] = fit_order(
+            [r["step"] for r in done], [r["error_final"] for r in done], floor
+        )
+    return orders
 
 
 def integrator_study(mode, repeats):
@@ -156,12 +173,7 @@ def integrator_study(mode, repeats):
             else:
                 row.update(failed_at=float(traj.t[-1]) if len(traj.t) else 0.0)
             runs.append(row)
-        orders = {}
-        for name in LABEL:
-            done = [r for r in runs if r["integrator"] == name and r["complete"]]
-            orders[name] = fit_order(
-                [r["step"] for r in done], [r["error_final"] for r in done], ref_bound
-            )
+        orders = convergence_orders(runs, ref_bound)
         results.append(
             dict(
                 key=key,
@@ -226,6 +238,12 @@ def _run_settings(integrator, x):
     return dict(integrator=integrator, dt=x)
 
 
+def refusal(error, scene):
+    """The simulator's reason for refusing `scene` (a SceneError), without the scene file's
+    path that opens it."""
+    return str(error).removeprefix(f"{scene.source}: ")
+
+
 def constrained_study(mode, repeats):
     """The four-bar (one loop closure) with every integrator x step, with the scene's Baumgarte
     stabilisation and without it: constraint violation (max and final |phi|, max |A qd|), state
@@ -252,7 +270,7 @@ def constrained_study(mode, repeats):
         try:
             traj, wall = timed_run(scenes[stab].replace_run(**_run_settings(name, x)), repeats)
         except od.SceneError as e:
-            row.update(supported=False, complete=False, reason=str(e))
+            row.update(supported=False, complete=False, reason=refusal(e, scenes[stab]))
             runs.append(row)
             continue
         row.update(supported=True, complete=traj.complete, wall_s=wall)
@@ -744,9 +762,8 @@ def constrained_markdown(res):
             if not r["supported"]:
                 if r["integrator"] not in refused:
                     refused.add(r["integrator"])
-                    reason = r["reason"].split(": ", 1)[-1]
                     out.append(
-                        f"| {LABEL[r['integrator']]} | every step | not supported: {reason} "
+                        f"| {LABEL[r['integrator']]} | every step | not supported: {r['reason']} "
                         "| - | - | - | - | - | - |"
                     )
                 continue
