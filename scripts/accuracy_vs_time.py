@@ -1,6 +1,6 @@
 """What accuracy costs in time: integrators and steps, forward-dynamics algorithms, effects.
 
-    python scripts/accuracy_vs_time.py             # the full study (about 3 min on 2 cores)
+    python scripts/accuracy_vs_time.py             # the full study (about 4.5 min on 2 cores)
     python scripts/accuracy_vs_time.py --quick     # the same pipeline on small sweeps (< 2 min)
 
 1. Integrators. Each scene runs with every integrator over a sweep of steps (tolerances for the
@@ -28,12 +28,27 @@
    between 1 kg and a lighter mass.
 4. Effects. The cost of every stage of the step (as `opendyn simulate --profile` reports it) on
    scenes that switch every effect on.
+5. Contact. The shipped ball drop (1 kg on k = 1e5 N/m, no damping or friction; 1 s, two
+   bounces; quick 0.5 s) and Solo12 drop (k = 1e5, d = 300, mu = 0.8, PD on the joints; 1 s,
+   the landing at 0.25 s and the settling; quick 0.4 s) with every integrator over a sweep of
+   steps from 10 ms to 10 us (dopri5: tolerances), samples every 1 ms. Per run: its status
+   (complete; refused before it starts by the simulator's stability check, with the stiffest
+   cause the check names; failed, with where it stopped), max and final state error against
+   dopri5 (at 1e-12 on the ball, 1e-11 on Solo12, where 1e-12 underflows its step at
+   touchdown; each bounded by its distance to the run ten times looser), the energy-balance
+   residual max |energy_error|, the deepest penetration and its error against the reference's
+   at the same samples, evaluations and wall time. Stability per fixed-step integrator: the
+   largest step run, the smallest refused, the largest that completes and the largest whose
+   max error is within 0.1 (m or rad). Then what the stiffness costs: the ball drop (0.5 s) at
+   k = 1e4 to 1e7 N/m, whose rate sqrt(k/m) sets RK4's stability step 2.8 / rate, and each
+   integrator's fastest run within 1e-3 m.
 
 Writes into --out (default docs/study): accuracy_vs_time.png (error against wall time, one curve
 per integrator: the Pareto plot), convergence.png (error against step), constraint.png (the
 four-bar's max violation against step and wall time; solid with Baumgarte, dashed without),
-algorithms.png, study.md (every table) and study.json (every number; the four-bar under
-"constrained").
+algorithms.png, contact.png (error against wall time on the two contact scenes; the stiffness
+cost), study.md (every table) and study.json (every number; the four-bar under "constrained",
+contact under "contact").
 """
 
 from __future__ import annotations
@@ -42,6 +57,7 @@ import argparse
 import dataclasses
 import json
 import pathlib
+import re
 import sys
 import time
 
@@ -108,11 +124,17 @@ def timed_run(scene, repeats):
     return traj, wall
 
 
+def sample_rows(traj, ref):
+    """The rows of the reference's record at the run's sample times (the reference records
+    every one of them: same output_dt, or the run's a multiple of it)."""
+    rows = np.minimum(np.searchsorted(ref.t, traj.t - 1e-9), len(ref.t) - 1)
+    assert np.allclose(ref.t[rows], traj.t, atol=1e-9), "sample times differ"
+    return rows
+
+
 def state_error(traj, ref):
-    """(final, max over samples) of max_j |q_j - q_ref,j| on the shared sample times."""
-    n = min(len(traj.t), len(ref.t))
-    assert np.allclose(traj.t[:n], ref.t[:n], atol=1e-9), "sample times differ"
-    err = np.max(np.abs(traj.q[:n] - ref.q[:n]), axis=1)
+    """(final, max over samples) of max_j |q_j - q_ref,j| at the run's sample times."""
+    err = np.max(np.abs(traj.q - ref.q[sample_rows(traj, ref)]), axis=1)
     return float(err[-1]), float(err.max())
 
 
@@ -126,6 +148,17 @@ def fit_order(x, err, floor):
     if len(keep) < 3:
         return None
     return float(np.polyfit(np.log(x[keep]), np.log(err[keep]), 1)[0])
+
+
+def convergence_orders(runs, floor):
+    """{integrator: fit_order of its complete runs' final errors against their steps}."""
+    orders = {}
+    for name in LABEL:
+        done = [r for r in runs if r["integrator"] == name and r["complete"]]
+        orders[name] = fit_order(
+            [r["step"] for r in done], [r["error_final"] for r in done], floor
+        )
+    return orders
 
 
 def integrator_study(mode, repeats):
@@ -156,12 +189,7 @@ def integrator_study(mode, repeats):
             else:
                 row.update(failed_at=float(traj.t[-1]) if len(traj.t) else 0.0)
             runs.append(row)
-        orders = {}
-        for name in LABEL:
-            done = [r for r in runs if r["integrator"] == name and r["complete"]]
-            orders[name] = fit_order(
-                [r["step"] for r in done], [r["error_final"] for r in done], ref_bound
-            )
+        orders = convergence_orders(runs, ref_bound)
         results.append(
             dict(
                 key=key,
@@ -226,6 +254,12 @@ def _run_settings(integrator, x):
     return dict(integrator=integrator, dt=x)
 
 
+def refusal(error, scene):
+    """The simulator's reason for refusing `scene` (a SceneError), without the scene file's
+    path that opens it."""
+    return str(error).removeprefix(f"{scene.source}: ")
+
+
 def constrained_study(mode, repeats):
     """The four-bar (one loop closure) with every integrator x step, with the scene's Baumgarte
     stabilisation and without it: constraint violation (max and final |phi|, max |A qd|), state
@@ -252,7 +286,7 @@ def constrained_study(mode, repeats):
         try:
             traj, wall = timed_run(scenes[stab].replace_run(**_run_settings(name, x)), repeats)
         except od.SceneError as e:
-            row.update(supported=False, complete=False, reason=str(e))
+            row.update(supported=False, complete=False, reason=refusal(e, scenes[stab]))
             runs.append(row)
             continue
         row.update(supported=True, complete=traj.complete, wall_s=wall)
@@ -544,6 +578,198 @@ def effect_study(mode):
     return out
 
 
+# ---------------------------------------------------------------- 5. contact
+
+# (key, shipped scene, title, duration full, duration quick, reference rtol = atol). The ball
+# falls for 0.32 s and stays 10 ms on the ground per bounce: 1 s holds two bounces, 0.5 s one.
+# The quadruped lands at 0.25 s and settles by about 0.6 s. Its reference runs at 1e-11: at
+# 1e-12 DOPRI5's step underflows at touchdown, where the damper's force jumps from 0 to
+# d |v_z| (720 N per foot).
+CONTACT_SCENES = [
+    ("ball_drop", "ball_drop", "ball drop (k = 1e5, no damping or friction)", 1.0, 0.5, 1e-12),
+    (
+        "quadruped_drop",
+        "quadruped_drop",
+        "Solo12 drop (k = 1e5, d = 300, mu = 0.8, PD)",
+        1.0,
+        0.4,
+        1e-11,
+    ),
+]
+CONTACT_OUTPUT_DT = 1e-3  # s: resolves the deepest penetration of a 10 ms contact
+CONTACT_STEPS = {
+    "full": {
+        "fixed": [1e-2, 5e-3, 2e-3, 1e-3, 5e-4, 2e-4, 1e-4, 5e-5, 2e-5, 1e-5],
+        "dopri5": [1e-2, 1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10],
+    },
+    "quick": {
+        "fixed": [1e-2, 1e-3, 2e-4, 5e-5, 2e-5],
+        "dopri5": [1e-4, 1e-6, 1e-8],
+    },
+}
+USABLE = 0.1  # m or rad: the max error of a run that keeps the motion's shape
+STIFFNESSES = {"full": [1e4, 1e5, 1e6, 1e7], "quick": [1e5, 1e7]}  # N/m
+STIFFNESS_DURATION = 0.5  # s: the ball's fall, its bounce and half its rise
+STIFFNESS_TARGET = 1e-3  # m: the max error the stiffness study asks of every integrator
+
+
+def contact_reference(scene, rtol):
+    """The reference run of a contact scene, dopri5 at rtol = atol = `rtol`, and its summary:
+    the bound on its error (its max distance to the run at 10 rtol), steps, wall time, energy
+    residual and deepest penetration."""
+    ref = od.simulate(scene.replace_run(**_run_settings("dopri5", rtol)))
+    check = od.simulate(scene.replace_run(**_run_settings("dopri5", 10 * rtol)))
+    return ref, dict(
+        rtol=rtol,
+        error_bound=state_error(check, ref)[1],
+        steps=int(ref.stats["steps"]),
+        wall_s=ref.stats["wall_s"],
+        energy_error=float(np.max(np.abs(ref.energy_error))),
+        penetration_max=float(ref.penetration.max()),
+    )
+
+
+def contact_run(scene, integrator, x, ref, repeats):
+    """One run of a contact scene at step x (s; dopri5: rtol = atol = x) as a row. status:
+    "complete", "refused" (the simulator's stability check refused the step before the run;
+    reason) or "failed" (failed_at, reason). A complete run has its final and max state error
+    against `ref`, max |energy_error| (J), its deepest penetration (m) at its samples and the
+    distance to the reference's deepest at the same samples. A fixed step longer than the
+    scene's output_dt records every step."""
+    row = dict(integrator=integrator, step=x)
+    settings = _run_settings(integrator, x)
+    if integrator != "dopri5":
+        settings["output_dt"] = max(scene.run.output_dt, x)
+    try:
+        traj, wall = timed_run(scene.replace_run(**settings), repeats)
+    except od.SceneError as e:
+        row.update(status="refused", complete=False, reason=refusal(e, scene))
+        return row
+    row.update(status="complete" if traj.complete else "failed", complete=traj.complete)
+    row.update(wall_s=wall, evaluations=int(traj.stats["evaluations"]))
+    row.update(steps=int(traj.stats["steps"]))
+    if not traj.complete:
+        row.update(failed_at=float(traj.t[-1]) if len(traj.t) else 0.0, reason=traj.message)
+        return row
+    final, worst = state_error(traj, ref)
+    deepest = float(traj.penetration.max())
+    row.update(
+        error_final=final,
+        error_max=worst,
+        energy_error=float(np.max(np.abs(traj.energy_error))),
+        penetration_max=deepest,
+        penetration_error=abs(deepest - float(ref.penetration[sample_rows(traj, ref)].max())),
+    )
+    return row
+
+
+def stability(runs):
+    """Per fixed-step integrator: the largest step the simulator runs (does not refuse), the
+    smallest it refuses, the largest that completes and the largest whose max error is within
+    USABLE (None where no step of the sweep is)."""
+    out = {}
+    for name in FIXED:
+        rows = [r for r in runs if r["integrator"] == name]
+        out[name] = dict(
+            largest_run=max((r["step"] for r in rows if r["status"] != "refused"), default=None),
+            smallest_refused=min(
+                (r["step"] for r in rows if r["status"] == "refused"), default=None
+            ),
+            largest_complete=max((r["step"] for r in rows if r["complete"]), default=None),
+            largest_usable=max(
+                (r["step"] for r in rows if r["complete"] and r["error_max"] <= USABLE),
+                default=None,
+            ),
+        )
+    return out
+
+
+def contact_study(mode, repeats):
+    """The contact scenes with every integrator x step (contact_run rows against each scene's
+    reference): convergence orders, stability of the fixed steps, Pareto front and
+    recommendations; then what the contact stiffness costs (stiffness_study)."""
+    sweeps = CONTACT_STEPS[mode]
+    scenes = []
+    for key, shipped, title, full_T, quick_T, rtol in CONTACT_SCENES:
+        duration = full_T if mode == "full" else quick_T
+        base = od.load_scene(shipped).replace_run(duration=duration, output_dt=CONTACT_OUTPUT_DT)
+        ref, reference = contact_reference(base, rtol)
+        plan = [(name, x) for name in LABEL for x in sweeps[_contact_sweep(name)]]
+        runs = [
+            contact_run(base, name, x, ref, repeats)
+            for name, x in tqdm(plan, desc=title, leave=False)
+        ]
+        scenes.append(
+            dict(
+                key=key,
+                scene=shipped,
+                title=title,
+                duration=duration,
+                reference=reference,
+                runs=runs,
+                orders=convergence_orders(runs, reference["error_bound"]),
+                stability=stability(runs),
+                pareto=pareto_front(runs),
+                recommendations=recommend(runs),
+            )
+        )
+    return dict(output_dt=CONTACT_OUTPUT_DT, scenes=scenes, stiffness=stiffness_study(mode, repeats))
+
+
+def _contact_sweep(integrator):
+    return "dopri5" if integrator == "dopri5" else "fixed"
+
+
+def stiffness_study(mode, repeats):
+    """What the contact stiffness k costs, on the ball drop (one bounce) at each k of
+    STIFFNESSES: the contact's rate sqrt(k/m) (1/s), which sets RK4's stability step 2.8 / rate,
+    and, per integrator, the fastest run whose max error meets STIFFNESS_TARGET. Each integrator
+    walks down the full sweep (fixed steps from 10 ms, dopri5 tolerances from 1e-2) and stops at
+    the first run that meets it, the largest such step: every run is kept."""
+    base = od.load_scene("ball_drop").replace_run(
+        duration=STIFFNESS_DURATION, output_dt=OUTPUT_DT
+    )
+    mass = float(np.sum(base.model.mass))
+    sweeps = CONTACT_STEPS["full"]
+    rows = []
+    for k in tqdm(STIFFNESSES[mode], desc="contact stiffness", leave=False):
+        scene = dataclasses.replace(base, contact=dataclasses.replace(base.contact, stiffness=k))
+        ref, reference = contact_reference(scene, REFERENCE_TOL)
+        runs = []
+        for name in LABEL:
+            for x in sweeps[_contact_sweep(name)]:
+                runs.append(contact_run(scene, name, x, ref, repeats))
+                if runs[-1]["complete"] and runs[-1]["error_max"] <= STIFFNESS_TARGET:
+                    break
+        rate = float(np.sqrt(k / mass))
+        fastest = {
+            name: recommend(
+                [r for r in runs if r["integrator"] == name], (STIFFNESS_TARGET,)
+            )[STIFFNESS_TARGET]
+            for name in LABEL
+        }
+        rows.append(
+            dict(
+                stiffness=k,
+                rate=rate,
+                half_period_s=np.pi / rate,
+                rk4_step=2.8 / rate,
+                reference=reference,
+                runs=runs,
+                stability=stability(runs),
+                fastest=fastest,
+            )
+        )
+    return dict(
+        scene="ball_drop",
+        mass=mass,
+        duration=STIFFNESS_DURATION,
+        output_dt=OUTPUT_DT,
+        target=STIFFNESS_TARGET,
+        rows=rows,
+    )
+
+
 # ---------------------------------------------------------------- output
 
 
@@ -683,6 +909,62 @@ def plot_algorithms(algo, cond_rows, path):
     plt.close(fig)
 
 
+def plot_contact(contact, path):
+    """Max error against wall time on each contact scene (one curve per integrator, its refused
+    steps in the legend), and the wall time of each integrator's fastest run within
+    STIFFNESS_TARGET on the ball drop against the contact stiffness."""
+    fig, axes = plt.subplots(1, 3, figsize=(17, 5.5))
+    for ax, res in zip(axes, contact["scenes"]):
+        for k, name in enumerate(LABEL):
+            rows = [r for r in res["runs"] if r["integrator"] == name]
+            done = [r for r in rows if r["complete"]]
+            refused = [r["step"] for r in rows if r["status"] == "refused"]
+            label = LABEL[name]
+            if refused:
+                label += f" (refused >= {min(refused) * 1e3:g} ms)"
+            if done:
+                x = [r["wall_s"] for r in done]
+                y = [max(r["error_max"], 1e-16) for r in done]
+                ax.loglog(x, y, "o-", color=f"C{k}", ms=4, label=label)
+            elif refused:
+                ax.plot([], [], "o-", color=f"C{k}", label=label)
+        front = res["pareto"]
+        ax.loglog(
+            [r["wall_s"] for r in front],
+            [max(r["error_max"], 1e-16) for r in front],
+            "k--",
+            lw=1,
+            label="Pareto front",
+        )
+        ax.axhline(res["reference"]["error_bound"], color="grey", lw=0.8, ls=":")
+        ax.set_title(f"{res['title']}, {res['duration']:g} s", fontsize=10)
+        ax.set_xlabel("wall time (s)")
+        ax.set_ylabel("max |q - q_ref| over the run (m or rad)")
+        ax.grid(True, which="major", alpha=0.3)
+        ax.legend(fontsize=7, loc="lower left")
+    study = contact["stiffness"]
+    ax = axes[2]
+    k_values = [row["stiffness"] for row in study["rows"]]
+    for k, name in enumerate(LABEL):
+        picks = [row["fastest"][name] for row in study["rows"]]
+        wall = [np.nan if r is None else r["wall_s"] for r in picks]
+        label = LABEL[name] if any(picks) else f"{LABEL[name]}: no step of the sweep"
+        ax.loglog(k_values, wall, "o-", color=f"C{k}", ms=4, label=label)
+    ax.set_xlabel("contact stiffness k (N/m)")
+    ax.set_ylabel(f"wall time of the fastest run within {study['target']:g} m (s)")
+    ax.set_title(
+        f"Ball drop, {study['duration']:g} s: what the stiffness costs\n(no point: no step of "
+        f"the sweep is within {study['target']:g} m)",
+        fontsize=10,
+    )
+    ax.grid(True, which="major", alpha=0.3)
+    ax.legend(fontsize=7)
+    fig.suptitle("Contact: error against wall time (dotted: the reference's own error bound)")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
 def _e(x):
     return "-" if x is None else f"{x:.1e}"
 
@@ -744,9 +1026,8 @@ def constrained_markdown(res):
             if not r["supported"]:
                 if r["integrator"] not in refused:
                     refused.add(r["integrator"])
-                    reason = r["reason"].split(": ", 1)[-1]
                     out.append(
-                        f"| {LABEL[r['integrator']]} | every step | not supported: {reason} "
+                        f"| {LABEL[r['integrator']]} | every step | not supported: {r['reason']} "
                         "| - | - | - | - | - | - |"
                     )
                 continue
@@ -775,6 +1056,133 @@ def constrained_markdown(res):
     return out
 
 
+def _ms(x):
+    return "-" if x is None else f"{x * 1e3:g} ms"
+
+
+def _first_part(r):
+    """The first clause of a run's reason: for a refusal, the stiffest effect the stability
+    check names (its rate and dt x rate); for a failure, where and why the run stopped."""
+    clause = re.split(r"; |, above ", r["reason"])[0]
+    return clause.rsplit(": ", 1)[-1] if r["status"] == "refused" else clause
+
+
+def contact_recommendations(contact):
+    """Markdown lines: the fastest run that keeps the max error under each target, per contact
+    scene."""
+    out = [
+        "\nContact scenes: the fastest run whose max error (m for the base position, rad for the "
+        "joints) meets each bound.\n"
+    ]
+    out.append("| scene | " + " | ".join(f"error <= {t:.0e}" for t in TARGETS) + " |")
+    out.append("|---" * (len(TARGETS) + 1) + "|")
+    for res in contact["scenes"]:
+        cells = [_recommended(res["recommendations"][t]) for t in TARGETS]
+        out.append(f"| {res['title']}, {res['duration']:g} s | " + " | ".join(cells) + " |")
+    return out
+
+
+def contact_markdown(contact):
+    """Markdown lines: the contact section (each scene's runs, stability, orders and Pareto
+    front; the stiffness study)."""
+    out = [
+        "\n## Contact\n\n"
+        "Ground contact: spheres against the plane z = 0, f_n = max(0, k delta + d delta_dot), "
+        "regularised Coulomb friction. The error of a run is max_j |q_j - q_ref,j| at samples "
+        f"every {contact['output_dt'] * 1e3:g} ms (m for the base position, rad for the joints, "
+        "the quaternion's components); a fixed step longer than that records, and is compared "
+        "at, every step. Energy residual: max |energy_error| (J), the balance E - E(0) - "
+        "W_applied - W_passive. Penetration: the deepest at the run's samples and its distance "
+        "to the reference's deepest at the same samples. refused: the simulator refused the "
+        "step before the run (its stability check at the initial state; the stiffest cause "
+        "shown); failed: the run stopped.\n"
+    ]
+    for res in contact["scenes"]:
+        ref = res["reference"]
+        out.append(
+            f"\n### {res['title']}, {res['duration']:g} s\n\nReference: dopri5 at rtol = atol "
+            f"= {ref['rtol']:.0e} ({ref['steps']} steps, {ref['wall_s']:.3g} s); its distance to "
+            f"the run at {10 * ref['rtol']:.0e} bounds its error: {ref['error_bound']:.1e}. Its "
+            f"deepest penetration {ref['penetration_max'] * 1e3:.4g} mm, energy residual "
+            f"{ref['energy_error']:.1e} J.\n"
+        )
+        out.append(
+            "| integrator | step | final error | max error | energy residual (J) | deepest "
+            "penetration (mm) | its error (mm) | evaluations | wall (ms) |"
+        )
+        out.append("|---" * 9 + "|")
+        for r in res["runs"]:
+            head = f"| {LABEL[r['integrator']]} | {_step(r)} | "
+            if r["status"] == "refused":
+                out.append(head + f"refused: {_first_part(r)} | - | - | - | - | - | - |")
+                continue
+            if r["complete"]:
+                cells = [_e(r["error_final"]), _e(r["error_max"]), _e(r["energy_error"])]
+                cells += [f"{r['penetration_max'] * 1e3:.4g}", _e(r["penetration_error"] * 1e3)]
+            else:
+                cells = [f"failed: {_first_part(r)}"] + ["-"] * 4
+            out.append(
+                head + " | ".join(cells) + f" | {r['evaluations']} | {r['wall_s'] * 1e3:.3g} |"
+            )
+        out.append(
+            f"\nStability of the fixed steps (usable: max error <= {USABLE:g}):\n\n"
+            "| integrator | largest step run | refused from | largest step completing "
+            "| largest usable step |"
+        )
+        out.append("|---" * 5 + "|")
+        for name, st in res["stability"].items():
+            cells = [st["largest_run"], st["smallest_refused"], st["largest_complete"]]
+            cells = [_ms(x) for x in cells + [st["largest_usable"]]]
+            out.append(f"| {LABEL[name]} | " + " | ".join(cells) + " |")
+        orders = ", ".join(
+            f"{LABEL[n]} {o:.2f}" for n, o in res["orders"].items() if o is not None
+        )
+        front = ", ".join(
+            f"{LABEL[r['integrator']]} {_step(r)} ({r['wall_s'] * 1e3:.3g} ms, "
+            f"{r['error_max']:.1e})"
+            for r in res["pareto"]
+        )
+        out.append(
+            f"\nConvergence orders (final error against step, as above): {orders or '-'}."
+            f"\n\nPareto front (fastest first): {front}."
+        )
+    study = contact["stiffness"]
+    out.append(
+        f"\n### What the contact stiffness costs: the ball drop, {study['duration']:g} s\n\n"
+        f"The ball drop (1 bounce) at each stiffness k, samples every "
+        f"{study['output_dt'] * 1e3:g} ms, each against its own reference (dopri5 at "
+        f"{REFERENCE_TOL:.0e}). The contact's rate sqrt(k/m) (m = {study['mass']:g} kg) sets "
+        f"how long it lasts (half a period, pi / rate) and RK4's stability step 2.8 / rate. "
+        f"Each integrator walks down the sweep (fixed steps from 10 ms, DOPRI5 tolerances from "
+        f"1e-2) to the first run whose max error is within {study['target']:g} m: its step and "
+        f"wall time (none: no step of the sweep is; the smallest step's error in brackets).\n"
+    )
+    out.append(
+        "| k (N/m) | rate (1/s) | pi / rate (ms) | 2.8 / rate (ms) | RK4 refused from | "
+        + " | ".join(LABEL[n] for n in LABEL)
+        + " |"
+    )
+    out.append("|---" * (len(LABEL) + 5) + "|")
+    for row in study["rows"]:
+        cells = [
+            f"{row['stiffness']:.0e}",
+            f"{row['rate']:.3g}",
+            f"{row['half_period_s'] * 1e3:.3g}",
+            f"{row['rk4_step'] * 1e3:.3g}",
+            _ms(row["stability"]["rk4"]["smallest_refused"]),
+        ]
+        for name in LABEL:
+            r = row["fastest"][name]
+            if r is not None:
+                cells.append(f"{_step(r)}: {r['wall_s'] * 1e3:.3g} ms")
+                continue
+            tried = [x for x in row["runs"] if x["integrator"] == name and x["complete"]]
+            last = min(tried, key=lambda x: x["step"])
+            cells.append(f"none ({_step(last)}: {last['error_max']:.1e} m)")
+        out.append("| " + " | ".join(cells) + " |")
+    return out
+
+
 def method_table(rows, key, title):
     """Markdown lines: one row of per-call times per model."""
     if not rows:
@@ -796,7 +1204,7 @@ def method_table(rows, key, title):
     return lines
 
 
-def markdown(results, constrained, algo, cond_rows, effect_rows, mode, elapsed):
+def markdown(results, constrained, contact, algo, cond_rows, effect_rows, mode, elapsed):
     out = [f"# Accuracy versus time ({mode} run, {elapsed:.0f} s)\n"]
     out.append("## Recommendations: the fastest run that meets each max error\n")
     out.append("| scene | " + " | ".join(f"error <= {t:.0e} rad" for t in TARGETS) + " |")
@@ -812,6 +1220,7 @@ def markdown(results, constrained, algo, cond_rows, effect_rows, mode, elapsed):
             )
         out.append(f"| {res['title']} | " + " | ".join(cells) + " |")
     out += constrained_recommendations(constrained)
+    out += contact_recommendations(contact)
     out.append(
         "\n## Convergence orders\n\nThe slope of log(final error) against log(step); for DOPRI5 "
         "against log(rtol) (1: the error is proportional to the tolerance). '-': fewer than "
@@ -888,6 +1297,7 @@ def markdown(results, constrained, algo, cond_rows, effect_rows, mode, elapsed):
             c = effect_rows[title].get(name)
             cells.append("-" if c is None else f"{c['per_step_us']:.3g}")
         out.append(f"| {name} | " + " | ".join(cells) + " |")
+    out += contact_markdown(contact)
     return "\n".join(out) + "\n"
 
 
@@ -904,6 +1314,7 @@ def main(argv=None):
     tic = time.perf_counter()
     results = integrator_study(mode, repeats=5 if mode == "full" else 1)
     constrained = constrained_study(mode, repeats=5 if mode == "full" else 1)
+    contact = contact_study(mode, repeats=5 if mode == "full" else 1)
     algo = algorithm_study(mode, tmp)
     cond_rows = conditioning_study(mode, tmp)
     effect_rows = effect_study(mode)
@@ -912,7 +1323,8 @@ def main(argv=None):
     plot_convergence(results, out / "convergence.png")
     plot_constraint(constrained, out / "constraint.png")
     plot_algorithms(algo, cond_rows, out / "algorithms.png")
-    text = markdown(results, constrained, algo, cond_rows, effect_rows, mode, elapsed)
+    plot_contact(contact, out / "contact.png")
+    text = markdown(results, constrained, contact, algo, cond_rows, effect_rows, mode, elapsed)
     (out / "study.md").write_text(text)
     record = dict(
         mode=mode,
@@ -922,6 +1334,7 @@ def main(argv=None):
         algorithms=algo,
         conditioning=cond_rows,
         effects=effect_rows,
+        contact=contact,
         versions=dict(opendyn=od.__version__, numpy=np.__version__),
     )
     (out / "study.json").write_text(json.dumps(record, indent=1, default=_json_default))
@@ -931,7 +1344,7 @@ def main(argv=None):
     print(text)
     print(
         f"wrote {out}/: accuracy_vs_time.png convergence.png constraint.png algorithms.png "
-        "study.md study.json"
+        "contact.png study.md study.json"
     )
     return 0
 
