@@ -118,10 +118,14 @@ def generalized_forces(scene, t, q, qd, tau, tau_ctrl, power, K, D, jac):
         )
         if status:
             return status
+    applied = 0.0
+    passive = power[1]  # the contact springs' share, if any
     for j in range(qd.shape[0]):
-        power[0] += qd[j] * (tau_ctrl[j] + tau_app[j])
-        power[1] += qd[j] * tau_pas[j]
+        applied += qd[j] * (tau_ctrl[j] + tau_app[j])
+        passive += qd[j] * tau_pas[j]
         tau[j] = tau_ctrl[j] + tau_app[j] + tau_pas[j]
+    power[0] = applied
+    power[1] = passive
     return Status.OK.value
 
 
@@ -191,6 +195,7 @@ def stage_cost_kernel(scene, which, t, q, qd):
     qdd = np.empty(nv)
     power = np.empty(2)
     ibuf, fbuf, effects, armature, method, con, (_, loads, KD) = scene
+    K, D = KD[0], KD[1]
     fill(loads[0], 0.0)
     gravity_effect(effects[GRAVITY], loads[0])
     total = 0.0
@@ -201,7 +206,7 @@ def stage_cost_kernel(scene, which, t, q, qd):
             fill(tau_pas, 0.0)
             run_slot(
                 which, effects, ibuf, fbuf, armature, t[n], q[n], qd[n], loads[0],
-                tau_ctrl, tau_app, tau_pas, power, KD[0], KD[1], False,
+                tau_ctrl, tau_app, tau_pas, power, K, D, False,
             )
             for j in range(nv):
                 total += tau_ctrl[j] + tau_app[j] + tau_pas[j]
