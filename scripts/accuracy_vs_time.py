@@ -773,6 +773,20 @@ def stiffness_study(mode, repeats):
 # ---------------------------------------------------------------- output
 
 
+def plot_front_and_reference(ax, res):
+    """The scene's Pareto front (error against wall time, dashed) and its reference's error
+    bound (dotted) on the axes ax."""
+    front = res["pareto"]
+    ax.loglog(
+        [r["wall_s"] for r in front],
+        [max(r["error_max"], 1e-16) for r in front],
+        "k--",
+        lw=1,
+        label="Pareto front",
+    )
+    ax.axhline(res["reference"]["error_bound"], color="grey", lw=0.8, ls=":")
+
+
 def plot_pareto(results, path):
     fig, axes = plt.subplots(2, 2, figsize=(12, 9))
     for ax, res in zip(axes.ravel(), results):
@@ -782,15 +796,7 @@ def plot_pareto(results, path):
                 x = [r["wall_s"] for r in done]
                 y = [max(r["error_max"], 1e-16) for r in done]
                 ax.loglog(x, y, "o-", label=LABEL[name], ms=4)
-        front = res["pareto"]
-        ax.loglog(
-            [r["wall_s"] for r in front],
-            [max(r["error_max"], 1e-16) for r in front],
-            "k--",
-            lw=1,
-            label="Pareto front",
-        )
-        ax.axhline(res["reference"]["error_bound"], color="grey", lw=0.8, ls=":")
+        plot_front_and_reference(ax, res)
         ax.set_title(f"{res['title']}, {res['duration']:g} s")
         ax.set_xlabel("wall time (s)")
         ax.set_ylabel("max |q - q_ref| over the run (rad)")
@@ -928,15 +934,7 @@ def plot_contact(contact, path):
                 ax.loglog(x, y, "o-", color=f"C{k}", ms=4, label=label)
             elif refused:
                 ax.plot([], [], "o-", color=f"C{k}", label=label)
-        front = res["pareto"]
-        ax.loglog(
-            [r["wall_s"] for r in front],
-            [max(r["error_max"], 1e-16) for r in front],
-            "k--",
-            lw=1,
-            label="Pareto front",
-        )
-        ax.axhline(res["reference"]["error_bound"], color="grey", lw=0.8, ls=":")
+        plot_front_and_reference(ax, res)
         ax.set_title(f"{res['title']}, {res['duration']:g} s", fontsize=10)
         ax.set_xlabel("wall time (s)")
         ax.set_ylabel("max |q - q_ref| over the run (m or rad)")
