@@ -101,8 +101,8 @@ def simulate(scene, *, progress=False, raise_on_failure=True):
             f"{scene.source}: run.integrator: semi_implicit_euler (symplectic, in momentum form) "
             "does not support constraints; use rk4, dopri5, euler or implicit_euler"
         )
-    check_contact_step(scene)
     table = effects.stage_table(scene)
+    check_contact_step(scene, table)
     if integ.adaptive:
         rows = int(np.ceil(run.duration / run.output_dt - 1e-9)) + 1
         nsteps = every = 0
@@ -137,7 +137,7 @@ def simulate(scene, *, progress=False, raise_on_failure=True):
     if status == Status.INTERRUPTED:
         message = f"interrupted (Ctrl-C) at t = {t:.6g} s (step {steps})"
     elif status:
-        message = failure_message(scene, status, t, steps, q, qd)
+        message = failure_message(scene, table, status, t, steps, q, qd)
     if status:
         # the last good state ends the partial record, unless it is already its last row
         if not out.filled or out.t[out.filled - 1] < t:
@@ -514,9 +514,9 @@ def _provenance(scene, table):
     }
 
 
-def failure_message(scene, status, t, steps, q, qd):
+def failure_message(scene, table, status, t, steps, q, qd):
     """Why a run stopped at time t after `steps` steps, from the kernel's status and the last
-    good state: what failed, and the likely cause."""
+    good state: what failed, and the likely cause. table: the scene's effects.StageTable."""
     model = scene.model
     run = scene.run
     where = f"at t = {t:.6g} s (step {steps})"
@@ -551,7 +551,7 @@ def failure_message(scene, status, t, steps, q, qd):
         if model.nv
         else ""
     )
-    cause = _stiffness_cause(scene, q)
+    cause = _stiffness_cause(scene, table, q)
     if cause is None:
         if run.integrator == "euler":
             cause = (
@@ -568,7 +568,7 @@ def failure_message(scene, status, t, steps, q, qd):
     return f"simulation stopped {where}: {what}; {state}.\nLikely cause: {cause}."
 
 
-def _stiffness_cause(scene, q):
+def _stiffness_cause(scene, table, q):
     """The effects too stiff for the step. For each joint, the natural frequency
     w = sqrt(k / M_jj) of its springs (limits, PD) and the rate d / M_jj of its dampers; for each
     contact point, those of the contact's spring and damper over the point's apparent mass
@@ -611,7 +611,7 @@ def _stiffness_cause(scene, q):
             ("PD damping", control.kd / m, joints),
         ]
     if scene.contact is not None:
-        candidates += _contact_rates(scene, q)
+        candidates += _contact_rates(scene, table, q)
     return _too_stiff(candidates, run.dt, 2.0)
 
 
@@ -637,19 +637,20 @@ def _too_stiff(candidates, dt, limit):
     )
 
 
-def check_contact_step(scene):
+def check_contact_step(scene, table):
     """Refuse a fixed-step explicit run whose step the contact makes unstable: at q0, the
     contact's rates (_contact_rates) times dt must stay inside the method's stability interval
     on the real and imaginary axes (RK4 about 2.8, Euler and semi-implicit Euler 2). Beyond it
     a contact does not always blow up (the clamp f_n >= 0 and friction's saturation bound it):
     the feet chatter and the run returns nonsense, so it is refused before it starts.
-    Raises SceneError naming the contact point, the rate and the step that suits it."""
+    table: the scene's effects.StageTable. Raises SceneError naming the contact point, the
+    rate and the step that suits it."""
     run = scene.run
     integ = integrators.INTEGRATORS[run.integrator]
     if scene.contact is None or integ.adaptive or integ.kind == integrators.IMPLICIT:
         return
     limit = 2.8 if integ.order == 4 else 2.0
-    cause = _too_stiff(_contact_rates(scene, scene.q0), run.dt, limit)
+    cause = _too_stiff(_contact_rates(scene, table, scene.q0), run.dt, limit)
     if cause is not None:
         raise SceneError(
             f"{scene.source}: run.dt: {run.integrator} at dt = {run.dt:g} s is unstable for "
@@ -657,17 +658,16 @@ def check_contact_step(scene):
         )
 
 
-def _contact_rates(scene, q):
+def _contact_rates(scene, table, q):
     """[(name, rates (P,), where (P,))] of the contact's spring, damper and friction at each
     point, over its apparent mass m_p = 1 / (e_r^T J_p M^-1 J_p^T e_r) (see _stiffness_cause).
     M^-1 J_p^T e_r is the scene's own forward dynamics at rest without gravity, so that the check
-    compiles nothing the run does not."""
+    compiles nothing the run does not. table: the scene's effects.StageTable."""
     from .dynamics.contact import contact_jacobians_kernel
     from .dynamics.forward import method_switches
 
     contact, model = scene.contact, scene.model
     q = np.array(q, dtype=np.float64)  # writable, as in the run: no new specialisation
-    table = effects.stage_table(scene)
     bodies, params = table.effects[effects.CONTACT]
     J = np.empty((len(bodies), 3, model.nv))
     contact_jacobians_kernel(model._ibuf, model._fbuf, bodies, params, q, J)
