@@ -43,13 +43,21 @@ with kernel_cache():  # compiled kernels cache in the folder named by the source
 
 __version__ = "0.1.0"
 
-from .scene import Scene, SceneError, default_scene, load_scene, scene_from_dict  # noqa: E402
+from .scene import (  # noqa: E402
+    Scene,
+    SceneError,
+    SceneWarning,
+    default_scene,
+    load_scene,
+    scene_from_dict,
+)
 from .simulate import SimulationError, simulate  # noqa: E402
 from .trajectory import Trajectory  # noqa: E402
 
 __all__ = [
     "Scene",
     "SceneError",
+    "SceneWarning",
     "SimulationError",
     "Trajectory",
     "default_scene",

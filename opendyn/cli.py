@@ -18,6 +18,7 @@ import copy
 import pathlib
 import sys
 import time
+import warnings
 
 import numpy as np
 
@@ -27,7 +28,9 @@ from .scene import (
     EFFECTS,
     INTEGRATORS,
     SceneError,
+    SceneWarning,
     default_scene,
+    is_scene_file,
     load_scene,
     scene_from_dict,
     shipped_scenes,
@@ -160,7 +163,9 @@ def scene_for(target):
     if target is None:
         return load_scene(DEFAULT_SCENE)
     path = pathlib.Path(target)
-    if path.suffix == ".toml" or target in shipped_scenes():
+    if path.is_file():
+        return load_scene(path) if is_scene_file(path) else default_scene(target)
+    if path.suffix.lower() == ".toml" or target in shipped_scenes():
         return load_scene(target)
     return default_scene(target)
 
@@ -461,6 +466,26 @@ def main(argv=None) -> int:
     comp.set_defaults(run=_compile_ahead)
 
     args = parser.parse_args(argv)
+    with warnings.catch_warnings():
+        warnings.showwarning = _warning_printer(args.command)
+        return _run(args)
+
+
+def _warning_printer(command):
+    """showwarning for the command: a scene's warnings as one line, "opendyn CMD: warning: ..."
+    on stderr; any other warning as Python prints it."""
+    default = warnings.showwarning
+
+    def show(message, category, filename, lineno, file=None, line=None):
+        if issubclass(category, SceneWarning):
+            print(f"opendyn {command}: warning: {message}", file=sys.stderr)
+        else:
+            default(message, category, filename, lineno, file, line)
+
+    return show
+
+
+def _run(args) -> int:
     try:
         return args.run(args)
     except (URDFError, SceneError, ValueError, KeyError, ImportError, OSError) as e:

@@ -250,6 +250,11 @@ class SceneError(ValueError):
     'effects.damping.coefficients') and what is wrong, with the valid choices."""
 
 
+class SceneWarning(UserWarning):
+    """A scene that runs, but probably not as meant (a joint starting outside its limits that
+    the scene does not enforce): the message names the file and the key, as SceneError's."""
+
+
 @dataclass(frozen=True)
 class Run:
     """How to advance a scene in time.
@@ -468,8 +473,8 @@ def load_scene(path) -> Scene:
     """
     file = _resolve_scene(path)
     try:
-        with open(file, "rb") as f:
-            data = tomllib.load(f)
+        # utf-8-sig: a byte-order mark, as some Windows editors write, is not part of the TOML
+        data = tomllib.loads(file.read_bytes().decode("utf-8-sig"))
     except tomllib.TOMLDecodeError as e:
         raise SceneError(f"{file}: malformed TOML: {e}") from None
     except UnicodeDecodeError as e:
@@ -504,6 +509,18 @@ def default_scene(robot, **run) -> Scene:
         spec = {"urdf": model.source}
     data = {"name": model.name, "robot": spec, "effects": {"gravity": True}, "run": _plain(run)}
     return _build(data, source=f"<robot {model.name}>", base_dir=None, model=model)
+
+
+def is_scene_file(path) -> bool:
+    """Whether the file at `path` is a scene (TOML) rather than a URDF (XML): by its extension
+    when it is .toml or .urdf/.xml in any case, otherwise by its content (a URDF's first
+    character, after a byte-order mark and blank space, is '<'; a TOML file's never is)."""
+    suffix = pathlib.Path(path).suffix.lower()
+    if suffix in (".toml", ".urdf", ".xml"):
+        return suffix == ".toml"
+    with open(path, "rb") as f:
+        head = f.read(4096)
+    return not head.removeprefix(b"\xef\xbb\xbf").lstrip().startswith(b"<")
 
 
 def shipped_scenes() -> dict[str, pathlib.Path]:
@@ -917,6 +934,13 @@ class _Reader:
                 f"{key}.frame",
                 f"{frame!r} is not a frame of {m.name!r}{_suggest(frame, m.frame_names)}; "
                 f"frames: {', '.join(m.frame_names)} (a joint name also finds its child link)",
+            )
+        if m.frames[m.frame_index(frame)].body < 0:
+            moving = [f.name for f in m.frames if f.body >= 0]
+            self.fail(
+                f"{key}.frame",
+                f"{frame!r} is welded to the fixed world (it is the root link or fixed to it), "
+                f"so a wrench on it moves nothing; frames that move: {', '.join(moving)}",
             )
         expressed_in = self.string(
             table.get("expressed_in", "frame"), f"{key}.expressed_in", EXPRESSED_IN

@@ -30,6 +30,7 @@ from ._compile import compile_seconds, compiling
 from ._kernel_cache import kernel_cache
 from .dynamics.energy import energies
 from .model import FREE
+from .preflight import preflight
 from .scene import SceneError
 from .status import Status, decode
 
@@ -101,15 +102,9 @@ def simulate(scene, *, progress=False, raise_on_failure=True):
             f"{scene.source}: run.integrator: semi_implicit_euler (symplectic, in momentum form) "
             "does not support constraints; use rk4, dopri5, euler or implicit_euler"
         )
+    nsteps, every, rows = preflight(scene, integ)
     table = effects.stage_table(scene)
     check_contact_step(scene, table)
-    if integ.adaptive:
-        rows = int(np.ceil(run.duration / run.output_dt - 1e-9)) + 1
-        nsteps = every = 0
-    else:
-        nsteps = max(1, int(round(run.duration / run.dt)))
-        every = max(1, int(round(run.output_dt / run.dt)))
-        rows = nsteps // every + 1 + (nsteps % every != 0)
     out = _Samples(rows, model.nq, model.nv)
     q = np.array(scene.q0, dtype=np.float64)
     qd = np.array(scene.qd0, dtype=np.float64)
@@ -521,6 +516,16 @@ def failure_message(scene, table, status, t, steps, q, qd):
     run = scene.run
     where = f"at t = {t:.6g} s (step {steps})"
     status, coordinate = decode(status)
+    implicit = integrators.INTEGRATORS[run.integrator].kind == integrators.IMPLICIT
+    if status == Status.SINGULAR and implicit and _regular_mass_matrix(scene, q):
+        stiff = _stiff_effects(_effect_rates(scene, table, q), run.dt, 0.0)[:1]
+        return (
+            f"the implicit step's matrix M + dt D + dt^2 K became singular {where}, while the "
+            "mass matrix M alone is regular: the effects' stiffness and damping swamp M in "
+            "float64"
+            + (f"; the stiffest: {_describe(stiff, run.dt, lead=False)}" if stiff else "")
+            + ". Lower the stiffness, or the step."
+        )
     if status == Status.SINGULAR:
         joint = model.v_names[coordinate]
         return (
@@ -534,9 +539,17 @@ def failure_message(scene, table, status, t, steps, q, qd):
             "step"
         )
     if status == Status.STEP_UNDERFLOW:
+        # below 1e-14 s even DOPRI5's stability interval (about 3.3 / rate) is left behind
+        stiff = _stiff_effects(_effect_rates(scene, table, q), 1e-14, 3.3)
+        cause = (
+            f"a step that small is still too large for {_describe(stiff, 1e-14)}, above 3.3. "
+            "Lower the stiffness, or use integrator implicit_euler"
+            if stiff
+            else "The dynamics are likely discontinuous or singular here"
+        )
         return (
             f"adaptive step underflow {where}: no step down to 1e-14 s met the tolerances. "
-            "The dynamics are likely discontinuous or singular here."
+            f"Likely cause: {cause}."
         )
     what = {
         Status.Q_NOT_FINITE: "the positions q became non-finite",
@@ -551,42 +564,90 @@ def failure_message(scene, table, status, t, steps, q, qd):
         if model.nv
         else ""
     )
-    cause = _stiffness_cause(scene, table, q)
-    if cause is None:
-        if run.integrator == "euler":
-            cause = (
-                "explicit Euler adds energy on every oscillation and diverges; "
-                "use semi_implicit_euler, rk4 or a smaller step"
-            )
-        elif integrators.INTEGRATORS[run.integrator].adaptive:
-            cause = "the motion became too fast to follow; check the scene's forces"
-        else:
-            cause = (
-                f"the integrator is unstable at dt = {run.dt:g} s for this motion; "
-                "use a smaller step or dopri5"
-            )
+    stiff = [] if implicit else _stiff_effects(_effect_rates(scene, table, q), run.dt, 2.0)
+    if stiff:
+        cause = (
+            f"the step is too large for {_describe(stiff, run.dt)}, above 2. Use dt below "
+            f"{2.0 / stiff[0][0]:.2g} s, or integrator implicit_euler"
+        )
+    elif steps == 0:
+        cause = _start_cause(scene, table, q, qd)
+    elif run.integrator == "euler":
+        cause = (
+            "explicit Euler adds energy on every oscillation and diverges; "
+            "use semi_implicit_euler, rk4 or a smaller step"
+        )
+    elif integrators.INTEGRATORS[run.integrator].adaptive:
+        cause = "the motion became too fast to follow; check the scene's forces"
+    else:
+        cause = (
+            f"the integrator is unstable at dt = {run.dt:g} s for this motion; "
+            "use a smaller step or dopri5"
+        )
     return f"simulation stopped {where}: {what}; {state}.\nLikely cause: {cause}."
 
 
-def _stiffness_cause(scene, table, q):
-    """The effects too stiff for the step. For each joint, the natural frequency
-    w = sqrt(k / M_jj) of its springs (limits, PD) and the rate d / M_jj of its dampers; for each
-    contact point, those of the contact's spring and damper over the point's apparent mass
-    m_p = 1 / (e_z^T J_p M^-1 J_p^T e_z), and of friction near zero slip, mu f_n / (v_s m_p)
-    with f_n the point's share of the robot's weight. Explicit methods need dt w below about 2
-    (Euler) to 2.8 (RK4): every effect above 2 is named, the stiffest first (which of them set
-    the motion off depends on which acted: a limit acts only past it), with the step that suits
-    them all."""
+def _start_cause(scene, table, q, qd):
+    """Why the very first step failed, when no effect is too stiff for it: the accelerations
+    at the initial state, which one step of dt turns into velocities."""
+    model, run = scene.model, scene.run
+    k, tau = np.empty((2, model.nv)), np.empty(model.nv)
+    status = _first_stage(scene, table, 0.0, q, qd, k, np.empty(2), tau)
+    qdd = k[1]
+    if status or not np.all(np.isfinite(qdd)):
+        return (
+            "the dynamics are not finite at the initial state: the forces there (gravity, "
+            "wrenches, control) overflow float64; check the scene's parameters"
+        )
+    j = int(np.argmax(np.abs(qdd)))
+    reach = abs(qdd[j]) * (run.dt if not integrators.INTEGRATORS[run.integrator].adaptive else 1.0)
+    return (
+        f"the forces at the initial state: they accelerate {model.v_names[j]!r} at "
+        f"{qdd[j]:.3g} (rad or m)/s^2, "
+        + (
+            f"so one step of {run.dt:g} s already reaches {reach:.3g}, beyond run.max_speed = "
+            f"{run.max_speed:g}"
+            if reach > run.max_speed
+            else "and the first step does not survive them"
+        )
+        + "; check the scene's forces (gravity, wrenches, control gains) and initial state"
+    )
+
+
+def _regular_mass_matrix(scene, q):
+    """Whether M(q) (with the scene's armature) is positive definite to float64."""
     from .dynamics.crba import mass_matrix
 
-    run = scene.run
     model = scene.model
-    if run.integrator == "implicit_euler" or not model.nv:
-        return None
     try:
         M = mass_matrix(model, q)
     except ValueError:
-        return None
+        return False
+    if scene.armature is not None:
+        M[model.v_index, model.v_index] += scene.armature
+    try:
+        np.linalg.cholesky(M)
+    except np.linalg.LinAlgError:
+        return False
+    return True
+
+
+def _effect_rates(scene, table, q):
+    """[(name, rates, where)]: the effects' rates at q. For each joint, the natural frequency
+    w = sqrt(k / M_jj) of its springs (limits, PD) and the rate d / M_jj of its dampers; for each
+    contact point, those of the contact's spring and damper over the point's apparent mass
+    m_p = 1 / (e_z^T J_p M^-1 J_p^T e_z), and of friction near zero slip, mu f_n / (v_s m_p)
+    with f_n the point's share of the robot's weight. Explicit methods need dt x rate below
+    about 2 (Euler) to 2.8 (RK4). Empty where M(q) cannot be computed."""
+    from .dynamics.crba import mass_matrix
+
+    model = scene.model
+    if not model.nv:
+        return []
+    try:
+        M = mass_matrix(model, q)
+    except ValueError:
+        return []
     if scene.armature is not None:
         M[model.v_index, model.v_index] += scene.armature
     m = np.diag(M)[model.v_index]  # the joints' entries
@@ -612,29 +673,30 @@ def _stiffness_cause(scene, table, q):
         ]
     if scene.contact is not None:
         candidates += _contact_rates(scene, table, q)
-    return _too_stiff(candidates, run.dt, 2.0)
+    return candidates
 
 
-def _too_stiff(candidates, dt, limit):
-    """The candidates (name, rates, where) with dt x rate >= limit, as a sentence naming each
-    (the stiffest first) and the step that suits them all; None when there are none."""
+def _stiff_effects(candidates, dt, limit):
+    """[(rate, name, where)] of the candidates (name, rates, where) whose largest rate has
+    dt x rate >= limit (and is not zero), the stiffest first."""
     stiff = []
     for name, rate, where in candidates:
         j = int(np.argmax(rate))
-        if rate[j] * dt >= limit:
-            stiff.append((rate[j], name, where[j]))
-    if not stiff:
-        return None
-    stiff.sort(reverse=True)
+        if rate[j] > 0 and rate[j] * dt >= limit:
+            stiff.append((float(rate[j]), name, where[j]))
+    return sorted(stiff, reverse=True)
+
+
+def _describe(stiff, dt, lead=True):
+    """The stiff effects of _stiff_effects as a phrase naming each, with its rate and dt x rate;
+    lead: open with "a stiff effect: " or "stiff effects: "."""
     named = "; ".join(
         f"{name} on {where} has rate {rate:.3g} 1/s (dt x rate = {rate * dt:.3g})"
         for rate, name, where in stiff
     )
-    effects_ = "a stiff effect" if len(stiff) == 1 else "stiff effects"
-    return (
-        f"the step is too large for {effects_}: {named}, above {limit:g}. Use dt below "
-        f"{limit / stiff[0][0]:.2g} s, or integrator implicit_euler"
-    )
+    if not lead:
+        return named
+    return ("a stiff effect: " if len(stiff) == 1 else "stiff effects: ") + named
 
 
 def check_contact_step(scene, table):
@@ -650,17 +712,19 @@ def check_contact_step(scene, table):
     if scene.contact is None or integ.adaptive or integ.kind == integrators.IMPLICIT:
         return
     limit = 2.8 if integ.order == 4 else 2.0
-    cause = _too_stiff(_contact_rates(scene, table, scene.q0), run.dt, limit)
-    if cause is not None:
+    stiff = _stiff_effects(_contact_rates(scene, table, scene.q0), run.dt, limit)
+    if stiff:
         raise SceneError(
             f"{scene.source}: run.dt: {run.integrator} at dt = {run.dt:g} s is unstable for "
-            f"the contact at the initial state: {cause}"
+            f"the contact at the initial state: the step is too large for "
+            f"{_describe(stiff, run.dt)}, above {limit:g}. Use dt below "
+            f"{limit / stiff[0][0]:.2g} s, or integrator implicit_euler"
         )
 
 
 def _contact_rates(scene, table, q):
     """[(name, rates (P,), where (P,))] of the contact's spring, damper and friction at each
-    point, over its apparent mass m_p = 1 / (e_r^T J_p M^-1 J_p^T e_r) (see _stiffness_cause).
+    point, over its apparent mass m_p = 1 / (e_r^T J_p M^-1 J_p^T e_r) (see _effect_rates).
     M^-1 J_p^T e_r is the scene's own forward dynamics at rest without gravity, so that the check
     compiles nothing the run does not. table: the scene's effects.StageTable."""
     from .dynamics.contact import contact_jacobians_kernel

@@ -1,0 +1,195 @@
+"""Scene values that cannot be run are refused before anything is allocated or compiled, naming
+the key to change; a run that stops names the real cause, not a generic one."""
+
+from __future__ import annotations
+
+import copy
+import importlib
+import warnings
+
+import numpy as np
+import pytest
+
+import opendyn as od
+from opendyn import preflight
+from opendyn.cli import main
+from opendyn.scene import shipped_robots_dir
+
+simulate_module = importlib.import_module("opendyn.simulate")  # od.simulate is the function
+PENDULUM = {"robot": {"name": "double_pendulum"}, "effects": {"gravity": True}}
+
+
+def scene(**sections):
+    return od.scene_from_dict({**PENDULUM, **sections})
+
+
+@pytest.fixture
+def nothing_allocated(monkeypatch):
+    """Fail the test if simulate gets as far as allocating the record."""
+
+    def refuse(*args):
+        raise AssertionError("the record was allocated before the scene was refused")
+
+    monkeypatch.setattr(simulate_module, "_Samples", refuse)
+
+
+def test_a_record_too_large_for_memory_is_refused_before_allocating(nothing_allocated):
+    # 1e12 samples of 11 numbers: 176 TB, on any machine more than it has
+    huge = scene(run={"duration": 1e9, "dt": 1e-3, "output_dt": 1e-3})
+    with pytest.raises(od.SceneError, match=r"run\.output_dt: the record would hold 1e\+12 "
+                       r"samples of 11 numbers, about 176 TB") as info:
+        od.simulate(huge)
+    assert "raise run.output_dt (now 0.001 s) or shorten run.duration (now 1e+09 s)" in str(info.value)
+
+
+def test_the_memory_estimate_counts_contact_points_and_compares_with_what_is_available(
+    monkeypatch, nothing_allocated
+):
+    """ball_drop: 1 contact point on a free body (nq = 7, nv = 6): 3 + 7 + 12 + 2 + 7 = 31
+    numbers per sample, twice over. With 1 MB available, 4 s at 1 ms output (4001 samples,
+    1.98 MB) is refused; the same at 10 ms (401 samples, 0.2 MB) is not."""
+    ball = od.load_scene("ball_drop").replace_run(duration=4.0, dt=1e-4, output_dt=1e-3)
+    monkeypatch.setattr(preflight, "available_memory", lambda: 1e6)
+    with pytest.raises(od.SceneError, match=r"4001 samples of 31 numbers, about 1\.98 MB"):
+        od.simulate(ball)
+    integ = simulate_module.integrators.INTEGRATORS["rk4"]
+    assert preflight.preflight(ball.replace_run(output_dt=1e-2), integ) == (40000, 100, 401)
+
+
+def test_an_overflowing_step_count_is_refused(nothing_allocated):
+    with pytest.raises(od.SceneError, match=r"run\.dt: .* = inf steps, more than a run can count"):
+        od.simulate(scene(run={"duration": 1e300, "dt": 1e-300}))
+    with pytest.raises(od.SceneError, match=r"run\.dt: .* = 1e\+16 steps"):
+        od.simulate(scene(run={"duration": 1e13, "dt": 1e-3, "output_dt": 1e12}))
+
+
+def test_a_duration_that_is_not_a_whole_number_of_steps_is_refused(nothing_allocated):
+    with pytest.raises(od.SceneError) as info:
+        od.simulate(scene(run={"duration": 0.0105, "dt": 1e-3}))
+    message = str(info.value)
+    assert "run.duration: 0.0105 s is not a whole number of steps of run.dt = 0.001 s" in message
+    assert "10.5 steps" in message and "0.01 or 0.011 s" in message
+
+
+def test_a_duration_of_whole_steps_runs_exactly_to_it_despite_rounding():
+    """0.3 / 0.1 is 2.9999999999999996 in float64: three steps, ending at 0.3 s."""
+    run = scene(run={"duration": 0.3, "dt": 0.1, "output_dt": 0.1})
+    traj = od.simulate(run)
+    assert traj.stats["steps"] == 3 and traj.t[-1] == pytest.approx(0.3, abs=1e-15)
+    np.testing.assert_allclose(traj.t, [0.0, 0.1, 0.2, 0.3], atol=1e-15)
+
+
+def test_an_initial_velocity_beyond_max_speed_is_refused_naming_the_joint(nothing_allocated):
+    with pytest.raises(od.SceneError, match=r"initial\.qd\.elbow: the initial velocity -20000 "
+                       r"of 'elbow' is beyond run\.max_speed = 10000"):
+        od.simulate(scene(initial={"qd": [1.0, -2e4]}))
+
+
+def test_an_initial_base_velocity_beyond_max_speed_names_the_base_key(nothing_allocated):
+    falling = od.scene_from_dict(
+        {
+            "robot": {"urdf": str(shipped_robots_dir() / "ball.urdf"), "floating_base": True},
+            "initial": {"base_velocity": [0.0, 50.0, 0.0]},
+            "run": {"max_speed": 20.0},
+        }
+    )
+    with pytest.raises(od.SceneError, match=r"initial\.base_velocity: the initial velocity 50"):
+        od.simulate(falling)
+
+
+def test_an_initial_energy_that_overflows_is_refused(nothing_allocated):
+    fast = scene(initial={"qd": [1e200, 0.0]}, run={"max_speed": 1e300})
+    with pytest.raises(od.SceneError, match=r"initial\.qd: the energy at the initial state is "
+                       r"not a finite number \(kinetic inf J"):
+        od.simulate(fast)
+    heavy = scene(effects={"gravity": [0.0, 0.0, -1e308]})
+    with pytest.raises(od.SceneError, match=r"effects\.gravity: .*potential -?inf J"):
+        od.simulate(heavy)
+
+
+def test_an_initial_position_outside_the_limits_warns_and_is_refused_where_enforced():
+    outside = {"q": {"shoulder": 4.0}}
+    with pytest.warns(od.SceneWarning, match=r"initial\.q\.shoulder: joint 'shoulder' starts at "
+                      r"4, outside its limits \[-3\.14, 3\.14\]"):
+        traj = od.simulate(scene(initial=outside, run={"duration": 0.01}))
+    assert traj.complete and traj.q[0, 0] == 4.0
+    enforced = scene(initial=outside, effects={"gravity": True, "limits": {"stiffness": 1e3}})
+    with pytest.raises(od.SceneError, match=r"initial\.q\.shoulder: .*which \[effects\.limits\] "
+                       r"enforces: its spring would start 0\.86 deep"):
+        od.simulate(enforced)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # inside the limits: no warning at all
+        od.simulate(scene(initial={"q": {"shoulder": 3.0}}, run={"duration": 0.01}))
+
+
+def test_a_wrench_on_a_frame_welded_to_the_world_is_refused():
+    with pytest.raises(od.SceneError, match=r"effects\.wrench\.frame: 'base' is welded to the "
+                       r"fixed world .* frames that move: link1, link2, tip"):
+        scene(effects={"gravity": True, "wrench": {"frame": "base", "value": [0, 0, 0, 1, 0, 0]}})
+
+
+@pytest.mark.parametrize("name, prefix", [("SCENE.TOML", b""), ("scene.txt", b""),
+                                          ("bom.toml", b"\xef\xbb\xbf")])
+def test_a_scene_file_is_recognised_by_content_and_its_byte_order_mark_ignored(
+    tmp_path, capsys, name, prefix
+):
+    text = (shipped_robots_dir() / "double_pendulum_swing.toml").read_text()
+    urdf = (shipped_robots_dir() / "double_pendulum.urdf").as_posix()
+    text = text.replace('urdf = "double_pendulum.urdf"', f'urdf = "{urdf}"')
+    path = tmp_path / name
+    path.write_bytes(prefix + text.encode())
+    out = tmp_path / "out.npz"
+    assert main(["simulate", str(path), "--duration", "0.1", "-q", "-o", str(out)]) == 0
+    assert od.Trajectory.load(out).provenance["scene"]["name"] == "double pendulum swing"
+    assert od.load_scene(path).name == "double pendulum swing"
+
+
+def test_a_urdf_without_the_urdf_extension_is_still_read_as_a_robot(tmp_path, capsys):
+    path = tmp_path / "pendulum.robot"
+    path.write_bytes((shipped_robots_dir() / "double_pendulum.urdf").read_bytes())
+    out = tmp_path / "out.npz"
+    assert main(["simulate", str(path), "--duration", "0.1", "-q", "-o", str(out)]) == 0
+    assert od.Trajectory.load(out).provenance["robot"]["name"] == "double_pendulum"
+
+
+def test_a_run_that_fails_at_the_first_step_names_the_initial_forces():
+    """Gravity of 1e200 m/s^2 on a tilted pendulum: finite energy, but accelerations of about
+    1e200 that one step turns into velocities far past max_speed. No effect is stiff: the
+    message must say the forces at the start, not that the integrator is unstable."""
+    traj = od.simulate(
+        scene(effects={"gravity": [0.0, 0.0, -1e200]}, initial={"q": [0.3, 0.0]},
+              run={"duration": 0.01}),
+        raise_on_failure=False,
+    )
+    assert not traj.complete and traj.stats["steps"] == 0
+    assert "the forces at the initial state: they accelerate" in traj.message
+    assert "beyond run.max_speed = 10000" in traj.message
+    assert "integrator is unstable" not in traj.message
+
+
+def test_a_huge_contact_stiffness_under_implicit_euler_is_named_not_a_singular_mass_matrix():
+    """k = 1e300 N/m: the implicit step's M + dt D + dt^2 K loses M in float64 at touch-down.
+    The ball's M is a regular 6 x 6 body inertia; the message names the contact stiffness."""
+    ball = od.load_scene("ball_drop")
+    settings = copy.deepcopy(ball.settings)
+    settings["effects"]["contact"]["stiffness"] = 1e300
+    stiff = od.scene_from_dict(settings, base_dir=shipped_robots_dir())
+    traj = od.simulate(
+        stiff.replace_run(integrator="implicit_euler", dt=1e-3, duration=0.5),
+        raise_on_failure=False,
+    )
+    assert not traj.complete
+    assert "the implicit step's matrix M + dt D + dt^2 K became singular" in traj.message
+    assert "mass matrix M alone is regular" in traj.message
+    assert "contact stiffness on contact point 'ball' has rate 1e+150 1/s" in traj.message
+    assert "nothing with mass" not in traj.message
+
+
+def test_an_adaptive_step_underflow_names_the_stiff_effect():
+    pd = scene(
+        control={"type": "pd", "kp": 1e300, "kd": 1.0, "setpoint": [0.5, 0.0]},
+        run={"duration": 0.01, "integrator": "dopri5"},
+    )
+    traj = od.simulate(pd, raise_on_failure=False)
+    assert not traj.complete and "adaptive step underflow" in traj.message
+    assert "PD stiffness on joint" in traj.message and "above 3.3" in traj.message
