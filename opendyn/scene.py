@@ -493,8 +493,9 @@ def scene_from_dict(data: dict, source: str = "<dict>", base_dir=None) -> Scene:
 
 
 def default_scene(robot, **run) -> Scene:
-    """The plainest scene of a robot: the model's gravity and nothing else, q0 = qd0 = 0, no
-    control. robot: a Model, a URDF path or a robot name; run: Run fields (e.g. duration=2.0).
+    """The plainest scene of a robot: the model's gravity and nothing else, at rest at q0 = 0
+    (for a joint whose limits exclude 0, the nearer limit), no control. robot: a Model, a URDF
+    path or a robot name; run: Run fields (e.g. duration=2.0).
     """
     if isinstance(robot, Model):
         model = robot
@@ -508,6 +509,11 @@ def default_scene(robot, **run) -> Scene:
             raise SceneError(f"<robot {robot}>: robot: {e}") from None
         spec = {"urdf": model.source}
     data = {"name": model.name, "robot": spec, "effects": {"gravity": True}, "run": _plain(run)}
+    nearest = np.clip(0.0, model.lower, model.upper)
+    if np.any(nearest):
+        data["initial"] = {
+            "q": {name: float(x) for name, x in zip(model.joint_names, nearest) if x}
+        }
     return _build(data, source=f"<robot {model.name}>", base_dir=None, model=model)
 
 
