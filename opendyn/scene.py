@@ -4,7 +4,10 @@ A scene names the robot, its initial state, the run settings, the physical effec
 and the control. An effect that a scene does not name is off: the simulator never computes it.
 Every number is checked here (type, shape, sign, finiteness, joint and frame names), so a scene
 that loads is one the simulator can run; anything else raises ``SceneError`` naming the file,
-the dotted key (``effects.damping.coefficients``), what was expected and what was found.
+the dotted key (``effects.damping.coefficients``), what was expected and what was found. What
+depends on the run as a whole (a whole number of steps, the record's size against the memory
+available, the initial state's speed, energy and limits) is checked by ``simulate`` before it
+allocates or compiles anything (opendyn.preflight), with the same kind of message.
 
 Conventions (as in the rest of opendyn): SI units (rad or m, N m or N, s); twists (omega, v) and
 wrenches (m, f), moment first; per-joint arrays are ordered as ``model.joint_names``
@@ -54,7 +57,8 @@ The file format (every key optional unless marked required):
     base_angular_velocity = [0.0, 0.0, 0.0]  # rad/s, the root's angular velocity, world axes
 
     [run]
-    duration = 10.0                        # s, > 0 (default 5)
+    duration = 10.0                        # s, > 0 (default 5); for a fixed-step integrator
+                                           # a whole number of steps dt
     integrator = "rk4"                     # euler, semi_implicit_euler, rk4, dopri5,
                                            # implicit_euler (default rk4)
     dt = 0.001                             # s, > 0: the fixed step, or dopri5's first trial step
