@@ -29,6 +29,7 @@ import io
 import itertools
 import math
 import os
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -49,6 +50,7 @@ ROOT_JOINT = "root_joint"  # the name of the free joint that floating_base=True 
 # A box's corners as fractions of its size, in the order its collision spheres take: the signs
 # (x, y, z) run (-,-,-), (-,-,+), (-,+,-), (-,+,+), (+,-,-), ..., (+,+,+) (z fastest, x slowest)
 BOX_CORNERS = np.array(list(itertools.product((-0.5, 0.5), repeat=3)))
+URDF_GEOMETRIES = ("box", "cylinder", "sphere", "mesh")  # the shapes of the URDF spec
 CONTACT_GEOMETRIES = ("sphere", "box")  # the <collision> geometries that give contact spheres
 
 
@@ -108,10 +110,20 @@ def load_urdf(
     Raises URDFError naming the file, the element and the problem for malformed input.
     """
     file = resolve_robot(path)
-    root = _parse_xml(file)
+    report = FidelityReport(source=file)
+    root, robot = read_urdf(file, report)
+    return _Builder(file, root, robot, report, mimic, check_inertia, floating_base).build()
+
+
+def read_urdf(file, report: FidelityReport | None = None):
+    """(root, robot): a URDF file's checked XML tree (lxml) and its yourdfpy robot, read the way
+    every robotics tool reads it (see _parse_xml and _drop_unknown_geometry); what was tolerated
+    on the way goes into `report`. Raises URDFError naming the file, element and problem."""
+    report = FidelityReport(source=file) if report is None else report
+    root = _parse_xml(file, report)
+    _drop_unknown_geometry(root, report)
     _check_numbers(file, root)
-    urdf = _parse_yourdfpy(file, root)
-    return _Builder(file, root, urdf.robot, mimic, check_inertia, floating_base).build()
+    return root, _parse_yourdfpy(file, root).robot
 
 
 def looks_mobile(model) -> bool:
@@ -185,9 +197,40 @@ def shipped_robots_dir() -> Path:
     raise FileNotFoundError(f"opendyn's robots folder is missing beside {here}")
 
 
-def _parse_xml(file):
+# the XML declaration, after an optional UTF-8 byte-order mark and whitespace
+_DECLARATION = re.compile(rb"(?:\xef\xbb\xbf)?(\s*)(<\?xml\s.*?\?>)", re.DOTALL)
+_VERSION = re.compile(rb"""(version\s*=\s*)(["'])(.*?)\2""")
+
+
+def _parse_xml(file, report):
+    """The <robot> element of a URDF file, comments removed. Two things that XML forbids but
+    every robotics tool reads are tolerated and reported as transformed: whitespace before the
+    XML declaration (moved after it, so that line numbers stay true), and a declaration version
+    other than 1.x (Bullet's files say "0.0"), read as 1.0."""
     try:
-        root = etree.parse(file).getroot()
+        with open(file, "rb") as f:
+            data = f.read()
+    except OSError as e:
+        raise URDFError(f"{file}: cannot be read: {e.strerror}") from None
+    match = _DECLARATION.match(data)
+    if match:
+        blank, declaration = match.groups()
+        version = _VERSION.search(declaration)
+        if version and not version.group(3).startswith(b"1."):
+            declaration = _VERSION.sub(rb"\1\g<2>1.0\2", declaration, count=1)
+            report.transformed.append(
+                f"XML declaration version {version.group(3).decode(errors='replace')!r} "
+                f"read as 1.0"
+            )
+        if blank:
+            lines = blank.count(b"\n")
+            report.transformed.append(
+                f"whitespace before the XML declaration ({lines} line{'s' * (lines != 1)}) "
+                f"skipped"
+            )
+        data = declaration + blank + data[match.end() :]
+    try:
+        root = etree.fromstring(data, etree.XMLParser(remove_comments=True), base_url=file)
     except etree.XMLSyntaxError as e:
         raise URDFError(f"{file}: malformed XML: {e}") from None
     if root.tag != "robot":
@@ -195,6 +238,28 @@ def _parse_xml(file):
     if not root.get("name"):
         raise URDFError(f"{file}: <robot> has no name attribute")
     return root
+
+
+def _drop_unknown_geometry(root, report) -> None:
+    """Remove each link's <visual> and <collision> whose <geometry> holds no URDF shape (box,
+    cylinder, sphere, mesh): Bullet's <plane> and <cdf>, or nothing at all. Like the other
+    tools, load them as absent and list them in report.ignored, by element and shape."""
+    dropped = collections.defaultdict(list)
+    for link in root.iterchildren("link"):
+        for el in list(link.iterchildren("visual", "collision")):
+            geometry = el.find("geometry")
+            shape = geometry[0].tag if geometry is not None and len(geometry) else None
+            if shape not in URDF_GEOMETRIES:
+                dropped[el.tag, shape].append(link.get("name"))
+                link.remove(el)
+    for (tag, shape), links in dropped.items():
+        what = f"<geometry> <{shape}>" if shape else "no <geometry> shape"
+        names = list(dict.fromkeys(links))
+        report.ignored.append(
+            f"{len(links)} <{tag}> element{'s' * (len(links) > 1)} with {what}, outside the "
+            f"URDF spec ({', '.join(URDF_GEOMETRIES)}), not read: "
+            f"link{'s' * (len(names) > 1)} {', '.join(map(repr, names))}"
+        )
 
 
 def _where(el) -> str:
@@ -283,11 +348,10 @@ def _parse_yourdfpy(file, root):
 class _Builder:
     """Walks the URDF tree depth-first and accumulates bodies, frames and the report."""
 
-    def __init__(self, file, root, robot, mimic, check_inertia, floating_base=False):
-        self.file, self.root, self.robot = file, root, robot
+    def __init__(self, file, root, robot, report, mimic, check_inertia, floating_base):
+        self.file, self.root, self.robot, self.report = file, root, robot, report
         self.use_mimic, self.check_inertia = mimic, check_inertia
         self.floating_base = floating_base
-        self.report = FidelityReport(source=file)
 
     def fail(self, what: str):
         raise URDFError(f"{self.file}: {what}")

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import itertools
 import os
+import warnings
 import xml.etree.ElementTree as ET
 
 import numpy as np
@@ -1042,3 +1043,79 @@ def test_example_robot_data_feet_carry_the_spheres_their_urdf_gives(
     for c in model.collision_spheres:
         model.frame_index(c.link)
 
+
+
+# --- E. URDFs written for other tools --------------------------------------------------------
+
+
+def same_dynamics(a, b):
+    """Whether two models have the same M(q) and g(q) at random configurations."""
+    for q in RNG.uniform(-1.5, 1.5, (3, a.nq)):
+        np.testing.assert_allclose(od.mass_matrix(a, q), od.mass_matrix(b, q), rtol=1e-14)
+        np.testing.assert_allclose(od.gravity_forces(a, q), od.gravity_forces(b, q), rtol=1e-14)
+
+
+def bullet_style(text, blank="\n\n  \n"):
+    """A URDF text as Bullet's robots open: blank lines, then <?xml version='0.0' ?>."""
+    return blank + text.replace('<?xml version="1.0"?>', "<?xml version='0.0' ?>")
+
+
+def test_xml_version_0_0_and_blank_lines_before_the_declaration_load(tmp_path):
+    """Bullet's robots open with <?xml version="0.0" ?>, some after blank lines: XML refuses
+    both, robotics tools read them. The model is the one the same file with a plain
+    declaration gives, the report says what was tolerated, and the line number in an error
+    is still the file's own."""
+    plain = load(tmp_path, chain(), "plain.urdf")
+    model = load(tmp_path, bullet_style(chain()))
+    same_dynamics(model, plain)
+    assert "XML declaration version '0.0' read as 1.0" in model.report.transformed
+    assert "whitespace before the XML declaration (3 lines) skipped" in model.report.transformed
+    assert not any("XML" in line for line in plain.report.transformed)
+    bad = bullet_style(chain(joints={2: {"xyz": "1 x 0"}}))
+    line = next(k for k, row in enumerate(bad.splitlines(), 1) if 'xyz="1 x 0"' in row)
+    with pytest.raises(od.URDFError, match=rf"<origin> \(line {line}\): xyz='1 x 0' is not a"):
+        load(tmp_path, bad, "bad.urdf")
+
+
+@pytest.mark.parametrize("blank", ["", "\n"])
+def test_byte_order_mark_loads(tmp_path, blank):
+    """A UTF-8 byte-order mark before the declaration (and blank lines) is read as UTF-8."""
+    path = tmp_path / "bom.urdf"
+    path.write_bytes(b"\xef\xbb\xbf" + bullet_style(chain(), blank).encode())
+    same_dynamics(od.load_urdf(path), load(tmp_path, chain(), "plain.urdf"))
+
+
+def test_plane_and_cdf_collision_are_reported_ignored(tmp_path):
+    """Bullet's <plane> and <cdf> (and a <geometry> with no shape) are not URDF geometry: each
+    <collision> or <visual> holding one is read as absent and listed as ignored, by link; the
+    spheres of the spec beside them still give contact points, and playback draws the
+    visuals it can."""
+    from opendyn import viz
+
+    sphere = collision("sphere", {"radius": 0.04}, (0, 0, 0.1))
+    plane = '<collision><geometry><plane normal="0 0 1"/></geometry></collision>'
+    cdf = '<collision><geometry><cdf filename="box.cdf"/></geometry></collision>'
+    visuals = (
+        '<visual><geometry><plane normal="0 0 1"/></geometry></visual>'
+        '<visual><geometry><box size="1 1 1"/></geometry></visual>'
+        "<visual><geometry/></visual>"
+    )
+    plain = load(tmp_path, chain(links={2: {"extra": sphere}}), "plain.urdf")
+    model = load(
+        tmp_path,
+        chain(links={1: {"extra": plane + cdf + visuals}, 2: {"extra": plane + sphere}}),
+    )
+    same_dynamics(model, plain)
+    assert spheres_of(model) == spheres_of(plain)
+    spec = "outside the URDF spec (box, cylinder, sphere, mesh), not read"
+    assert set(model.report.ignored) - set(plain.report.ignored) == {
+        f"2 <collision> elements with <geometry> <plane>, {spec}: links 'link1', 'link2'",
+        f"1 <collision> element with <geometry> <cdf>, {spec}: link 'link1'",
+        f"1 <visual> element with <geometry> <plane>, {spec}: link 'link1'",
+        f"1 <visual> element with no <geometry> shape, {spec}: link 'link1'",
+        "1 <visual> elements (used only for playback)",
+    }
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", viz.PlaybackWarning)
+        (box,) = viz.load_visuals(model)
+    assert (box.link, box.shape) == ("link1", "box")
