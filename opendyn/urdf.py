@@ -678,10 +678,12 @@ class _Builder:
                     if lim.upper is not None:
                         out["upper"][k] = float(lim.upper)
                     if out["lower"][k] > out["upper"][k]:
-                        self.fail(
-                            f'<joint name="{name}"> <limit>: lower limit '
-                            f"{out['lower'][k]:g} is above upper limit {out['upper'][k]:g}"
+                        self.report.transformed.append(
+                            f"joint {name!r}: <limit> lower {out['lower'][k]:g} > upper "
+                            f"{out['upper'][k]:g}, Bullet's convention for no limit: taken as "
+                            f"unlimited (its effort and velocity limits kept)"
                         )
+                        out["lower"][k], out["upper"][k] = -np.inf, np.inf
                 for key, val in (("velocity_limit", lim.velocity), ("effort_limit", lim.effort)):
                     if val is not None:
                         out[key][k] = float(val)

@@ -319,12 +319,6 @@ BAD_URDFS = [
         {},
     ),
     (
-        "lower_limit_above_upper",
-        chain(joints={2: {"limit": {**LIMIT, "lower": 1, "upper": -1}}}),
-        ['<joint name="j2"> <limit>', "lower limit 1 is above upper limit -1"],
-        {},
-    ),
-    (
         "negative_damping",
         chain(joints={2: {"dynamics": {"damping": -0.5}}}),
         ['<joint name="j2"> <dynamics>', "negative damping"],
@@ -1119,3 +1113,30 @@ def test_plane_and_cdf_collision_are_reported_ignored(tmp_path):
         warnings.simplefilter("error", viz.PlaybackWarning)
         (box,) = viz.load_visuals(model)
     assert (box.link, box.shape) == ("link1", "box")
+
+
+def test_lower_above_upper_is_unlimited_and_reported(tmp_path):
+    """Bullet reads <limit lower="1" upper="-1"> as "no limit" (pybullet's cube_no_rotation):
+    the joint keeps its type, its effort and velocity limits, and has no position limits;
+    the report names it. Its dynamics are Pinocchio's for the same file (which keeps the
+    numbers as written, and never uses position limits in M or g)."""
+    pytest.importorskip("pinocchio")
+    from pin_adapter import PinOracle
+
+    inverted = {**LIMIT, "lower": 1.0, "upper": -1.0}
+    joints = {1: {"limit": inverted}, 3: {"type": "prismatic"}}
+    path = write_urdf(tmp_path, chain(3, joints=joints))
+    model = od.load_urdf(path)
+    np.testing.assert_array_equal(model.lower, [-np.inf, -2.0, -2.0])
+    np.testing.assert_array_equal(model.upper, [np.inf, 2.0, 2.0])
+    np.testing.assert_array_equal(model.effort_limit, [10.0] * 3)
+    np.testing.assert_array_equal(model.velocity_limit, [3.0] * 3)
+    assert not model.continuous[0] and model.jtype[0] == od.model.REVOLUTE
+    assert [line for line in model.report.transformed if "lower" in line] == [
+        "joint 'j1': <limit> lower 1 > upper -1, Bullet's convention for no limit: taken as "
+        "unlimited (its effort and velocity limits kept)"
+    ]
+    P = PinOracle(path, model)
+    for q in RNG.uniform(-1.5, 1.5, (3, model.nq)):
+        np.testing.assert_allclose(od.mass_matrix(model, q), P.mass_matrix(q), atol=1e-12)
+        np.testing.assert_allclose(od.gravity_forces(model, q), P.gravity_forces(q), atol=1e-12)
