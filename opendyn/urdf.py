@@ -585,7 +585,10 @@ class _Builder:
         return axis / norm
 
     def _body_inertias(self, links, body_of, T_body_link, nb):
+        """The bodies' spatial inertias G (nb, 6, 6), each the sum of its links' inertias.
+        Raises one URDFError listing every link whose inertia no rigid body has."""
         G = np.zeros((nb, 6, 6))
+        refused = []  # (where, what is wrong, whether check_inertia=False would keep it)
         for name, link in links.items():
             inertial = link.inertial
             if inertial is None:
@@ -608,14 +611,8 @@ class _Builder:
                     )
                     continue
                 if self.check_inertia or mass < 0:
-                    self.fail(
-                        f"{where}: {e}; no rigid body has it"
-                        + (
-                            ""
-                            if mass < 0
-                            else " (load_urdf(..., check_inertia=False) keeps it as written)"
-                        )
-                    )
+                    refused.append((where, e, mass >= 0))
+                    continue
                 self.report.honoured.append(f"{where}: kept as written although {e}")
                 G_link = spatial_inertia(mass, com, I, R_com, physical=False)
             if body_of[name] >= 0:
@@ -625,7 +622,25 @@ class _Builder:
                 self.report.ignored.append(
                     f"inertia of link {name!r} ({mass:g} kg): welded to the fixed root"
                 )
+        if refused:
+            self._refuse_inertias(refused)
         return G
+
+    def _refuse_inertias(self, refused):
+        """Raise one URDFError naming every (where, problem, keepable) in `refused`, and saying
+        which of them load_urdf(..., check_inertia=False) would keep as written."""
+        keepable = [keep for _, _, keep in refused]
+        hint = ""
+        if any(keepable):
+            which = "it" if len(refused) == 1 else "them" if all(keepable) else "those of mass >= 0"
+            hint = f" (load_urdf(..., check_inertia=False) keeps {which} as written)"
+        if len(refused) == 1:
+            where, problem, _ = refused[0]
+            self.fail(f"{where}: {problem}; no rigid body has it{hint}")
+        self.fail(
+            f"{len(refused)} links have an inertia that no rigid body has{hint}:\n"
+            + "\n".join(f"  {where}: {problem}" for where, problem, _ in refused)
+        )
 
     def _collision_spheres(self, links):
         """The CollisionSpheres of the links' <collision> spheres and box corners, each in its

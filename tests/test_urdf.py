@@ -1140,3 +1140,36 @@ def test_lower_above_upper_is_unlimited_and_reported(tmp_path):
     for q in RNG.uniform(-1.5, 1.5, (3, model.nq)):
         np.testing.assert_allclose(od.mass_matrix(model, q), P.mass_matrix(q), atol=1e-12)
         np.testing.assert_allclose(od.gravity_forces(model, q), P.gravity_forces(q), atol=1e-12)
+
+
+def test_inertia_error_lists_every_bad_link(tmp_path):
+    """One error names every link whose inertia no rigid body has, each with its problem, not
+    just the first (xarm6 and mini_cheetah break the triangle inequality on several links);
+    check_inertia=False keeps those of mass >= 0, so then only the negative mass is refused."""
+    text = chain(
+        4,
+        links={
+            1: {"inertia": (1, 1, 3, 0, 0, 0)},
+            2: {"inertia": (-1, 1, 1, 0, 0, 0)},
+            4: {"mass": -1.0},
+        },
+    )
+    path = write_urdf(tmp_path, text)
+    with pytest.raises(od.URDFError) as info:
+        od.load_urdf(path)
+    head, *rows = str(info.value).splitlines()
+    assert head == (
+        f"{path}: 3 links have an inertia that no rigid body has (load_urdf(..., "
+        f"check_inertia=False) keeps those of mass >= 0 as written):"
+    )
+    assert [row.split(":")[0] for row in rows] == [
+        f'  <link name="link{k}"> <inertial>' for k in (1, 2, 4)
+    ]
+    assert "triangle inequality" in rows[0] and "positive semi-definite" in rows[1]
+    assert "mass must be non-negative" in rows[2]
+    with pytest.raises(od.URDFError) as info:
+        od.load_urdf(path, check_inertia=False)
+    assert str(info.value) == (
+        f'{path}: <link name="link4"> <inertial>: mass must be non-negative, got -1.0; no '
+        f"rigid body has it"
+    )
