@@ -28,6 +28,7 @@ import numpy as np
 from . import __version__
 from ._compile import compile_seconds, compiling
 from ._kernel_cache import kernel_cache
+from .dynamics._args import singular_coordinates
 from .dynamics.energy import energies
 from .model import FREE
 from .scene import SceneError
@@ -520,13 +521,9 @@ def failure_message(scene, table, status, t, steps, q, qd):
     model = scene.model
     run = scene.run
     where = f"at t = {t:.6g} s (step {steps})"
-    status, coordinate = decode(status)
+    status, _ = decode(status)
     if status == Status.SINGULAR:
-        joint = model.v_names[coordinate]
-        return (
-            f"singular mass matrix {where}: nothing with mass or inertia moves with joint "
-            f"{joint!r}. Give the links below it inertia, or name the armature effect for it."
-        )
+        return f"singular mass matrix {where}: {singular_coordinates(model, q, scene.armature)[2]}"
     if status == Status.NO_CONVERGENCE:
         return (
             f"semi-implicit Euler's momentum update did not converge {where}: the step is too "

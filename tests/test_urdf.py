@@ -1173,3 +1173,70 @@ def test_inertia_error_lists_every_bad_link(tmp_path):
         f'{path}: <link name="link4"> <inertial>: mass must be non-negative, got -1.0; no '
         f"rigid body has it"
     )
+
+
+# base -> j1 -> link1 (massive) -> j2 -> link2 (massless) -> j3 -> link3 (massless), and
+# base -> j4 -> link4, a point mass on j4's axis: j2, j3 and j4 move nothing with inertia
+MASSLESS_JOINTS = robot(
+    link("base"),
+    link("link1", xyz=(0.3, 0, 0)),
+    link("link2", mass=None),
+    link("link3", mass=None),
+    link("link4", mass=2.0, inertia=(0, 0, 0, 0, 0, 0)),
+    joint("j1", "base", "link1", axis=(0, 1, 0)),
+    joint("j2", "link1", "link2", xyz=(0.5, 0, 0), axis=(0, 1, 0)),
+    joint("j3", "link2", "link3", xyz=(0.5, 0, 0), type="prismatic", axis=(1, 0, 0)),
+    joint("j4", "base", "link4", xyz=(0, 0.2, 0), axis=(0, 0, 1)),
+)
+
+
+def test_singular_mass_matrix_names_every_massless_joint(tmp_path):
+    """Every joint whose column of M is zero is named, whichever method, state or run meets
+    the singular M first (ABA's pivots fail at the deepest massless body, Cholesky's at the
+    first); a joint that moves something is not named."""
+    model = load(tmp_path, MASSLESS_JOINTS)
+    named = "joints 'j2', 'j3', 'j4', so their accelerations are undetermined"
+    q, zero = np.array([0.3, -0.4, 0.1, 0.7]), np.zeros(4)
+    calls = [
+        lambda method: od.forward_dynamics(model, q, zero, zero, method=method),
+        lambda method: od.forward_dynamics(model, np.tile(q, (3, 1)), zero, zero, method=method),
+    ]
+    for call, method in itertools.product(calls, METHODS):
+        with pytest.raises(od.SingularMassMatrixError, match=named) as info:
+            call(method)
+        assert info.value.joints == ["j2", "j3", "j4"] and info.value.together == []
+        assert "'j1'" not in str(info.value)
+    with pytest.raises(od.SingularMassMatrixError, match=named):
+        od.task_space_mass_matrix(model, q, "link1")
+    with pytest.raises(od.SimulationError, match=f"singular mass matrix at t = .*{named}"):
+        od.simulate(od.default_scene(str(model.source), duration=0.1))
+    settings = {
+        "robot": {"urdf": str(model.source)},
+        "run": {"duration": 0.01, "dt": 1e-3},
+        "effects": {"gravity": True, "armature": {"values": {"j3": 0.1}}},
+    }
+    with pytest.raises(od.SimulationError, match="joints 'j2', 'j4', so their"):
+        od.simulate(od.scene_from_dict(settings))
+
+
+def test_joints_that_move_one_body_together_are_named_as_a_combination(tmp_path):
+    """Two prismatic joints along x with nothing between them: each moves the mass, so no
+    column of M is zero, but j1 forward and j2 back by as much move nothing. The error says
+    so and names no joint as massless."""
+    model = load(
+        tmp_path,
+        robot(
+            link("base"),
+            link("slider", mass=None),
+            link("body"),
+            joint("j1", "base", "slider", type="prismatic", axis=(1, 0, 0)),
+            joint("j2", "slider", "body", type="prismatic", axis=(1, 0, 0)),
+        ),
+    )
+    with pytest.raises(od.SingularMassMatrixError) as info:
+        od.forward_dynamics(model, np.zeros(2), np.zeros(2), np.zeros(2))
+    assert info.value.joints == [] and info.value.together == ["j1", "j2"]
+    assert "every joint moves some inertia, but joints 'j1', 'j2' moving together, with " in str(
+        info.value
+    )
+    assert "ratio (1, -1)" in str(info.value) or "ratio (-1, 1)" in str(info.value)
