@@ -203,15 +203,20 @@ _VERSION = re.compile(rb"""(version\s*=\s*)(["'])(.*?)\2""")
 
 
 def _parse_xml(file, report):
-    """The <robot> element of a URDF file, comments removed. Two things that XML forbids but
-    every robotics tool reads are tolerated and reported as transformed: whitespace before the
-    XML declaration (moved after it, so that line numbers stay true), and a declaration version
-    other than 1.x (Bullet's files say "0.0"), read as 1.0."""
+    """The <robot> element of a URDF file, comments removed. Three things that XML forbids but
+    robotics tools read are tolerated and reported as transformed: whitespace before the XML
+    declaration (moved after it, so that line numbers stay true), a declaration version other
+    than 1.x (Bullet's files say "0.0"), read as 1.0, and NUL bytes after the document (where a
+    C string ends)."""
     try:
         with open(file, "rb") as f:
             data = f.read()
     except OSError as e:
         raise URDFError(f"{file}: cannot be read: {e.strerror}") from None
+    end = data.rstrip(b"\0 \t\r\n")
+    if b"\0" in data[len(end) :]:
+        data = end
+        report.transformed.append("NUL bytes after the end of the document skipped")
     match = _DECLARATION.match(data)
     if match:
         blank, declaration = match.groups()
@@ -311,7 +316,8 @@ def _check_values(file, el, attr, text, count):
     try:
         values = [float(t) for t in text.split()]
     except ValueError:
-        raise URDFError(f"{file}: {_where(el)}: {attr}={text!r} is not a number") from None
+        xacro = " (an unexpanded xacro substitution: run xacro on the file)" if "$(" in text else ""
+        raise URDFError(f"{file}: {_where(el)}: {attr}={text!r} is not a number{xacro}") from None
     if len(values) != count:
         raise URDFError(
             f"{file}: {_where(el)}: {attr}={text!r} must have {count} "

@@ -307,6 +307,12 @@ BAD_URDFS = [
         {},
     ),
     (
+        "unexpanded_xacro_in_origin",
+        chain(joints={2: {"xyz": "$(arg x) 0 0"}}),
+        ['<joint name="j2"> <origin>', "xyz='$(arg x) 0 0'", "unexpanded xacro substitution"],
+        {},
+    ),
+    (
         "two_values_in_xyz",
         chain(joints={2: {"xyz": "1 2"}}),
         ['<joint name="j2"> <origin>', "xyz='1 2'", "must have 3 values"],
@@ -1069,6 +1075,15 @@ def test_xml_version_0_0_and_blank_lines_before_the_declaration_load(tmp_path):
     line = next(k for k, row in enumerate(bad.splitlines(), 1) if 'xyz="1 x 0"' in row)
     with pytest.raises(od.URDFError, match=rf"<origin> \(line {line}\): xyz='1 x 0' is not a"):
         load(tmp_path, bad, "bad.urdf")
+
+
+def test_nul_bytes_after_the_document_load(tmp_path):
+    """pybullet's humanoid ends in a NUL byte, where a C string ends: read as the end."""
+    path = tmp_path / "nul.urdf"
+    path.write_bytes(chain().encode() + b"\0\n\0")
+    model = od.load_urdf(path)
+    same_dynamics(model, load(tmp_path, chain(), "plain.urdf"))
+    assert "NUL bytes after the end of the document skipped" in model.report.transformed
 
 
 @pytest.mark.parametrize("blank", ["", "\n"])
