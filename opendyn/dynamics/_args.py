@@ -180,8 +180,8 @@ class SingularMassMatrixError(ValueError):
       them moves none; `together` then names the joints of that combination.
     """
 
-    def __init__(self, model, q, what, armature=None):
-        self.joints, self.together, why = singular_coordinates(model, q, armature)
+    def __init__(self, model, q, what):
+        self.joints, self.together, why = singular_coordinates(model, q)
         super().__init__(f"{what}: the mass matrix of {model.name!r} is singular: {why}")
 
 
@@ -194,7 +194,8 @@ def singular_coordinates(model, q, armature=None):
     M is positive semi-definite, so their whole column of M is zero. When there are none,
     together: the coordinates of M's null direction (of M scaled to a unit diagonal, so that
     revolute and prismatic units do not matter): joints whose combined motion moves nothing
-    with inertia, as two joints turning the same body about one axis. The sentence says so.
+    with inertia, as two joints moving one body along or about the same axis. The sentence
+    says so.
     """
     from .cholesky import SINGULAR_PIVOT
     from .crba import mass_matrix
@@ -206,12 +207,13 @@ def singular_coordinates(model, q, armature=None):
     massless = [model.v_names[k] for k in np.flatnonzero(d <= SINGULAR_PIVOT * d.max(initial=0))]
     if massless:
         names = ", ".join(map(repr, massless))
-        one = len(massless) == 1
+        if len(massless) == 1:
+            subject, pronoun = f"joint {names}, so its acceleration is", "it"
+        else:
+            subject, pronoun = f"joints {names}, so their accelerations are", "them"
         return massless, [], (
-            f"nothing with mass or inertia moves with joint{'' if one else 's'} {names}, so "
-            f"{'its acceleration is' if one else 'their accelerations are'} undetermined (give "
-            f"the links below {'it' if one else 'them'} inertia, or name the armature effect "
-            f"for {'it' if one else 'them'} in a scene)"
+            f"nothing with mass or inertia moves with {subject} undetermined (give the links "
+            f"below {pronoun} inertia, or name the armature effect for {pronoun} in a scene)"
         )
     scale = 1 / np.sqrt(d)
     null = np.linalg.eigh(scale[:, None] * M * scale)[1][:, 0] * scale
