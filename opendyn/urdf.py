@@ -17,6 +17,11 @@ The spheres and boxes of the links' <collision> elements become model.collision_
 its own link's frame: a <sphere> gives one at the collision origin's xyz, a <box> of size
 (sx, sy, sz) its 8 corners T_origin (+-sx/2, +-sy/2, +-sz/2), radius 0, in the order of
 BOX_CORNERS; meshes and cylinders give none.
+
+URDFs written for Bullet load as other robotics tools load them, each tolerance in the fidelity
+report: an XML declaration of version "0.0" or after blank lines, NUL bytes after the document,
+<collision> and <visual> geometry outside the spec (<plane>, <cdf>: ignored), and a <limit> with
+lower > upper (Bullet's "no limit": unlimited).
 """
 
 from __future__ import annotations
@@ -117,8 +122,8 @@ def load_urdf(
 
 def read_urdf(file, report: FidelityReport | None = None):
     """(root, robot): a URDF file's checked XML tree (lxml) and its yourdfpy robot, read the way
-    every robotics tool reads it (see _parse_xml and _drop_unknown_geometry); what was tolerated
-    on the way goes into `report`. Raises URDFError naming the file, element and problem."""
+    robotics tools read it (see _parse_xml and _drop_unknown_geometry); what was tolerated on
+    the way goes into `report`. Raises URDFError naming the file, element and problem."""
     report = FidelityReport(source=file) if report is None else report
     root = _parse_xml(file, report)
     _drop_unknown_geometry(root, report)
