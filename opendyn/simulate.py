@@ -28,6 +28,7 @@ import numpy as np
 from . import __version__
 from ._compile import compile_seconds, compiling
 from ._kernel_cache import kernel_cache
+from .dynamics._args import singular_coordinates
 from .dynamics.energy import energies
 from .model import FREE
 from .preflight import preflight
@@ -515,7 +516,7 @@ def failure_message(scene, table, status, t, steps, q, qd):
     model = scene.model
     run = scene.run
     where = f"at t = {t:.6g} s (step {steps})"
-    status, coordinate = decode(status)
+    status, _ = decode(status)
     implicit = integrators.INTEGRATORS[run.integrator].kind == integrators.IMPLICIT
     if status == Status.SINGULAR and implicit and _regular_mass_matrix(scene, q):
         stiff = _stiff_effects(_effect_rates(scene, table, q), run.dt, 0.0)[:1]
@@ -527,11 +528,7 @@ def failure_message(scene, table, status, t, steps, q, qd):
             + ". Lower the stiffness, or the step."
         )
     if status == Status.SINGULAR:
-        joint = model.v_names[coordinate]
-        return (
-            f"singular mass matrix {where}: nothing with mass or inertia moves with joint "
-            f"{joint!r}. Give the links below it inertia, or name the armature effect for it."
-        )
+        return f"singular mass matrix {where}: {singular_coordinates(model, q, scene.armature)[2]}"
     if status == Status.NO_CONVERGENCE:
         return (
             f"semi-implicit Euler's momentum update did not converge {where}: the step is too "

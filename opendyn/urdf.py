@@ -17,6 +17,11 @@ The spheres and boxes of the links' <collision> elements become model.collision_
 its own link's frame: a <sphere> gives one at the collision origin's xyz, a <box> of size
 (sx, sy, sz) its 8 corners T_origin (+-sx/2, +-sy/2, +-sz/2), radius 0, in the order of
 BOX_CORNERS; meshes and cylinders give none.
+
+URDFs written for Bullet load as other robotics tools load them, each tolerance in the fidelity
+report: an XML declaration of version "0.0" or after blank lines, NUL bytes after the document,
+<collision> and <visual> geometry outside the spec (<plane>, <cdf>: ignored), and a <limit> with
+lower > upper (Bullet's "no limit": unlimited).
 """
 
 from __future__ import annotations
@@ -29,6 +34,7 @@ import io
 import itertools
 import math
 import os
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -49,6 +55,7 @@ ROOT_JOINT = "root_joint"  # the name of the free joint that floating_base=True 
 # A box's corners as fractions of its size, in the order its collision spheres take: the signs
 # (x, y, z) run (-,-,-), (-,-,+), (-,+,-), (-,+,+), (+,-,-), ..., (+,+,+) (z fastest, x slowest)
 BOX_CORNERS = np.array(list(itertools.product((-0.5, 0.5), repeat=3)))
+URDF_GEOMETRIES = ("box", "cylinder", "sphere", "mesh")  # the shapes of the URDF spec
 CONTACT_GEOMETRIES = ("sphere", "box")  # the <collision> geometries that give contact spheres
 
 
@@ -108,10 +115,20 @@ def load_urdf(
     Raises URDFError naming the file, the element and the problem for malformed input.
     """
     file = resolve_robot(path)
-    root = _parse_xml(file)
+    report = FidelityReport(source=file)
+    root, robot = read_urdf(file, report)
+    return _Builder(file, root, robot, report, mimic, check_inertia, floating_base).build()
+
+
+def read_urdf(file, report: FidelityReport | None = None):
+    """(root, robot): a URDF file's checked XML tree (lxml) and its yourdfpy robot, read the way
+    robotics tools read it (see _parse_xml and _drop_unknown_geometry); what was tolerated on
+    the way goes into `report`. Raises URDFError naming the file, element and problem."""
+    report = FidelityReport(source=file) if report is None else report
+    root = _parse_xml(file, report)
+    _drop_unknown_geometry(root, report)
     _check_numbers(file, root)
-    urdf = _parse_yourdfpy(file, root)
-    return _Builder(file, root, urdf.robot, mimic, check_inertia, floating_base).build()
+    return root, _parse_yourdfpy(file, root).robot
 
 
 def looks_mobile(model) -> bool:
@@ -185,9 +202,45 @@ def shipped_robots_dir() -> Path:
     raise FileNotFoundError(f"opendyn's robots folder is missing beside {here}")
 
 
-def _parse_xml(file):
+# the XML declaration, after an optional UTF-8 byte-order mark and whitespace
+_DECLARATION = re.compile(rb"(?:\xef\xbb\xbf)?(\s*)(<\?xml\s.*?\?>)", re.DOTALL)
+_VERSION = re.compile(rb"""(version\s*=\s*)(["'])(.*?)\2""")
+
+
+def _parse_xml(file, report):
+    """The <robot> element of a URDF file, comments removed. Three things that XML forbids but
+    robotics tools read are tolerated and reported as transformed: whitespace before the XML
+    declaration (moved after it, so that line numbers stay true), a declaration version other
+    than 1.x (Bullet's files say "0.0"), read as 1.0, and NUL bytes after the document (where a
+    C string ends)."""
     try:
-        root = etree.parse(file).getroot()
+        with open(file, "rb") as f:
+            data = f.read()
+    except OSError as e:
+        raise URDFError(f"{file}: cannot be read: {e.strerror}") from None
+    end = data.rstrip(b"\0 \t\r\n")
+    if b"\0" in data[len(end) :]:
+        data = end
+        report.transformed.append("NUL bytes after the end of the document skipped")
+    match = _DECLARATION.match(data)
+    if match:
+        blank, declaration = match.groups()
+        version = _VERSION.search(declaration)
+        if version and not version.group(3).startswith(b"1."):
+            declaration = _VERSION.sub(rb"\1\g<2>1.0\2", declaration, count=1)
+            report.transformed.append(
+                f"XML declaration version {version.group(3).decode(errors='replace')!r} "
+                f"read as 1.0"
+            )
+        if blank:
+            lines = blank.count(b"\n")
+            report.transformed.append(
+                f"whitespace before the XML declaration ({lines} line{'s' * (lines != 1)}) "
+                f"skipped"
+            )
+        data = declaration + blank + data[match.end() :]
+    try:
+        root = etree.fromstring(data, etree.XMLParser(remove_comments=True), base_url=file)
     except etree.XMLSyntaxError as e:
         raise URDFError(f"{file}: malformed XML: {e}") from None
     if root.tag != "robot":
@@ -195,6 +248,28 @@ def _parse_xml(file):
     if not root.get("name"):
         raise URDFError(f"{file}: <robot> has no name attribute")
     return root
+
+
+def _drop_unknown_geometry(root, report) -> None:
+    """Remove each link's <visual> and <collision> whose <geometry> holds no URDF shape (box,
+    cylinder, sphere, mesh): Bullet's <plane> and <cdf>, or nothing at all. Like the other
+    tools, load them as absent and list them in report.ignored, by element and shape."""
+    dropped = collections.defaultdict(list)
+    for link in root.iterchildren("link"):
+        for el in list(link.iterchildren("visual", "collision")):
+            geometry = el.find("geometry")
+            shape = geometry[0].tag if geometry is not None and len(geometry) else None
+            if shape not in URDF_GEOMETRIES:
+                dropped[el.tag, shape].append(link.get("name"))
+                link.remove(el)
+    for (tag, shape), links in dropped.items():
+        what = f"<geometry> <{shape}>" if shape else "no <geometry> shape"
+        names = list(dict.fromkeys(links))
+        report.ignored.append(
+            f"{len(links)} <{tag}> element{'s' * (len(links) > 1)} with {what}, outside the "
+            f"URDF spec ({', '.join(URDF_GEOMETRIES)}), not read: "
+            f"link{'s' * (len(names) > 1)} {', '.join(map(repr, names))}"
+        )
 
 
 def _where(el) -> str:
@@ -246,7 +321,8 @@ def _check_values(file, el, attr, text, count):
     try:
         values = [float(t) for t in text.split()]
     except ValueError:
-        raise URDFError(f"{file}: {_where(el)}: {attr}={text!r} is not a number") from None
+        xacro = " (an unexpanded xacro substitution: run xacro on the file)" if "$(" in text else ""
+        raise URDFError(f"{file}: {_where(el)}: {attr}={text!r} is not a number{xacro}") from None
     if len(values) != count:
         raise URDFError(
             f"{file}: {_where(el)}: {attr}={text!r} must have {count} "
@@ -283,11 +359,10 @@ def _parse_yourdfpy(file, root):
 class _Builder:
     """Walks the URDF tree depth-first and accumulates bodies, frames and the report."""
 
-    def __init__(self, file, root, robot, mimic, check_inertia, floating_base=False):
-        self.file, self.root, self.robot = file, root, robot
+    def __init__(self, file, root, robot, report, mimic, check_inertia, floating_base):
+        self.file, self.root, self.robot, self.report = file, root, robot, report
         self.use_mimic, self.check_inertia = mimic, check_inertia
         self.floating_base = floating_base
-        self.report = FidelityReport(source=file)
 
     def fail(self, what: str):
         raise URDFError(f"{self.file}: {what}")
@@ -521,7 +596,10 @@ class _Builder:
         return axis / norm
 
     def _body_inertias(self, links, body_of, T_body_link, nb):
+        """The bodies' spatial inertias G (nb, 6, 6), each the sum of its links' inertias.
+        Raises one URDFError listing every link whose inertia no rigid body has."""
         G = np.zeros((nb, 6, 6))
+        refused = []  # (where, what is wrong, whether check_inertia=False would keep it)
         for name, link in links.items():
             inertial = link.inertial
             if inertial is None:
@@ -544,14 +622,8 @@ class _Builder:
                     )
                     continue
                 if self.check_inertia or mass < 0:
-                    self.fail(
-                        f"{where}: {e}; no rigid body has it"
-                        + (
-                            ""
-                            if mass < 0
-                            else " (load_urdf(..., check_inertia=False) keeps it as written)"
-                        )
-                    )
+                    refused.append((where, e, mass >= 0))
+                    continue
                 self.report.honoured.append(f"{where}: kept as written although {e}")
                 G_link = spatial_inertia(mass, com, I, R_com, physical=False)
             if body_of[name] >= 0:
@@ -561,7 +633,25 @@ class _Builder:
                 self.report.ignored.append(
                     f"inertia of link {name!r} ({mass:g} kg): welded to the fixed root"
                 )
+        if refused:
+            self._refuse_inertias(refused)
         return G
+
+    def _refuse_inertias(self, refused):
+        """Raise one URDFError naming every (where, problem, keepable) in `refused`, and saying
+        which of them load_urdf(..., check_inertia=False) would keep as written."""
+        keepable = [keep for _, _, keep in refused]
+        hint = ""
+        if any(keepable):
+            which = "it" if len(refused) == 1 else "them" if all(keepable) else "those of mass >= 0"
+            hint = f" (load_urdf(..., check_inertia=False) keeps {which} as written)"
+        if len(refused) == 1:
+            where, problem, _ = refused[0]
+            self.fail(f"{where}: {problem}; no rigid body has it{hint}")
+        self.fail(
+            f"{len(refused)} links have an inertia that no rigid body has{hint}:\n"
+            + "\n".join(f"  {where}: {problem}" for where, problem, _ in refused)
+        )
 
     def _collision_spheres(self, links):
         """The CollisionSpheres of the links' <collision> spheres and box corners, each in its
@@ -614,10 +704,12 @@ class _Builder:
                     if lim.upper is not None:
                         out["upper"][k] = float(lim.upper)
                     if out["lower"][k] > out["upper"][k]:
-                        self.fail(
-                            f'<joint name="{name}"> <limit>: lower limit '
-                            f"{out['lower'][k]:g} is above upper limit {out['upper'][k]:g}"
+                        self.report.transformed.append(
+                            f"joint {name!r}: <limit> lower {out['lower'][k]:g} > upper "
+                            f"{out['upper'][k]:g}, Bullet's convention for no limit: taken as "
+                            f"unlimited (its effort and velocity limits kept)"
                         )
+                        out["lower"][k], out["upper"][k] = -np.inf, np.inf
                 for key, val in (("velocity_limit", lim.velocity), ("effort_limit", lim.effort)):
                     if val is not None:
                         out[key][k] = float(val)

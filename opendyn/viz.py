@@ -132,18 +132,14 @@ def load_visuals(model) -> list[Visual]:
 
 
 def _parse_urdf(source):
-    import yourdfpy
+    """The yourdfpy robot of the URDF file, read as load_urdf reads it; None (with a
+    PlaybackWarning) when it cannot be read."""
+    from .urdf import URDFError, read_urdf
 
     try:
-        return yourdfpy.URDF.load(
-            source,
-            build_scene_graph=False,
-            load_meshes=False,
-            build_collision_scene_graph=False,
-            load_collision_meshes=False,
-        ).robot
-    except Exception as e:  # the model loaded, so this is unexpected; never fatal for playback
-        warnings.warn(f"{source}: yourdfpy could not read the URDF: {e!r}", PlaybackWarning)
+        return read_urdf(source)[1]
+    except URDFError as e:  # the model loaded, so the file changed since; never fatal here
+        warnings.warn(f"the URDF could not be read again: {e}", PlaybackWarning)
         return None
 
 

@@ -131,15 +131,16 @@ def loads(model, gravity, f_tip, n_states=None):
     return out if per_state or n_states is None else out[None]
 
 
-def raise_status(status, model, what):
-    """Turn a kernel's failing Status into a ValueError naming the argument or the joint."""
-    status, coordinate = decode(status)
+def raise_status(status, model, what, q=None):
+    """Turn a kernel's failing Status into a ValueError naming the argument or the joints.
+    q: the configuration, for the SINGULAR status of a kernel that solves with M(q)."""
+    status, _ = decode(status)
     if status in NOT_FINITE_ARGUMENT:
         raise ValueError(f"{what}: {NOT_FINITE_ARGUMENT[status]} must be finite (it has NaN or inf)")
     if status == Status.Q_NOT_UNIT_QUATERNION:
         raise ValueError(f"{what}: {quaternion_problem(model)}")
     if status == Status.SINGULAR:
-        raise SingularMassMatrixError(model, [model.v_names[coordinate]], what)
+        raise SingularMassMatrixError(model, q, what)
     raise RuntimeError(f"{what}: kernel failed with status {status.name}")
 
 
@@ -159,21 +160,69 @@ def quaternion_problem(model, name="q"):
     )
 
 
-def raise_batch_status(statuses, model, what):
-    """The first failing state of a batch, named by its row."""
+def raise_batch_status(statuses, model, what, q=None):
+    """The first failing state of a batch, named by its row; q: the batch's configurations
+    (N, nq), for the SINGULAR status."""
     bad = np.flatnonzero(statuses)
     if bad.size:
-        raise_status(int(statuses[bad[0]]), model, f"{what} (state {bad[0]} of the batch)")
+        k = bad[0]
+        raise_status(
+            int(statuses[k]), model, f"{what} (state {k} of the batch)", None if q is None else q[k]
+        )
 
 
 class SingularMassMatrixError(ValueError):
-    """M(q) is singular: a moving joint has nothing with mass or inertia moving with it."""
+    """M(q) is singular: a joint, or a combination of joints, moves nothing with mass or
+    inertia, so its acceleration is undetermined.
 
-    def __init__(self, model, joints, what):
-        self.joints = list(joints)
-        super().__init__(
-            f"{what}: the mass matrix of {model.name!r} is singular at joint(s) "
-            f"{', '.join(repr(j) for j in self.joints)}: nothing with mass or inertia moves with "
-            f"that joint, so its acceleration is undetermined (add inertia below it, or "
-            f"armature in a scene)"
+    joints: the coordinates (model.v_names) whose column of M is zero: nothing with mass or
+      inertia moves with them. Empty when every joint moves some inertia but a combination of
+      them moves none; `together` then names the joints of that combination.
+    """
+
+    def __init__(self, model, q, what):
+        self.joints, self.together, why = singular_coordinates(model, q)
+        super().__init__(f"{what}: the mass matrix of {model.name!r} is singular: {why}")
+
+
+def singular_coordinates(model, q, armature=None):
+    """Why M(q) (+ diag(armature) on the joints, as a scene adds it) is singular:
+    (massless, together, sentence).
+
+    massless: the coordinates k whose diagonal entry M_kk = S_k^T Ic_k S_k (Ic_k the composite
+    inertia of everything below joint k) is zero to the forward dynamics' pivot tolerance;
+    M is positive semi-definite, so their whole column of M is zero. When there are none,
+    together: the coordinates of M's null direction (of M scaled to a unit diagonal, so that
+    revolute and prismatic units do not matter): joints whose combined motion moves nothing
+    with inertia, as two joints moving one body along or about the same axis. The sentence
+    says so.
+    """
+    from .cholesky import SINGULAR_PIVOT
+    from .crba import mass_matrix
+
+    M = mass_matrix(model, q)
+    if armature is not None:
+        M[model.v_index, model.v_index] += armature
+    d = np.diag(M)
+    massless = [model.v_names[k] for k in np.flatnonzero(d <= SINGULAR_PIVOT * d.max(initial=0))]
+    if massless:
+        names = ", ".join(map(repr, massless))
+        if len(massless) == 1:
+            subject, pronoun = f"joint {names}, so its acceleration is", "it"
+        else:
+            subject, pronoun = f"joints {names}, so their accelerations are", "them"
+        return massless, [], (
+            f"nothing with mass or inertia moves with {subject} undetermined (give the links "
+            f"below {pronoun} inertia, or name the armature effect for {pronoun} in a scene)"
         )
+    scale = 1 / np.sqrt(d)
+    null = np.linalg.eigh(scale[:, None] * M * scale)[1][:, 0] * scale
+    null /= null[np.argmax(np.abs(null))]
+    involved = np.flatnonzero(np.abs(null) > 1e-6)
+    together = [model.v_names[k] for k in involved]
+    ratio = ", ".join(f"{x:.3g}" for x in null[involved])
+    return [], together, (
+        f"every joint moves some inertia, but joints {', '.join(map(repr, together))} moving "
+        f"together, with velocities in the ratio ({ratio}), move none (as two joints moving one "
+        f"body along or about the same axis), so that motion's acceleration is undetermined"
+    )

@@ -916,7 +916,7 @@ def constrained_forward_dynamics(
             lam,
         )
         if status:
-            _args.raise_status(status, model, what)
+            _args.raise_status(status, model, what, q)
         return qdd, lam
     A = _matrix_A(model, A, what)
     gamma = _vector_k(Adot_qd, A.shape[0], "Adot_qd", what)
@@ -927,7 +927,7 @@ def constrained_forward_dynamics(
     qdd, lam = np.empty(model.nv), np.empty(A.shape[0])
     status = constrained_solve_kernel(M, rhs, A, gamma, qdd, lam)
     if status:
-        _args.raise_status(status, model, what)
+        _args.raise_status(status, model, what, q)
     return qdd, lam
 
 
@@ -948,7 +948,7 @@ def _projection(model, q, A, what):
     try:
         L = np.linalg.cholesky(M)
     except np.linalg.LinAlgError:
-        raise _args.SingularMassMatrixError(model, model.joint_names, what) from None
+        raise _args.SingularMassMatrixError(model, q, what) from None
     M_inv = np.linalg.solve(L.T, np.linalg.solve(L, np.eye(model.nv)))
     M_inv = 0.5 * (M_inv + M_inv.T)
     G_pinv = _pseudo_inverse(A @ M_inv @ A.T)

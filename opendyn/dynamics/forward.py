@@ -138,8 +138,8 @@ def forward_dynamics(model, q, qd, tau, f_tip=None, gravity=None, method="aba"):
       method: "aba" (O(n), default), "crba" (CRBA + Cholesky) or "newton_euler" (the seed's
         n-RNEA mass matrix + Cholesky). Models with coupled mimic joints solve "aba" by CRBA.
     Returns qdd, (nv,) or (N, nv) (rad/s^2 or m/s^2).
-    Raises SingularMassMatrixError (a ValueError) naming the joint when nothing with mass or
-    inertia moves with it.
+    Raises SingularMassMatrixError (a ValueError) naming every joint that moves nothing with
+    mass or inertia (or the joints whose combined motion moves none) when M(q) is singular.
     """
     aba, crba, newton_euler = method_switches(model, method)
     if _args.is_single(model, q, qd, tau):
@@ -160,7 +160,7 @@ def forward_dynamics(model, q, qd, tau, f_tip=None, gravity=None, method="aba"):
             newton_euler,
         )
         if status:
-            _args.raise_status(status, model, "forward_dynamics")
+            _args.raise_status(status, model, "forward_dynamics", q)
         return qdd
     (q, qd, tau), batch = _args.as_states(model, q, ("qd", qd), ("tau", tau))
     if not batch:
@@ -182,5 +182,5 @@ def forward_dynamics(model, q, qd, tau, f_tip=None, gravity=None, method="aba"):
         (aba, crba, newton_euler),
         status,
     )
-    _args.raise_batch_status(status, model, "forward_dynamics")
+    _args.raise_batch_status(status, model, "forward_dynamics", q)
     return qdd

@@ -47,7 +47,7 @@ def _task_space(model, q, frame, damping, what):
     try:
         M_chol = scipy.linalg.cho_factor(mass_matrix(model, q))
     except np.linalg.LinAlgError:
-        raise _args.SingularMassMatrixError(model, model.joint_names, what) from None
+        raise _args.SingularMassMatrixError(model, q, what) from None
     Lambda_inv = J_b @ scipy.linalg.cho_solve(M_chol, J_b.T)
     if damping > 0:
         return np.linalg.inv(Lambda_inv + damping * np.eye(6)), J_b, M_chol
