@@ -7,13 +7,16 @@
   opendyn compile [--all | SCENE...]        compile the kernels ahead of time (images, workers)
   opendyn info --cache                      where the compiled kernels are cached
 
-Exit status: 0 success, 1 a simulation that stopped early (its partial record is written) or a
-failed verification, 2 bad input (the message names the file, key or argument).
+Exit status: 0 success; 1 a simulation that stopped early (a failure, or Ctrl-C or SIGTERM
+during the run: its partial record is written) or a failed verification; 2 bad input (the
+message names the file, key or argument); 130 Ctrl-C or 143 SIGTERM while loading, compiling or
+writing (the message says which).
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import copy
 import pathlib
 import sys
@@ -23,6 +26,7 @@ import warnings
 import numpy as np
 
 from . import forward_dynamics, gravity_forces, inverse_dynamics, load_urdf, mass_matrix
+from ._signals import SigtermAsInterrupt, signal_name
 from .scene import (
     DEFAULT_SCENE,
     EFFECTS,
@@ -40,6 +44,21 @@ from .urdf import URDFError, looks_mobile
 DEFAULT_ROBOT = "double_pendulum"
 # effects that `--enable` can switch on for any robot: their parameters come from the URDF
 ENABLE_FROM_URDF = {"gravity": True, "damping": {}, "friction": {}}
+
+
+class _Interrupted(KeyboardInterrupt):
+    """Ctrl-C or SIGTERM, with what the command was doing (the message's "while ...")."""
+
+
+@contextlib.contextmanager
+def _doing(what):
+    """Name what the block does in the message of a Ctrl-C or SIGTERM that stops it."""
+    try:
+        yield
+    except _Interrupted:
+        raise
+    except KeyboardInterrupt:
+        raise _Interrupted(what) from None
 
 
 def _compile_ahead(args) -> int:
@@ -187,8 +206,32 @@ def _with_effects(scene, enable, disable):
 
 
 def _simulate(args) -> int:
+    """opendyn simulate: load the scene, run it, report, write the outputs. Returns the exit
+    status (see the module's docstring)."""
     from .simulate import profile, simulate
 
+    with _doing("loading the scene and its robot; nothing was run"):
+        scene = _scene_to_run(args)
+    if not args.quiet:
+        print(_scene_header(scene))
+    with _doing("getting the compiled step ready; the run had not started"):
+        traj = simulate(scene, progress=not args.quiet, raise_on_failure=False)
+    if not args.quiet or not traj.complete:
+        print(summary(scene, traj))
+    if args.profile:
+        print(profile(scene))
+    with _doing("writing the outputs"):
+        written = _write_outputs(scene, traj, args)
+    for path in written:
+        print(f"wrote {path}")
+    if not traj.complete:
+        print(f"opendyn simulate: {traj.message}", file=sys.stderr)
+        return 1
+    return 0
+
+
+def _scene_to_run(args):
+    """The scene the arguments name, with their run settings and effects."""
     scene = scene_for(args.target)
     run = {
         "duration": args.duration,
@@ -201,26 +244,7 @@ def _simulate(args) -> int:
     run = {k: v for k, v in run.items() if v is not None}
     if run:
         scene = scene.replace_run(**run)
-    scene = _with_effects(scene, args.enable, args.disable)
-    if not args.quiet:
-        print(_scene_header(scene))
-    try:
-        traj = simulate(scene, progress=not args.quiet, raise_on_failure=False)
-    except KeyboardInterrupt:
-        # Ctrl-C before the run started (while numba compiled the step): nothing to keep
-        print("opendyn simulate: interrupted before the run started", file=sys.stderr)
-        return 130
-    if not args.quiet or not traj.complete:
-        print(summary(scene, traj))
-    if args.profile:
-        print(profile(scene))
-    written = _write_outputs(scene, traj, args)
-    for path in written:
-        print(f"wrote {path}")
-    if not traj.complete:
-        print(f"opendyn simulate: {traj.message}", file=sys.stderr)
-        return 1
-    return 0
+    return _with_effects(scene, args.enable, args.disable)
 
 
 def _write_outputs(scene, traj, args):
@@ -466,9 +490,9 @@ def main(argv=None) -> int:
     comp.set_defaults(run=_compile_ahead)
 
     args = parser.parse_args(argv)
-    with warnings.catch_warnings():
+    with warnings.catch_warnings(), SigtermAsInterrupt() as signals:
         warnings.showwarning = _warning_printer(args.command)
-        return _run(args)
+        return _run(args, signals)
 
 
 def _warning_printer(command):
@@ -485,9 +509,18 @@ def _warning_printer(command):
     return show
 
 
-def _run(args) -> int:
+def _run(args, signals) -> int:
+    """Run the command; bad input (2) and Ctrl-C or SIGTERM (`signals`: 130 or 143) become one
+    line on stderr and the exit status."""
     try:
         return args.run(args)
+    except KeyboardInterrupt as e:
+        doing = f" while {e}" if isinstance(e, _Interrupted) else ""
+        print(
+            f"opendyn {args.command}: interrupted ({signal_name(signals.signum)}){doing}",
+            file=sys.stderr,
+        )
+        return signals.exit_status
     except (URDFError, SceneError, ValueError, KeyError, ImportError, OSError) as e:
         hint = ""
         if "check_inertia=False" in str(e) and args.command in ("info", "verify"):

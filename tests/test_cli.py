@@ -142,43 +142,6 @@ def test_simulate_bad_input_is_exit_2_naming_the_problem(capsys, tmp_path):
     assert "bad.toml" in err and "run.integrater" in err and "integrator" in err
 
 
-def test_ctrl_c_on_the_command_line_saves_the_partial_record(tmp_path):
-    import signal
-    import subprocess
-    import sys
-    import time
-
-    out = tmp_path / "long.npz"
-    # compiled ahead, so that the interrupt reaches the run and not numba compiling it
-    assert main(["compile", "ur5_falling"]) == 0
-    proc = subprocess.Popen(
-        [
-            sys.executable,
-            "-m",
-            "opendyn.cli",
-            "simulate",
-            "ur5_falling",
-            "--duration",
-            "3600",
-            "-o",
-            str(out),
-        ],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-    )
-    # wait for the run to start (the scene header is printed just before it), then interrupt
-    header = "".join(proc.stdout.readline() for _ in range(4))
-    assert "integrator" in header
-    time.sleep(3.0)
-    proc.send_signal(signal.SIGINT)
-    stdout, stderr = proc.communicate(timeout=60)
-    assert proc.returncode == 1, stderr
-    assert "interrupted (Ctrl-C)" in stderr
-    traj = od.Trajectory.load(out)
-    assert not traj.complete and 0 < traj.t[-1] < 3600
-
-
 def test_verify_prints_a_table_against_pinocchio(capsys):
     assert main(["verify", "double_pendulum", "--states", "2"]) == 0
     out = capsys.readouterr().out
