@@ -100,6 +100,7 @@ def test_simulate_options_change_the_run(capsys, tmp_path):
         "damping",
         "--csv",
         str(csv),
+        "--no-save",
     ]
     assert main(args) == 0
     out = capsys.readouterr().out
@@ -108,7 +109,8 @@ def test_simulate_options_change_the_run(capsys, tmp_path):
 
 
 def test_simulate_profile_prints_each_stage_cost(capsys):
-    assert main(["simulate", "double_pendulum_push", "--duration", "0.5", "--profile"]) == 0
+    args = ["simulate", "double_pendulum_push", "--duration", "0.5", "--profile", "--no-save"]
+    assert main(args) == 0
     out = capsys.readouterr().out
     table = out[out.index("profile:") :]
     for stage in (
@@ -176,7 +178,8 @@ def test_simulate_reports_contact_and_draws_the_ground_and_its_forces(tmp_path, 
     and force, and the page has the ground and an arrow, its scale in the title."""
     pytest.importorskip("meshcat")
     page = tmp_path / "run.html"
-    assert main(["simulate", "ball_drop", "--duration", "0.4", "--html", str(page)]) == 0
+    args = ["simulate", "ball_drop", "--duration", "0.4", "--html", str(page), "--no-save"]
+    assert main(args) == 0
     out = capsys.readouterr().out
     line = re.search(r"contact +1 points on the ground z = 0 m: max penetration ([0-9.]+) mm "
                      r"\(ball at t = ([0-9.]+) s\), max force ([0-9.]+) N", out)
