@@ -7,22 +7,35 @@
   opendyn compile [--all | SCENE...]        compile the kernels ahead of time (images, workers)
   opendyn info --cache                      where the compiled kernels are cached
 
-Exit status: 0 success, 1 a simulation that stopped early (its partial record is written) or a
-failed verification, 2 bad input (the message names the file, key or argument).
+Exit status: 0 success; 1 a simulation that stopped early (a failure, or Ctrl-C or SIGTERM
+during the run: its partial record is written) or a failed verification; 2 bad input, the
+message naming the file, key or argument (`simulate` checks every output file before the run);
+3 an output that could not be written after the run (the message names it and, when the
+trajectory had no file of its own, the fallback file it went to); 130 Ctrl-C or 143 SIGTERM
+while loading, compiling or writing (the message says which).
+
+`opendyn simulate` saves the trajectory by default: SCENE.npz and SCENE.json in the current
+folder (SCENE the scene's name; SCENE-partial.npz for a run that stopped early, so that it
+never replaces a complete record), `-o` elsewhere, `--no-save` not at all.
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import copy
+import importlib.util
+import os
 import pathlib
 import sys
+import tempfile
 import time
 import warnings
 
 import numpy as np
 
 from . import forward_dynamics, gravity_forces, inverse_dynamics, load_urdf, mass_matrix
+from ._signals import SigtermAsInterrupt, held_interrupt, signal_name
 from .scene import (
     DEFAULT_SCENE,
     EFFECTS,
@@ -35,11 +48,32 @@ from .scene import (
     scene_from_dict,
     shipped_scenes,
 )
+from .trajectory import saved_paths
 from .urdf import URDFError, looks_mobile
 
 DEFAULT_ROBOT = "double_pendulum"
 # effects that `--enable` can switch on for any robot: their parameters come from the URDF
 ENABLE_FROM_URDF = {"gravity": True, "damping": {}, "friction": {}}
+# the options of `simulate` that name an output file, and their attributes in args
+OUTPUT_OPTIONS = {"-o": "output", "--csv": "csv", "--plot": "plot", "--html": "html"}
+DEFAULT_SAVE = "the trajectory"  # how messages name the file saved without -o
+DEFAULT_SAVE_HINT = "-o names another file, --no-save skips saving"
+WRITE_FAILED = 3  # exit status: an output could not be written after the run
+
+
+class _Interrupted(KeyboardInterrupt):
+    """Ctrl-C or SIGTERM, with what the command was doing (the message's "while ...")."""
+
+
+@contextlib.contextmanager
+def _doing(what):
+    """Name what the block does in the message of a Ctrl-C or SIGTERM that stops it."""
+    try:
+        yield
+    except _Interrupted:
+        raise
+    except KeyboardInterrupt:
+        raise _Interrupted(what) from None
 
 
 def _compile_ahead(args) -> int:
@@ -187,8 +221,44 @@ def _with_effects(scene, enable, disable):
 
 
 def _simulate(args) -> int:
+    """opendyn simulate: check every output, load the scene, run it, report, write the outputs.
+    Returns the exit status (see the module's docstring)."""
     from .simulate import profile, simulate
 
+    named = _named_outputs(args)
+    _check_outputs(named)
+    _check_meshcat(args)
+    with _doing("loading the scene and its robot; nothing was run"):
+        scene = _scene_to_run(args)
+    if args.output is None and not args.no_save:
+        defaults = [_default_record(scene, complete) for complete in (True, False)]
+        _check_outputs(
+            [(DEFAULT_SAVE, name, path) for name in defaults for path in saved_paths(name)], named
+        )
+    if not args.quiet:
+        print(_scene_header(scene))
+    with _doing("getting the compiled step ready; the run had not started"):
+        traj = simulate(scene, progress=not args.quiet, raise_on_failure=False)
+    with _doing("writing the outputs"):
+        with held_interrupt():  # from the end of the run until its record is saved
+            if not args.quiet or not traj.complete:
+                print(summary(scene, traj))
+            saved = _save_record(scene, traj, args)
+        written = _write_outputs(scene, traj, args, saved)
+    if not traj.complete:
+        print(f"opendyn simulate: {traj.message}", file=sys.stderr)
+    if args.profile:
+        with _doing("timing the stages for --profile; the outputs are written"):
+            print(profile(scene))
+    if args.view:
+        _view(scene, traj)
+    if not written:
+        return WRITE_FAILED
+    return 0 if traj.complete else 1
+
+
+def _scene_to_run(args):
+    """The scene the arguments name, with their run settings and effects."""
     scene = scene_for(args.target)
     run = {
         "duration": args.duration,
@@ -201,57 +271,194 @@ def _simulate(args) -> int:
     run = {k: v for k, v in run.items() if v is not None}
     if run:
         scene = scene.replace_run(**run)
-    scene = _with_effects(scene, args.enable, args.disable)
-    if not args.quiet:
-        print(_scene_header(scene))
+    return _with_effects(scene, args.enable, args.disable)
+
+
+def _default_record(scene, complete):
+    """The trajectory's file without -o: SCENE.npz in the current folder, SCENE-partial.npz for
+    a run that stopped early (so that it never replaces a complete record)."""
+    return f"{_slug(scene.name)}{'' if complete else '-partial'}.npz"
+
+
+def _named_outputs(args):
+    """(option, name, path) for each file the options name: -o's .npz and its .json record,
+    --csv, --plot, --html. Raises ValueError for an empty name."""
+    named = []
+    for option, attr in OUTPUT_OPTIONS.items():
+        name = getattr(args, attr)
+        if name is None:
+            continue
+        if not name.strip():
+            raise ValueError(f"{option}: the file name is empty")
+        paths = saved_paths(name) if option == "-o" else [pathlib.Path(name)]
+        named += [(option, name, path) for path in paths]
+    return named
+
+
+def _check_outputs(outputs, others=()):
+    """Raise ValueError naming the option and the file for the first of `outputs` (option,
+    name, path) that cannot be written (`_unwritable`), that is also the file of another
+    output (of `outputs` or `others`), or, for --plot, whose format matplotlib does not write.
+    Quick: nothing is loaded or run."""
+    seen = {os.path.realpath(path): (option, name) for option, name, path in others}
+    for option, name, path in outputs:
+        real = os.path.realpath(path)
+        problem = _unwritable(name, path)
+        if problem is None and seen.get(real, (option, name)) != (option, name):
+            problem = "is also the file of {} {!r}".format(*seen[real])
+        if problem is None and option == "--plot":
+            problem = _unplottable(path)
+        if problem is not None:
+            which = f" {path}:" if path != pathlib.Path(name) else ""
+            hint = f" ({DEFAULT_SAVE_HINT})" if option == DEFAULT_SAVE else ""
+            raise ValueError(f"{option} {name!r}:{which} {problem}{hint}")
+        seen.setdefault(real, (option, name))
+
+
+def _check_meshcat(args):
+    """Raise ImportError naming --html or --view, and the install command, without meshcat."""
+    if (args.html is not None or args.view) and importlib.util.find_spec("meshcat") is None:
+        from .viz import MESHCAT_HINT
+
+        raise ImportError(f"{'--html' if args.html is not None else '--view'}: {MESHCAT_HINT}")
+
+
+def _unwritable(name, path):
+    """Why a file cannot be written at `path` (`name` as the user wrote it), or None: a name
+    that ends like a folder's, a folder in its place, a folder that is missing or is a file, a
+    read-only file, a folder where no file can be created (tried: a temporary file is created
+    there and removed)."""
+    if name.endswith(tuple(sep for sep in (os.sep, os.altsep) if sep)):
+        return "names a folder, not a file"
+    if path.is_dir():
+        return "is a folder, not a file"
+    if path.exists() and not path.is_file():  # a device or a pipe: written in place
+        return None if os.access(path, os.W_OK) else "cannot be written (permission denied)"
+    folder = path.parent
+    if not folder.is_dir():
+        blocking = next((p for p in (folder, *folder.parents) if p.exists()), None)
+        if blocking is not None and not blocking.is_dir():
+            return f"{blocking} is a file, not a folder"
+        return f"the folder {folder} does not exist"
+    if path.exists() and not os.access(path, os.W_OK):
+        return "the file is read-only"
+    real_folder = os.path.dirname(os.path.realpath(path))  # where atomic_write writes
     try:
-        traj = simulate(scene, progress=not args.quiet, raise_on_failure=False)
-    except KeyboardInterrupt:
-        # Ctrl-C before the run started (while numba compiled the step): nothing to keep
-        print("opendyn simulate: interrupted before the run started", file=sys.stderr)
-        return 130
-    if not args.quiet or not traj.complete:
-        print(summary(scene, traj))
-    if args.profile:
-        print(profile(scene))
-    written = _write_outputs(scene, traj, args)
-    for path in written:
+        with tempfile.NamedTemporaryFile(dir=real_folder, prefix=".opendyn-check-"):
+            pass
+    except OSError as e:
+        return f"no file can be written in the folder {folder} ({e.strerror})"
+    return None
+
+
+def _unplottable(path):
+    """Why matplotlib cannot write a plot to `path` (its format, by the suffix), or None."""
+    from matplotlib.backend_bases import FigureCanvasBase
+
+    formats = FigureCanvasBase.get_supported_filetypes()
+    suffix = path.suffix[1:].lower()
+    if suffix and suffix not in formats:
+        return f"matplotlib writes no .{suffix} files (it writes {', '.join(sorted(formats))})"
+    return None
+
+
+def _save_record(scene, traj, args) -> bool | None:
+    """Save the trajectory: to -o, or by default to SCENE.npz (`_default_record`). Returns
+    whether it was saved; None with --no-save."""
+    if args.no_save:
+        return None
+    if args.output is not None:
+        return _write("-o", args.output, lambda: saved_paths(traj.save(args.output)))
+    name = _default_record(scene, traj.complete)
+    return _write(DEFAULT_SAVE, name, lambda: saved_paths(traj.save(name)))
+
+
+def _write_outputs(scene, traj, args, saved) -> bool:
+    """Write the other outputs asked for: --csv, --plot, --html. One that fails does not stop
+    the others; and when one failed and the trajectory has no file (`saved`: False, or None
+    with --no-save), it goes to a fallback file (`_save_fallback`), so that the run is never
+    lost. Returns whether everything asked for was written, the trajectory's file included."""
+    writes = []
+    if args.csv is not None:
+        writes.append(("--csv", args.csv, lambda: [traj.to_csv(args.csv)]))
+    if args.plot is not None:
+        writes.append(("--plot", args.plot, lambda: [traj.plot(args.plot)]))
+    if args.html is not None:
+        writes.append(("--html", args.html, lambda: [_write_html(scene, traj, args.html)]))
+    failed = saved is False
+    for option, name, write in writes:
+        failed = not _write(option, name, write) or failed
+    if failed and not saved:
+        with held_interrupt():
+            _save_fallback(scene, traj)
+    return not failed
+
+
+def _write(option, name, write) -> bool:
+    """Run `write()` (it returns the paths written) and print each path written, or say that
+    the output `option` `name` could not be written, and why. Returns whether it was."""
+    try:
+        with _doing(f"writing {option} {name!r}"):
+            paths = write()
+    except Exception as e:
+        reason = e.strerror if isinstance(e, OSError) and e.strerror else e
+        print(f"opendyn simulate: could not write {option} {name!r}: {reason}", file=sys.stderr)
+        return False
+    for path in paths:
         print(f"wrote {path}")
-    if not traj.complete:
-        print(f"opendyn simulate: {traj.message}", file=sys.stderr)
-        return 1
-    return 0
+    return True
 
 
-def _write_outputs(scene, traj, args):
-    """Every output asked for; a run that stopped early is always written (to
-    NAME-partial.npz when no --output was given), marked partial in its record."""
-    written = []
-    output = args.output
-    if output is None and not traj.complete:
-        output = f"{_slug(scene.name)}-partial.npz"
-    if output is not None:
-        written.append(traj.save(output))
-        written.append(pathlib.Path(written[-1]).with_suffix(".json"))
-    if args.csv:
-        written.append(traj.to_csv(args.csv))
-    if args.plot:
-        written.append(traj.plot(args.plot))
-    if args.html or args.view:
-        from . import viz
+def _save_fallback(scene, traj):
+    """Save the trajectory under a new name (SCENE-XXXXXXXX.npz and its .json) in the current
+    folder or, failing that, the system's temporary folder, and say where; or say that neither
+    could take it."""
+    stem = pathlib.Path(_default_record(scene, traj.complete)).stem
+    tried = []
+    try:
+        folders = [os.getcwd()]
+    except OSError as e:  # the current folder was removed
+        folders = []
+        tried.append(f"the current folder ({e.strerror})")
+    folders.append(tempfile.gettempdir())
+    for folder in folders:
+        try:
+            fd, name = tempfile.mkstemp(prefix=f"{stem}-", suffix=".npz", dir=folder)
+        except OSError as e:
+            tried.append(f"{folder} ({e.strerror})")
+            continue
+        os.close(fd)  # the name is now reserved; the save replaces the empty file
+        if _write("the fallback", name, lambda: saved_paths(traj.save(name))):
+            print(f"opendyn simulate: the trajectory was saved to {name} instead", file=sys.stderr)
+            return
+        with contextlib.suppress(OSError):
+            os.unlink(name)
+        tried.append(folder)
+    print(
+        f"opendyn simulate: the trajectory could not be saved anywhere (tried {'; '.join(tried)})",
+        file=sys.stderr,
+    )
 
-        contact = (
-            (traj.ground_height, traj.contact_point, traj.contact_force)
-            if traj.has_contact
-            else None
-        )
-        if args.html:
-            written.append(viz.write_html(scene.model, traj.t, traj.q, args.html, contact=contact))
-        if args.view:
-            url = viz.view(scene.model, traj.t, traj.q, open_browser=True, contact=contact)
-            print(f"meshcat viewer at {url} (Ctrl-C to quit)")
-            _wait_for_interrupt()
-    return written
+
+def _contact(traj):
+    """The contact argument of viz.write_html and viz.view: None without contact."""
+    if not traj.has_contact:
+        return None
+    return traj.ground_height, traj.contact_point, traj.contact_force
+
+
+def _write_html(scene, traj, path):
+    from . import viz
+
+    return viz.write_html(scene.model, traj.t, traj.q, path, contact=_contact(traj))
+
+
+def _view(scene, traj):
+    from . import viz
+
+    url = viz.view(scene.model, traj.t, traj.q, open_browser=True, contact=_contact(traj))
+    print(f"meshcat viewer at {url} (Ctrl-C to quit)")
+    _wait_for_interrupt()
 
 
 def _wait_for_interrupt():
@@ -403,7 +610,14 @@ def main(argv=None) -> int:
         choices=EFFECTS,
         help="switch off an effect the scene names (repeatable)",
     )
-    sim.add_argument("-o", "--output", help="trajectory .npz (and its .json provenance record)")
+    save = sim.add_mutually_exclusive_group()
+    save.add_argument(
+        "-o",
+        "--output",
+        help="trajectory .npz (and its .json provenance record); default: SCENE.npz in the "
+        "current folder (SCENE-partial.npz for a run that stopped early)",
+    )
+    save.add_argument("--no-save", action="store_true", help="save no trajectory file")
     sim.add_argument("--csv", help="trajectory as CSV")
     sim.add_argument("--plot", help="PNG of joint positions, velocities and energy")
     sim.add_argument("--html", help="self-contained meshcat playback page (extra viz)")
@@ -466,9 +680,9 @@ def main(argv=None) -> int:
     comp.set_defaults(run=_compile_ahead)
 
     args = parser.parse_args(argv)
-    with warnings.catch_warnings():
+    with warnings.catch_warnings(), SigtermAsInterrupt() as signals:
         warnings.showwarning = _warning_printer(args.command)
-        return _run(args)
+        return _run(args, signals)
 
 
 def _warning_printer(command):
@@ -485,9 +699,18 @@ def _warning_printer(command):
     return show
 
 
-def _run(args) -> int:
+def _run(args, signals) -> int:
+    """Run the command; bad input (2) and Ctrl-C or SIGTERM (`signals`: 130 or 143) become one
+    line on stderr and the exit status."""
     try:
         return args.run(args)
+    except KeyboardInterrupt as e:
+        doing = f" while {e}" if isinstance(e, _Interrupted) else ""
+        print(
+            f"opendyn {args.command}: interrupted ({signal_name(signals.signum)}){doing}",
+            file=sys.stderr,
+        )
+        return signals.exit_status
     except (URDFError, SceneError, ValueError, KeyError, ImportError, OSError) as e:
         hint = ""
         if "check_inertia=False" in str(e) and args.command in ("info", "verify"):

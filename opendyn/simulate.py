@@ -28,6 +28,7 @@ import numpy as np
 from . import __version__
 from ._compile import compile_seconds, compiling
 from ._kernel_cache import kernel_cache
+from ._signals import signal_name
 from .dynamics._args import singular_coordinates
 from .dynamics.energy import energies
 from .model import FREE
@@ -57,9 +58,11 @@ _COMPILE_ESTIMATE = {
 
 class _Interrupt:
     """While a run is on (in the main thread), Ctrl-C sets `requested` instead of raising; the
-    loops stop after the current chunk, so that the record stays consistent."""
+    loops stop after the current chunk, so that the record stays consistent. `signum` is the
+    signal that asked (SIGINT, or SIGTERM when the command line hands it over)."""
 
     requested = False
+    signum = signal.SIGINT
 
     def __enter__(self):
         self._previous = None
@@ -69,6 +72,7 @@ class _Interrupt:
 
     def _handler(self, signum, frame):
         self.requested = True
+        self.signum = signum
 
     def __exit__(self, *exc):
         if self._previous is not None:
@@ -131,7 +135,7 @@ def simulate(scene, *, progress=False, raise_on_failure=True):
     steps = int(counters[1]) if integ.adaptive else int(round(t / run.dt))
     message = ""
     if status == Status.INTERRUPTED:
-        message = f"interrupted (Ctrl-C) at t = {t:.6g} s (step {steps})"
+        message = f"interrupted ({signal_name(stop.signum)}) at t = {t:.6g} s (step {steps})"
     elif status:
         message = failure_message(scene, table, status, t, steps, q, qd)
     if status:

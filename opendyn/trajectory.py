@@ -24,9 +24,20 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ._files import atomic_write
+
 _ARRAYS = ("t", "q", "qd", "tau", "kinetic", "potential", "work_applied", "work_passive")
 _VIOLATION = ("violation_position", "violation_velocity")  # empty without constraints
 _CONTACT = ("contact_point", "contact_force", "penetration")  # empty without contact
+
+
+def saved_paths(path) -> tuple[pathlib.Path, pathlib.Path]:
+    """The two files `Trajectory.save(path)` writes: `path` as a .npz (its suffix replaced by
+    .npz, or .npz added), and the JSON record beside it (the same name, .json)."""
+    path = pathlib.Path(path)
+    if path.suffix != ".npz":
+        path = path.with_suffix(".npz")
+    return path, path.with_suffix(".json")
 
 
 @dataclass
@@ -108,25 +119,27 @@ class Trajectory:
 
     def save(self, path) -> pathlib.Path:
         """Write the arrays to `path` (.npz) with the provenance record as JSON, both inside the
-        .npz (key "provenance") and beside it (same name, .json). Returns the .npz path."""
-        path = pathlib.Path(path)
-        if path.suffix != ".npz":
-            path = path.with_suffix(".npz")
+        .npz (key "provenance") and beside it (same name, .json; see `saved_paths`). Each file
+        is written atomically (`atomic_write`): an error or Ctrl-C during the save leaves the
+        file as it was, or absent, never truncated. Returns the .npz path."""
+        path, json_path = saved_paths(path)
         record = self.record()
         arrays = {name: getattr(self, name) for name in _ARRAYS + _VIOLATION}
         if self.has_contact:
             arrays.update({name: getattr(self, name) for name in _CONTACT})
             arrays["contact_names"] = np.array(self.contact_names, dtype=str)
             arrays["ground_height"] = np.array(self.ground_height)
-        np.savez_compressed(
-            path,
-            **arrays,
-            joint_names=np.array(self.joint_names, dtype=str),
-            q_names=np.array(self.q_names, dtype=str),
-            v_names=np.array(self.v_names, dtype=str),
-            provenance=np.array(json.dumps(record)),
-        )
-        path.with_suffix(".json").write_text(json.dumps(record, indent=2) + "\n")
+        with atomic_write(path) as f:
+            np.savez_compressed(
+                f,
+                **arrays,
+                joint_names=np.array(self.joint_names, dtype=str),
+                q_names=np.array(self.q_names, dtype=str),
+                v_names=np.array(self.v_names, dtype=str),
+                provenance=np.array(json.dumps(record)),
+            )
+        with atomic_write(json_path) as f:
+            f.write((json.dumps(record, indent=2) + "\n").encode())
         return path
 
     def record(self) -> dict:
@@ -175,7 +188,8 @@ class Trajectory:
         each of v_names (a floating base's q_base_x ... q_base_qw, qd_base_wx ... qd_base_vz
         first), kinetic, potential, work_applied, work_passive (SI units), with constraints
         violation_position, violation_velocity, and with contact, for each contact point,
-        fx_<point>, fy_<point>, fz_<point> (N, world frame) and penetration_<point> (m)."""
+        fx_<point>, fy_<point>, fz_<point> (N, world frame) and penetration_<point> (m).
+        Written atomically, like `save`. Returns the path."""
         path = pathlib.Path(path)
         header = ["t", *(f"q_{n}" for n in self.q_names), *(f"qd_{n}" for n in self.v_names)]
         header += [*(f"tau_{n}" for n in self.v_names), "kinetic", "potential"]
@@ -189,7 +203,8 @@ class Trajectory:
             header += [f"fx_{name}", f"fy_{name}", f"fz_{name}", f"penetration_{name}"]
             columns += [self.contact_force[:, p], self.penetration[:, p]]
         table = np.column_stack(columns)
-        np.savetxt(path, table, delimiter=",", header=",".join(header), comments="", fmt="%.17g")
+        with atomic_write(path) as f:
+            np.savetxt(f, table, delimiter=",", header=",".join(header), comments="", fmt="%.17g")
         return path
 
     def plot(self, path) -> pathlib.Path:
@@ -197,7 +212,9 @@ class Trajectory:
         quaternion and body twist among them), and the energy
         (E - E(0), the work of the non-conservative forces, and the integration error); with
         constraints a fourth, their violation; with contact one more, the normal force (the z
-        component of contact_force, N) at each contact point and their sum."""
+        component of contact_force, N) at each contact point and their sum. The format is the
+        suffix's (any matplotlib writes: .png, .pdf, .svg ...; PNG without one). Written
+        atomically, like `save`. Returns the path."""
         import matplotlib
 
         matplotlib.use("Agg")
@@ -246,6 +263,9 @@ class Trajectory:
         if not self.complete:
             title += " (partial: " + self.message.split("\n")[0] + ")"
         fig.suptitle(title)
-        fig.savefig(path, dpi=100)
-        plt.close(fig)
+        try:
+            with atomic_write(path) as f:
+                fig.savefig(f, format=path.suffix[1:] or "png", dpi=100)
+        finally:
+            plt.close(fig)
         return path

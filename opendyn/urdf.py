@@ -41,6 +41,7 @@ from pathlib import Path
 import numpy as np
 from lxml import etree
 
+from ._signals import held_interrupt
 from .model import FREE, PRISMATIC, REVOLUTE, CollisionSphere, Frame, Model
 from .spatial import spatial_inertia
 
@@ -333,7 +334,8 @@ def _check_values(file, el, attr, text, count):
 
 
 def _parse_yourdfpy(file, root):
-    import yourdfpy
+    with held_interrupt():  # importing yourdfpy imports trimesh, which swallows Ctrl-C
+        import yourdfpy
 
     for tag in ("link", "joint"):
         for el in root.iterchildren(tag):

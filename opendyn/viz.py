@@ -35,6 +35,7 @@ from urllib.parse import unquote, urlparse
 
 import numpy as np
 
+from ._files import atomic_write
 from .dynamics.configuration import normalize
 from .dynamics.kinematics import frame_pose
 
@@ -884,8 +885,10 @@ def write_html(model, t, q, path, *, fps=None, contact=None) -> pathlib.Path:
     The page is meshcat's static export (viewer JavaScript, geometry, meshes and animation
     inlined; it opens offline, from a file). It loops the motion; the controls at the top
     right pause it and scrub the time. Missing meshes warn (PlaybackWarning) and are drawn as
-    small grey boxes. Returns the path written. Raises ImportError naming the install command
-    without meshcat, ValueError naming the argument for bad t, q, fps or contact.
+    small grey boxes. The page is written atomically (a temporary file beside it, then
+    renamed): never left truncated. Returns the path written. Raises ImportError naming the
+    install command without meshcat, ValueError naming the argument for bad t, q, fps or
+    contact.
     """
     t, q, fps = _check_motion(model, t, q, fps)
     contact = _check_contact(t, contact)
@@ -897,7 +900,8 @@ def write_html(model, t, q, path, *, fps=None, contact=None) -> pathlib.Path:
     scene = _build_scene(vis, model, t, q, fps, load_visuals(model), contact)
     title = f"{model.name} - opendyn" + (f" ({scene.arrows})" if scene.arrows else "")
     out = pathlib.Path(path)
-    out.write_text(recorder.page(title, _camera(scene), scene.arrows), encoding="utf-8")
+    with atomic_write(out) as f:
+        f.write(recorder.page(title, _camera(scene), scene.arrows).encode("utf-8"))
     return out
 
 

@@ -100,6 +100,7 @@ def test_simulate_options_change_the_run(capsys, tmp_path):
         "damping",
         "--csv",
         str(csv),
+        "--no-save",
     ]
     assert main(args) == 0
     out = capsys.readouterr().out
@@ -108,7 +109,8 @@ def test_simulate_options_change_the_run(capsys, tmp_path):
 
 
 def test_simulate_profile_prints_each_stage_cost(capsys):
-    assert main(["simulate", "double_pendulum_push", "--duration", "0.5", "--profile"]) == 0
+    args = ["simulate", "double_pendulum_push", "--duration", "0.5", "--profile", "--no-save"]
+    assert main(args) == 0
     out = capsys.readouterr().out
     table = out[out.index("profile:") :]
     for stage in (
@@ -140,43 +142,6 @@ def test_simulate_bad_input_is_exit_2_naming_the_problem(capsys, tmp_path):
     assert main(["simulate", str(bad)]) == 2
     err = capsys.readouterr().err
     assert "bad.toml" in err and "run.integrater" in err and "integrator" in err
-
-
-def test_ctrl_c_on_the_command_line_saves_the_partial_record(tmp_path):
-    import signal
-    import subprocess
-    import sys
-    import time
-
-    out = tmp_path / "long.npz"
-    # compiled ahead, so that the interrupt reaches the run and not numba compiling it
-    assert main(["compile", "ur5_falling"]) == 0
-    proc = subprocess.Popen(
-        [
-            sys.executable,
-            "-m",
-            "opendyn.cli",
-            "simulate",
-            "ur5_falling",
-            "--duration",
-            "3600",
-            "-o",
-            str(out),
-        ],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-    )
-    # wait for the run to start (the scene header is printed just before it), then interrupt
-    header = "".join(proc.stdout.readline() for _ in range(4))
-    assert "integrator" in header
-    time.sleep(3.0)
-    proc.send_signal(signal.SIGINT)
-    stdout, stderr = proc.communicate(timeout=60)
-    assert proc.returncode == 1, stderr
-    assert "interrupted (Ctrl-C)" in stderr
-    traj = od.Trajectory.load(out)
-    assert not traj.complete and 0 < traj.t[-1] < 3600
 
 
 def test_verify_prints_a_table_against_pinocchio(capsys):
@@ -213,7 +178,8 @@ def test_simulate_reports_contact_and_draws_the_ground_and_its_forces(tmp_path, 
     and force, and the page has the ground and an arrow, its scale in the title."""
     pytest.importorskip("meshcat")
     page = tmp_path / "run.html"
-    assert main(["simulate", "ball_drop", "--duration", "0.4", "--html", str(page)]) == 0
+    args = ["simulate", "ball_drop", "--duration", "0.4", "--html", str(page), "--no-save"]
+    assert main(args) == 0
     out = capsys.readouterr().out
     line = re.search(r"contact +1 points on the ground z = 0 m: max penetration ([0-9.]+) mm "
                      r"\(ball at t = ([0-9.]+) s\), max force ([0-9.]+) N", out)

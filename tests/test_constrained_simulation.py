@@ -189,7 +189,7 @@ def test_violation_is_saved_loaded_and_written_to_csv(four_bar, tmp_path):
 
 
 def test_cli_summarises_the_constraint_violation(capsys):
-    assert main(["simulate", "four_bar", "--duration", "0.5"]) == 0
+    assert main(["simulate", "four_bar", "--duration", "0.5", "--no-save"]) == 0
     out = capsys.readouterr().out
     assert "constraints PointToPoint" in out
     assert "Baumgarte alpha = 20, beta = 20 1/s): max |phi| = " in out

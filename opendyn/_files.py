@@ -1,0 +1,49 @@
+"""Files written whole or not at all."""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import pathlib
+import secrets
+
+
+@contextlib.contextmanager
+def atomic_write(path):
+    """Yield a binary file to write `path`'s new content to; when the block ends, `path` holds
+    all of it, or, on any error (a full disk, Ctrl-C), its old content or nothing: never a part.
+
+    The content goes to a temporary file in the same folder (named `.NAME.XXXX.tmp`, created with
+    the usual permissions), is flushed to the disk and then renamed onto `path` in one step
+    (os.replace); on an error the temporary file is removed. A symbolic link is followed, and
+    the file it points to replaced. A path that is no regular file (/dev/stdout, a named pipe)
+    is written in place: it cannot be replaced, and nothing on a disk can be left truncated.
+    """
+    target = pathlib.Path(os.path.realpath(path))
+    if target.exists() and not target.is_file() and not target.is_dir():
+        with open(target, "wb") as f:
+            yield f
+        return
+    f, tmp = _create_beside(target)
+    try:
+        with f:
+            yield f
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, target)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+        raise
+
+
+def _create_beside(target):
+    """A new temporary file in `target`'s folder, opened for writing: (file, its path). Opened
+    with open(), not mkstemp, so that it gets the permissions of any new file (0o666 less the
+    umask) rather than mkstemp's 0o600."""
+    while True:
+        tmp = target.with_name(f".{target.name}.{secrets.token_hex(4)}.tmp")
+        try:
+            return open(tmp, "xb"), tmp
+        except FileExistsError:
+            continue

@@ -1,0 +1,25 @@
+"""The `opendyn` command's entry point, outside the opendyn package on purpose.
+
+Importing opendyn takes about a second (numpy, numba, the compiled kernels), and Python runs the
+package's __init__ before any module inside it; only a module outside the package can turn a
+Ctrl-C during that second into a one-line message instead of a traceback.
+"""
+
+from __future__ import annotations
+
+import sys
+
+
+def main() -> int:
+    """Run `opendyn.cli.main` (which answers Ctrl-C itself once it runs); Ctrl-C while opendyn is
+    imported exits with one line and the status 130."""
+    try:
+        from opendyn.cli import main as opendyn_main
+    except KeyboardInterrupt:
+        print("opendyn: interrupted (Ctrl-C) while starting", file=sys.stderr)
+        return 130
+    return opendyn_main()
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,367 @@
+"""Results are never lost: `opendyn simulate` saves the trajectory by default, checks every output
+before the run, writes each file atomically, saves the trajectory to a fallback file when a
+write fails after the run, and answers Ctrl-C and SIGTERM with one line or a partial record."""
+
+from __future__ import annotations
+
+import errno
+import importlib
+import importlib.util
+import os
+import pathlib
+import shutil
+import signal
+import subprocess
+import sys
+import tempfile
+import threading
+
+import numpy as np
+import pytest
+
+import opendyn as od
+from opendyn._files import atomic_write
+from opendyn._signals import held_interrupt
+from opendyn.cli import main
+
+REPO = pathlib.Path(__file__).resolve().parents[1]
+# the module (the package's attribute `simulate` is the function)
+SIMULATE = importlib.import_module("opendyn.simulate")
+SHORT = ["--duration", "0.1", "-q"]
+
+
+def small_trajectory(value=1.0):
+    """A two-sample record of a one-joint robot, every array filled with `value`."""
+    k = np.full(2, value)
+    col = np.full((2, 1), value)
+    return od.Trajectory(
+        t=np.array([0.0, 0.1]),
+        q=col,
+        qd=col,
+        tau=col,
+        kinetic=k,
+        potential=k,
+        work_applied=k,
+        work_passive=k,
+        joint_names=("j",),
+    )
+
+
+def files_in(folder):
+    return sorted(p.name for p in pathlib.Path(folder).iterdir())
+
+
+@pytest.fixture
+def no_run(monkeypatch):
+    """Loading a scene or running one fails the test: the checks must come before either."""
+
+    def refuse(*args, **kwargs):
+        raise AssertionError("the scene was loaded or run before the outputs were checked")
+
+    monkeypatch.setattr("opendyn.cli.scene_for", refuse)
+    monkeypatch.setattr(SIMULATE, "simulate", refuse)
+
+
+@pytest.fixture
+def read_only_folder(tmp_path):
+    """A folder no file can be created in: a folder without write permission, or, for root
+    (whom permissions do not stop), /sys."""
+    if os.geteuid() != 0:
+        folder = tmp_path / "read-only"
+        folder.mkdir()
+        folder.chmod(0o555)
+        yield folder
+        folder.chmod(0o755)
+        return
+    folder = pathlib.Path("/sys")
+    try:
+        tempfile.TemporaryFile(dir=folder).close()
+    except OSError:
+        yield folder
+        return
+    pytest.skip("no read-only folder here: running as root and /sys is writable")
+
+
+def test_simulate_saves_by_default_and_no_save_skips_it(tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    assert main(["simulate", *SHORT]) == 0
+    out = capsys.readouterr().out
+    assert "wrote double_pendulum_swing.npz\nwrote double_pendulum_swing.json" in out
+    assert files_in(tmp_path) == ["double_pendulum_swing.json", "double_pendulum_swing.npz"]
+    traj = od.Trajectory.load("double_pendulum_swing.npz")
+    assert traj.complete and traj.t[-1] == pytest.approx(0.1)
+
+    for path in tmp_path.iterdir():
+        path.unlink()
+    assert main(["simulate", *SHORT, "--no-save"]) == 0
+    assert "wrote" not in capsys.readouterr().out and files_in(tmp_path) == []
+    with pytest.raises(SystemExit) as exit_:
+        main(["simulate", "--no-save", "-o", "run.npz"])
+    assert exit_.value.code == 2
+    assert "not allowed with argument --no-save" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(
+    "make, args, problem",
+    [
+        (None, ["--csv", "missing/run.csv"], "the folder missing does not exist"),
+        ("adir/", ["--plot", "adir"], "is a folder, not a file"),
+        (None, ["--csv", "newdir/"], "names a folder, not a file"),
+        ("afile", ["--html", "afile/run.html"], "afile is a file, not a folder"),
+        (None, ["-o", ""], "-o: the file name is empty"),
+        (None, ["--csv", " "], "--csv: the file name is empty"),
+        ("run.json/", ["-o", "run.npz"], "-o 'run.npz': run.json: is a folder, not a file"),
+        (None, ["-o", "x.npz", "--csv", "x.npz"], "--csv 'x.npz': is also the file of -o"),
+        (None, ["--plot", "run.pgn"], "matplotlib writes no .pgn files"),
+    ],
+)
+def test_unwritable_output_is_refused_before_the_run(
+    make, args, problem, tmp_path, monkeypatch, capsys, no_run
+):
+    monkeypatch.chdir(tmp_path)
+    if make is not None:
+        if make.endswith("/"):
+            (tmp_path / make).mkdir()
+        else:
+            (tmp_path / make).write_text("")
+    before = files_in(tmp_path)
+    assert main(["simulate", *args]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("opendyn simulate: ") and problem in err and len(err.splitlines()) == 1
+    assert files_in(tmp_path) == before  # nothing written, no probe left behind
+
+
+@pytest.mark.parametrize("option", [["--html", "run.html"], ["--view"]])
+def test_playback_without_meshcat_is_refused_before_the_run(
+    option, tmp_path, monkeypatch, capsys, no_run
+):
+    find_spec = importlib.util.find_spec
+
+    def without_meshcat(name, *args):
+        return None if name == "meshcat" else find_spec(name, *args)
+
+    monkeypatch.setattr(importlib.util, "find_spec", without_meshcat)
+    monkeypatch.chdir(tmp_path)
+    assert main(["simulate", *option]) == 2
+    err = capsys.readouterr().err
+    assert f"opendyn simulate: {option[0]}: playback needs meshcat: pip install" in err
+
+
+def test_read_only_places_are_refused_before_the_run(
+    read_only_folder, tmp_path, monkeypatch, capsys, no_run
+):
+    target = str(read_only_folder / "run.csv")
+    assert main(["simulate", "--csv", target]) == 2
+    err = capsys.readouterr().err
+    assert f"--csv {target!r}: no file can be written in the folder {read_only_folder}" in err
+    if os.geteuid() != 0:  # root writes read-only files
+        locked = tmp_path / "locked.npz"
+        locked.write_text("")
+        locked.chmod(0o444)
+        assert main(["simulate", "-o", str(locked)]) == 2
+        assert "the file is read-only" in capsys.readouterr().err
+
+
+def test_default_save_place_is_checked_before_the_run(
+    read_only_folder, monkeypatch, capsys
+):
+    monkeypatch.setattr(SIMULATE, "simulate", pytest.fail)
+    monkeypatch.chdir(read_only_folder)
+    assert main(["simulate"]) == 2
+    err = capsys.readouterr().err
+    assert "the trajectory 'double_pendulum_swing.npz': no file can be written" in err
+    assert "-o names another file, --no-save skips saving" in err
+
+
+@pytest.mark.parametrize(
+    "case, args, vanish, fallback_in",
+    [
+        ("-o folder gone", ["-o", "out/run.npz", "--csv", "out/run.csv"], ["out"], "cwd"),
+        ("-o folder and cwd gone", ["-o", "out/run.npz"], ["out", "cwd"], "temp"),
+        ("--no-save, --csv folder gone", ["--no-save", "--csv", "out/run.csv"], ["out"], "cwd"),
+        ("--csv folder gone, -o kept", ["-o", "run.npz", "--csv", "out/run.csv"], ["out"], None),
+    ],
+)
+def test_failed_write_after_the_run_goes_to_a_fallback_file(
+    case, args, vanish, fallback_in, tmp_path, monkeypatch, capsys
+):
+    """The folders are there when the outputs are checked and removed during the run."""
+    for name in ("cwd", "cwd/out", "temp"):
+        (tmp_path / name).mkdir()
+    monkeypatch.chdir(tmp_path / "cwd")
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path / "temp"))
+    run = od.simulate
+
+    def run_then_remove_folders(*a, **kw):
+        traj = run(*a, **kw)
+        for name in vanish:
+            shutil.rmtree(tmp_path / "cwd" / name if name == "out" else tmp_path / name)
+        return traj
+
+    monkeypatch.setattr(SIMULATE, "simulate", run_then_remove_folders)
+    assert main(["simulate", *SHORT, *args]) == 3
+    captured = capsys.readouterr()
+    failed = [line for line in captured.err.splitlines() if "could not write" in line]
+    assert failed and all("out/run." in line for line in failed)
+    if fallback_in is None:
+        assert "saved to" not in captured.err
+        assert od.Trajectory.load(tmp_path / "cwd" / "run.npz").complete
+        return
+    (saved,) = (tmp_path / fallback_in).glob("double_pendulum_swing-*.npz")
+    assert f"the trajectory was saved to {saved} instead" in captured.err
+    assert f"wrote {saved}" in captured.out and saved.with_suffix(".json").exists()
+    traj = od.Trajectory.load(saved)
+    assert traj.complete and traj.t[-1] == pytest.approx(0.1)
+
+
+def test_ctrl_c_as_the_run_ends_waits_until_the_trajectory_is_saved(
+    tmp_path, monkeypatch, capsys
+):
+    save = od.Trajectory.save
+
+    def save_after_ctrl_c(self, path):
+        signal.raise_signal(signal.SIGINT)
+        return save(self, path)
+
+    monkeypatch.setattr(od.Trajectory, "save", save_after_ctrl_c)
+    monkeypatch.chdir(tmp_path)
+    assert main(["simulate", *SHORT, "--csv", "run.csv"]) == 130
+    captured = capsys.readouterr()
+    assert captured.err == "opendyn simulate: interrupted (Ctrl-C) while writing the outputs\n"
+    assert "wrote double_pendulum_swing.npz" in captured.out
+    assert files_in(tmp_path) == ["double_pendulum_swing.json", "double_pendulum_swing.npz"]
+    assert od.Trajectory.load("double_pendulum_swing.npz").complete
+
+
+@pytest.mark.parametrize("error", [KeyboardInterrupt(), OSError(errno.ENOSPC, "disk full")])
+@pytest.mark.parametrize("writer", ["savez_compressed", "savetxt"])
+def test_save_is_atomic_an_interrupted_save_leaves_no_truncated_file(
+    writer, error, tmp_path, monkeypatch
+):
+    """Ctrl-C or a full disk halfway through a save leaves the earlier file whole, or, for a
+    new file, nothing: never the half-written bytes."""
+    name, save = {
+        "savez_compressed": ("run.npz", lambda traj, path: traj.save(path)),
+        "savetxt": ("run.csv", lambda traj, path: traj.to_csv(path)),
+    }[writer]
+    old = small_trajectory(1.0)
+    save(old, tmp_path / name)
+    before = {p.name: p.read_bytes() for p in tmp_path.iterdir()}
+
+    def write_half_then_fail(file, *args, **kwargs):
+        file.write(b"PK\x03\x04 half of a file")
+        raise error
+
+    monkeypatch.setattr(np, writer, write_half_then_fail)
+    for path in (tmp_path / name, tmp_path / "new" / name):
+        path.parent.mkdir(exist_ok=True)
+        with pytest.raises(type(error)):
+            save(small_trajectory(2.0), path)
+    assert files_in(tmp_path / "new") == []
+    assert {p.name: p.read_bytes() for p in tmp_path.iterdir() if p.is_file()} == before
+    monkeypatch.undo()
+    if writer == "savez_compressed":
+        np.testing.assert_array_equal(od.Trajectory.load(tmp_path / name).q, old.q)
+
+
+def test_atomic_write_gives_the_usual_permissions_and_follows_links(tmp_path):
+    umask = os.umask(0o022)
+    os.umask(umask)
+    with atomic_write(tmp_path / "new.txt") as f:
+        f.write(b"new")
+    assert (tmp_path / "new.txt").stat().st_mode & 0o777 == 0o666 & ~umask
+    (tmp_path / "real.txt").write_text("old")
+    (tmp_path / "link.txt").symlink_to("real.txt")
+    with atomic_write(tmp_path / "link.txt") as f:
+        f.write(b"through the link")
+    assert (tmp_path / "link.txt").is_symlink()
+    assert (tmp_path / "real.txt").read_text() == "through the link"
+
+
+def test_ctrl_c_swallowed_by_a_dependency_still_stops_the_program():
+    """held_interrupt keeps Ctrl-C from a dependency that catches BaseException (trimesh does,
+    around its optional imports) and delivers it when the call is over."""
+    reached_the_end = False
+    with pytest.raises(KeyboardInterrupt):
+        with held_interrupt():
+            try:
+                signal.raise_signal(signal.SIGINT)
+            except BaseException:  # what trimesh does
+                pass
+            reached_the_end = True
+    assert reached_the_end
+
+
+def run_interrupted_at(module, argv, tmp_path):
+    """Run `module.main` with `argv` in a new Python, Ctrl-C arriving as soon as `module` (a
+    module it imports) is imported; returns the finished process."""
+    script = (
+        "import signal, sys\n"
+        "class CtrlC:\n"
+        "    def find_spec(self, name, path=None, target=None):\n"
+        f"        if name == {module!r}:\n"
+        "            signal.raise_signal(signal.SIGINT)\n"
+        "sys.meta_path.insert(0, CtrlC())\n"
+        f"sys.argv = {argv!r}\n"
+        "import opendyn_launch\n"
+        "sys.exit(opendyn_launch.main())\n"
+    )
+    path = os.pathsep.join([str(REPO), os.environ.get("PYTHONPATH", "")])
+    env = dict(os.environ, PYTHONPATH=path)
+    return subprocess.run(
+        [sys.executable, "-c", script],
+        cwd=tmp_path,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+
+
+def test_ctrl_c_while_loading_the_robot_is_one_line(tmp_path):
+    """Ctrl-C while yourdfpy imports trimesh, which would swallow it, stops the command."""
+    proc = run_interrupted_at("trimesh.path", ["opendyn", "simulate"], tmp_path)
+    assert proc.returncode == 130, proc.stderr
+    assert proc.stderr == (
+        "opendyn simulate: interrupted (Ctrl-C) while loading the scene and its robot; "
+        "nothing was run\n"
+    )
+    assert proc.stdout == "" and files_in(tmp_path) == []
+
+
+def test_ctrl_c_while_importing_opendyn_is_one_line(tmp_path):
+    proc = run_interrupted_at("numba", ["opendyn", "simulate"], tmp_path)
+    assert proc.returncode == 130, proc.stderr
+    assert proc.stderr == "opendyn: interrupted (Ctrl-C) while starting\n"
+
+
+@pytest.mark.parametrize("signum, name", [(signal.SIGINT, "Ctrl-C"), (signal.SIGTERM, "SIGTERM")])
+def test_ctrl_c_or_sigterm_during_the_run_writes_the_partial_record_and_exits_1(
+    signum, name, tmp_path
+):
+    out = tmp_path / "long.npz"
+    # compiled ahead, so that the signal reaches the run and not numba compiling it
+    assert main(["compile", "ur5_falling"]) == 0
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "opendyn.cli", "simulate", "ur5_falling", "--duration", "3600"]
+        + ["-o", str(out)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    watchdog = threading.Timer(300, proc.kill)
+    watchdog.start()
+    try:
+        # the progress bar shows once the run has gone on for a second
+        seen = ""
+        while "simulating" not in seen and proc.poll() is None:
+            seen += proc.stderr.read(1)
+        proc.send_signal(signum)
+        stdout, stderr = proc.communicate()
+    finally:
+        watchdog.cancel()
+    assert proc.returncode == 1, seen + stderr
+    assert f"interrupted ({name}) at t = " in stderr and "STOPPED EARLY" in stdout
+    traj = od.Trajectory.load(out)
+    assert not traj.complete and traj.message.startswith(f"interrupted ({name})")
+    assert 0 < traj.t[-1] < 3600
