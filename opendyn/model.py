@@ -24,7 +24,9 @@ offset 0 otherwise.
 
 All per-body numbers live in two flat buffers (``_ibuf`` ints, ``_fbuf`` float64) that the
 compiled kernels receive as two arguments, laid out by one table (INT_FIELDS, FLOAT_FIELDS);
-the documented fields are read-only views into them.
+the documented fields are immutable copies of them (``immutable``): no array a Model shows
+can be written, or made writeable again, so what the kernels compute never drifts from what
+the fields say.
 Conventions: twists (omega, v) and wrenches (m, f), angular first; SI units; gravity is the
 world-frame vector g, applied as the base acceleration dV_0 = (0, -g).
 """
@@ -96,25 +98,36 @@ def _frame_index(frames, aliases):
     return index
 
 
-def _readonly_view(buf, at, name, nb, header=0):
-    """A read-only (nb, *shape) view of one field of a flat buffer (the buffer itself stays
-    writeable, so the compiled kernels see one array type)."""
+def immutable(x, dtype=np.float64) -> np.ndarray:
+    """x as a C-contiguous array that can never be written. Its memory is a bytes object, so
+    numpy refuses even ``flags.writeable = True`` (a read-only view of writeable memory, or a
+    read-only array that owns its memory, can be made writeable again)."""
+    a = np.ascontiguousarray(x, dtype=dtype)
+    return np.frombuffer(a.tobytes(), dtype=a.dtype).reshape(a.shape)
+
+
+def _field_copy(buf, at, name, nb, header=0):
+    """An immutable (nb, *shape) copy of one field of a flat buffer (the buffer itself stays
+    writeable and private, so the compiled kernels see one array type)."""
     start, size, shape = at[name]
-    view = buf[header + start * nb : header + (start + size) * nb].reshape((nb, *shape))
-    view.flags.writeable = False
-    return view
+    field = buf[header + start * nb : header + (start + size) * nb].reshape((nb, *shape))
+    return immutable(field, buf.dtype)
 
 
 @dataclass(frozen=True)
 class Frame:
     """A named frame rigidly attached to a body: ``T_{body, frame}`` is constant.
 
-    ``body`` is the index of the moving body the frame is welded to, or -1 for the fixed world.
+    ``body`` is the index of the moving body the frame is welded to, or -1 for the fixed world;
+    ``T_body_frame`` (4, 4) is immutable (metres).
     """
 
     name: str
     body: int
     T_body_frame: np.ndarray
+
+    def __post_init__(self):
+        object.__setattr__(self, "T_body_frame", immutable(self.T_body_frame).reshape(4, 4))
 
 
 @dataclass(frozen=True, eq=False)
@@ -126,7 +139,7 @@ class CollisionSphere:
     "box corner" (a corner of a ``<box>``, radius 0; a box's 8 come with the signs of
     (x, y, z) in the order (-,-,-), (-,-,+), (-,+,-), ..., (+,+,+), z fastest). ``link`` is
     always a frame of the model (``model.frame_index(link)``), also for links merged by fixed
-    joints or welded to the world; ``position`` is read-only.
+    joints or welded to the world; ``position`` is immutable.
     """
 
     link: str
@@ -135,10 +148,23 @@ class CollisionSphere:
     geometry: str
 
     def __post_init__(self):
-        position = np.array(self.position, dtype=np.float64).reshape(3)
-        position.flags.writeable = False
-        object.__setattr__(self, "position", position)
+        object.__setattr__(self, "position", immutable(self.position).reshape(3))
         object.__setattr__(self, "radius", float(self.radius))
+
+
+# the array fields of a Model, each made immutable with its dtype
+_ARRAY_FIELDS = (
+    ("q_index", np.int64),
+    ("v_index", np.int64),
+    ("lower", np.float64),
+    ("upper", np.float64),
+    ("velocity_limit", np.float64),
+    ("effort_limit", np.float64),
+    ("damping", np.float64),
+    ("friction", np.float64),
+    ("continuous", bool),
+    ("gravity", np.float64),
+)
 
 
 @dataclass(frozen=True, eq=False)
@@ -147,7 +173,7 @@ class Model:
 
     Sizes: nb moving bodies; nq configuration and nv velocity coordinates (nq = nv for a fixed
     base; a floating base adds 7 and 6: q = (p, quat, q_joints), v = (omega_b, v_b, qd_joints));
-    nj = len(joint_names) joint coordinates. Fields (all read-only numpy views):
+    nj = len(joint_names) joint coordinates. Fields (numpy arrays that can never be written):
       name            robot name from the URDF
       floating_base   True when a free joint carries the root link (or a URDF floating joint)
       joint_names     (nj,) names of the moving URDF joints that are coordinates, in the order of
@@ -295,30 +321,25 @@ class Model:
             start, size, _ = FLOAT_AT[key]
             fbuf[start * nb : (start + size) * nb] = np.asarray(arr, dtype=np.float64).ravel()
 
-        def frozen(x, dtype=np.float64):
-            a = np.array(x, dtype=dtype)
-            a.flags.writeable = False
-            return a
-
         # each joint coordinate belongs to the 1-dof joint that carries its name
         owner = {body_joints[i]: i for i in range(nb) if jtype[i] != FREE and i not in follows}
-        frames = tuple(Frame(f.name, f.body, frozen(f.T_body_frame)) for f in frames)
+        frames = tuple(frames)
         return cls(
             name=name,
             joint_names=tuple(joint_names),
             body_names=tuple(body_names),
             body_joints=tuple(body_joints),
             frames=frames,
-            q_index=frozen([iq[owner[j]] for j in joint_names], np.int64),
-            v_index=frozen([iv[owner[j]] for j in joint_names], np.int64),
-            lower=frozen(lower),
-            upper=frozen(upper),
-            velocity_limit=frozen(velocity_limit),
-            effort_limit=frozen(effort_limit),
-            damping=frozen(damping),
-            friction=frozen(friction),
-            continuous=frozen(continuous, bool),
-            gravity=frozen(gravity),
+            q_index=[iq[owner[j]] for j in joint_names],
+            v_index=[iv[owner[j]] for j in joint_names],
+            lower=lower,
+            upper=upper,
+            velocity_limit=velocity_limit,
+            effort_limit=effort_limit,
+            damping=damping,
+            friction=friction,
+            continuous=continuous,
+            gravity=gravity,
             _ibuf=ibuf,
             _fbuf=fbuf,
             report=report,
@@ -327,18 +348,18 @@ class Model:
             _frame_index=_frame_index(frames, frame_aliases or {}),
         )
 
-    def _ifield(self, key):
-        return _readonly_view(self._ibuf, INT_AT, key, self.nb, INT_HEADER)
-
-    def _ffield(self, key):
-        return _readonly_view(self._fbuf, FLOAT_AT, key, self.nb)
-
     def __post_init__(self):
+        for key, dtype in _ARRAY_FIELDS:
+            object.__setattr__(self, key, immutable(getattr(self, key), dtype))
         # plain attributes, read on every call
         nb, nv, nq = (int(x) for x in self._ibuf[:3])
         object.__setattr__(self, "nb", nb)
         object.__setattr__(self, "nv", nv)
         object.__setattr__(self, "nq", nq)
+        # the per-body fields, copied once from the kernels' buffers
+        fields = {key: _field_copy(self._ibuf, INT_AT, key, nb, INT_HEADER) for key in INT_AT}
+        fields.update((key, _field_copy(self._fbuf, FLOAT_AT, key, nb)) for key in FLOAT_AT)
+        object.__setattr__(self, "_fields", fields)
         object.__setattr__(self, "floating_base", bool(np.any(self.jtype == FREE)))
         # mimic joints share coordinates: the joints' velocity sizes add up to more than nv
         object.__setattr__(self, "coupled", int(np.sum(self.nv_j)) != nv)
@@ -364,21 +385,21 @@ class Model:
         linear(loads[0])[:] = -self._gravity  # the kernels' dV_0 = (0, -g), no wrenches
         object.__setattr__(self, "_loads", loads)
 
-    parent = property(lambda self: self._ifield("parent"), doc="(nb,) parent body, -1 = world")
-    jtype = property(lambda self: self._ifield("jtype"), doc="(nb,) REVOLUTE/PRISMATIC/FREE")
-    nv_j = property(lambda self: self._ifield("nv_j"), doc="(nb,) velocity size of each joint")
-    iq = property(lambda self: self._ifield("iq"), doc="(nb,) first q index of each joint")
-    iv = property(lambda self: self._ifield("iv"), doc="(nb,) first v index of each joint")
-    mult = property(lambda self: self._ffield("mult"), doc="(nb,) mimic multiplier")
-    offset = property(lambda self: self._ffield("offset"), doc="(nb,) mimic offset")
-    S = property(lambda self: self._ffield("S"), doc="(nb, 6, 6) motion subspaces, by rows")
+    parent = property(lambda self: self._fields["parent"], doc="(nb,) parent body, -1 = world")
+    jtype = property(lambda self: self._fields["jtype"], doc="(nb,) REVOLUTE/PRISMATIC/FREE")
+    nv_j = property(lambda self: self._fields["nv_j"], doc="(nb,) velocity size of each joint")
+    iq = property(lambda self: self._fields["iq"], doc="(nb,) first q index of each joint")
+    iv = property(lambda self: self._fields["iv"], doc="(nb,) first v index of each joint")
+    mult = property(lambda self: self._fields["mult"], doc="(nb,) mimic multiplier")
+    offset = property(lambda self: self._fields["offset"], doc="(nb,) mimic offset")
+    S = property(lambda self: self._fields["S"], doc="(nb, 6, 6) motion subspaces, by rows")
     A = property(lambda self: self.S[:, 0], doc="(nb, 6) screw axes A_i of 1-dof joints in {i}")
-    G = property(lambda self: self._ffield("G"), doc="(nb, 6, 6) spatial inertias G_i in {i}")
-    mass = property(lambda self: self._ffield("mass"), doc="(nb,) body masses (kg)")
-    h = property(lambda self: self._ffield("h"), doc="(nb, 3) first moments m c in {i} (kg m)")
-    I_o = property(lambda self: self._ffield("I_o"), doc="(nb, 3, 3) inertia about {i}'s origin")
-    R_home = property(lambda self: self._ffield("R_home"), doc="(nb, 3, 3) rotation of M_{p,i}")
-    p_home = property(lambda self: self._ffield("p_home"), doc="(nb, 3) translation of M_{p,i}")
+    G = property(lambda self: self._fields["G"], doc="(nb, 6, 6) spatial inertias G_i in {i}")
+    mass = property(lambda self: self._fields["mass"], doc="(nb,) body masses (kg)")
+    h = property(lambda self: self._fields["h"], doc="(nb, 3) first moments m c in {i} (kg m)")
+    I_o = property(lambda self: self._fields["I_o"], doc="(nb, 3, 3) inertia about {i}'s origin")
+    R_home = property(lambda self: self._fields["R_home"], doc="(nb, 3, 3) rotation of M_{p,i}")
+    p_home = property(lambda self: self._fields["p_home"], doc="(nb, 3) translation of M_{p,i}")
 
     @property
     def frame_names(self) -> tuple[str, ...]:
