@@ -23,7 +23,6 @@ from __future__ import annotations
 
 import argparse
 import contextlib
-import copy
 import importlib.util
 import os
 import pathlib
@@ -47,6 +46,7 @@ from .scene import (
     load_scene,
     scene_from_dict,
     shipped_scenes,
+    thaw,
 )
 from .trajectory import saved_paths
 from .urdf import URDFError, looks_mobile
@@ -207,7 +207,7 @@ def scene_for(target):
 def _with_effects(scene, enable, disable):
     """The scene with `enable` switched on from the URDF's values and `disable` switched off."""
     if enable:
-        settings = copy.deepcopy(scene.settings)
+        settings = thaw(scene.settings)
         effects = settings.setdefault("effects", {})
         for name in enable:
             effects.setdefault(name, ENABLE_FROM_URDF[name])

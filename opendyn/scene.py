@@ -157,20 +157,21 @@ Integrating A qdd + Adot qd = 0 lets the position error phi drift; [baumgarte] p
 
 from __future__ import annotations
 
-import copy
 import dataclasses
 import difflib
 import math
 import numbers
 import os
 import pathlib
+from collections.abc import Mapping
 from dataclasses import dataclass
+from types import MappingProxyType
 
 import numpy as np
 from scipy.spatial.transform import Rotation
 
 from .constraints import FixedPose, JointCoupling, PointOnPlane, PointToPoint, PointToWorld
-from .model import FREE, Model
+from .model import FREE, Model, immutable
 from .urdf import URDFError, load_urdf, shipped_robots_dir
 
 try:
@@ -389,7 +390,9 @@ class Scene:
     without a floating base, nv - 6 with one). damping: (n,) viscous coefficients or None.
     armature: (n,) or None. wrenches: ()
     when none is applied. contact: ground contact (Contact) or None. control: None = zero torque. source: the scene file, "<dict>" or
-    "<robot NAME>". settings: the scene as read (plain TOML types), for provenance records.
+    "<robot NAME>". settings: the scene as read, for provenance records: a read-only mapping
+    (tables as mappings, lists as tuples; ``thaw(scene.settings)`` is a plain dict to edit and
+    pass to scene_from_dict). Every array is immutable.
     An effect that is None (or, for wrenches, empty) is never computed.
     constraints: Pfaffian constraints A(q) qd = 0 (opendyn.constraints objects), () for none;
     baumgarte: (alpha, beta) 1/s, the stabilisation A qdd + Adot qd + 2 alpha A qd +
@@ -409,10 +412,13 @@ class Scene:
     wrenches: tuple[Wrench, ...]
     control: Control | None
     source: str
-    settings: dict
+    settings: Mapping
     constraints: tuple = ()
     baumgarte: tuple[float, float] | None = None
     contact: Contact | None = None
+
+    def __post_init__(self):
+        object.__setattr__(self, "settings", _freeze(thaw(self.settings)))
 
     @property
     def effects(self) -> tuple[str, ...]:
@@ -437,7 +443,7 @@ class Scene:
                     f"{self.source}: Scene.without: unknown effect {name!r}"
                     f"{_suggest(name, EFFECTS)}; effects: {', '.join(EFFECTS)}"
                 )
-        changes, settings = {}, copy.deepcopy(self.settings)
+        changes, settings = {}, thaw(self.settings)
         table = settings.get("effects") if isinstance(settings.get("effects"), dict) else {}
         for name in effects:
             if name == "control":
@@ -457,13 +463,13 @@ class Scene:
                     f"{self.source}: Scene.replace_run: unknown run setting {key!r}"
                     f"{_suggest(key, _RUN_KEYS)}; valid: {', '.join(_RUN_KEYS)}"
                 )
-        settings = copy.deepcopy(self.settings)
-        table = dict(settings.get("run") or {})
+        settings = thaw(self.settings)
+        table = settings.get("run") or {}
         for key, value in changes.items():
             if value is None:
                 table.pop(key, None)
             else:
-                table[key] = _plain(value)
+                table[key] = thaw(value)
         run = _Reader(self.source).run(table)
         settings["run"] = table
         return dataclasses.replace(self, run=run, settings=settings)
@@ -493,7 +499,7 @@ def scene_from_dict(data: dict, source: str = "<dict>", base_dir=None) -> Scene:
     the file has lists). ``base_dir`` is the folder a relative ``robot.urdf`` is found from
     (default: the current directory). Raises SceneError naming ``source`` and the key."""
     base = pathlib.Path(base_dir) if base_dir is not None else pathlib.Path.cwd()
-    return _build(_plain(data), source=source, base_dir=base, default_name=None)
+    return _build(thaw(data), source=source, base_dir=base, default_name=None)
 
 
 def default_scene(robot, **run) -> Scene:
@@ -512,7 +518,7 @@ def default_scene(robot, **run) -> Scene:
         except (URDFError, TypeError) as e:
             raise SceneError(f"<robot {robot}>: robot: {e}") from None
         spec = {"urdf": model.source}
-    data = {"name": model.name, "robot": spec, "effects": {"gravity": True}, "run": _plain(run)}
+    data = {"name": model.name, "robot": spec, "effects": {"gravity": True}, "run": thaw(run)}
     nearest = np.clip(0.0, model.lower, model.upper)
     if np.any(nearest):
         data["initial"] = {
@@ -585,7 +591,7 @@ def _build(data, source, base_dir, default_name=None, model=None) -> Scene:
         contact=r.contact(effects.get("contact")),
         control=r.control(data.get("control"), q0[model.q_index]),
         source=source,
-        settings=copy.deepcopy(data),
+        settings=data,
         constraints=r.constraints(data.get("constraints"), q0, qd0),
         baumgarte=r.baumgarte(data.get("baumgarte"), "constraints" in data),
     )
@@ -652,7 +658,7 @@ class _Reader:
             self.fail(key, f"expected a list of {n} numbers, found {_found(value)}")
         if len(value) != n:
             self.fail(key, f"expected a list of {n} numbers, found a list of {len(value)}")
-        return _frozen([self.number(v, f"{key}[{i}]", minimum) for i, v in enumerate(value)])
+        return immutable([self.number(v, f"{key}[{i}]", minimum) for i, v in enumerate(value)])
 
     def per_joint(self, value, key, default, scalar=True, minimum=None) -> np.ndarray:
         """(n,) per joint from a number (every joint; if scalar), a list of n or a table
@@ -660,7 +666,7 @@ class _Reader:
         names = self.model.joint_names
         nv = len(names)
         if value is None:
-            return _frozen(default)
+            return immutable(default)
         if isinstance(value, dict):
             out = np.array(default, dtype=float)
             for joint, v in value.items():
@@ -671,7 +677,7 @@ class _Reader:
                         f"{_suggest(str(joint), names)}; joints: {', '.join(names)}",
                     )
                 out[names.index(joint)] = self.number(v, f"{key}.{joint}", minimum)
-            return _frozen(out)
+            return immutable(out)
         if isinstance(value, list):
             if len(value) != nv:
                 self.fail(
@@ -681,7 +687,7 @@ class _Reader:
                 )
             return self.vector(value, key, nv, minimum)
         if scalar and isinstance(value, numbers.Real) and not isinstance(value, bool):
-            return _frozen(np.full(nv, self.number(value, key, minimum)))
+            return immutable(np.full(nv, self.number(value, key, minimum)))
         shapes = "a number (every joint), " if scalar else ""
         sign = f" >= {minimum:g}" if minimum is not None else ""
         self.fail(
@@ -745,7 +751,7 @@ class _Reader:
         qd0[m.v_index] = self.per_joint(table.get("qd"), "initial.qd", zeros, scalar=False)
         if m.floating_base:
             self.base_state(table, q0, qd0)
-        return _frozen(q0), _frozen(qd0)
+        return immutable(q0), immutable(qd0)
 
     def base_state(self, table, q0, qd0):
         """q0's (p, quat) and qd0's (omega_b, v_b) of the free joint from the base_* keys:
@@ -824,7 +830,7 @@ class _Reader:
         if value is None or value is False:
             return None
         if value is True:
-            return _frozen(self.model.gravity)
+            return immutable(self.model.gravity)
         if not isinstance(value, list):
             self.fail(
                 "effects.gravity",
@@ -850,7 +856,7 @@ class _Reader:
                     f"the coefficients: a number, a list of {len(self.model.joint_names)} or a "
                     f"table {{joint = number}}",
                 )
-            return _frozen(urdf_values)
+            return immutable(urdf_values)
         return self.per_joint(value, full, np.zeros(len(self.model.joint_names)), minimum=0.0)
 
     def damping(self, table) -> np.ndarray | None:
@@ -910,12 +916,12 @@ class _Reader:
                         f"joint {name!r} has no finite position limit; limited joints: "
                         f"{', '.join(n for n, f in zip(m.joint_names, finite) if f)}",
                     )
-            out[field] = _frozen(np.where(finite, arr, 0.0))
+            out[field] = immutable(np.where(finite, arr, 0.0))
         return Limits(
             stiffness=out["stiffness"],
             damping=out["damping"],
-            lower=_frozen(m.lower),
-            upper=_frozen(m.upper),
+            lower=immutable(m.lower),
+            upper=immutable(m.upper),
         )
 
     def wrenches(self, value) -> tuple[Wrench, ...]:
@@ -965,8 +971,8 @@ class _Reader:
                 "values = [[6 numbers], ...]",
             )
         if has_value:
-            times = _frozen([0.0])
-            values = _frozen(self.vector(table["value"], f"{key}.value", 6)[None, :])
+            times = immutable([0.0])
+            values = immutable(self.vector(table["value"], f"{key}.value", 6)[None, :])
         else:
             for field in ("times", "values"):
                 if field not in table:
@@ -991,7 +997,7 @@ class _Reader:
                     f"expected one wrench [m, f] of 6 numbers per time ({len(times)} times), "
                     f"found {found}",
                 )
-            values = _frozen(
+            values = immutable(
                 np.array([self.vector(v, f"{key}.values[{i}]", 6) for i, v in enumerate(raw_v)])
             )
         return Wrench(frame=frame, expressed_in=expressed_in, times=times, values=values)
@@ -1066,7 +1072,7 @@ class _Reader:
             k = seen.get(frame, 0)
             seen[frame] = k + 1
             name = frame if per_frame[frame] == 1 else f"{frame}[{k}]"
-            points.append(ContactPoint(frame, _frozen(position), float(radius), name, source))
+            points.append(ContactPoint(frame, immutable(position), float(radius), name, source))
         return tuple(points)
 
     def constraints(self, value, q0, qd0) -> tuple:
@@ -1270,12 +1276,6 @@ class _Reader:
 # --- helpers ---------------------------------------------------------------------------------
 
 
-def _frozen(x) -> np.ndarray:
-    a = np.array(x, dtype=np.float64)
-    a.flags.writeable = False
-    return a
-
-
 def _suggest(name: str, choices) -> str:
     close = difflib.get_close_matches(str(name), [str(c) for c in choices], n=1)
     return f" (did you mean {close[0]!r}?)" if close else ""
@@ -1305,14 +1305,25 @@ def _found(value) -> str:
     return f"{text} ({kind})"
 
 
-def _plain(value):
-    """A copy of a dict/list/number tree with numpy arrays and scalars as plain Python values."""
-    if isinstance(value, dict):
-        return {k: _plain(v) for k, v in value.items()}
+def _freeze(value):
+    """A read-only copy of a settings tree: mappings as MappingProxyType, lists as tuples."""
+    if isinstance(value, Mapping):
+        return MappingProxyType({k: _freeze(v) for k, v in value.items()})
     if isinstance(value, (list, tuple)):
-        return [_plain(v) for v in value]
+        return tuple(_freeze(v) for v in value)
+    return value
+
+
+def thaw(value):
+    """A plain, mutable copy of a settings tree (``scene.settings``, or a dict that holds
+    numpy arrays): mappings as dicts, lists and tuples as lists, numpy arrays and scalars as
+    Python values, paths as strings; what scene_from_dict takes and JSON writes."""
+    if isinstance(value, Mapping):
+        return {k: thaw(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [thaw(v) for v in value]
     if isinstance(value, np.ndarray):
-        return _plain(value.tolist())
+        return thaw(value.tolist())
     if isinstance(value, np.generic):
         return value.item()
     if isinstance(value, os.PathLike):

@@ -33,7 +33,7 @@ from .dynamics._args import singular_coordinates
 from .dynamics.energy import energies
 from .model import FREE
 from .preflight import preflight
-from .scene import SceneError
+from .scene import SceneError, thaw
 from .status import Status, decode
 
 with kernel_cache():
@@ -483,7 +483,7 @@ def _provenance(scene, table):
         "scene": {
             "name": scene.name,
             "source": scene.source,
-            "settings": scene.settings,
+            "settings": thaw(scene.settings),
             "effects": list(scene.effects),
             "stages": list(table.names) + (["armature"] if scene.armature is not None else []),
         },

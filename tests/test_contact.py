@@ -6,15 +6,13 @@ that stands (the ground carries exactly its weight), and the contact law itself 
 numpy from Jacobians of od.jacobian, with its linearisation against finite differences.
 """
 
-import copy
-
 import numpy as np
 import pytest
 
 import opendyn as od
 from opendyn import effects
 from opendyn.dynamics.contact import contact_kernel
-from opendyn.scene import SceneError
+from opendyn.scene import SceneError, thaw
 from opendyn.urdf import shipped_robots_dir
 
 G = 9.81
@@ -23,7 +21,7 @@ ROBOTS = shipped_robots_dir()
 
 def variant(name, **contact):
     """The shipped scene `name` with [effects.contact] keys replaced."""
-    data = copy.deepcopy(od.load_scene(name).settings)
+    data = thaw(od.load_scene(name).settings)
     data["effects"]["contact"].update(contact)
     return od.scene_from_dict(data, source=f"<{name} variant>", base_dir=ROBOTS)
 
@@ -225,7 +223,7 @@ def test_humanoid_stands_on_the_spheres_of_its_feet():
 
 def _solo_in_contact(friction, damping):
     """Solo12 at a random state with its four feet 1 mm into the ground at h = 0.05 m."""
-    data = copy.deepcopy(od.load_scene("quadruped_drop").settings)
+    data = thaw(od.load_scene("quadruped_drop").settings)
     data["effects"]["contact"].update(friction=friction, damping=damping, ground_height=0.0)
     scene = od.scene_from_dict(data, base_dir=ROBOTS)
     model = scene.model
@@ -351,14 +349,14 @@ def test_contact_points_from_the_urdf_are_its_collision_spheres():
     ],
 )
 def test_bad_contact_settings_are_errors_naming_the_key(contact, message):
-    data = copy.deepcopy(od.load_scene("box_slide").settings)
+    data = thaw(od.load_scene("box_slide").settings)
     data["effects"]["contact"] = contact
     with pytest.raises(SceneError, match=message):
         od.scene_from_dict(data, base_dir=ROBOTS)
 
 
 def test_urdf_points_need_collision_spheres_and_frames_that_move():
-    data = copy.deepcopy(od.load_scene("quadruped_drop").settings)
+    data = thaw(od.load_scene("quadruped_drop").settings)
     data["effects"]["contact"]["points"] = "urdf"
     with pytest.raises(SceneError, match=r"solo12\.urdf has no <collision> sphere or box"):
         od.scene_from_dict(data, base_dir=ROBOTS)

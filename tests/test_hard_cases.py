@@ -15,7 +15,6 @@ terminal velocity under viscous damping) and invariants (energy, angular momentu
 
 from __future__ import annotations
 
-import copy
 from decimal import Decimal, localcontext
 
 import numpy as np
@@ -24,6 +23,7 @@ from randtree import random_chain_urdf, write_random_tree
 
 import opendyn as od
 from opendyn.cli import main
+from opendyn.scene import thaw
 from opendyn.urdf import shipped_robots_dir
 
 EPS = np.finfo(float).eps
@@ -550,7 +550,7 @@ def test_explicit_euler_divergence_on_the_command_line_writes_the_partial_record
 
 def heavy_damping_scene():
     """planar_3r_limits with viscous damping HEAVY_DAMPING on every joint."""
-    settings = copy.deepcopy(od.load_scene("planar_3r_limits").settings)
+    settings = thaw(od.load_scene("planar_3r_limits").settings)
     settings["effects"]["damping"] = {"coefficients": HEAVY_DAMPING}
     return od.scene_from_dict(settings, base_dir=shipped_robots_dir())
 

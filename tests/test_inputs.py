@@ -5,10 +5,16 @@ are an error naming the result, never a NaN returned."""
 
 from __future__ import annotations
 
+import dataclasses
+import json
+
 import numpy as np
 import pytest
 
 import opendyn as od
+from opendyn.cli import main
+from opendyn.scene import thaw
+from opendyn.urdf import shipped_robots_dir
 
 MODEL_ARRAYS = (
     "G", "S", "A", "mass", "h", "I_o", "R_home", "p_home", "parent", "jtype", "nv_j", "iq",
@@ -58,3 +64,64 @@ def test_model_arrays_cannot_be_made_writeable_again(robot):
                 view[...] = 0
         assert not array.flags.writeable, name
     aba_agrees_with_crba(model)
+
+
+def scene_arrays(value, path="scene"):
+    """(path, array) of every numpy array reachable from a scene's fields."""
+    if isinstance(value, np.ndarray):
+        yield path, value
+    elif dataclasses.is_dataclass(value) and not isinstance(value, (type, od.Model)):
+        for f in dataclasses.fields(value):
+            yield from scene_arrays(getattr(value, f.name), f"{path}.{f.name}")
+    elif isinstance(value, tuple):
+        for k, item in enumerate(value):
+            yield from scene_arrays(item, f"{path}[{k}]")
+
+
+@pytest.mark.parametrize("name", ["double_pendulum_push", "panda_computed_torque", "box_slide"])
+def test_scene_arrays_cannot_be_made_writeable_again(name):
+    scene = od.load_scene(name)
+    arrays = list(scene_arrays(scene))
+    assert len(arrays) >= 3
+    for path, array in arrays:
+        with pytest.raises(ValueError, match="WRITEABLE"):
+            array.flags.writeable = True
+        assert not array.flags.writeable, path
+
+
+def test_scene_settings_are_a_read_only_mapping(tmp_path):
+    scene = od.load_scene("double_pendulum_push").replace_run(duration=0.05)
+    before = json.dumps(thaw(scene.settings))
+    with pytest.raises(TypeError):
+        scene.settings["name"] = "renamed"
+    with pytest.raises(TypeError):
+        scene.settings["run"]["duration"] = 100.0
+    with pytest.raises(TypeError):
+        del scene.settings["effects"]["damping"]
+    with pytest.raises(AttributeError):
+        scene.settings["effects"]["wrench"][0]["times"].append(2.0)
+    with pytest.raises(TypeError):
+        scene.settings["effects"]["wrench"][0]["values"][0][3] = 1.0
+    assert json.dumps(thaw(scene.settings)) == before
+
+    # the provenance record is the scene as read, and a copy: editing it changes no scene
+    traj = od.simulate(scene)
+    record = traj.provenance["scene"]["settings"]
+    assert record == thaw(scene.settings) and json.dumps(record) == before
+    record["run"]["duration"] = 100.0
+    assert scene.settings["run"]["duration"] == 0.05
+
+    # the ways to change a scene still work, and leave the original alone
+    plain = thaw(scene.settings)
+    plain["effects"]["gravity"] = [0.0, 0.0, -1.0]
+    assert od.scene_from_dict(plain, base_dir=shipped_robots_dir()).gravity[2] == -1.0
+    lean = scene.without("damping", "wrench")
+    assert lean.effects == ("gravity",) and set(lean.settings["effects"]) == {"gravity"}
+    assert scene.replace_run(dt=0.002).settings["run"]["dt"] == 0.002
+    assert scene.settings["run"]["dt"] == 0.001 and "damping" in scene.settings["effects"]
+    assert json.dumps(thaw(scene.settings)) == before
+    assert main(["simulate", "planar_3r_limits", "--enable", "friction", "--duration", "0.02",
+                 "-o", str(tmp_path / "run.npz"), "-q"]) == 0  # fmt: skip
+    saved = json.loads((tmp_path / "run.json").read_text())["scene"]["settings"]
+    assert "friction" in saved["effects"]
+    assert "friction" not in od.load_scene("planar_3r_limits").settings["effects"]

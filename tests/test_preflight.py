@@ -3,7 +3,6 @@ the key to change; a run that stops names the real cause, not a generic one."""
 
 from __future__ import annotations
 
-import copy
 import importlib
 import warnings
 
@@ -13,7 +12,7 @@ import pytest
 import opendyn as od
 from opendyn import preflight
 from opendyn.cli import main
-from opendyn.scene import shipped_robots_dir
+from opendyn.scene import shipped_robots_dir, thaw
 
 simulate_module = importlib.import_module("opendyn.simulate")  # od.simulate is the function
 PENDULUM = {"robot": {"name": "double_pendulum"}, "effects": {"gravity": True}}
@@ -171,7 +170,7 @@ def test_a_huge_contact_stiffness_under_implicit_euler_is_named_not_a_singular_m
     """k = 1e300 N/m: the implicit step's M + dt D + dt^2 K loses M in float64 at touch-down.
     The ball's M is a regular 6 x 6 body inertia; the message names the contact stiffness."""
     ball = od.load_scene("ball_drop")
-    settings = copy.deepcopy(ball.settings)
+    settings = thaw(ball.settings)
     settings["effects"]["contact"]["stiffness"] = 1e300
     stiff = od.scene_from_dict(settings, base_dir=shipped_robots_dir())
     traj = od.simulate(

@@ -267,7 +267,7 @@ def test_scene_from_dict_accepts_numpy_arrays_and_keeps_plain_settings():
     )
     np.testing.assert_array_equal(scene.q0, [0.1, 0.2])
     np.testing.assert_array_equal(scene.gravity, [0.0, 0.0, -1.0])
-    assert scene.settings["initial"]["q"] == [0.1, 0.2]
+    assert scene.settings["initial"]["q"] == (0.1, 0.2)
     assert scene.source == "<dict>" and scene.name == "double_pendulum"
 
 
