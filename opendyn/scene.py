@@ -172,7 +172,7 @@ from scipy.spatial.transform import Rotation
 
 from .constraints import FixedPose, JointCoupling, PointOnPlane, PointToPoint, PointToWorld
 from .model import FREE, Model, immutable
-from .urdf import URDFError, load_urdf, shipped_robots_dir
+from .urdf import URDFError, available_robots, load_urdf, shipped_robots_dir
 
 try:
     import tomllib
@@ -556,9 +556,14 @@ def _resolve_scene(path) -> pathlib.Path:
     shipped = shipped_scenes()
     if isinstance(path, str) and path in shipped:
         return shipped[path]
+    robot = (
+        f"; {path!r} is a robot: od.default_scene({path!r}) is its plainest scene"
+        if path in available_robots()
+        else ""
+    )
     raise SceneError(
         f"{path}: no such scene file{_suggest(str(path), shipped)}; "
-        f"shipped scenes: {', '.join(shipped) or '(none)'}"
+        f"shipped scenes: {', '.join(shipped) or '(none)'}{robot}"
     )
 
 

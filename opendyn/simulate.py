@@ -17,6 +17,7 @@ is the run's `quaternion_norm_error` (bound QUATERNION_NORM_BOUND).
 from __future__ import annotations
 
 import datetime
+import os
 import platform
 import signal
 import sys
@@ -31,9 +32,9 @@ from ._kernel_cache import kernel_cache
 from ._signals import signal_name
 from .dynamics._args import singular_coordinates
 from .dynamics.energy import energies
-from .model import FREE
+from .model import FREE, Model
 from .preflight import preflight
-from .scene import SceneError, thaw
+from .scene import Scene, SceneError, load_scene, thaw
 from .status import Status, decode
 
 with kernel_cache():
@@ -89,8 +90,10 @@ class SimulationError(RuntimeError):
 
 
 def simulate(scene, *, progress=False, raise_on_failure=True):
-    """Run `scene` (opendyn.scene.Scene) and return its Trajectory.
+    """Run `scene` and return its Trajectory.
 
+    scene: a Scene (od.load_scene, od.default_scene, od.scene_from_dict), or a scene file or
+      shipped scene's name, which load_scene reads.
     progress: show a progress bar (tqdm, on stderr) once the run has taken more than a second.
     raise_on_failure: on a failure or Ctrl-C raise SimulationError carrying the partial
       trajectory; with False, return it with complete=False and the message.
@@ -99,6 +102,7 @@ def simulate(scene, *, progress=False, raise_on_failure=True):
     taken to get the compiled step ready: compile_s compiling it (once per machine and opendyn
     version; 0 when the on-disk cache had it) and load_s loading it.
     """
+    scene = _as_scene(scene)
     run = scene.run
     model = scene.model
     integ = integrators.INTEGRATORS[run.integrator]
@@ -512,6 +516,23 @@ def _provenance(scene, table):
         "platform": platform.platform(),
         "created": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
     }
+
+
+def _as_scene(scene):
+    """scene itself, or the scene that a file or a shipped scene's name names."""
+    if isinstance(scene, Scene):
+        return scene
+    if isinstance(scene, (str, os.PathLike)):
+        return load_scene(scene)
+    hint = ""
+    if isinstance(scene, Model):
+        hint = f"; od.default_scene(model) is the plainest scene of {scene.name!r}"
+    elif isinstance(scene, dict):
+        hint = "; od.scene_from_dict(data) makes a Scene of a dict"
+    raise TypeError(
+        "simulate: scene must be an opendyn Scene (from od.load_scene or od.default_scene) or "
+        f"a scene file or shipped scene's name, got {type(scene).__name__}{hint}"
+    )
 
 
 def failure_message(scene, table, status, t, steps, q, qd):

@@ -6,6 +6,7 @@ are an error naming the result, never a NaN returned."""
 from __future__ import annotations
 
 import dataclasses
+import inspect
 import json
 
 import numpy as np
@@ -120,8 +121,82 @@ def test_scene_settings_are_a_read_only_mapping(tmp_path):
     assert scene.replace_run(dt=0.002).settings["run"]["dt"] == 0.002
     assert scene.settings["run"]["dt"] == 0.001 and "damping" in scene.settings["effects"]
     assert json.dumps(thaw(scene.settings)) == before
-    assert main(["simulate", "planar_3r_limits", "--enable", "friction", "--duration", "0.02",
-                 "-o", str(tmp_path / "run.npz"), "-q"]) == 0  # fmt: skip
+    out = tmp_path / "run.npz"
+    args = ["planar_3r_limits", "--enable", "friction", "--duration", "0.02", "-o", str(out)]
+    assert main(["simulate", *args, "-q"]) == 0
     saved = json.loads((tmp_path / "run.json").read_text())["scene"]["settings"]
     assert "friction" in saved["effects"]
     assert "friction" not in od.load_scene("planar_3r_limits").settings["effects"]
+
+
+Q = np.array([0.1, -0.4, 0.3, 0.2, -0.1, 0.5])
+A_ROW = np.eye(6)[:1]
+POINT = od.PointToWorld("tool0")
+PUBLIC = {  # every public function that takes a model, called with good other arguments
+    "inverse_dynamics": lambda m: od.inverse_dynamics(m, Q, Q, Q),
+    "mass_matrix": lambda m: od.mass_matrix(m, Q),
+    "gravity_forces": lambda m: od.gravity_forces(m, Q),
+    "coriolis_forces": lambda m: od.coriolis_forces(m, Q, Q),
+    "bias_forces": lambda m: od.bias_forces(m, Q, Q),
+    "coriolis_matrix": lambda m: od.coriolis_matrix(m, Q, Q),
+    "christoffel_symbols": lambda m: od.christoffel_symbols(m, Q),
+    "forward_dynamics": lambda m: od.forward_dynamics(m, Q, Q, Q),
+    "frame_pose": lambda m: od.frame_pose(m, Q, "tool0"),
+    "jacobian": lambda m: od.jacobian(m, Q, "tool0"),
+    "kinetic_energy": lambda m: od.kinetic_energy(m, Q, Q),
+    "potential_energy": lambda m: od.potential_energy(m, Q),
+    "task_space_mass_matrix": lambda m: od.task_space_mass_matrix(m, Q, "tool0"),
+    "task_space_bias": lambda m: od.task_space_bias(m, Q, Q, "tool0"),
+    "frame_acceleration": lambda m: od.frame_acceleration(m, Q, Q, Q, "tool0"),
+    "constraint_jacobian": lambda m: od.constraint_jacobian(m, Q, POINT),
+    "constraint_drift": lambda m: od.constraint_drift(m, Q, Q, POINT),
+    "constraint_error": lambda m: od.constraint_error(m, Q, POINT, Q),
+    "constrained_forward_dynamics": lambda m: od.constrained_forward_dynamics(m, Q, Q, Q, POINT),
+    "constrained_inverse_dynamics": lambda m: od.constrained_inverse_dynamics(m, Q, Q, Q, A_ROW),
+    "constraint_projection": lambda m: od.constraint_projection(m, Q, A_ROW),
+    "constraint_wrench": lambda m: od.constraint_wrench(m, Q, "tool0", A_ROW, [1.0]),
+    "integrate": lambda m: od.integrate(m, Q, Q, 0.1),
+    "difference": lambda m: od.difference(m, Q, Q),
+    "normalize": lambda m: od.normalize(m, Q),
+    "neutral": lambda m: od.neutral(m),
+    "random_configuration": lambda m: od.random_configuration(m, 0),
+}
+
+
+def test_every_public_function_taking_a_model_is_checked_here():
+    takes_model = {
+        name
+        for name in od.__all__
+        if callable(getattr(od, name))
+        and not isinstance(getattr(od, name), type)
+        and next(iter(inspect.signature(getattr(od, name)).parameters), None) == "model"
+    }
+    assert takes_model == set(PUBLIC)
+
+
+@pytest.mark.parametrize("name", PUBLIC)
+def test_model_argument_that_is_not_a_model_is_a_type_error(ur5, name):
+    PUBLIC[name](ur5)  # the other arguments are good
+    for bad, found in (
+        (None, "got None"),
+        ("ur5", "got str 'ur5'; load it with od.load_urdf('ur5')"),
+        ({}, "got dict {}"),
+    ):
+        with pytest.raises(TypeError) as info:
+            PUBLIC[name](bad)
+        message = str(info.value)
+        assert message.startswith(f"{name}: model must be an opendyn Model"), message
+        assert found in message
+
+
+def test_simulate_with_a_scene_name_loads_that_scene():
+    traj = od.simulate("double_pendulum_push")
+    source = shipped_robots_dir() / "double_pendulum_push.toml"
+    assert traj.provenance["scene"]["source"] == str(source)
+    assert traj.complete and traj.t[-1] == od.load_scene("double_pendulum_push").run.duration
+    with pytest.raises(od.SceneError, match=r"no such scene file.*od.default_scene\('ur5'\)"):
+        od.simulate("ur5")
+    with pytest.raises(TypeError, match=r"an opendyn Scene.*got Model; od.default_scene\(model\)"):
+        od.simulate(od.load_urdf("ur5"))
+    with pytest.raises(TypeError, match="scene must be an opendyn Scene.*got NoneType"):
+        od.simulate(None)

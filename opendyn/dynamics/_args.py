@@ -8,14 +8,37 @@ and reported through a status code that `raise_status` turns into the same kind 
 
 from __future__ import annotations
 
+import os
+
 import numpy as np
 
-from ..model import FREE
+from ..model import FREE, Model
 from ..spatial import angular, linear
 from ..status import NOT_FINITE_ARGUMENT, Status, decode
 
 F64 = np.dtype(np.float64)
 
+
+def check_model(model, what):
+    """TypeError unless `model` is a Model: the first check of every public function that
+    takes one, saying what was passed and how to get a Model."""
+    if isinstance(model, Model):
+        return
+    if isinstance(model, (str, os.PathLike)):
+        hint = f"; load it with od.load_urdf({os.fspath(model)!r})"
+    elif isinstance(getattr(model, "model", None), Model):
+        hint = f"; a {type(model).__name__}'s model is its .model"
+    else:
+        hint = ""
+    found = "None" if model is None else f"{type(model).__name__} {_short_repr(model)}"
+    raise TypeError(
+        f"{what}: model must be an opendyn Model (from od.load_urdf), got {found}{hint}"
+    )
+
+
+def _short_repr(value, limit=40):
+    text = repr(value)
+    return text if len(text) <= limit else text[: limit - 3] + "..."
 
 
 def is_single(model, q, v=None, a=None):

@@ -338,6 +338,7 @@ def christoffel_symbols(model, q):
     one free rigid body the contraction C_Gamma(V) W = -1/2 (ad_V^T G W + ad_W^T G V) has
     W^T C_Gamma W = -1/2 (ad_V W)^T G W != 0 while Mdot = 0).
     """
+    _args.check_model(model, "christoffel_symbols")
     return _run(model, q, None, "christoffel_symbols")
 
 
@@ -352,4 +353,5 @@ def coriolis_matrix(model, q, qd):
     C != sum_k Gamma[:, :, k] qd_k (module docstring: no C with Mdot - 2C skew is such a
     contraction for a free body).
     """
+    _args.check_model(model, "coriolis_matrix")
     return _run(model, q, qd, "coriolis_matrix")

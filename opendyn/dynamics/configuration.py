@@ -86,6 +86,7 @@ def integrate(model, q, v, dt):
     Returns (nq,) or (N, nq): q + v dt for the joints; for a free joint the pose moved along
     its body twist by the exponential map of SE(3), T exp([V] dt), quaternion normalised.
     """
+    _args.check_model(model, "integrate")
     q = _checked_q(model, q, "q", "integrate")
     (q, v), batch = _args.as_states(model, q, ("v", v))
     dt = float(dt)
@@ -108,6 +109,7 @@ def difference(model, q0, q1):
 
     q0, q1: (nq,) or (N, nq). Returns (nv,) or (N, nv).
     """
+    _args.check_model(model, "difference")
     q0 = _checked_q(model, q0, "q0", "difference")
     q1 = _checked_q(model, q1, "q1", "difference")
     if q0.ndim == 2 and q1.ndim == 2 and len(q0) != len(q1) and 1 not in (len(q0), len(q1)):
@@ -129,6 +131,7 @@ def difference(model, q0, q1):
 def normalize(model, q):
     """q with each free joint's quaternion divided by its norm (a copy): (nq,) or (N, nq).
     A zero or non-finite quaternion is a ValueError naming its slice of q."""
+    _args.check_model(model, "normalize")
     q = _checked_q(model, q, "q", "normalize").copy()
     for row in q if q.ndim == 2 else [q]:
         normalize_kernel(model._ibuf, row)
@@ -138,6 +141,7 @@ def normalize(model, q):
 def neutral(model):
     """The reference configuration (nq,): every joint at 0, a free joint at the origin with
     the identity rotation (quaternion (0, 0, 0, 1))."""
+    _args.check_model(model, "neutral")
     q = np.zeros(model.nq)
     for _, k in _quaternions(model):
         q[k + 3] = 1.0
@@ -149,6 +153,7 @@ def random_configuration(model, rng=None):
     [-pi, pi] rad (revolute) or [-1, 1] m (prismatic) where a limit is infinite; a free joint
     at a uniform point of the cube [-1, 1]^3 m with a uniformly random rotation (a normalised
     4-D Gaussian quaternion). rng: a numpy Generator or a seed (default: fresh entropy)."""
+    _args.check_model(model, "random_configuration")
     rng = np.random.default_rng(rng)
     q = neutral(model)
     for k, name in enumerate(model.joint_names):

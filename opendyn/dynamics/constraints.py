@@ -746,6 +746,7 @@ def constraint_table(model, constraints, q0):
     constraint between two world frames, a JointCoupling whose A is not (k, nv) or whose q_ref
     is not (nq,), a bad q0 (shape, NaN, a quaternion far from unit norm).
     """
+    _args.check_model(model, "constraint_table")
     return _table(model, constraints, q0, "q0")
 
 
@@ -833,6 +834,7 @@ def constraint_jacobian(model, q, constraints):
     floating base the first 6 columns are per unit base body twist (omega_b, v_b).
     Targets do not enter A, so None targets are simply bound at q.
     """
+    _args.check_model(model, "constraint_jacobian")
     return _terms(model, q, None, constraints, "q", "constraint_jacobian")[0]
 
 
@@ -846,6 +848,7 @@ def constraint_drift(model, q, qd, constraints):
     body twist); constraints: one constraint object or a sequence. Targets do not enter, so
     None targets are bound at q.
     """
+    _args.check_model(model, "constraint_drift")
     return _terms(model, q, qd, constraints, "q", "constraint_drift")[1]
 
 
@@ -858,6 +861,7 @@ def constraint_error(model, q, constraints, q_bound=None):
     q_bound: (nq,) the configuration at which a None target / offset / T_ab / q_ref is bound.
     A None default without q_bound raises ValueError naming the constraint and the field.
     """
+    _args.check_model(model, "constraint_error")
     return _terms(model, q, None, constraints, q_bound, "constraint_error")[2]
 
 
@@ -884,6 +888,7 @@ def constrained_forward_dynamics(
     Raises SingularMassMatrixError when M is singular.
     """
     what = "constrained_forward_dynamics"
+    _args.check_model(model, what)
     if (constraints is None) == (A is None):
         raise ValueError(
             f"{what}: give exactly one of `constraints` (constraint objects) and `A` (a (k, nv) "
@@ -965,6 +970,7 @@ def constraint_projection(model, q, A):
     rank-deficient A, (A M^-1 A^T)^+ is the pseudo-inverse (module docstring).
     """
     what = "constraint_projection"
+    _args.check_model(model, what)
     q = _configuration(model, q, "q", what)
     return _projection(model, q, _matrix_A(model, A, what), what)[0]
 
@@ -983,6 +989,7 @@ def constrained_inverse_dynamics(model, q, qd, qdd, A, lam=None, gravity=None):
     constrained_forward_dynamics; gravity: optional (3,) world-frame gravity (m/s^2).
     """
     what = "constrained_inverse_dynamics"
+    _args.check_model(model, what)
     q = _configuration(model, q, "q", what)
     qd = _state(model, qd, "qd", what)
     qdd = _state(model, qdd, "qdd", what)
@@ -1019,6 +1026,7 @@ def constraint_wrench(model, q, frame, A, lam):
     invertible at q (a singular configuration), saying so.
     """
     what = "constraint_wrench"
+    _args.check_model(model, what)
     q = _configuration(model, q, "q", what)
     A = _matrix_A(model, A, what)
     lam = _vector_k(lam, A.shape[0], "lam", what)

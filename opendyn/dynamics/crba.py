@@ -117,6 +117,7 @@ def mass_matrix(model, q):
     Units: kg m^2 (rotation-rotation), kg m (mixed), kg (translation-translation); a floating
     base's block is the spatial inertia of the whole robot in the base frame.
     """
+    _args.check_model(model, "mass_matrix")
     if _args.is_single(model, q):
         M = np.empty(model._matrix_shape)
         status = crba_kernel(model._ibuf, model._fbuf, q, M)

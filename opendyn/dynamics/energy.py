@@ -162,6 +162,7 @@ def energies(model, q, qd, gravity=None, what="energies"):
 
 def kinetic_energy(model, q, qd):
     """K = 1/2 qd^T M(q) qd (J): float, or (N,) for a batch of states (q (N, nq), qd (N, nv))."""
+    _args.check_model(model, "kinetic_energy")
     return energies(model, q, qd, what="kinetic_energy")[0]
 
 
@@ -170,5 +171,6 @@ def potential_energy(model, q, gravity=None):
 
     gravity: optional (3,) world-frame vector (m/s^2), default model.gravity; dU/dq = g(q).
     """
+    _args.check_model(model, "potential_energy")
     q = _args.as_q(model, q)
     return energies(model, q, np.zeros(q.shape[:-1] + (model.nv,)), gravity, "potential_energy")[1]

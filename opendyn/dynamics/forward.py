@@ -141,6 +141,7 @@ def forward_dynamics(model, q, qd, tau, f_tip=None, gravity=None, method="aba"):
     Raises SingularMassMatrixError (a ValueError) naming every joint that moves nothing with
     mass or inertia (or the joints whose combined motion moves none) when M(q) is singular.
     """
+    _args.check_model(model, "forward_dynamics")
     aba, crba, newton_euler = method_switches(model, method)
     if _args.is_single(model, q, qd, tau):
         qdd = np.empty(model._vector_shape)

@@ -187,6 +187,7 @@ def frame_pose(model, q, frame):
     q: (nq,) or (N, nq) -> (4, 4) or (N, 4, 4); translation in metres.
     Raises KeyError naming the frame if it is not a frame of the model.
     """
+    _args.check_model(model, "frame_pose")
     if not _args.is_single(model, q):
         q = _args.as_q(model, q)
     body, T_bf = _frame(model, frame)
@@ -212,6 +213,7 @@ def jacobian(model, q, frame, expressed_in="space"):
     expressed_in="body":  J_b, the twist in the frame's own coordinates (MR eq. 5.18);
     J_s = Ad_{T_sf} J_b. q: (nq,) or (N, nq) -> (6, nv) or (N, 6, nv).
     """
+    _args.check_model(model, "jacobian")
     if expressed_in not in ("space", "body"):
         raise ValueError(f"jacobian: expressed_in must be 'space' or 'body', got {expressed_in!r}")
     if not _args.is_single(model, q):

@@ -181,6 +181,7 @@ def inverse_dynamics(model, q, qd, qdd, f_tip=None, gravity=None):
     Returns tau, (nv,) or (N, nv): joint torques (N m) or forces (N), after the wrench
     (m_b, f_b) on a floating base in its own frame.
     """
+    _args.check_model(model, "inverse_dynamics")
     if gravity is None and f_tip is None and _args.is_single(model, q, qd, qdd):
         # the common call, with nothing to convert: straight to the kernel
         tau = np.empty(model._vector_shape)
@@ -208,6 +209,7 @@ def gravity_forces(model, q, gravity=None):
     q: (nq,) or (N, nq); gravity: optional (3,) world-frame vector (m/s^2).
     Returns (nv,) or (N, nv).
     """
+    _args.check_model(model, "gravity_forces")
     q, zero = _zeros_like_state(model, q)
     return run_rnea(model, q, zero, zero, None, gravity, "gravity_forces")
 
@@ -217,6 +219,7 @@ def coriolis_forces(model, q, qd):
 
     q, qd: (nq,) and (nv,), or (N, nq) and (N, nv). Returns (nv,) or (N, nv).
     """
+    _args.check_model(model, "coriolis_forces")
     q, zero = _zeros_like_state(model, q)
     return run_rnea(model, q, qd, zero, None, _NO_GRAVITY, "coriolis_forces")
 
@@ -227,5 +230,6 @@ def bias_forces(model, q, qd, gravity=None):
     q, qd: (nq,) and (nv,), or batches; gravity: optional (3,) world-frame vector. Returns (nv,)
     or (N, nv).
     """
+    _args.check_model(model, "bias_forces")
     q, zero = _zeros_like_state(model, q)
     return run_rnea(model, q, qd, zero, None, gravity, "bias_forces")

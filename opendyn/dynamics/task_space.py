@@ -71,6 +71,7 @@ def task_space_mass_matrix(model, q, frame, damping=0.0):
       ill-conditioned (fewer than 6 joints, or a singular configuration); damping > 0 returns
       the damped (J_b M^-1 J_b^T + damping I)^-1, finite everywhere.
     """
+    _args.check_model(model, "task_space_mass_matrix")
     return _task_space(model, q, frame, damping, "task_space_mass_matrix")[0]
 
 
@@ -80,6 +81,7 @@ def frame_acceleration(model, q, qd, qdd, frame):
 
     q, qd, qdd: (nv,) single states; frame: a frame name.
     """
+    _args.check_model(model, "frame_acceleration")
     (q, qd, qdd), batch = _args.as_states(model, q, ("qd", qd), ("qdd", qdd))
     if batch:
         raise ValueError("frame_acceleration: q, qd, qdd must be single states (nv,)")
@@ -103,6 +105,7 @@ def task_space_bias(model, q, qd, frame, gravity=None):
 
     Raises SingularTaskSpaceError where Lambda is undefined (see task_space_mass_matrix).
     """
+    _args.check_model(model, "task_space_bias")
     Lambda, J_b, M_chol = _task_space(model, q, frame, 0.0, "task_space_bias")
     h = bias_forces(model, q, qd, gravity)
     Jdot_qd = frame_acceleration(model, q, qd, np.zeros(model.nv), frame)
