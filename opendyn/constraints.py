@@ -26,7 +26,7 @@ frame b relative to where it should be; d/dt phi = A qd where phi = 0.
 A target, offset, pose or reference configuration left None is bound at the configuration the
 constraint is bound at: `opendyn.dynamics.constraints.constraint_table(model, constraints, q0)`
 resolves it at q0. Each class validates its fields when built and raises ValueError naming the
-class and the field.
+class and the field (TypeError for a field that is not numbers: text, booleans, complex).
 """
 
 from __future__ import annotations
@@ -34,6 +34,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+
+from .dynamics._args import as_float_array
 
 # kinds, as in the rows of the compiled constraint table (column 0)
 POINT_TO_WORLD = 0
@@ -59,8 +61,8 @@ def _vector(cls, field, value, size=3):
     """value as a tuple of `size` finite floats; size None: any number of them, at least one
     (a configuration, checked against the model when bound)."""
     try:
-        x = np.asarray(value, dtype=np.float64)
-    except (TypeError, ValueError):
+        x = as_float_array(value, f"{cls.__name__}: {field}")
+    except ValueError:
         count = "numbers" if size is None else "a number" if size == 1 else f"{size} numbers"
         _fail(cls, field, f"must be {count}, got {value!r}")
     if size is None:
@@ -76,8 +78,8 @@ def _vector(cls, field, value, size=3):
 def _transform(cls, field, value):
     """value as a (4, 4) tuple of tuples: a rigid transform [[R, p], [0, 0, 0, 1]]."""
     try:
-        T = np.asarray(value, dtype=np.float64)
-    except (TypeError, ValueError):
+        T = as_float_array(value, f"{cls.__name__}: {field}")
+    except ValueError:
         _fail(cls, field, f"must be a (4, 4) homogeneous transform, got {value!r}")
     if T.shape != (4, 4):
         _fail(cls, field, f"must be a (4, 4) homogeneous transform, got shape {T.shape}")
@@ -241,8 +243,8 @@ class JointCoupling:
     def __post_init__(self):
         cls = type(self)
         try:
-            C = np.asarray(self.A, dtype=np.float64)
-        except (TypeError, ValueError):
+            C = as_float_array(self.A, f"{cls.__name__}: A")
+        except ValueError:
             _fail(cls, "A", f"must be a (k, nv) matrix of numbers, got {self.A!r}")
         if C.ndim == 1 and C.size:
             C = C[None]

@@ -43,17 +43,18 @@ def states(ur5):
 
 @pytest.mark.parametrize("name", STATE_FUNCTIONS)
 @pytest.mark.parametrize(
-    "bad, message",
+    "bad, error, message",
     [
-        (np.zeros(5), "shape"),
-        (np.zeros((2, 3, 6)), "shape"),
-        ("abc", "array of numbers"),
-        (np.r_[0, 0, np.nan, 0, 0, 0], "finite"),
-        (np.r_[0, np.inf, 0, 0, 0, 0], "finite"),
+        (np.zeros(5), ValueError, "shape"),
+        (np.zeros((2, 3, 6)), ValueError, "shape"),
+        ([[0.0] * 6, [0.0] * 5], ValueError, "array of numbers"),
+        ("abc", TypeError, "array of numbers"),
+        (np.r_[0, 0, np.nan, 0, 0, 0], ValueError, "finite"),
+        (np.r_[0, np.inf, 0, 0, 0, 0], ValueError, "finite"),
     ],
 )
-def test_bad_state_raises_value_error_naming_the_argument(ur5, name, bad, message):
-    with pytest.raises(ValueError, match=message) as info:
+def test_bad_state_raises_an_error_naming_the_argument(ur5, name, bad, error, message):
+    with pytest.raises(error, match=message) as info:
         STATE_FUNCTIONS[name](ur5, bad)
     assert "q" in str(info.value)
 

@@ -200,3 +200,90 @@ def test_simulate_with_a_scene_name_loads_that_scene():
         od.simulate(od.load_urdf("ur5"))
     with pytest.raises(TypeError, match="scene must be an opendyn Scene.*got NoneType"):
         od.simulate(None)
+
+
+def bad_versions(good):
+    """The same numbers as `good` as complex numbers (imaginary part 0), text, text mixed in
+    with numbers, booleans and Python objects: (kind named in the error, value)."""
+    a = np.asarray(good, dtype=np.float64)
+    mixed = np.asarray(a, dtype=object)
+    mixed.flat[0] = str(mixed.flat[0])
+    return [
+        ("complex numbers", a + 0j),
+        ("text", a.astype(str).tolist()),
+        ("text", mixed.tolist()),
+        ("booleans", a != 0),
+        ("Python objects", np.asarray(a, dtype=object)),
+    ]
+
+
+W = np.array([0.1, 0.2, 0.3, 1.0, -2.0, 3.0])
+G3 = np.array([0.0, 0.0, -9.81])
+ARRAY_ARGUMENTS = {  # (function, argument): (its good value, a call with that argument replaced)
+    ("inverse_dynamics", "q"): (Q, lambda m, x: od.inverse_dynamics(m, x, Q, Q)),
+    ("inverse_dynamics", "qd"): (Q, lambda m, x: od.inverse_dynamics(m, Q, x, Q)),
+    ("inverse_dynamics", "qdd"): (Q, lambda m, x: od.inverse_dynamics(m, Q, Q, x)),
+    ("inverse_dynamics", "gravity"): (G3, lambda m, x: od.inverse_dynamics(m, Q, Q, Q, gravity=x)),
+    ("inverse_dynamics", "f_tip['tool0']"): (
+        W, lambda m, x: od.inverse_dynamics(m, Q, Q, Q, f_tip={"tool0": x})
+    ),
+    ("mass_matrix", "q"): (Q, lambda m, x: od.mass_matrix(m, x)),
+    ("gravity_forces", "gravity"): (G3, lambda m, x: od.gravity_forces(m, Q, x)),
+    ("coriolis_forces", "qd"): (Q, lambda m, x: od.coriolis_forces(m, Q, x)),
+    ("bias_forces", "qd"): (Q, lambda m, x: od.bias_forces(m, Q, x)),
+    ("coriolis_matrix", "qd"): (Q, lambda m, x: od.coriolis_matrix(m, Q, x)),
+    ("christoffel_symbols", "q"): (Q, lambda m, x: od.christoffel_symbols(m, x)),
+    ("forward_dynamics", "tau"): (Q, lambda m, x: od.forward_dynamics(m, Q, Q, x)),
+    ("forward_dynamics", "gravity"): (G3, lambda m, x: od.forward_dynamics(m, Q, Q, Q, gravity=x)),
+    ("frame_pose", "q"): (Q, lambda m, x: od.frame_pose(m, x, "tool0")),
+    ("jacobian", "q"): (Q, lambda m, x: od.jacobian(m, x, "tool0")),
+    ("kinetic_energy", "qd"): (Q, lambda m, x: od.kinetic_energy(m, Q, x)),
+    ("potential_energy", "gravity"): (G3, lambda m, x: od.potential_energy(m, Q, x)),
+    ("task_space_mass_matrix", "damping"): (
+        0.1, lambda m, x: od.task_space_mass_matrix(m, Q, "tool0", x)
+    ),
+    ("task_space_bias", "qd"): (Q, lambda m, x: od.task_space_bias(m, Q, x, "tool0")),
+    ("frame_acceleration", "qdd"): (Q, lambda m, x: od.frame_acceleration(m, Q, Q, x, "tool0")),
+    ("constraint_jacobian", "q"): (Q, lambda m, x: od.constraint_jacobian(m, x, POINT)),
+    ("constraint_drift", "qd"): (Q, lambda m, x: od.constraint_drift(m, Q, x, POINT)),
+    ("constraint_error", "q_bound"): (Q, lambda m, x: od.constraint_error(m, Q, POINT, x)),
+    ("constrained_forward_dynamics", "tau"): (
+        Q, lambda m, x: od.constrained_forward_dynamics(m, Q, Q, x, POINT)
+    ),
+    ("constrained_forward_dynamics", "A"): (
+        A_ROW, lambda m, x: od.constrained_forward_dynamics(m, Q, Q, Q, A=x, Adot_qd=[0.0])
+    ),
+    ("constrained_forward_dynamics", "Adot_qd"): (
+        [0.0], lambda m, x: od.constrained_forward_dynamics(m, Q, Q, Q, A=A_ROW, Adot_qd=x)
+    ),
+    ("constrained_inverse_dynamics", "lam"): (
+        [1.0], lambda m, x: od.constrained_inverse_dynamics(m, Q, Q, Q, A_ROW, x)
+    ),
+    ("constraint_projection", "A"): (A_ROW, lambda m, x: od.constraint_projection(m, Q, x)),
+    ("constraint_wrench", "lam"): (
+        [1.0], lambda m, x: od.constraint_wrench(m, Q, "tool0", A_ROW, x)
+    ),
+    ("integrate", "v"): (Q, lambda m, x: od.integrate(m, Q, x, 0.1)),
+    ("integrate", "dt"): (0.1, lambda m, x: od.integrate(m, Q, Q, x)),
+    ("difference", "q1"): (Q, lambda m, x: od.difference(m, Q, x)),
+    ("normalize", "q"): (Q, lambda m, x: od.normalize(m, x)),
+    ("PointToWorld", "target"): (G3, lambda m, x: od.PointToWorld("tool0", target=x)),
+    ("PointOnPlane", "normal"): (G3, lambda m, x: od.PointOnPlane("tool0", normal=x)),
+    ("PointOnPlane", "offset"): (0.5, lambda m, x: od.PointOnPlane("tool0", G3, offset=x)),
+    ("PointToPoint", "point_b"): (G3, lambda m, x: od.PointToPoint("tool0", "base", point_b=x)),
+    ("FixedPose", "T_ab"): (np.eye(4), lambda m, x: od.FixedPose("tool0", "base", T_ab=x)),
+    ("JointCoupling", "A"): (A_ROW, lambda m, x: od.JointCoupling(x)),
+}
+
+
+@pytest.mark.parametrize("function, argument", ARRAY_ARGUMENTS)
+def test_complex_string_bool_object_arrays_are_a_type_error_naming_the_argument(
+    ur5, function, argument
+):
+    good, call = ARRAY_ARGUMENTS[function, argument]
+    call(ur5, good)
+    for found, bad in bad_versions(good):
+        with pytest.raises(TypeError) as info:
+            call(ur5, bad)
+        message = str(info.value)
+        assert f"{argument} must be " in message and f"got {found} (dtype" in message, message

@@ -1,9 +1,14 @@
-"""Argument checking shared by the public dynamics functions: states, gravity, f_tip.
+"""Argument checking shared by the public dynamics functions: the model, states, gravity,
+f_tip and any other array or number.
 
-A configuration is a (nq,) vector or a batch (N, nq), a velocity-like argument (qd, qdd, tau) a
-(nv,) vector or a batch (N, nv); anything else raises a ValueError that names the argument. Gravity and f_tip reach the kernels as one array of external loads.
-Finiteness is checked inside the compiled kernels (it costs nothing there)
-and reported through a status code that `raise_status` turns into the same kind of error.
+The model must be a Model, and every array argument must hold real numbers (integers or
+floats); anything else (None or a robot's name for a model; booleans, complex numbers, text or
+objects for an array) is a TypeError that names the argument. A configuration is a (nq,)
+vector or a batch (N, nq), a velocity-like argument (qd, qdd, tau) a (nv,) vector or a batch
+(N, nv); any other shape raises a ValueError that names the argument. Gravity and f_tip reach
+the kernels as one array of external loads. Finiteness is checked inside the compiled kernels
+(it costs nothing there) and reported through a status code that `raise_status` turns into
+the same kind of error.
 """
 
 from __future__ import annotations
@@ -17,6 +22,17 @@ from ..spatial import angular, linear
 from ..status import NOT_FINITE_ARGUMENT, Status, decode
 
 F64 = np.dtype(np.float64)
+# what an array holds, by numpy dtype kind, when it is not real numbers (kinds i, u, f)
+NOT_NUMBERS = {
+    "b": "booleans",
+    "c": "complex numbers",
+    "U": "text",
+    "S": "bytes",
+    "O": "Python objects",
+    "M": "dates",
+    "m": "time spans",
+    "V": "raw records",
+}
 
 
 def check_model(model, what):
@@ -41,6 +57,35 @@ def _short_repr(value, limit=40):
     return text if len(text) <= limit else text[: limit - 3] + "..."
 
 
+def as_float_array(x, name, expected="an array of numbers (integers or floats)"):
+    """x as a float64 array (no copy when it is one already). Its entries must be real
+    numbers, integers or floats: booleans, complex numbers, text (['0.3', '-0.2']) or objects
+    are a TypeError naming `name`, what was `expected` and what was found, never converted; a
+    ragged nesting of lists is a ValueError."""
+    try:
+        a = np.asarray(x)
+    except (TypeError, ValueError):
+        raise ValueError(
+            f"{name} must be an array of numbers, got {type(x).__name__} {_short_repr(x)} "
+            "(rows of different lengths?)"
+        ) from None
+    if a.dtype.kind not in "iuf":
+        found = NOT_NUMBERS.get(a.dtype.kind, "something else")
+        raise TypeError(
+            f"{name} must be {expected}, got {found} (dtype {a.dtype}): {_short_repr(x)}"
+        )
+    return a.astype(np.float64, copy=False)
+
+
+def as_real(x, name):
+    """x as a float: a real number (an int, a float or a 0-d array of one), else a TypeError
+    (or, for an array of several, a ValueError) naming `name`."""
+    a = as_float_array(x, name, "a real number (an int or a float)")
+    if a.ndim != 0:
+        raise ValueError(f"{name} must be a single number, got shape {a.shape}")
+    return float(a)
+
+
 def is_single(model, q, v=None, a=None):
     """True when q is a float64 (nq,) array and v, a (when given) float64 (nv,) arrays: the
     fast path, no conversion. Written out rather than looped: it runs on every call."""
@@ -57,13 +102,7 @@ def as_state(model, x, name, n=None):
     """x as a writeable C-contiguous float64 array of shape (n,) or (N, n); n = nv unless
     given (model.nq for a configuration: see as_q)."""
     n = model.nv if n is None else n
-    try:
-        x = np.ascontiguousarray(x, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise ValueError(
-            f"{name} must be an array of numbers of shape ({n},) or (N, {n}), got "
-            f"{type(x).__name__}"
-        ) from None
+    x = np.ascontiguousarray(as_float_array(x, name))
     if x.ndim not in (1, 2) or x.shape[-1] != n:
         sizes = f"nq={model.nq}" if n == model.nq != model.nv else f"nv={model.nv}"
         raise ValueError(
@@ -100,7 +139,7 @@ def as_gravity(model, gravity):
     """The (3,) world-frame gravity vector: the model's default, or the override."""
     if gravity is None:
         return model._gravity
-    g = np.array(gravity, dtype=np.float64)  # a writeable copy: one array type for the kernels
+    g = np.array(as_float_array(gravity, "gravity"))  # a writeable copy: one type for the kernels
     if g.shape != (3,):
         raise ValueError(f"gravity must be a 3-vector (m/s^2, world frame), got shape {g.shape}")
     if not np.all(np.isfinite(g)):
@@ -135,7 +174,7 @@ def loads(model, gravity, f_tip, n_states=None):
     out[..., 0, :] = dV_0
     for frame, F in f_tip.items():
         k = model.frame_index(frame)
-        F = np.asarray(F, dtype=np.float64)
+        F = as_float_array(F, f"f_tip[{frame!r}]")
         if F.shape != (6,) and not (per_state and F.shape == (n_states, 6)):
             want = "(6,)" if n_states is None else f"(6,) or ({n_states}, 6)"
             raise ValueError(

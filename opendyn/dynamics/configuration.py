@@ -89,7 +89,7 @@ def integrate(model, q, v, dt):
     _args.check_model(model, "integrate")
     q = _checked_q(model, q, "q", "integrate")
     (q, v), batch = _args.as_states(model, q, ("v", v))
-    dt = float(dt)
+    dt = _args.as_real(dt, "integrate: dt")
     if not np.isfinite(dt):
         raise ValueError(f"integrate: dt must be finite, got {dt}")
     if not np.all(np.isfinite(v)):

@@ -758,8 +758,8 @@ def _single(model, x, name, what, n):
     """x as a finite float64 (n,) array, or ValueError naming it."""
     try:
         x = _args.as_state(model, x, name, n)
-    except ValueError as e:
-        raise ValueError(f"{what}: {e}") from None
+    except (TypeError, ValueError) as e:
+        raise type(e)(f"{what}: {e}") from None
     if x.ndim != 1:
         raise ValueError(f"{what}: {name} must be a single state ({n},), got {x.shape}")
     if not np.all(np.isfinite(x)):
@@ -782,10 +782,7 @@ def _configuration(model, q, name, what):
 
 
 def _matrix_A(model, A, what):
-    try:
-        A = np.array(A, dtype=np.float64, ndmin=2)
-    except (TypeError, ValueError):
-        raise ValueError(f"{what}: A must be a (k, nv={model.nv}) matrix of numbers") from None
+    A = np.array(_args.as_float_array(A, f"{what}: A"), ndmin=2)
     if A.ndim != 2 or A.shape[1] != model.nv:
         raise ValueError(
             f"{what}: A must have shape (k, nv={model.nv}) for model {model.name!r}, "
@@ -797,10 +794,7 @@ def _matrix_A(model, A, what):
 
 
 def _vector_k(x, k, name, what):
-    try:
-        x = np.array(x, dtype=np.float64, ndmin=1)
-    except (TypeError, ValueError):
-        raise ValueError(f"{what}: {name} must be a ({k},) vector of numbers") from None
+    x = np.array(_args.as_float_array(x, f"{what}: {name}"), ndmin=1)
     if x.shape != (k,):
         raise ValueError(
             f"{what}: {name} must have shape ({k},), one entry per row of A, got shape {x.shape}"

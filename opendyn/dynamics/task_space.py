@@ -41,6 +41,7 @@ def _task_space(model, q, frame, damping, what):
     q = _args.as_q(model, q)
     if q.ndim != 1:
         raise ValueError(f"{what}: q must be a single configuration (nv,)")
+    damping = _args.as_real(damping, f"{what}: damping")
     if damping < 0 or not np.isfinite(damping):
         raise ValueError(f"{what}: damping must be finite and >= 0, got {damping}")
     J_b = jacobian(model, q, frame, expressed_in="body")
