@@ -7,7 +7,7 @@ world-frame vector applied as the base acceleration dV_0 = (0, -g).
 
 from ._kernel_cache import kernel_cache
 from .constraints import FixedPose, JointCoupling, PointOnPlane, PointToPoint, PointToWorld
-from .dynamics._args import SingularMassMatrixError
+from .dynamics._args import NonFiniteResultError, SingularMassMatrixError
 from .dynamics.christoffel import christoffel_symbols, coriolis_matrix
 from .dynamics.configuration import (
     difference,
@@ -85,6 +85,7 @@ __all__ = [
     "constraint_wrench",
     "FidelityReport",
     "Model",
+    "NonFiniteResultError",
     "SingularMassMatrixError",
     "SingularTaskSpaceError",
     "URDFError",

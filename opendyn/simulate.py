@@ -577,6 +577,8 @@ def failure_message(scene, table, status, t, steps, q, qd):
         Status.Q_NOT_FINITE: "the positions q became non-finite",
         Status.QD_NOT_FINITE: "the velocities qd became non-finite",
         Status.TAU_NOT_FINITE: "a generalized force became non-finite",
+        Status.RESULT_NOT_FINITE: "the dynamics overflowed float64 (a force or an acceleration "
+        "became inf or NaN at a finite state)",
         Status.DIVERGED: f"a joint velocity exceeded max_speed = {run.max_speed:g}",
     }.get(status, f"the dynamics failed ({status.name})")
     fastest = int(np.argmax(np.abs(qd))) if model.nv else 0

@@ -26,6 +26,7 @@ class Status(IntEnum):
     NO_CONVERGENCE = 7  # the symplectic Euler momentum update did not converge
     INTERRUPTED = 8  # Ctrl-C: the run stopped after its current chunk
     Q_NOT_UNIT_QUATERNION = 9  # a free joint's quaternion in q is not of unit norm
+    RESULT_NOT_FINITE = 10  # finite arguments, a result with inf or NaN: float64 overflowed
     SINGULAR = 100  # + k: nothing with mass or inertia moves with coordinate k
 
 

@@ -287,3 +287,93 @@ def test_complex_string_bool_object_arrays_are_a_type_error_naming_the_argument(
             call(ur5, bad)
         message = str(info.value)
         assert f"{argument} must be " in message and f"got {found} (dtype" in message, message
+
+
+BIG = np.full(6, 1e200)  # squares overflow float64 (they would be 1e400)
+HUGE = np.full(6, 1e308)  # anything added to or multiplied by it overflows
+OVERFLOWS = {  # finite arguments whose result overflows: (call, result name, likely cause)
+    "inverse_dynamics": (lambda m: od.inverse_dynamics(m, Q, BIG, Q), "tau", "qd up to 1e+200"),
+    "inverse_dynamics f_tip": (
+        lambda m: od.inverse_dynamics(m, Q, Q, Q, f_tip={"tool0": HUGE}), "tau", "f_tip up to"
+    ),
+    "inverse_dynamics batch": (
+        lambda m: od.inverse_dynamics(m, [Q, Q], [Q, BIG], Q), "tau", "qd up to 1e+200"
+    ),
+    "forward_dynamics aba": (lambda m: od.forward_dynamics(m, Q, Q, HUGE), "qdd", "tau up to"),
+    "forward_dynamics crba": (
+        lambda m: od.forward_dynamics(m, Q, Q, HUGE, method="crba"), "qdd", "tau up to"
+    ),
+    "forward_dynamics newton_euler": (
+        lambda m: od.forward_dynamics(m, Q, Q, HUGE, method="newton_euler"), "qdd", "tau up to"
+    ),
+    "forward_dynamics qd": (lambda m: od.forward_dynamics(m, Q, BIG, Q), "qdd", "qd up to"),
+    "forward_dynamics batch": (
+        lambda m: od.forward_dynamics(m, [Q, Q], Q, [Q, HUGE]), "qdd", "tau up to"
+    ),
+    "gravity_forces": (
+        lambda m: od.gravity_forces(m, Q, gravity=[0, 0, -1e308]), "g", "gravity up to"
+    ),
+    "coriolis_forces": (lambda m: od.coriolis_forces(m, Q, BIG), "c", "qd up to"),
+    "bias_forces": (lambda m: od.bias_forces(m, Q, BIG), "h", "qd up to"),
+    "coriolis_matrix": (lambda m: od.coriolis_matrix(m, Q, HUGE), "C", "qd up to"),
+    "kinetic_energy": (lambda m: od.kinetic_energy(m, Q, BIG), "K", "qd up to"),
+    "kinetic_energy batch": (lambda m: od.kinetic_energy(m, [Q, Q], [Q, BIG]), "K", "qd up to"),
+    "potential_energy": (
+        lambda m: od.potential_energy(m, Q, gravity=[0, 0, -1e308]), "U", "gravity up to"
+    ),
+    "frame_acceleration": (
+        lambda m: od.frame_acceleration(m, Q, BIG, Q, "tool0"), "dV_b", "qd up to"
+    ),
+    "constraint_drift": (lambda m: od.constraint_drift(m, Q, BIG, POINT), "Adot_qd", "qd up to"),
+    "constrained_forward_dynamics": (
+        lambda m: od.constrained_forward_dynamics(m, Q, Q, HUGE, POINT), "qdd", "tau up to"
+    ),
+    "constrained_forward_dynamics A": (
+        lambda m: od.constrained_forward_dynamics(m, Q, Q, HUGE, A=A_ROW, Adot_qd=[0.0]),
+        "qdd",
+        "tau up to",
+    ),
+    "constrained_inverse_dynamics": (
+        lambda m: od.constrained_inverse_dynamics(m, Q, BIG, Q, A_ROW), "tau", "qd up to"
+    ),
+    "constraint_wrench": (
+        lambda m: od.constraint_wrench(m, Q, "tool0", 1e300 * A_ROW, [1e308]), "F_tip", "lam up to"
+    ),
+    "integrate": (lambda m: od.integrate(m, Q, HUGE, 10.0), "q", "v up to"),
+    "difference": (lambda m: od.difference(m, -HUGE, HUGE), "v", "q0 up to 1e+308"),
+}
+
+
+@pytest.mark.parametrize("case", OVERFLOWS)
+def test_overflowing_result_is_an_error_naming_the_result(ur5, case):
+    call, result, cause = OVERFLOWS[case]
+    function = case.split()[0]
+    with np.errstate(over="ignore", invalid="ignore"):
+        with pytest.raises(od.NonFiniteResultError) as info:
+            call(ur5)
+    message = str(info.value)
+    assert message.startswith(function) and f"the result {result} overflowed" in message, message
+    assert f"likely cause: {cause}" in message, message
+    assert info.value.result == result and isinstance(info.value, ValueError)
+
+
+def test_overflow_on_a_floating_base_is_an_error_naming_the_result(solo):
+    q = od.neutral(solo)
+    q[:3] = 1e160  # the base position enters the Christoffel symbols squared
+    with pytest.raises(od.NonFiniteResultError, match="result Gamma overflowed.*q up to 1e"):
+        od.christoffel_symbols(solo, q)
+    v = np.full(solo.nv, 1e308)
+    with pytest.raises(od.NonFiniteResultError, match="integrate: the result q overflowed"):
+        od.integrate(solo, od.neutral(solo), v, 10.0)
+
+
+def test_a_simulation_whose_dynamics_overflow_stops_saying_so():
+    data = {
+        "robot": {"name": "double_pendulum"},
+        "initial": {"qd": [1e200, 0.0]},
+        "effects": {"gravity": True},
+        "run": {"max_speed": 1e308, "duration": 0.01},
+    }
+    traj = od.simulate(od.scene_from_dict(data), raise_on_failure=False)
+    assert not traj.complete and traj.t[-1] == 0.0
+    assert "the dynamics overflowed float64" in traj.message

@@ -8,7 +8,9 @@ vector or a batch (N, nq), a velocity-like argument (qd, qdd, tau) a (nv,) vecto
 (N, nv); any other shape raises a ValueError that names the argument. Gravity and f_tip reach
 the kernels as one array of external loads. Finiteness is checked inside the compiled kernels
 (it costs nothing there) and reported through a status code that `raise_status` turns into
-the same kind of error.
+the same kind of error; so is a result that overflowed float64 although every argument was
+finite (RESULT_NOT_FINITE), which `raise_status` and `check_result` turn into a
+NonFiniteResultError naming the result and the likely cause.
 """
 
 from __future__ import annotations
@@ -193,17 +195,31 @@ def loads(model, gravity, f_tip, n_states=None):
     return out if per_state or n_states is None else out[None]
 
 
-def raise_status(status, model, what, q=None):
-    """Turn a kernel's failing Status into a ValueError naming the argument or the joints.
-    q: the configuration, for the SINGULAR status of a kernel that solves with M(q)."""
+def raise_status(status, model, what, result, arguments):
+    """Turn a kernel's failing Status into a ValueError naming the argument, the joints or,
+    for RESULT_NOT_FINITE, the result (its name, e.g. "tau") and the likely cause among the
+    arguments ({name: value} of the call; its configuration "q" is what a SINGULAR status of
+    a kernel that solves with M(q) is explained at)."""
     status, _ = decode(status)
     if status in NOT_FINITE_ARGUMENT:
-        raise ValueError(f"{what}: {NOT_FINITE_ARGUMENT[status]} must be finite (it has NaN or inf)")
+        raise ValueError(
+            f"{what}: {NOT_FINITE_ARGUMENT[status]} must be finite (it has NaN or inf)"
+        )
+    if status == Status.RESULT_NOT_FINITE:
+        raise NonFiniteResultError(what, result, arguments)
     if status == Status.Q_NOT_UNIT_QUATERNION:
         raise ValueError(f"{what}: {quaternion_problem(model)}")
     if status == Status.SINGULAR:
-        raise SingularMassMatrixError(model, q, what)
+        raise SingularMassMatrixError(model, arguments["q"], what)
     raise RuntimeError(f"{what}: kernel failed with status {status.name}")
+
+
+def check_result(x, what, result, arguments):
+    """x, a result computed outside the kernels (a number or an array), when it is finite;
+    else NonFiniteResultError as raise_status."""
+    if not np.isfinite(x).all():
+        raise NonFiniteResultError(what, result, arguments)
+    return x
 
 
 def quaternion_problem(model, name="q"):
@@ -222,15 +238,47 @@ def quaternion_problem(model, name="q"):
     )
 
 
-def raise_batch_status(statuses, model, what, q=None):
-    """The first failing state of a batch, named by its row; q: the batch's configurations
-    (N, nq), for the SINGULAR status."""
+def raise_batch_status(statuses, model, what, result, arguments):
+    """The first failing state of a batch, named by its row, as raise_status with that row of
+    every (N, n) argument."""
     bad = np.flatnonzero(statuses)
     if bad.size:
-        k = bad[0]
-        raise_status(
-            int(statuses[k]), model, f"{what} (state {k} of the batch)", None if q is None else q[k]
+        k, n = bad[0], len(statuses)
+        row = {
+            name: x[k] if isinstance(x, np.ndarray) and x.ndim == 2 and len(x) == n else x
+            for name, x in arguments.items()
+        }
+        raise_status(int(statuses[k]), model, f"{what} (state {k} of the batch)", result, row)
+
+
+class NonFiniteResultError(ValueError):
+    """Finite arguments whose result overflowed float64 to inf or NaN: some number is too large
+    for double precision (it ends near 1.8e308, and the dynamics multiply numbers together).
+    A ValueError, as for arguments that are not finite: the cure is in the arguments' values.
+    ``result`` names the result ("tau", "qdd", "M", ...)."""
+
+    def __init__(self, what, result, arguments):
+        self.result = result
+        sizes = {name: _largest(value) for name, value in arguments.items()}
+        largest = max(sizes, key=sizes.get, default=None)
+        if largest is not None and sizes[largest] >= 1e50:
+            cause = f"{largest} up to {sizes[largest]:.3g} in magnitude"
+        else:
+            cause = "the model's own numbers (masses, inertias, lengths) are too large"
+        super().__init__(
+            f"{what}: the result {result} overflowed float64 (it has inf or NaN) although "
+            f"every argument is finite; likely cause: {cause}"
         )
+
+
+def _largest(value):
+    """The largest magnitude in an argument: an array, a number, or a dict of arrays (f_tip)."""
+    if value is None:
+        return 0.0
+    if isinstance(value, dict):
+        return max((_largest(v) for v in value.values()), default=0.0)
+    a = np.abs(np.asarray(value, dtype=np.float64))
+    return float(a.max()) if a.size else 0.0
 
 
 class SingularMassMatrixError(ValueError):

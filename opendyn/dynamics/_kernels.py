@@ -19,6 +19,7 @@ from numba import njit
 
 from .._kernel_cache import CACHING
 from ..model import FLOAT_AT, INT_AT, INT_HEADER
+from ..status import Status
 
 JIT = dict(cache=CACHING)
 # batch loops release the GIL so that threads run them in parallel (see run_rows); single-state
@@ -158,6 +159,13 @@ def all_finite(x):
         if not np.isfinite(x[k]):
             return False
     return True
+
+
+@njit(**JIT)
+def result_status(x):
+    """OK when every entry of the C-contiguous result x is finite, else RESULT_NOT_FINITE: a
+    kernel's last check, after its finite arguments (float64 overflowed on the way)."""
+    return Status.OK.value if all_finite(x.reshape(x.size)) else Status.RESULT_NOT_FINITE.value
 
 
 @njit(**INLINE)

@@ -63,6 +63,7 @@ from ._kernels import (
     dot6,
     fill,
     mat6_vec,
+    result_status,
     run_rows,
     spatial_inertias,
     tree,
@@ -236,7 +237,7 @@ def workspace(nb):
 @njit(**JIT)
 def coriolis_matrix_kernel(ibuf, fbuf, q, v, C):
     """C (nv, nv) <- C(q, v) in O(n d). Returns a Status: OK, Q_NOT_FINITE,
-    Q_NOT_UNIT_QUATERNION or QD_NOT_FINITE."""
+    Q_NOT_UNIT_QUATERNION, QD_NOT_FINITE or RESULT_NOT_FINITE."""
     status = configuration_status(ibuf, q)
     if status:
         return status
@@ -247,13 +248,13 @@ def coriolis_matrix_kernel(ibuf, fbuf, q, v, C):
     space_axes_and_inertias(ibuf, fbuf, q, S_s, G_s, Gc)
     velocity_terms(ibuf, fbuf, v, S_s, G_s, V_s, dS, Bc, idle)
     assemble(ibuf, fbuf, S_s, Gc, dS, Bc, idle, C)
-    return Status.OK.value
+    return result_status(C)
 
 
 @njit(**JIT)
 def christoffel_kernel(ibuf, fbuf, q, Gamma):
     """Gamma (nv, nv, nv) <- Gamma[:, j, k] = 1/2 (C(e_k)[:, j] + C(e_j)[:, k]) at q.
-    Returns a Status: OK, Q_NOT_FINITE or Q_NOT_UNIT_QUATERNION."""
+    Returns a Status: OK, Q_NOT_FINITE, Q_NOT_UNIT_QUATERNION or RESULT_NOT_FINITE."""
     status = configuration_status(ibuf, q)
     if status:
         return status
@@ -272,7 +273,7 @@ def christoffel_kernel(ibuf, fbuf, q, Gamma):
         for j in range(nv):
             for k in range(nv):
                 Gamma[i, j, k] = 0.5 * (C_e[k, i, j] + C_e[j, i, k])
-    return Status.OK.value
+    return result_status(Gamma)
 
 
 @njit(**BATCH)
@@ -295,6 +296,7 @@ def _run(model, q, v, what):
     else:
         q = _args.as_q(model, q)
         batch = q.ndim == 2
+    result, arguments = ("C", {"q": q, "qd": v}) if matrix else ("Gamma", {"q": q})
     nv = model.nv
     if not batch:
         out = np.empty((nv, nv) if matrix else (nv, nv, nv))
@@ -304,7 +306,7 @@ def _run(model, q, v, what):
             else christoffel_kernel(model._ibuf, model._fbuf, q, out)
         )
         if status:
-            _args.raise_status(status, model, what)
+            _args.raise_status(status, model, what, result, arguments)
         return out
     n = q.shape[0]
     # C-contiguous rows out[n]: a strided view would make numba compile the kernel again
@@ -321,7 +323,7 @@ def _run(model, q, v, what):
         status,
         *((True, None) if matrix else (None, True)),
     )
-    _args.raise_batch_status(status, model, what)
+    _args.raise_batch_status(status, model, what, result, arguments)
     return out
 
 

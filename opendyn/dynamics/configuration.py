@@ -95,11 +95,12 @@ def integrate(model, q, v, dt):
     if not np.all(np.isfinite(v)):
         raise ValueError("integrate: v must be finite (it has NaN or inf)")
     if model.nq == model.nv:  # no free joint: q (+) v dt is q + v dt, nothing to compile
-        return q + v * dt
-    q_next = np.empty_like(q)
-    integrate_rows(model._ibuf, q if batch else q[None], v if batch else v[None], dt,
-                   q_next if batch else q_next[None])
-    return q_next
+        q_next = q + v * dt
+    else:
+        q_next = np.empty_like(q)
+        integrate_rows(model._ibuf, q if batch else q[None], v if batch else v[None], dt,
+                       q_next if batch else q_next[None])
+    return _args.check_result(q_next, "integrate", "q", {"q": q, "v": v, "dt": dt})
 
 
 def difference(model, q0, q1):
@@ -115,17 +116,17 @@ def difference(model, q0, q1):
     if q0.ndim == 2 and q1.ndim == 2 and len(q0) != len(q1) and 1 not in (len(q0), len(q1)):
         raise ValueError(f"difference: q0 and q1 have {len(q0)} and {len(q1)} states")
     if model.nq == model.nv:  # no free joint: q1 (-) q0 is q1 - q0
-        return q1 - q0
-    if q0.ndim == q1.ndim == 1:
+        v = q1 - q0
+    elif q0.ndim == q1.ndim == 1:
         v = np.empty(model.nv)
         difference_kernel(model._ibuf, q0, q1, v)
-        return v
-    q0, q1 = np.broadcast_arrays(np.atleast_2d(q0), np.atleast_2d(q1))
-    q0, q1 = np.ascontiguousarray(q0), np.ascontiguousarray(q1)
-    v = np.empty((q0.shape[0], model.nv))
-    for n in range(q0.shape[0]):
-        difference_kernel(model._ibuf, q0[n], q1[n], v[n])
-    return v
+    else:
+        q0, q1 = np.broadcast_arrays(np.atleast_2d(q0), np.atleast_2d(q1))
+        q0, q1 = np.ascontiguousarray(q0), np.ascontiguousarray(q1)
+        v = np.empty((q0.shape[0], model.nv))
+        for n in range(q0.shape[0]):
+            difference_kernel(model._ibuf, q0[n], q1[n], v[n])
+    return _args.check_result(v, "difference", "v", {"q0": q0, "q1": q1})
 
 
 def normalize(model, q):

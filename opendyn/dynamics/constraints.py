@@ -804,18 +804,23 @@ def _vector_k(x, k, name, what):
     return np.ascontiguousarray(x)
 
 
-def _terms(model, q, qd, constraints, q_bound, what):
+_TERMS = ("A", "Adot_qd", "phi")  # what constraint_terms_kernel computes, in its order
+
+
+def _term(model, q, qd, constraints, q_bound, what, term):
+    """One of the constraints' terms at (q, qd): "A", "Adot_qd" or "phi", checked finite."""
     q = _configuration(model, q, "q", what)
     qd = model._zero_v if qd is None else _state(model, qd, "qd", what)
     # A and Adot qd do not depend on targets: those two bind None defaults at q
     q0 = q if isinstance(q_bound, str) else q_bound
     rows, params = _table(model, constraints, q0, "q_bound")
     k = int(rows[:, 2].sum())
-    A, Adot_qd, phi = np.empty((k, model.nv)), np.empty(k), np.empty(k)
-    status = constraint_terms_kernel(model._ibuf, model._fbuf, rows, params, q, qd, A, Adot_qd, phi)
+    terms = np.empty((k, model.nv)), np.empty(k), np.empty(k)
+    status = constraint_terms_kernel(model._ibuf, model._fbuf, rows, params, q, qd, *terms)
+    arguments = {"q": q, "qd": qd, "q_bound": q0}
     if status:
-        _args.raise_status(status, model, what)
-    return A, Adot_qd, phi
+        _args.raise_status(status, model, what, term, arguments)
+    return _args.check_result(terms[_TERMS.index(term)], what, term, arguments)
 
 
 def constraint_jacobian(model, q, constraints):
@@ -829,7 +834,7 @@ def constraint_jacobian(model, q, constraints):
     Targets do not enter A, so None targets are simply bound at q.
     """
     _args.check_model(model, "constraint_jacobian")
-    return _terms(model, q, None, constraints, "q", "constraint_jacobian")[0]
+    return _term(model, q, None, constraints, "q", "constraint_jacobian", "A")
 
 
 def constraint_drift(model, q, qd, constraints):
@@ -843,7 +848,7 @@ def constraint_drift(model, q, qd, constraints):
     None targets are bound at q.
     """
     _args.check_model(model, "constraint_drift")
-    return _terms(model, q, qd, constraints, "q", "constraint_drift")[1]
+    return _term(model, q, qd, constraints, "q", "constraint_drift", "Adot_qd")
 
 
 def constraint_error(model, q, constraints, q_bound=None):
@@ -856,7 +861,7 @@ def constraint_error(model, q, constraints, q_bound=None):
     A None default without q_bound raises ValueError naming the constraint and the field.
     """
     _args.check_model(model, "constraint_error")
-    return _terms(model, q, None, constraints, q_bound, "constraint_error")[2]
+    return _term(model, q, None, constraints, q_bound, "constraint_error", "phi")
 
 
 def constrained_forward_dynamics(
@@ -914,20 +919,22 @@ def constrained_forward_dynamics(
             qdd,
             lam,
         )
-        if status:
-            _args.raise_status(status, model, what, q)
-        return qdd, lam
-    A = _matrix_A(model, A, what)
-    gamma = _vector_k(Adot_qd, A.shape[0], "Adot_qd", what)
-    rhs = np.empty(model.nv)
-    rnea_kernel(model._ibuf, model._fbuf, q, qd, model._zero_v, loads, rhs)
-    rhs = tau - rhs
-    M = mass_matrix(model, q)
-    qdd, lam = np.empty(model.nv), np.empty(A.shape[0])
-    status = constrained_solve_kernel(M, rhs, A, gamma, qdd, lam)
+    else:
+        A = _matrix_A(model, A, what)
+        gamma = _vector_k(Adot_qd, A.shape[0], "Adot_qd", what)
+        rhs = np.empty(model.nv)
+        rnea_kernel(model._ibuf, model._fbuf, q, qd, model._zero_v, loads, rhs)
+        rhs = tau - rhs
+        M = mass_matrix(model, q)
+        qdd, lam = np.empty(model.nv), np.empty(A.shape[0])
+        status = constrained_solve_kernel(M, rhs, A, gamma, qdd, lam)
+    arguments = {"q": q, "qd": qd, "tau": tau, "gravity": gravity, "f_tip": f_tip}
     if status:
-        _args.raise_status(status, model, what, q)
-    return qdd, lam
+        _args.raise_status(status, model, what, "qdd", arguments)
+    return (
+        _args.check_result(qdd, what, "qdd", arguments),
+        _args.check_result(lam, what, "lam", arguments),
+    )
 
 
 def _pseudo_inverse(G):
@@ -966,7 +973,8 @@ def constraint_projection(model, q, A):
     what = "constraint_projection"
     _args.check_model(model, what)
     q = _configuration(model, q, "q", what)
-    return _projection(model, q, _matrix_A(model, A, what), what)[0]
+    A = _matrix_A(model, A, what)
+    return _args.check_result(_projection(model, q, A, what)[0], what, "P", {"q": q, "A": A})
 
 
 def constrained_inverse_dynamics(model, q, qd, qdd, A, lam=None, gravity=None):
@@ -990,6 +998,7 @@ def constrained_inverse_dynamics(model, q, qd, qdd, A, lam=None, gravity=None):
     A = _matrix_A(model, A, what)
     if lam is not None:
         lam = _vector_k(lam, A.shape[0], "lam", what)
+    arguments = {"q": q, "qd": qd, "qdd": qdd, "A": A, "lam": lam, "gravity": gravity}
     tau_free = np.empty(model.nv)
     status = rnea_kernel(
         model._ibuf,
@@ -1001,13 +1010,13 @@ def constrained_inverse_dynamics(model, q, qd, qdd, A, lam=None, gravity=None):
         tau_free,
     )
     if status:
-        _args.raise_status(status, model, what)
+        _args.raise_status(status, model, what, "tau", arguments)
     P, G_pinv, M_inv = _projection(model, q, A, what)
     tau = P @ tau_free
     if lam is not None:
         lam_P = -G_pinv @ (A @ (M_inv @ tau_free))
         tau = tau + A.T @ (lam - lam_P)
-    return tau
+    return _args.check_result(tau, what, "tau", arguments)
 
 
 def constraint_wrench(model, q, frame, A, lam):
@@ -1036,7 +1045,8 @@ def constraint_wrench(model, q, frame, A, lam):
             f"{what}: J_b of frame {frame!r} is not invertible at this q (singular values "
             f"{sv}): the frame cannot move in every direction, so F_tip is not determined"
         )
-    return np.linalg.solve(J_b.T, A.T @ lam)
+    F_tip = np.linalg.solve(J_b.T, A.T @ lam)
+    return _args.check_result(F_tip, what, "F_tip", {"q": q, "A": A, "lam": lam})
 
 
 __all__ = [

@@ -21,6 +21,7 @@ from ._kernels import (
     JIT,
     add_rigid_inertia_to_parent,
     dot6,
+    result_status,
     rigid_inertia_times,
     rigid_inertias,
     run_rows,
@@ -28,14 +29,13 @@ from ._kernels import (
     wrench_to_parent,
     zero_matrix,
 )
-from ..status import Status
 from .joints import configuration_status, joint_transform, prepare_joint_transforms
 
 
 @njit(**JIT)
 def crba_kernel(ibuf, fbuf, q, M):
     """M (nv, nv) <- CRBA at one configuration q (nq,).
-    Returns a Status: OK, Q_NOT_FINITE or Q_NOT_UNIT_QUATERNION."""
+    Returns a Status: OK, Q_NOT_FINITE, Q_NOT_UNIT_QUATERNION or RESULT_NOT_FINITE."""
     status = configuration_status(ibuf, q)
     if status:
         return status
@@ -99,7 +99,7 @@ def crba_kernel(ibuf, fbuf, q, M):
                     m_ab = mult[i] * mult[j] * dot6(F, S[j, k2])
                     M[a, b + k2] += m_ab
                     M[b + k2, a] += m_ab
-    return Status.OK.value
+    return result_status(M)
 
 
 @njit(**BATCH)
@@ -122,7 +122,7 @@ def mass_matrix(model, q):
         M = np.empty(model._matrix_shape)
         status = crba_kernel(model._ibuf, model._fbuf, q, M)
         if status:
-            _args.raise_status(status, model, "mass_matrix")
+            _args.raise_status(status, model, "mass_matrix", "M", {"q": q})
         return M
     q = _args.as_q(model, q)
     if q.ndim == 1:
@@ -130,5 +130,5 @@ def mass_matrix(model, q):
     M = np.empty((q.shape[0], model.nv, model.nv))
     status = np.zeros(q.shape[0], dtype=np.int64)
     run_rows(crba_batch_kernel, q.shape[0], model._ibuf, model._fbuf, q, M, status)
-    _args.raise_batch_status(status, model, "mass_matrix")
+    _args.raise_batch_status(status, model, "mass_matrix", "M", {"q": q})
     return M

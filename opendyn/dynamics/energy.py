@@ -143,27 +143,31 @@ def energy_batch_kernel(ibuf, fbuf, q, qd, gravity, out, status, start, stop):
 
 def energies(model, q, qd, gravity=None, what="energies"):
     """(K, U): kinetic energy 1/2 qd^T M qd and potential energy -sum_i m_i g . c_i (J), each a
-    float, or (N,) arrays for batches (N, nq), (N, nv), by one compiled kernel. gravity: optional (3,)
-    world-frame vector (m/s^2); what: the function named in error messages."""
+    float, or (N,) arrays for batches (N, nq), (N, nv), by one compiled kernel. gravity:
+    optional (3,) world-frame vector (m/s^2); what: the function named in error messages.
+    An energy that overflows float64 is returned as it is (inf): a simulation records the
+    energies of its states with this; kinetic_energy and potential_energy refuse it."""
     (q, qd), batch = _args.as_states(model, q, ("qd", qd))
     g = _args.as_gravity(model, gravity)
+    arguments = {"q": q, "qd": qd, "gravity": gravity}
     if not batch:
         out = np.empty(2)
         status = energy_kernel(model._ibuf, model._fbuf, q, qd, g, out)
         if status:
-            _args.raise_status(status, model, what)
+            _args.raise_status(status, model, what, "(K, U)", arguments)
         return float(out[0]), float(out[1])
     out = np.empty((q.shape[0], 2))
     status = np.zeros(q.shape[0], dtype=np.int64)
     run_rows(energy_batch_kernel, q.shape[0], model._ibuf, model._fbuf, q, qd, g, out, status)
-    _args.raise_batch_status(status, model, what)
+    _args.raise_batch_status(status, model, what, "(K, U)", arguments)
     return out[:, 0], out[:, 1]
 
 
 def kinetic_energy(model, q, qd):
     """K = 1/2 qd^T M(q) qd (J): float, or (N,) for a batch of states (q (N, nq), qd (N, nv))."""
     _args.check_model(model, "kinetic_energy")
-    return energies(model, q, qd, what="kinetic_energy")[0]
+    K = energies(model, q, qd, what="kinetic_energy")[0]
+    return _args.check_result(K, "kinetic_energy", "K", {"q": q, "qd": qd})
 
 
 def potential_energy(model, q, gravity=None):
@@ -173,4 +177,6 @@ def potential_energy(model, q, gravity=None):
     """
     _args.check_model(model, "potential_energy")
     q = _args.as_q(model, q)
-    return energies(model, q, np.zeros(q.shape[:-1] + (model.nv,)), gravity, "potential_energy")[1]
+    zero = np.zeros(q.shape[:-1] + (model.nv,))
+    U = energies(model, q, zero, gravity, "potential_energy")[1]
+    return _args.check_result(U, "potential_energy", "U", {"q": q, "gravity": gravity})

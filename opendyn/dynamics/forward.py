@@ -13,7 +13,7 @@ import numpy as np
 from numba import njit
 
 from . import _args
-from ._kernels import BATCH, JIT, all_finite, run_rows
+from ._kernels import BATCH, JIT, all_finite, result_status, run_rows
 from .aba import aba_kernel
 from .cholesky import cholesky_solve
 from .crba import crba_kernel
@@ -73,13 +73,16 @@ def forward_kernel(ibuf, fbuf, q, qd, tau, loads, qdd, armature, aba, crba, newt
     """One state by the method the compile-time switches (aba, crba, newton_euler) name: one
     of them True, the others None (method_switches). numba drops the code behind a None
     argument when it compiles, so only the method asked for is compiled. armature (nv,)
-    rotor inertias on M's diagonal, or an empty array for none. Returns a Status."""
+    rotor inertias on M's diagonal, or an empty array for none. Returns a Status, the
+    method's or RESULT_NOT_FINITE (qdd overflowed)."""
     if aba is not None:
-        return aba_kernel(ibuf, fbuf, q, qd, tau, loads, qdd, armature)
+        status = aba_kernel(ibuf, fbuf, q, qd, tau, loads, qdd, armature)
+        return status if status else result_status(qdd)
     if crba is not None or newton_euler is not None:
-        return mass_matrix_solve(
+        status = mass_matrix_solve(
             ibuf, fbuf, q, qd, tau, loads, qdd, armature, crba, newton_euler
         )
+        return status if status else result_status(qdd)
     return Status.OK.value  # no method switched on: nothing to compile
 
 
@@ -161,7 +164,8 @@ def forward_dynamics(model, q, qd, tau, f_tip=None, gravity=None, method="aba"):
             newton_euler,
         )
         if status:
-            _args.raise_status(status, model, "forward_dynamics", q)
+            arguments = {"q": q, "qd": qd, "tau": tau, "gravity": gravity, "f_tip": f_tip}
+            _args.raise_status(status, model, "forward_dynamics", "qdd", arguments)
         return qdd
     (q, qd, tau), batch = _args.as_states(model, q, ("qd", qd), ("tau", tau))
     if not batch:
@@ -183,5 +187,6 @@ def forward_dynamics(model, q, qd, tau, f_tip=None, gravity=None, method="aba"):
         (aba, crba, newton_euler),
         status,
     )
-    _args.raise_batch_status(status, model, "forward_dynamics", q)
+    arguments = {"q": q, "qd": qd, "tau": tau, "gravity": gravity, "f_tip": f_tip}
+    _args.raise_batch_status(status, model, "forward_dynamics", "qdd", arguments)
     return qdd

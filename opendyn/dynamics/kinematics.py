@@ -23,12 +23,12 @@ from ._kernels import (
     INLINE,
     JIT,
     copy_into,
+    result_status,
     run_rows,
     tree,
     twist_to_child,
     zero_matrix,
 )
-from ..status import Status
 from .joints import configuration_status, joint_transform, prepare_joint_transforms
 
 
@@ -114,8 +114,8 @@ def compose_frame(R_s, p_s, body, T_bf, T_sf):
 
 @njit(**JIT)
 def frame_pose_kernel(ibuf, fbuf, q, body, T_bf, T_sf):
-    """T_sf (4, 4) <- T_{s,body}(q) T_{body,frame}. Returns a Status: OK, Q_NOT_FINITE or
-    Q_NOT_UNIT_QUATERNION."""
+    """T_sf (4, 4) <- T_{s,body}(q) T_{body,frame}. Returns a Status: OK, Q_NOT_FINITE,
+    Q_NOT_UNIT_QUATERNION or RESULT_NOT_FINITE."""
     status = configuration_status(ibuf, q)
     if status:
         return status
@@ -125,13 +125,13 @@ def frame_pose_kernel(ibuf, fbuf, q, body, T_bf, T_sf):
     if body >= 0:
         forward_kinematics(tree(ibuf, fbuf), q, R_s, p_s, body)
     compose_frame(R_s, p_s, body, T_bf, T_sf)
-    return Status.OK.value
+    return result_status(T_sf)
 
 
 @njit(**JIT)
 def jacobian_kernel(ibuf, fbuf, q, body, T_bf, body_frame, J):
     """J (6, nv) <- J_s, or J_b of the frame when body_frame. Returns a Status: OK,
-    Q_NOT_FINITE or Q_NOT_UNIT_QUATERNION."""
+    Q_NOT_FINITE, Q_NOT_UNIT_QUATERNION or RESULT_NOT_FINITE."""
     status = configuration_status(ibuf, q)
     if status:
         return status
@@ -159,7 +159,7 @@ def jacobian_kernel(ibuf, fbuf, q, body, T_bf, body_frame, J):
             for r in range(6):
                 J[r, iv[i] + k] += mult[i] * col[r]
         i = parent[i]
-    return Status.OK.value
+    return result_status(J)
 
 
 @njit(**BATCH)
@@ -195,14 +195,14 @@ def frame_pose(model, q, frame):
         T = np.empty((4, 4))
         status = frame_pose_kernel(model._ibuf, model._fbuf, q, body, T_bf, T)
         if status:
-            _args.raise_status(status, model, "frame_pose")
+            _args.raise_status(status, model, "frame_pose", "T_sf", {"q": q})
         return T
     T = np.empty((q.shape[0], 4, 4))
     status = np.zeros(q.shape[0], dtype=np.int64)
     run_rows(
         frame_pose_batch_kernel, q.shape[0], model._ibuf, model._fbuf, q, body, T_bf, T, status
     )
-    _args.raise_batch_status(status, model, "frame_pose")
+    _args.raise_batch_status(status, model, "frame_pose", "T_sf", {"q": q})
     return T
 
 
@@ -224,7 +224,7 @@ def jacobian(model, q, frame, expressed_in="space"):
         J = np.empty((6, model.nv))
         status = jacobian_kernel(model._ibuf, model._fbuf, q, body, T_bf, body_frame, J)
         if status:
-            _args.raise_status(status, model, "jacobian")
+            _args.raise_status(status, model, "jacobian", "J", {"q": q})
         return J
     J = np.empty((q.shape[0], 6, model.nv))
     status = np.zeros(q.shape[0], dtype=np.int64)
@@ -240,5 +240,5 @@ def jacobian(model, q, frame, expressed_in="space"):
         J,
         status,
     )
-    _args.raise_batch_status(status, model, "jacobian")
+    _args.raise_batch_status(status, model, "jacobian", "J", {"q": q})
     return J

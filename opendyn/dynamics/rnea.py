@@ -29,6 +29,7 @@ from ._kernels import (
     add_wrench_to_parent,
     all_finite,
     fill,
+    result_status,
     rigid_inertia_times,
     rigid_inertias,
     run_rows,
@@ -82,8 +83,8 @@ def forward_pass(body_tree, q, qd, qdd, dV_0, R, p, V, dV, s):
 @njit(**JIT)
 def rnea_kernel(ibuf, fbuf, q, qd, qdd, loads, tau):
     """tau (nv,) <- RNEA at one state. loads[0] = dV_0 = (0, -g); loads[1 + i], when present,
-    the wrench body i applies to the environment. Returns a Status: OK, Q/QD/QDD_NOT_FINITE
-    or Q_NOT_UNIT_QUATERNION."""
+    the wrench body i applies to the environment. Returns a Status: OK, Q/QD/QDD_NOT_FINITE,
+    Q_NOT_UNIT_QUATERNION or RESULT_NOT_FINITE (tau overflowed)."""
     status = state_status(ibuf, q, qd)
     if status:
         return status
@@ -115,7 +116,7 @@ def rnea_kernel(ibuf, fbuf, q, qd, qdd, loads, tau):
         add_joint_force(nv_j[i], S[i], mult[i], F[i], iv[i], tau)
         if parent[i] >= 0:
             add_wrench_to_parent(R[i], p[i], F[i], F[parent[i]])
-    return Status.OK.value
+    return result_status(tau)
 
 
 @njit(**BATCH)
@@ -132,9 +133,11 @@ def rnea_batch_kernel(ibuf, fbuf, q, qd, qdd, loads, tau, status, start, stop):
 _NO_GRAVITY = np.zeros(3)
 
 
-def run_rnea(model, q, qd, qdd, f_tip, gravity, what):
-    """Checked RNEA for single states (nv,) or batches (N, nv); the public functions' core."""
+def run_rnea(model, q, qd, qdd, f_tip, gravity, what, result):
+    """Checked RNEA for single states (nv,) or batches (N, nv); the public functions' core.
+    what, result: the function and its result (e.g. "tau") as error messages name them."""
     (q, qd, qdd), batch = _args.as_states(model, q, ("qd", qd), ("qdd", qdd))
+    arguments = {"q": q, "qd": qd, "qdd": qdd, "gravity": gravity, "f_tip": f_tip}
     if not batch:
         tau = np.empty(model._vector_shape)
         status = rnea_kernel(
@@ -147,7 +150,7 @@ def run_rnea(model, q, qd, qdd, f_tip, gravity, what):
             tau,
         )
         if status:
-            _args.raise_status(status, model, what)
+            _args.raise_status(status, model, what, result, arguments)
         return tau
     n = q.shape[0]
     tau = np.empty((n, model.nv))
@@ -164,7 +167,7 @@ def run_rnea(model, q, qd, qdd, f_tip, gravity, what):
         tau,
         status,
     )
-    _args.raise_batch_status(status, model, what)
+    _args.raise_batch_status(status, model, what, result, arguments)
     return tau
 
 
@@ -189,9 +192,10 @@ def inverse_dynamics(model, q, qd, qdd, f_tip=None, gravity=None):
             model._ibuf, model._fbuf, q, qd, qdd, model._loads, tau
         )
         if status:
-            _args.raise_status(status, model, "inverse_dynamics")
+            arguments = {"q": q, "qd": qd, "qdd": qdd}
+            _args.raise_status(status, model, "inverse_dynamics", "tau", arguments)
         return tau
-    return run_rnea(model, q, qd, qdd, f_tip, gravity, "inverse_dynamics")
+    return run_rnea(model, q, qd, qdd, f_tip, gravity, "inverse_dynamics", "tau")
 
 
 def _zeros_like_state(model, q):
@@ -211,7 +215,7 @@ def gravity_forces(model, q, gravity=None):
     """
     _args.check_model(model, "gravity_forces")
     q, zero = _zeros_like_state(model, q)
-    return run_rnea(model, q, zero, zero, None, gravity, "gravity_forces")
+    return run_rnea(model, q, zero, zero, None, gravity, "gravity_forces", "g")
 
 
 def coriolis_forces(model, q, qd):
@@ -221,7 +225,7 @@ def coriolis_forces(model, q, qd):
     """
     _args.check_model(model, "coriolis_forces")
     q, zero = _zeros_like_state(model, q)
-    return run_rnea(model, q, qd, zero, None, _NO_GRAVITY, "coriolis_forces")
+    return run_rnea(model, q, qd, zero, None, _NO_GRAVITY, "coriolis_forces", "c")
 
 
 def bias_forces(model, q, qd, gravity=None):
@@ -232,4 +236,4 @@ def bias_forces(model, q, qd, gravity=None):
     """
     _args.check_model(model, "bias_forces")
     q, zero = _zeros_like_state(model, q)
-    return run_rnea(model, q, qd, zero, None, gravity, "bias_forces")
+    return run_rnea(model, q, qd, zero, None, gravity, "bias_forces", "h")

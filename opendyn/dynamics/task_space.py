@@ -72,8 +72,10 @@ def task_space_mass_matrix(model, q, frame, damping=0.0):
       ill-conditioned (fewer than 6 joints, or a singular configuration); damping > 0 returns
       the damped (J_b M^-1 J_b^T + damping I)^-1, finite everywhere.
     """
-    _args.check_model(model, "task_space_mass_matrix")
-    return _task_space(model, q, frame, damping, "task_space_mass_matrix")[0]
+    what = "task_space_mass_matrix"
+    _args.check_model(model, what)
+    Lambda = _task_space(model, q, frame, damping, what)[0]
+    return _args.check_result(Lambda, what, "Lambda", {"q": q})
 
 
 def frame_acceleration(model, q, qd, qdd, frame):
@@ -93,6 +95,8 @@ def frame_acceleration(model, q, qd, qdd, frame):
         if not np.all(np.isfinite(x)):
             raise ValueError(f"frame_acceleration: {name} must be finite")
     dV = body_accelerations(model._ibuf, model._fbuf, q, qd, qdd, np.zeros(6))
+    arguments = {"q": q, "qd": qd, "qdd": qdd}
+    _args.check_result(dV[fr.body], "frame_acceleration", "dV_b", arguments)
     # dV_frame = Ad_{T_{frame,body}} dV_body (the frame is rigidly attached)
     T = fr.T_body_frame
     R_bf, p_bf = T[:3, :3], T[:3, 3]
@@ -110,4 +114,5 @@ def task_space_bias(model, q, qd, frame, gravity=None):
     Lambda, J_b, M_chol = _task_space(model, q, frame, 0.0, "task_space_bias")
     h = bias_forces(model, q, qd, gravity)
     Jdot_qd = frame_acceleration(model, q, qd, np.zeros(model.nv), frame)
-    return Lambda @ (J_b @ scipy.linalg.cho_solve(M_chol, h) - Jdot_qd)
+    eta = Lambda @ (J_b @ scipy.linalg.cho_solve(M_chol, h) - Jdot_qd)
+    return _args.check_result(eta, "task_space_bias", "eta", {"q": q, "qd": qd, "gravity": gravity})
