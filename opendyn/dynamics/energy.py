@@ -149,17 +149,16 @@ def energies(model, q, qd, gravity=None, what="energies"):
     energies of its states with this; kinetic_energy and potential_energy refuse it."""
     (q, qd), batch = _args.as_states(model, q, ("qd", qd))
     g = _args.as_gravity(model, gravity)
-    arguments = {"q": q, "qd": qd, "gravity": gravity}
     if not batch:
         out = np.empty(2)
         status = energy_kernel(model._ibuf, model._fbuf, q, qd, g, out)
         if status:
-            _args.raise_status(status, model, what, "(K, U)", arguments)
+            _args.raise_status(status, model, what)
         return float(out[0]), float(out[1])
     out = np.empty((q.shape[0], 2))
     status = np.zeros(q.shape[0], dtype=np.int64)
     run_rows(energy_batch_kernel, q.shape[0], model._ibuf, model._fbuf, q, qd, g, out, status)
-    _args.raise_batch_status(status, model, what, "(K, U)", arguments)
+    _args.raise_batch_status(status, model, what)
     return out[:, 0], out[:, 1]
 
 
