@@ -574,7 +574,8 @@ def constrained_forward_kernel(
     (nv,)): M by CRBA (+ diag(armature), (nv,) or empty), h (and the f_tip wrenches in loads,
     as in rnea_kernel) by RNEA, then constrained_solve_at with the Baumgarte gains
     (alpha, beta) (zeros: none). Returns a Status: OK, Q/QD/TAU_NOT_FINITE,
-    Q_NOT_UNIT_QUATERNION, or SINGULAR + j when M is singular at coordinate j."""
+    Q_NOT_UNIT_QUATERNION, RESULT_NOT_FINITE (h overflowed), or SINGULAR + j when M is singular
+    at coordinate j."""
     if not all_finite(tau):
         return Status.TAU_NOT_FINITE.value
     nv = qd.shape[0]
@@ -928,7 +929,15 @@ def constrained_forward_dynamics(
         M = mass_matrix(model, q)
         qdd, lam = np.empty(model.nv), np.empty(A.shape[0])
         status = constrained_solve_kernel(M, rhs, A, gamma, qdd, lam)
-    arguments = {"q": q, "qd": qd, "tau": tau, "gravity": gravity, "f_tip": f_tip}
+    arguments = {
+        "q": q,
+        "qd": qd,
+        "tau": tau,
+        "A": A,
+        "Adot_qd": Adot_qd,
+        "gravity": gravity,
+        "f_tip": f_tip,
+    }
     if status:
         _args.raise_status(status, model, what, "qdd", arguments)
     return (

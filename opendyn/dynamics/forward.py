@@ -48,7 +48,7 @@ def newton_euler_mass_matrix(ibuf, fbuf, q, M):
 def mass_matrix_solve(ibuf, fbuf, q, qd, tau, loads, qdd, armature, crba, newton_euler):
     """qdd <- (M + diag(armature))^-1 (tau - h - J^T F_tip), M by CRBA or by nv RNEA calls,
     whichever compile-time switch is not None; armature (nv,) or empty.
-    Returns a Status as aba_kernel."""
+    Returns a Status as aba_kernel, or RESULT_NOT_FINITE when h overflowed."""
     nv = qdd.shape[0]
     M = np.empty((nv, nv))
     b = np.empty(nv)

@@ -115,4 +115,5 @@ def task_space_bias(model, q, qd, frame, gravity=None):
     h = bias_forces(model, q, qd, gravity)
     Jdot_qd = frame_acceleration(model, q, qd, np.zeros(model.nv), frame)
     eta = Lambda @ (J_b @ scipy.linalg.cho_solve(M_chol, h) - Jdot_qd)
-    return _args.check_result(eta, "task_space_bias", "eta", {"q": q, "qd": qd, "gravity": gravity})
+    arguments = {"q": q, "qd": qd, "gravity": gravity}
+    return _args.check_result(eta, "task_space_bias", "eta", arguments)
