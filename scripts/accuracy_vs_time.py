@@ -543,16 +543,19 @@ def effect_scenes():
             "limits": {"stiffness": 1e4, "damping": 10.0},
         },
     }
+    # each starts at q = 0 inside its limits, except the Panda's elbow, whose range is
+    # [-3.07, -0.07] rad: it starts mid-range
     robots = [
-        ("double pendulum", {"urdf": str(ROOT / "robots" / "double_pendulum.urdf")}, "tip"),
-        ("UR5", {"name": "ur5"}, "tool0"),
-        ("Panda", {"name": "panda"}, "panda_hand"),
+        ("double pendulum", {"urdf": str(ROOT / "robots" / "double_pendulum.urdf")}, "tip", {}),
+        ("UR5", {"name": "ur5"}, "tool0", {}),
+        ("Panda", {"name": "panda"}, "panda_hand", {"panda_joint4": -1.5}),
     ]
     scenes = []
-    for title, robot, frame in robots:
+    for title, robot, frame, q0 in robots:
         for control in ({"type": "pd", "kp": 50.0, "kd": 5.0}, {"type": "computed_torque"}):
             data = json.loads(json.dumps(common))
             data["robot"] = robot
+            data["initial"] = {"q": q0}
             data["effects"]["wrench"] = [{"frame": frame, "value": [0, 0, 0.1, 0, 0, -5.0]}]
             data["control"] = dict(control, clip=True)
             if control["type"] == "computed_torque":
