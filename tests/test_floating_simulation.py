@@ -214,7 +214,7 @@ def test_momentum_and_energy_are_conserved_over_10_s(free_tree):
             "base_rpy": [0.2, 0.3, -0.4],
             "base_velocity": list(v0[3:6]),
             "base_angular_velocity": list(v0[:3]),
-            "q": list(rng.uniform(-1.0, 1.0, model.nv - 6)),
+            "q": list(rng.uniform(-1.0, 1.0, model.nv - 6).clip(model.lower, model.upper)),
             "qd": list(v0[6:]),
         },
         "run": {"duration": 10.0, "integrator": "rk4", "dt": 1e-3, "output_dt": 0.05},
