@@ -290,6 +290,8 @@ def _named_outputs(args):
             continue
         if not name.strip():
             raise ValueError(f"{option}: the file name is empty")
+        if option == "-o" and os.path.isdir(name):
+            raise ValueError(f"{option} {name}: is a folder, not a file; name the .npz to write")
         paths = saved_paths(name) if option == "-o" else [pathlib.Path(name)]
         named += [(option, name, path) for path in paths]
     return named

@@ -813,6 +813,8 @@ class _Reader:
             self.fail("run.dt", f"the step {dt:g} s is longer than run.duration = {duration:g} s")
         if integrator not in ADAPTIVE_INTEGRATORS:
             ratio = output_dt / dt
+            if not np.isfinite(ratio):
+                self.fail("run.dt", f"{dt:g} s is too small a step to count in float64")
             steps = round(ratio)
             if steps < 1 or abs(ratio - steps) > _OUTPUT_DT_RTOL * ratio:
                 self.fail(

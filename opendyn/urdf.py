@@ -152,6 +152,8 @@ def resolve_robot(path) -> str:
         isinstance(path, str)
         and (os.sep in path or "/" in path or path.endswith(".urdf") or os.path.exists(path))
     ):
+        if os.path.isdir(path):
+            raise URDFError(f"{path}: is a folder, not a URDF file")
         if not os.path.isfile(path):
             raise URDFError(f"{path}: no such URDF file")
         return os.fspath(path)

@@ -379,3 +379,10 @@ def test_a_simulation_whose_dynamics_overflow_stops_saying_so():
     traj = od.simulate(od.scene_from_dict(data), raise_on_failure=False)
     assert not traj.complete and traj.t[-1] == 0.0
     assert "the dynamics overflowed float64" in traj.message
+
+
+def test_random_configuration_with_an_rng_that_is_not_one_is_a_type_error():
+    model = od.load_urdf("double_pendulum")
+    with pytest.raises(TypeError, match="rng must be a numpy Generator or an integer seed, got "
+                       "str 'x'"):
+        od.random_configuration(model, "x")

@@ -109,6 +109,7 @@ def test_simulate_saves_by_default_and_no_save_skips_it(tmp_path, monkeypatch, c
         (None, ["--csv", "newdir/"], "names a folder, not a file"),
         ("afile", ["--html", "afile/run.html"], "afile is a file, not a folder"),
         (None, ["-o", ""], "-o: the file name is empty"),
+        ("adir/", ["-o", "adir"], "-o adir: is a folder, not a file"),
         (None, ["--csv", " "], "--csv: the file name is empty"),
         ("run.json/", ["-o", "run.npz"], "-o 'run.npz': run.json: is a folder, not a file"),
         (None, ["-o", "x.npz", "--csv", "x.npz"], "--csv 'x.npz': is also the file of -o"),
@@ -292,15 +293,15 @@ def test_ctrl_c_swallowed_by_a_dependency_still_stops_the_program():
     assert reached_the_end
 
 
-def run_interrupted_at(module, argv, tmp_path):
-    """Run `module.main` with `argv` in a new Python, Ctrl-C arriving as soon as `module` (a
-    module it imports) is imported; returns the finished process."""
+def run_interrupted_at(module, argv, tmp_path, signal_name="SIGINT"):
+    """Run `module.main` with `argv` in a new Python, the signal (Ctrl-C unless named) arriving
+    as soon as `module` (a module it imports) is imported; returns the finished process."""
     script = (
         "import signal, sys\n"
         "class CtrlC:\n"
         "    def find_spec(self, name, path=None, target=None):\n"
         f"        if name == {module!r}:\n"
-        "            signal.raise_signal(signal.SIGINT)\n"
+        f"            signal.raise_signal(signal.{signal_name})\n"
         "sys.meta_path.insert(0, CtrlC())\n"
         f"sys.argv = {argv!r}\n"
         "import opendyn_launch\n"
@@ -329,10 +330,13 @@ def test_ctrl_c_while_loading_the_robot_is_one_line(tmp_path):
     assert proc.stdout == "" and files_in(tmp_path) == []
 
 
-def test_ctrl_c_while_importing_opendyn_is_one_line(tmp_path):
-    proc = run_interrupted_at("numba", ["opendyn", "simulate"], tmp_path)
-    assert proc.returncode == 130, proc.stderr
-    assert proc.stderr == "opendyn: interrupted (Ctrl-C) while starting\n"
+@pytest.mark.parametrize("signal_name, name, status", [("SIGINT", "Ctrl-C", 130),
+                                                       ("SIGTERM", "SIGTERM", 143)])
+def test_ctrl_c_or_sigterm_while_importing_opendyn_is_one_line(signal_name, name, status,
+                                                               tmp_path):
+    proc = run_interrupted_at("numba", ["opendyn", "simulate"], tmp_path, signal_name)
+    assert proc.returncode == status, proc.stderr
+    assert proc.stderr == f"opendyn: interrupted ({name}) while starting\n"
 
 
 @pytest.mark.parametrize("signum, name", [(signal.SIGINT, "Ctrl-C"), (signal.SIGTERM, "SIGTERM")])

@@ -62,6 +62,12 @@ def test_an_overflowing_step_count_is_refused(nothing_allocated):
         od.simulate(scene(run={"duration": 1e13, "dt": 1e-3, "output_dt": 1e12}))
 
 
+def test_a_subnormal_step_is_refused_naming_it():
+    """1e-320 is subnormal in float64 (stored as 9.99989e-321): output_dt / dt overflows."""
+    with pytest.raises(od.SceneError, match=r"run\.dt: 9\.99989e-321 s is too small a step to count"):
+        scene(run={"duration": 0.2, "dt": 1e-320})
+
+
 def test_a_duration_that_is_not_a_whole_number_of_steps_is_refused(nothing_allocated):
     with pytest.raises(od.SceneError) as info:
         od.simulate(scene(run={"duration": 0.0105, "dt": 1e-3}))

@@ -414,6 +414,12 @@ def test_nonexistent_file_raises_urdf_error_naming_the_path(tmp_path):
     assert str(path) in str(info.value)
 
 
+def test_a_folder_given_as_the_urdf_is_named_as_a_folder(tmp_path):
+    with pytest.raises(od.URDFError, match="is a folder, not a URDF file") as info:
+        od.load_urdf(tmp_path)
+    assert str(tmp_path) in str(info.value)
+
+
 def test_unknown_robot_name_lists_closest_and_known_names():
     with pytest.raises(od.URDFError) as info:
         od.load_urdf("ur_5")

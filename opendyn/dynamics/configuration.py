@@ -155,7 +155,13 @@ def random_configuration(model, rng=None):
     at a uniform point of the cube [-1, 1]^3 m with a uniformly random rotation (a normalised
     4-D Gaussian quaternion). rng: a numpy Generator or a seed (default: fresh entropy)."""
     _args.check_model(model, "random_configuration")
-    rng = np.random.default_rng(rng)
+    try:
+        rng = np.random.default_rng(rng)
+    except (TypeError, ValueError):
+        raise TypeError(
+            f"random_configuration: rng must be a numpy Generator or an integer seed, got "
+            f"{type(rng).__name__} {rng!r}"
+        ) from None
     q = neutral(model)
     for k, name in enumerate(model.joint_names):
         i = model.body_joints.index(name)
