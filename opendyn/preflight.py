@@ -1,7 +1,7 @@
 """Before a run: what it will need and whether it can start, checked before anything is allocated
 or compiled.
 
-    fixed steps  N = duration / dt            a whole number (within 1e-9), at most 2^53
+    steps        N = duration / dt            a whole number, at most 2^53 (scene.check_fixed_steps)
     samples      K = N / every + 1            (adaptive: ceil(duration / output_dt) + 1)
     memory       8 K (3 + nq + 2 nv + 2 + 7 P + 2 c)  bytes, twice over, below what is available
     start        |qd0_k| <= max_speed,  lower_j <= q0_j <= upper_j,  K(q0, qd0), U(q0) finite
@@ -22,10 +22,8 @@ import numpy as np
 
 from .dynamics.energy import energies
 from .model import FREE
-from .scene import _OUTPUT_DT_RTOL, SceneError, SceneWarning
+from .scene import MAX_STEPS, SceneError, SceneWarning, check_fixed_steps
 
-# float64 counts steps exactly up to 2^53; a run of more steps could not say which step failed
-MAX_STEPS = 2**53
 # the record's arrays are built, then energies, contact and copies: room for the record twice
 _RECORD_COPIES = 2
 
@@ -49,25 +47,8 @@ def _run_size(scene, integ):
             _fail(scene, "run.output_dt", f"{run.duration:g} s / {run.output_dt:g} s is "
                   f"{samples:.3g} samples, more than any record can hold; raise run.output_dt")
         return 0, 0, int(np.ceil(samples - 1e-9)) + 1
-    ratio = run.duration / run.dt
-    if not ratio <= MAX_STEPS:
-        _fail(
-            scene,
-            "run.dt",
-            f"run.duration / run.dt = {run.duration:g} s / {run.dt:g} s = {ratio:.3g} steps, "
-            f"more than a run can count (2^53 = {MAX_STEPS:.3g}); shorten run.duration or "
-            "raise run.dt",
-        )
-    nsteps = max(1, round(ratio))
-    if abs(ratio - nsteps) > _OUTPUT_DT_RTOL * ratio:
-        below, above = int(np.floor(ratio)) or 1, int(np.ceil(ratio))
-        _fail(
-            scene,
-            "run.duration",
-            f"{run.duration:g} s is not a whole number of steps of run.dt = {run.dt:g} s (it is "
-            f"{ratio:.6g} steps), so a fixed-step run cannot end at it; choose duration = n * dt "
-            f"(e.g. {below * run.dt:.10g} or {above * run.dt:.10g} s) or a dt that divides it",
-        )
+    check_fixed_steps(run, scene.source)  # as the scene's reader does, for a Run built directly
+    nsteps = round(run.duration / run.dt)
     every = max(1, round(run.output_dt / run.dt))
     return nsteps, every, nsteps // every + 1 + (nsteps % every != 0)
 

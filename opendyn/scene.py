@@ -5,9 +5,9 @@ and the control. An effect that a scene does not name is off: the simulator neve
 Every number is checked here (type, shape, sign, finiteness, joint and frame names), so a scene
 that loads is one the simulator can run; anything else raises ``SceneError`` naming the file,
 the dotted key (``effects.damping.coefficients``), what was expected and what was found. What
-depends on the run as a whole (a whole number of steps, the record's size against the memory
-available, the initial state's speed, energy and limits) is checked by ``simulate`` before it
-allocates or compiles anything (opendyn.preflight), with the same kind of message.
+depends on the run as a whole (the record's size against the memory available, the initial
+state's speed, energy and limits) is checked by ``simulate`` before it allocates or compiles
+anything (opendyn.preflight), with the same kind of message.
 
 Conventions (as in the rest of opendyn): SI units (rad or m, N m or N, s); twists (omega, v) and
 wrenches (m, f), moment first; per-joint arrays are ordered as ``model.joint_names``
@@ -247,7 +247,10 @@ _CONTROL_KEYS = {
         "clip",
     ),
 }
-_OUTPUT_DT_RTOL = 1e-9
+# a ratio of times counts as a whole number of steps within this relative tolerance
+_WHOLE_STEPS_RTOL = 1e-9
+# float64 counts steps exactly up to 2^53; a run of more steps could not say which step failed
+MAX_STEPS = 2**53
 
 
 class SceneError(ValueError):
@@ -811,19 +814,7 @@ class _Reader:
         max_speed = self.number(table.get("max_speed", d.max_speed), "run.max_speed", positive=True)
         if dt > duration:
             self.fail("run.dt", f"the step {dt:g} s is longer than run.duration = {duration:g} s")
-        if integrator not in ADAPTIVE_INTEGRATORS:
-            ratio = output_dt / dt
-            if not np.isfinite(ratio):
-                self.fail("run.dt", f"{dt:g} s is too small a step to count in float64")
-            steps = round(ratio)
-            if steps < 1 or abs(ratio - steps) > _OUTPUT_DT_RTOL * ratio:
-                self.fail(
-                    "run.output_dt",
-                    f"{output_dt:g} s is not a whole multiple of run.dt = {dt:g} s (it is "
-                    f"{ratio:.6g} steps); the fixed-step integrator {integrator!r} records "
-                    f"every k-th step: choose output_dt = k * dt",
-                )
-        return Run(
+        run = Run(
             duration=duration,
             integrator=integrator,
             dt=dt,
@@ -832,6 +823,8 @@ class _Reader:
             output_dt=output_dt,
             max_speed=max_speed,
         )
+        check_fixed_steps(run, self.source)
+        return run
 
     def gravity(self, value) -> np.ndarray | None:
         if value is None or value is False:
@@ -1281,6 +1274,48 @@ class _Reader:
 
 
 # --- helpers ---------------------------------------------------------------------------------
+
+
+def check_fixed_steps(run: Run, source: str) -> None:
+    """A fixed-step run records every k-th step and ends on a step: run.output_dt and
+    run.duration must be whole numbers of steps run.dt, and the steps countable (at most
+    MAX_STEPS). Raises SceneError naming `source` and the key; adaptive runs pass."""
+    if run.integrator in ADAPTIVE_INTEGRATORS:
+        return
+    r = _Reader(source)
+    duration, dt, output_dt = run.duration, run.dt, run.output_dt
+    ratio = output_dt / dt
+    if not np.isfinite(ratio):
+        r.fail("run.dt", f"{dt:g} s is too small a step to count in float64")
+    if not _whole(ratio):
+        r.fail(
+            "run.output_dt",
+            f"{output_dt:g} s is not a whole multiple of run.dt = {dt:g} s (it is "
+            f"{ratio:.6g} steps); the fixed-step integrator {run.integrator!r} records "
+            f"every k-th step: choose output_dt = k * dt",
+        )
+    ratio = duration / dt
+    if not ratio <= MAX_STEPS:
+        r.fail(
+            "run.dt",
+            f"run.duration / run.dt = {duration:g} s / {dt:g} s = {ratio:.3g} steps, more "
+            f"than a run can count (2^53 = {MAX_STEPS:.3g}); shorten run.duration or raise "
+            "run.dt",
+        )
+    if not _whole(ratio):
+        below, above = int(np.floor(ratio)) or 1, int(np.ceil(ratio))
+        r.fail(
+            "run.duration",
+            f"{duration:g} s is not a whole number of steps of run.dt = {dt:g} s (it is "
+            f"{ratio:.6g} steps), so a fixed-step run cannot end at it; choose duration = "
+            f"n * dt (e.g. {below * dt:.10g} or {above * dt:.10g} s) or a dt that divides it",
+        )
+
+
+def _whole(ratio: float) -> bool:
+    """Whether a ratio of times is a whole number (at least 1) of steps, to rounding."""
+    steps = round(ratio)
+    return steps >= 1 and abs(ratio - steps) <= _WHOLE_STEPS_RTOL * ratio
 
 
 def _suggest(name: str, choices) -> str:

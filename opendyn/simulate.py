@@ -30,7 +30,7 @@ from . import __version__
 from ._compile import compile_seconds, compiling
 from ._kernel_cache import kernel_cache
 from ._signals import signal_name
-from .dynamics._args import singular_coordinates
+from .dynamics._args import mass_matrix_with_armature, singular_coordinates
 from .dynamics.energy import energies
 from .model import FREE, Model
 from .preflight import preflight
@@ -590,10 +590,7 @@ def failure_message(scene, table, status, t, steps, q, qd):
     )
     stiff = [] if implicit else _stiff_effects(_effect_rates(scene, table, q), run.dt, 2.0)
     if stiff:
-        cause = (
-            f"the step is too large for {_describe(stiff, run.dt)}, above 2. Use dt below "
-            f"{2.0 / stiff[0][0]:.2g} s, or integrator implicit_euler"
-        )
+        cause = _step_too_large(stiff, run.dt, 2.0)
     elif steps == 0:
         cause = _start_cause(scene, table, q, qd)
     elif run.integrator == "euler":
@@ -638,17 +635,19 @@ def _start_cause(scene, table, q, qd):
     )
 
 
+def _scene_mass_matrix(scene, q):
+    """M(q) with the scene's armature, or None where it cannot be computed."""
+    try:
+        return mass_matrix_with_armature(scene.model, q, scene.armature)
+    except ValueError:
+        return None
+
+
 def _regular_mass_matrix(scene, q):
     """Whether M(q) (with the scene's armature) is positive definite to float64."""
-    from .dynamics.crba import mass_matrix
-
-    model = scene.model
-    try:
-        M = mass_matrix(model, q)
-    except ValueError:
+    M = _scene_mass_matrix(scene, q)
+    if M is None:
         return False
-    if scene.armature is not None:
-        M[model.v_index, model.v_index] += scene.armature
     try:
         np.linalg.cholesky(M)
     except np.linalg.LinAlgError:
@@ -663,17 +662,10 @@ def _effect_rates(scene, table, q):
     m_p = 1 / (e_z^T J_p M^-1 J_p^T e_z), and of friction near zero slip, mu f_n / (v_s m_p)
     with f_n the point's share of the robot's weight. Explicit methods need dt x rate below
     about 2 (Euler) to 2.8 (RK4). Empty where M(q) cannot be computed."""
-    from .dynamics.crba import mass_matrix
-
     model = scene.model
-    if not model.nv:
+    M = _scene_mass_matrix(scene, q) if model.nv else None
+    if M is None:
         return []
-    try:
-        M = mass_matrix(model, q)
-    except ValueError:
-        return []
-    if scene.armature is not None:
-        M[model.v_index, model.v_index] += scene.armature
     m = np.diag(M)[model.v_index]  # the joints' entries
     joints = [f"joint {name!r}" for name in model.joint_names]
     candidates = []
@@ -711,6 +703,15 @@ def _stiff_effects(candidates, dt, limit):
     return sorted(stiff, reverse=True)
 
 
+def _step_too_large(stiff, dt, limit):
+    """The sentence for an explicit step past the stability `limit` of dt x rate of the stiff
+    effects (_stiff_effects), with the step that suits them all."""
+    return (
+        f"the step is too large for {_describe(stiff, dt)}, above {limit:g}. Use dt below "
+        f"{limit / stiff[0][0]:.2g} s, or integrator implicit_euler"
+    )
+
+
 def _describe(stiff, dt, lead=True):
     """The stiff effects of _stiff_effects as a phrase naming each, with its rate and dt x rate;
     lead: open with "a stiff effect: " or "stiff effects: "."""
@@ -740,9 +741,7 @@ def check_contact_step(scene, table):
     if stiff:
         raise SceneError(
             f"{scene.source}: run.dt: {run.integrator} at dt = {run.dt:g} s is unstable for "
-            f"the contact at the initial state: the step is too large for "
-            f"{_describe(stiff, run.dt)}, above {limit:g}. Use dt below "
-            f"{limit / stiff[0][0]:.2g} s, or integrator implicit_euler"
+            f"the contact at the initial state: {_step_too_large(stiff, run.dt, limit)}"
         )
 
 

@@ -298,6 +298,17 @@ class SingularMassMatrixError(ValueError):
         super().__init__(f"{what}: the mass matrix of {model.name!r} is singular: {why}")
 
 
+def mass_matrix_with_armature(model, q, armature=None):
+    """M(q) (nv, nv), plus diag(armature) on the joints' coordinates (model.v_index) as a
+    scene's armature effect adds it; armature: (n,) or None."""
+    from .crba import mass_matrix
+
+    M = mass_matrix(model, q)
+    if armature is not None:
+        M[model.v_index, model.v_index] += armature
+    return M
+
+
 def singular_coordinates(model, q, armature=None):
     """Why M(q) (+ diag(armature) on the joints, as a scene adds it) is singular:
     (massless, together, sentence).
@@ -311,11 +322,8 @@ def singular_coordinates(model, q, armature=None):
     says so.
     """
     from .cholesky import SINGULAR_PIVOT
-    from .crba import mass_matrix
 
-    M = mass_matrix(model, q)
-    if armature is not None:
-        M[model.v_index, model.v_index] += armature
+    M = mass_matrix_with_armature(model, q, armature)
     d = np.diag(M)
     massless = [model.v_names[k] for k in np.flatnonzero(d <= SINGULAR_PIVOT * d.max(initial=0))]
     if massless:
