@@ -52,6 +52,8 @@ from .scene import (  # noqa: E402
     scene_from_dict,
 )
 from .simulate import SimulationError, simulate  # noqa: E402
+from .sweep import SweepError, SweepInterrupted, sweep  # noqa: E402
+from .sweep_plot import plot_sweep  # noqa: E402
 from .trajectory import Trajectory  # noqa: E402
 
 __all__ = [
@@ -69,6 +71,10 @@ __all__ = [
     "load_scene",
     "scene_from_dict",
     "simulate",
+    "sweep",
+    "SweepError",
+    "SweepInterrupted",
+    "plot_sweep",
     "FixedPose",
     "CollisionSphere",
     "Frame",

@@ -4,6 +4,7 @@
   opendyn info ROBOT                        model summary and URDF fidelity report
   opendyn verify ROBOT [--floating-base]    every contract function against Pinocchio
   opendyn demo [ROBOT]                      M(q), g(q) and forward dynamics at one state
+  opendyn sweep SCENE --vary KEY=SPEC ...   many runs on a Dask cluster, one Parquet row each
   opendyn compile [--all | SCENE...]        compile the kernels ahead of time (images, workers)
   opendyn info --cache                      where the compiled kernels are cached
 
@@ -255,6 +256,80 @@ def _simulate(args) -> int:
     if not written:
         return WRITE_FAILED
     return 0 if traj.complete else 1
+
+
+def _sweep(args) -> int:
+    """opendyn sweep: check the outputs, read every run's scene, run them on the cluster,
+    report. Returns 0 when every run has a row (complete or failed)."""
+    from .sweep import SweepInterrupted, check_installed, sweep
+
+    check_installed()
+    vary = {}
+    for item in args.vary:
+        key, eq, spec = item.partition("=")
+        if not eq or not key.strip():
+            raise ValueError(f"--vary {item!r}: expected KEY=SPEC, e.g. control.kp=100:400:4")
+        if key.strip() in vary:
+            raise ValueError(f"--vary {key.strip()}: given twice")
+        vary[key.strip()] = spec.strip()
+    with _doing("loading the scene and its robot; nothing was run"):
+        scene = scene_for(args.target)
+    output = args.output or f"{_slug(scene.name)}-sweep.parquet"
+    named = [("-o", output, pathlib.Path(output))]
+    if args.plot is not None:
+        named.append(("--plot", args.plot, pathlib.Path(args.plot)))
+    _check_outputs(named)
+    if args.plot is not None:
+        from .sweep import parse_axis
+        from .sweep_plot import check_plan
+
+        check_plan([parse_axis(key, spec) for key, spec in vary.items()], args.metric)
+    if args.trajectories is not None and os.path.exists(args.trajectories):
+        if not os.path.isdir(args.trajectories):
+            raise ValueError(f"--trajectories {args.trajectories}: is a file, not a folder")
+    client = None
+    if args.scheduler is not None:
+        from dask.distributed import Client
+
+        try:
+            client = Client(args.scheduler, timeout="10s")
+        except (OSError, TimeoutError) as e:
+            raise ValueError(f"--scheduler {args.scheduler}: cannot connect ({e})") from None
+    outputs = [m.strip() for m in args.outputs.split(",")] if args.outputs else None
+    tic = time.perf_counter()
+    try:
+        table = sweep(
+            scene, vary, samples=args.samples, seed=args.seed, client=client, outputs=outputs,
+            parquet=output, trajectories=args.trajectories, workers=args.workers,
+            chunk_size=args.chunk, progress=not args.quiet,
+        )
+    except SweepInterrupted as e:
+        print(f"opendyn sweep: interrupted; {_counts(e.table)} are saved in {output}: the same "
+              f"command resumes", file=sys.stderr)
+        return 130
+    finally:
+        if client is not None:
+            client.close()
+    if args.plot is not None:
+        from .sweep_plot import plot_sweep
+
+        with _doing("drawing the plot; the results are saved"):
+            plot_sweep(table, args.plot, args.metric)
+    if not args.quiet:
+        print(f"{_counts(table)} in {time.perf_counter() - tic:.1f} s; wrote {output}"
+              + (f", {args.plot}" if args.plot else ""))
+        failed = [r for r in table.select(["run", "message"]).to_pylist()
+                  if r["message"]]
+        if failed:
+            print(f"first failure, run {failed[0]['run']}: {failed[0]['message']}")
+    return 0
+
+
+def _counts(table) -> str:
+    """'N runs (C complete, F failed)' of a sweep's results table."""
+    statuses = table.column("status").to_pylist()
+    complete = statuses.count("complete")
+    return f"{len(statuses)} runs ({complete} complete, {len(statuses) - complete} failed)"
 
 
 def _scene_to_run(args):
@@ -664,6 +739,42 @@ def main(argv=None) -> int:
         help=f"URDF file or robot name (default: {DEFAULT_ROBOT})",
     )
     demo.set_defaults(run=_demo)
+
+    sw = sub.add_parser(
+        "sweep",
+        help="run a scene once per combination of varied keys, on a Dask cluster",
+        description="Run a scene once per combination of the varied keys (or --samples random "
+        "ones) on a local Dask cluster or an existing one; one Parquet row per run, written as "
+        "runs finish; the same command resumes a stopped sweep.",
+    )
+    sw.add_argument("target", help="scene file, shipped scene, URDF file or robot name")
+    sw.add_argument(
+        "--vary",
+        action="append",
+        required=True,
+        metavar="KEY=SPEC",
+        help="a dotted scene key (control.kp, initial.q.JOINT, run.dt, robot.payload.mass...) "
+        "and its values: a,b,c | lo:hi:n | log:lo:hi:n | uniform:lo:hi | normal:mu:sigma "
+        "(repeatable; lists and grids multiply)",
+    )
+    sw.add_argument("--samples", type=int, help="draw N random combinations (seeded)")
+    sw.add_argument("--seed", type=int, default=0, help="seed of the draws (default 0)")
+    where = sw.add_mutually_exclusive_group()
+    where.add_argument("--workers", type=int, help="local worker processes (default: the cores)")
+    where.add_argument("--scheduler", metavar="ADDRESS", help="an existing Dask scheduler")
+    sw.add_argument(
+        "-o", "--output", help="results table (.parquet); default: SCENE-sweep.parquet"
+    )
+    sw.add_argument("--trajectories", metavar="DIR", help="save every run's trajectory here")
+    sw.add_argument(
+        "--outputs",
+        help="metrics to compute, comma-separated (default: every one that applies)",
+    )
+    sw.add_argument("--plot", help="PNG of a metric against the varied keys")
+    sw.add_argument("--metric", help="the metric --plot draws (default: the scene's main one)")
+    sw.add_argument("--chunk", type=int, help="runs per task (default: chosen from the count)")
+    sw.add_argument("-q", "--quiet", action="store_true", help="no progress bar or summary")
+    sw.set_defaults(run=_sweep)
 
     comp = sub.add_parser(
         "compile",

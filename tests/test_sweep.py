@@ -1,0 +1,350 @@
+"""Sweeps on a Dask LocalCluster of 2 worker processes: the rows equal the same runs done one by
+one with simulate (bit for bit), a seeded Monte Carlo sweep is reproducible, a failing run is a
+failed row, a worker killed mid-sweep loses and duplicates nothing, and a stopped sweep resumes
+where it stopped."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import threading
+import time
+
+import numpy as np
+import pytest
+
+import opendyn as od
+from opendyn.scene import thaw
+from opendyn.sweep import Axis, SweepError, combinations, parse_axis
+
+distributed = pytest.importorskip("distributed")
+pq = pytest.importorskip("pyarrow.parquet")
+
+ROBOTS = os.path.join(os.path.dirname(__file__), "..", "robots")
+
+
+@pytest.fixture(scope="module")
+def client():
+    from dask.distributed import Client, LocalCluster
+
+    import logging
+
+    with LocalCluster(
+        n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None,
+        silence_logs=logging.ERROR,
+    ) as cluster, Client(cluster) as c:
+        yield c
+
+
+def limits_scene(duration=0.5):
+    """The planar 3R arm against its stiff limits: cheap runs that fail for large steps."""
+    return od.load_scene("planar_3r_limits").replace_run(duration=duration)
+
+
+def one_by_one(scene, values):
+    """The run's scene built by hand: the scene file's settings with the values written in."""
+    settings = thaw(scene.settings)
+    for key, value in values.items():
+        *path, last = key.split(".")
+        table = settings
+        for part in path:
+            table = table.setdefault(part, {})
+        table[last] = value
+    return od.simulate(od.scene_from_dict(settings, base_dir=ROBOTS), raise_on_failure=False)
+
+
+# --- specs and combinations ---------------------------------------------------------------------
+
+
+def test_specs_parse_to_their_values():
+    assert parse_axis("k", "1,2.5,rk4,true").values == (1.0, 2.5, "rk4", True)
+    assert parse_axis("k", "0:1:5").values == tuple(np.linspace(0, 1, 5))
+    log = parse_axis("k", "log:1e-4:1e-2:3")
+    assert log.log and np.allclose(log.values, [1e-4, 1e-3, 1e-2], rtol=1e-14)
+    assert parse_axis("k", "uniform:-1:2").distribution == ("uniform", -1.0, 2.0)
+    assert parse_axis("k", "normal:0:0.1").distribution == ("normal", 0.0, 0.1)
+    assert parse_axis("k", [1, np.float64(2.0)]).values == (1, 2.0)
+
+
+@pytest.mark.parametrize(
+    "spec, words",
+    [
+        ("0:1:2.5", "whole number"),
+        ("0:1:0", "whole number"),
+        ("log:0:1:3", "lo > 0"),
+        ("uniform:1:1", "lo < hi"),
+        ("normal:0:-1", "sigma > 0"),
+        ("normal:0", "expected normal:mu:sigma"),
+        ("uniform:a:1", "'a' is not a finite number"),
+        ("1,,2", "empty value"),
+        ("beta:1:2:3:4", "expected a list"),
+        ({"a": 1}, "expected a list"),
+    ],
+)
+def test_bad_specs_name_the_key_and_the_problem(spec, words):
+    with pytest.raises(SweepError, match="vary k") as e:
+        parse_axis("k", spec)
+    assert words in str(e.value)
+
+
+def test_grids_multiply_with_the_last_key_fastest():
+    runs = combinations([Axis("a", "", values=(1, 2)), Axis("b", "", values=("x", "y", "z"))])
+    assert [(r["a"], r["b"]) for r in runs] == [
+        (1, "x"), (1, "y"), (1, "z"), (2, "x"), (2, "y"), (2, "z")
+    ]
+
+
+def test_samples_draw_each_key_from_one_seeded_generator():
+    axes = [parse_axis("a", "uniform:-1:1"), parse_axis("b", "normal:2:0.5"),
+            parse_axis("c", "1,2,3")]
+    runs = combinations(axes, samples=50, seed=7)
+    rng = np.random.default_rng(7)  # the documented order: one key after another
+    assert [r["a"] for r in runs] == list(rng.uniform(-1, 1, 50))
+    assert [r["b"] for r in runs] == list(rng.normal(2, 0.5, 50))
+    assert [r["c"] for r in runs] == [(1.0, 2.0, 3.0)[i] for i in rng.integers(3, size=50)]
+    assert combinations(axes, samples=50, seed=7) == runs
+    assert combinations(axes, samples=50, seed=8) != runs
+
+
+def test_a_distribution_needs_samples():
+    with pytest.raises(SweepError, match="is a distribution: give samples=N"):
+        combinations([parse_axis("a", "uniform:0:1")])
+
+
+# --- every run's scene is read before anything runs ---------------------------------------------
+
+
+@pytest.mark.parametrize(
+    "vary, words",
+    [
+        ({"control.kpp": "1,2"}, "unknown key"),  # the reader lists the valid keys
+        ({"initial.q.joint9": "0,1"}, "joints: joint1, joint2, joint3"),
+        ({"effects.limits.stiffness": "1e5,-1"}, "run 1 (effects.limits.stiffness = -1.0)"),
+        ({"run.integrator": "rk4,rk5"}, "'rk5' is not one of"),
+        ({"run.dt": "0.001,0.003"}, "run.output_dt"),
+        ({"run.duration.x": "1"}, "run.duration is 0.5 in the scene, not a table"),
+    ],
+)
+def test_a_bad_key_or_value_is_refused_before_anything_runs(vary, words, tmp_path):
+    with pytest.raises(SweepError) as e:
+        od.sweep(limits_scene(), vary, parquet=tmp_path / "r.parquet", workers=1)
+    assert words in str(e.value)
+    assert not (tmp_path / "r.parquet").exists()
+
+
+def test_an_unknown_key_lists_the_valid_keys(tmp_path):
+    with pytest.raises(SweepError) as e:
+        od.sweep(limits_scene(), {"run.dtt": "0.001"}, workers=1)
+    assert "valid keys in [run]: duration, integrator, dt" in str(e.value)
+
+
+# --- the done-when tests --------------------------------------------------------------------------
+
+
+def test_rows_equal_the_runs_done_one_by_one(client, tmp_path):
+    scene = limits_scene()
+    vary = {"effects.limits.stiffness": "1e3,1e7", "effects.limits.damping": "5,50",
+            "run.dt": "0.001,0.005", "run.integrator": "rk4"}
+    table = od.sweep(scene, vary, client=client, parquet=tmp_path / "r.parquet",
+                     trajectories=tmp_path / "runs", chunk_size=3)
+    rows = table.to_pylist()
+    assert [r["run"] for r in rows] == list(range(8))
+    assert pq.read_table(tmp_path / "r.parquet").to_pylist() == rows
+    for row in rows:
+        values = {key: row[key] for key in vary}
+        traj = one_by_one(scene, values)
+        assert row["status"] == ("complete" if traj.complete else "failed")
+        assert row["message"] == traj.message
+        assert row["q_final"] == traj.q[-1].tolist()  # bit for bit
+        assert row["qd_final"] == traj.qd[-1].tolist()
+        assert row["energy_error_max"] == np.abs(traj.energy_error).max()
+        assert row["steps"] == traj.stats["steps"]
+        saved = od.Trajectory.load(tmp_path / "runs" / f"run-{row['run']:06d}.npz")
+        assert np.array_equal(saved.q, traj.q) and np.array_equal(saved.qd, traj.qd)
+    # RK4 goes unstable against limits of 1e7 N m/rad, and at 5 ms against the damping of 50
+    failed = [r["run"] for r in rows if r["status"] == "failed"]
+    assert failed == [3, 4, 5, 6, 7]
+    assert all("exceeded max_speed" in rows[run]["message"] for run in failed)
+
+
+def test_a_seeded_monte_carlo_sweep_is_reproducible(client):
+    scene = od.load_scene("double_pendulum_swing").replace_run(duration=0.2)
+    vary = {"initial.q.shoulder": "uniform:-1:1", "initial.qd.elbow": "normal:0:0.5"}
+    first = od.sweep(scene, vary, samples=12, seed=3, client=client)
+    again = od.sweep(scene, vary, samples=12, seed=3, client=client)
+    other = od.sweep(scene, vary, samples=12, seed=4, client=client)
+    drop = ["wall_s"]
+    assert first.drop(drop).equals(again.drop(drop))
+    assert first.column("initial.q.shoulder").to_pylist() == list(
+        np.random.default_rng(3).uniform(-1, 1, 12)
+    )
+    assert first.column("q_final").to_pylist() != other.column("q_final").to_pylist()
+
+
+def test_a_run_that_raises_is_a_failed_row(client):
+    # simulate refuses a start outside a limit that the scene enforces: a failed row, not a crash
+    table = od.sweep(limits_scene(duration=0.1), {"initial.q.joint1": "0,3.5"}, client=client)
+    first, second = table.to_pylist()
+    assert first["status"] == "complete" and first["message"] == ""
+    assert second["status"] == "failed" and "initial.q.joint1" in second["message"]
+    assert second["q_final"] is None and second["steps"] is None
+
+
+def test_a_killed_worker_loses_and_duplicates_no_row(tmp_path):
+    from dask.distributed import Client, LocalCluster
+
+    import logging
+
+    scene = od.load_scene("double_pendulum_swing").replace_run(duration=2.0, dt=0.0002)
+    vary = {"initial.q.shoulder": "0:1:24"}
+    parquet = tmp_path / "r.parquet"
+    with LocalCluster(
+        n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None,
+        silence_logs=logging.CRITICAL,
+    ) as cluster, Client(cluster) as c:
+        result = {}
+        thread = threading.Thread(
+            target=lambda: result.update(table=od.sweep(
+                scene, vary, client=c, parquet=parquet, chunk_size=2)),
+        )
+        thread.start()
+        parts = tmp_path / "r.parquet.parts"
+        deadline = time.time() + 120
+        while not (parts.is_dir() and any(parts.iterdir())) and time.time() < deadline:
+            time.sleep(0.05)
+        busy = [w for w, keys in c.processing().items() if keys]
+        assert busy, "no worker was running a chunk"
+        victim = busy[0]
+        pid = c.run(os.getpid, workers=[victim])[victim]
+        os.kill(pid, signal.SIGKILL)  # the worker dies mid-chunk
+        thread.join(300)
+        assert not thread.is_alive()
+    runs = result["table"].column("run").to_pylist()
+    assert runs == list(range(24))  # each run once
+    assert set(result["table"].column("status").to_pylist()) == {"complete"}
+    assert pq.read_table(parquet).num_rows == 24 and not parts.exists()
+
+
+def test_a_sweep_resumes_and_skips_finished_runs(client, tmp_path):
+    scene = limits_scene(duration=0.2)
+    vary = {"effects.limits.stiffness": "1e3:1e5:6"}
+    parquet = tmp_path / "r.parquet"
+    full = od.sweep(scene, vary, client=client, parquet=parquet)
+    # a stopped sweep: runs 0, 2, 3 in the file, run 5 in a part (a client killed before the
+    # merge), runs 1 and 4 missing
+    pq.write_table(full.filter(np.isin(np.arange(6), [0, 2, 3])), parquet)
+    parts = tmp_path / "r.parquet.parts"
+    parts.mkdir()
+    pq.write_table(full.filter(np.arange(6) == 5), parts / "part-000000005.parquet")
+    resumed = od.sweep(scene, vary, client=client, parquet=parquet)
+    assert resumed.column("run").to_pylist() == list(range(6))
+    wall = resumed.column("wall_s").to_pylist()
+    before = full.column("wall_s").to_pylist()
+    # the finished rows were kept as they were (a rerun would take another wall time)
+    assert [wall[i] for i in (0, 2, 3, 5)] == [before[i] for i in (0, 2, 3, 5)]
+    assert resumed.drop(["wall_s"]).equals(full.drop(["wall_s"]))
+    assert not parts.exists()
+
+
+def test_another_sweeps_results_file_is_refused(client, tmp_path):
+    scene = limits_scene(duration=0.1)
+    parquet = tmp_path / "r.parquet"
+    od.sweep(scene, {"effects.limits.stiffness": "1e3,1e4"}, client=client, parquet=parquet)
+    with pytest.raises(SweepError, match="holds another sweep \\(its vary differ\\)"):
+        od.sweep(scene, {"effects.limits.damping": "1,2"}, client=client, parquet=parquet)
+    (tmp_path / "x.parquet").write_text("not parquet")
+    with pytest.raises(SweepError, match="not a Parquet file"):
+        od.sweep(scene, {"effects.limits.damping": "1,2"}, client=client,
+                 parquet=tmp_path / "x.parquet")
+
+
+def test_ctrl_c_keeps_the_finished_rows_and_the_same_command_resumes(tmp_path):
+    command = [
+        sys.executable, "-m", "opendyn.cli", "sweep", "double_pendulum_swing",
+        "--vary", "initial.q.shoulder=0:1:40", "--vary", "run.dt=0.0002", "--workers", "2",
+        "--chunk", "2", "-o", "r.parquet",
+    ]
+    proc = subprocess.Popen(command, cwd=tmp_path, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+    parts = tmp_path / "r.parquet.parts"
+    deadline = time.time() + 120
+    while not (parts.is_dir() and len(list(parts.iterdir())) >= 2) and time.time() < deadline:
+        time.sleep(0.05)
+    proc.send_signal(signal.SIGINT)
+    out, err = proc.communicate(timeout=120)
+    assert proc.returncode == 130, err
+    assert "interrupted" in err and "the same command resumes" in err
+    kept = pq.read_table(tmp_path / "r.parquet").column("run").to_pylist()
+    assert 4 <= len(kept) < 40 and len(set(kept)) == len(kept)
+    done = subprocess.run(command, cwd=tmp_path, capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    table = pq.read_table(tmp_path / "r.parquet")
+    assert table.column("run").to_pylist() == list(range(40))
+
+
+# --- metrics and plots ---------------------------------------------------------------------------
+
+
+def test_tracking_error_follows_the_closed_loop_and_grows_with_friction(client):
+    """Computed torque with the model's own dynamics leaves the error dynamics
+    e'' + kd e' + kp e = 0; the scene's reference starts moving (q_r'(0) = A w) from rest, so
+    e(0) = 0, e'(0) = -A w, and with kp = 400, kd = 40 (a double root at -20):
+    e(t) = -A w t exp(-20 t). Coulomb friction, which the controller does not model, adds to it."""
+    scene = od.load_scene("panda_computed_torque").replace_run(duration=0.3)
+    scene = scene.without("damping")
+    table = od.sweep(scene, {"effects.friction.coefficients": "0,0.5,2"}, client=client)
+    rms = table.column("tracking_rms").to_pylist()
+    c = scene.control
+    t = np.linspace(0.0, 0.3, 31)[:, None]
+    w = 2 * np.pi * c.frequency
+    e = -c.amplitude * w * t * np.exp(-20.0 * t)
+    assert rms[0] == pytest.approx(np.sqrt(np.mean(e**2)), rel=1e-6)
+    assert rms[0] < rms[1] < rms[2]
+    traj = one_by_one(scene, {"effects.friction.coefficients": 2.0})
+    q_r = c.offset + c.amplitude * np.sin(2 * np.pi * c.frequency * traj.t[:, None] + c.phase)
+    assert rms[2] == pytest.approx(np.sqrt(np.mean((traj.q - q_r) ** 2)), rel=1e-12)
+
+
+def test_plots_draw_a_line_and_a_heat_map(client, tmp_path):
+    scene = limits_scene(duration=0.2)
+    line = od.sweep(scene, {"effects.limits.stiffness": "log:1e3:1e6:4"}, client=client)
+    od.plot_sweep(line, tmp_path / "line.png")
+    grid = od.sweep(scene, {"effects.limits.stiffness": "log:1e3:1e6:3", "run.dt": "0.001,0.005",
+                            "run.integrator": "rk4,implicit_euler"}, client=client)
+    od.plot_sweep(grid, tmp_path / "map.png", metric="energy_error_max")
+    for name in ("line.png", "map.png"):
+        assert (tmp_path / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    with pytest.raises(ValueError, match="not a metric of this sweep"):
+        od.plot_sweep(grid, tmp_path / "x.png", metric="tracking_rms")
+
+
+def test_the_core_imports_without_the_sweep_extra():
+    code = (
+        "import sys\n"
+        "for m in ('dask', 'distributed', 'pyarrow'): sys.modules[m] = None\n"
+        "import opendyn as od\n"
+        "od.simulate(od.load_scene('double_pendulum_swing').replace_run(duration=0.01))\n"
+        "try:\n"
+        "    od.sweep('double_pendulum_swing', {'run.dt': '0.001'})\n"
+        "except ImportError as e:\n"
+        "    print(e)\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert "pip install 'opendyn[sweep]'" in out.stdout
+
+
+def test_the_command_refuses_bad_arguments_in_one_line(tmp_path, capsys):
+    from opendyn.cli import main
+
+    for argv, words in [
+        (["--vary", "control.kp"], "expected KEY=SPEC"),
+        (["--vary", "run.dt=1", "--vary", "run.dt=2"], "given twice"),
+        (["--vary", "run.dt=0.001", "-o", str(tmp_path / "no" / "r.parquet")], "does not exist"),
+        (["--vary", "run.dt=0.001,0.002", "--vary", "run.duration=1,2", "--vary",
+          "initial.q.joint1=0,1", "--plot", str(tmp_path / "p.png")], "one or two varied"),
+    ]:
+        assert main(["sweep", "planar_3r_limits", *argv]) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and words in err, err
