@@ -33,11 +33,18 @@ world-frame vector g, applied as the base acceleration dV_0 = (0, -g).
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from .spatial import linear
+from .spatial import (
+    _as_rotational_inertia,
+    inverse_transform,
+    linear,
+    spatial_inertia,
+    transform_inertia,
+)
 
 # joint types, and each type's numbers of configuration and velocity coordinates
 REVOLUTE = 0
@@ -89,6 +96,24 @@ FLOAT_AT = field_starts(FLOAT_FIELDS)
 def buffer_size(at: dict, nb: int) -> int:
     """Numbers in a buffer laid out by `at` for nb bodies."""
     return sum(size for _, size, _ in at.values()) * nb
+
+
+def _write_field(buf, at, name, nb, values, header=0):
+    """Write (nb, *shape) `values` into one field of a flat buffer laid out by `at`."""
+    start, size, _ = at[name]
+    buf[header + start * nb : header + (start + size) * nb] = np.asarray(
+        values, dtype=buf.dtype
+    ).ravel()
+
+
+def _rigid_body_form(G):
+    """G = [[I_o, [h]], [[h]^T, m 1]] -> (m (nb,), h = m c (nb, 3), I_o (nb, 3, 3)): the
+    inertias G (nb, 6, 6), each about the origin of {i} in {i}, as mass (kg), first moment
+    (kg m) and rotational inertia about {i}'s origin (kg m^2)."""
+    mass = G[:, 3, 3]
+    h = np.stack([G[:, 2, 4], G[:, 0, 5], G[:, 1, 3]], axis=-1)
+    I_o = G[:, :3, :3]
+    return mass, h, I_o
 
 
 def _frame_index(frames, aliases):
@@ -297,16 +322,9 @@ class Model:
             ("iq", iq),
             ("iv", iv),
         ):
-            start, size, _ = INT_AT[key]
-            ibuf[INT_HEADER + start * nb : INT_HEADER + (start + size) * nb] = np.asarray(
-                arr, dtype=np.int64
-            ).ravel()
+            _write_field(ibuf, INT_AT, key, nb, arr, INT_HEADER)
         G = np.reshape(np.asarray(G, dtype=np.float64), (nb, 6, 6))
-        # the same inertia in rigid-body form: mass m, first moment h = m c, I_o about {i}'s
-        # origin; G = [[I_o, [h]], [[h]^T, m 1]]
-        mass = G[:, 3, 3]
-        h = np.stack([G[:, 2, 4], G[:, 0, 5], G[:, 1, 3]], axis=-1)
-        I_o = G[:, :3, :3]
+        mass, h, I_o = _rigid_body_form(G)
         for key, arr in (
             ("mult", mult),
             ("offset", offset),
@@ -318,8 +336,7 @@ class Model:
             ("R_home", R_home),
             ("p_home", p_home),
         ):
-            start, size, _ = FLOAT_AT[key]
-            fbuf[start * nb : (start + size) * nb] = np.asarray(arr, dtype=np.float64).ravel()
+            _write_field(fbuf, FLOAT_AT, key, nb, arr)
 
         # each joint coordinate belongs to the 1-dof joint that carries its name
         owner = {body_joints[i]: i for i in range(nb) if jtype[i] != FREE and i not in follows}
@@ -418,6 +435,40 @@ class Model:
                 f"frame {frame!r} is not a frame of model {self.name!r}; "
                 f"valid frames: {names}{more}"
             ) from None
+
+    def with_payload(self, frame: str, mass, com=(0.0, 0.0, 0.0), inertia=None) -> Model:
+        """G_i' = G_i + [Ad_{T_fi}]^T G_payload_f [Ad_{T_fi}],  T_fi = T_{i,f}^-1: a new Model
+        whose body i, the one carrying `frame` {f}, also carries a rigid payload.
+
+        G_payload_f = spatial_inertia(mass, com, inertia) is the payload's spatial inertia about
+        {f}'s origin in {f}'s axes; [Ad_{T_fi}]^T ... [Ad_{T_fi}] moves it to {i}'s origin and
+        axes (MR Section 8.2.2), and mass, h and I_o of body i follow from G_i'.
+        frame: a frame name (a link, or a joint for its child link) on a moving body.
+        mass: kg >= 0. com: (3,) m, the payload's centre of mass in {f}'s coordinates.
+        inertia: (3, 3) kg m^2, its rotational inertia about its centre of mass in {f}'s axes
+        (symmetric, positive semi-definite, principal moments within the triangle
+        inequality); None: a point mass.
+        Returns the new Model (this one is unchanged; mass 0 with no inertia gives the same
+        arrays). KeyError for an unknown frame (as ``frame_index``); ValueError naming the
+        frame when it is welded to the fixed world (the payload would not move), or naming
+        mass, com or inertia when one is not a physical value of its shape.
+        """
+        f = self.frames[self.frame_index(frame)]
+        if f.body < 0:
+            raise ValueError(
+                f"frame {frame!r} of model {self.name!r} is welded to the fixed world, so a "
+                "payload on it would not move and no joint would carry it; name a frame of a "
+                "moving link"
+            )
+        I_com = np.zeros((3, 3)) if inertia is None else _as_rotational_inertia(inertia, "inertia")
+        G_payload_f = spatial_inertia(mass, com, I_com)
+        T_fi = inverse_transform(f.T_body_frame)
+        G = np.array(self.G)
+        G[f.body] += transform_inertia(G_payload_f, T_fi)
+        fbuf = self._fbuf.copy()
+        for key, values in zip(("G", "mass", "h", "I_o"), (G, *_rigid_body_form(G))):
+            _write_field(fbuf, FLOAT_AT, key, self.nb, values)
+        return dataclasses.replace(self, _fbuf=fbuf)
 
     def home_transform(self, i: int) -> np.ndarray:
         """M_{lambda(i), i}: (4, 4) home configuration of body i in its parent's frame."""

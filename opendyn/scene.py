@@ -43,6 +43,14 @@ The file format (every key optional unless marked required):
     check_inertia = true                   # passed to load_urdf
     floating_base = false                  # passed to load_urdf: true makes the root link a
                                            # free body (a 6-dof base, unactuated)
+    [robot.payload]                        # a rigid payload welded to a frame: its inertia is
+                                           # added to the frame's body (model.with_payload)
+    frame = "tool0"                        # required: a frame (link or joint name) that moves
+    mass = 2.5                             # required: kg >= 0
+    com = [0.0, 0.0, 0.05]                 # m, its centre of mass in the frame (default 0)
+    inertia = { ixx = 0.01, iyy = 0.01, izz = 0.005 }   # kg m^2 about the centre of mass,
+                                           # frame axes, as a URDF <inertia>: ixx iyy izz ixy
+                                           # ixz iyz, missing entries 0 (default: a point mass)
 
     [initial]
     q = { shoulder = 1.0 }                 # a table {joint = value} (others 0) or a list with
@@ -215,7 +223,12 @@ _TOP_KEYS = (
     "constraints",
     "baumgarte",
 )
-_ROBOT_KEYS = ("urdf", "name", "mimic", "check_inertia", "floating_base")
+_ROBOT_KEYS = ("urdf", "name", "mimic", "check_inertia", "floating_base", "payload")
+_PAYLOAD_KEYS = ("frame", "mass", "com", "inertia")
+# a URDF <inertia>'s attributes, each the entry (row, column) of the symmetric matrix
+_INERTIA_ENTRIES = {
+    "ixx": (0, 0), "iyy": (1, 1), "izz": (2, 2), "ixy": (0, 1), "ixz": (0, 2), "iyz": (1, 2)
+}
 _BASE_KEYS = (
     "base_position",
     "base_orientation",
@@ -386,16 +399,17 @@ class Control:
 class Scene:
     """A robot, its initial state, the effects that exist, the control and the run settings.
 
-    q0: (nq,) rad or m, with a floating base (p, quat (x, y, z, w), q_joints); qd0: (nv,)
-    rad/s or m/s, with a floating base (omega_b, v_b, qd_joints) the base twist in its own
-    frame. gravity: (3,) world-frame m/s^2 or None. The per-joint arrays (damping, friction,
-    armature, limits, control) have one entry per joint, in model.joint_names order (n = nv
-    without a floating base, nv - 6 with one). damping: (n,) viscous coefficients or None.
-    armature: (n,) or None. wrenches: ()
-    when none is applied. contact: ground contact (Contact) or None. control: None = zero torque. source: the scene file, "<dict>" or
-    "<robot NAME>". settings: the scene as read, for provenance records: a read-only mapping
-    (tables as mappings, lists as tuples; ``thaw(scene.settings)`` is a plain dict to edit and
-    pass to scene_from_dict). Every array is immutable.
+    model: the robot's Model, carrying the payload of [robot.payload] when the scene names one
+    (``Model.with_payload``). q0: (nq,) rad or m, with a floating base (p, quat (x, y, z, w),
+    q_joints); qd0: (nv,) rad/s or m/s, with a floating base (omega_b, v_b, qd_joints) the
+    base twist in its own frame. gravity: (3,) world-frame m/s^2 or None. The per-joint arrays
+    (damping, friction, armature, limits, control) have one entry per joint, in
+    model.joint_names order (n = nv without a floating base, nv - 6 with one). damping: (n,)
+    viscous coefficients or None. armature: (n,) or None. wrenches: () when none is applied.
+    contact: ground contact (Contact) or None. control: None = zero torque. source: the scene
+    file, "<dict>" or "<robot NAME>". settings: the scene as read, for provenance records: a
+    read-only mapping (tables as mappings, lists as tuples; ``thaw(scene.settings)`` is a plain
+    dict to edit and pass to scene_from_dict). Every array is immutable.
     An effect that is None (or, for wrenches, empty) is never computed.
     constraints: Pfaffian constraints A(q) qd = 0 (opendyn.constraints objects), () for none;
     baumgarte: (alpha, beta) 1/s, the stabilisation A qdd + Adot qd + 2 alpha A qd +
@@ -576,6 +590,9 @@ def _build(data, source, base_dir, default_name=None, model=None) -> Scene:
     if model is None:
         model = r.robot(data.get("robot"), base_dir)
     r.model = model
+    # after the robot is loaded or given, so that a given model (a sweep's, loaded once) gets
+    # the payload its scene names
+    model = r.model = r.payload((data.get("robot") or {}).get("payload"))
     name = data.get("name", default_name if default_name is not None else model.name)
     r.string(name, "name")
     if "description" in data:
@@ -740,6 +757,50 @@ class _Reader:
             return load_urdf(target, **options)
         except URDFError as e:
             self.fail(key, str(e))
+
+    def payload(self, table) -> Model:
+        """[robot.payload] -> self.model.with_payload(frame, mass, com, inertia); self.model
+        itself when there is none. inertia: a table of a URDF <inertia>'s entries (kg m^2,
+        about the centre of mass in the frame's axes), missing entries 0."""
+        m = self.model
+        if table is None:
+            return m
+        key = "robot.payload"
+        self.keys(table, key, _PAYLOAD_KEYS)
+        for field in ("frame", "mass"):
+            if field not in table:
+                self.fail(
+                    f"{key}.{field}",
+                    "missing: [robot.payload] needs frame (a frame that moves) and mass (kg)",
+                )
+        frame = self.frame(table["frame"], f"{key}.frame")
+        if m.frames[m.frame_index(frame)].body < 0:
+            moving = [f.name for f in m.frames if f.body >= 0]
+            self.fail(
+                f"{key}.frame",
+                f"{frame!r} is welded to the fixed world (it is the root link or fixed to it), "
+                f"so a payload on it would not move; frames that move: {', '.join(moving)}",
+            )
+        mass = self.number(table["mass"], f"{key}.mass", minimum=0.0)
+        com = self.vector(table.get("com", [0.0] * 3), f"{key}.com", 3)
+        inertia = None
+        if "inertia" in table:
+            entries = table["inertia"]
+            if not isinstance(entries, dict):
+                self.fail(
+                    f"{key}.inertia",
+                    f"expected a table {{{', '.join(_INERTIA_ENTRIES)}}} (kg m^2, about the "
+                    f"centre of mass in the frame's axes), found {_found(entries)}",
+                )
+            self.keys(entries, f"{key}.inertia", tuple(_INERTIA_ENTRIES))
+            inertia = np.zeros((3, 3))
+            for name, (row, column) in _INERTIA_ENTRIES.items():
+                value = self.number(entries.get(name, 0.0), f"{key}.inertia.{name}")
+                inertia[row, column] = inertia[column, row] = value
+        try:
+            return m.with_payload(frame, mass, com, inertia)
+        except ValueError as e:  # frame, mass and com are checked above: the inertia is wrong
+            self.fail(f"{key}.inertia", str(e))
 
     def initial(self, table) -> tuple[np.ndarray, np.ndarray]:
         """[initial] -> (q0 (nq,), qd0 (nv,)): the joints from q and qd, a floating base from

@@ -84,14 +84,16 @@ def test_the_readme_python_examples_run_in_order(tmp_path, monkeypatch):
 
 def test_the_readme_scenes_load_and_the_full_example_runs():
     """The complete scene example runs (0.1 s); each fragment loads with the robot of its
-    section: the floating base (Solo12, complete), contact on it, constraints on the shipped
-    four-bar scene's initial state."""
-    floating, contact, full, constraints = (tomllib.loads(b) for b in blocks("toml"))
+    section: the floating base (Solo12, complete), the payload (UR5, complete), contact on
+    Solo12, constraints on the shipped four-bar scene's initial state."""
+    floating, payload, contact, full, constraints = (tomllib.loads(b) for b in blocks("toml"))
     scene = od.scene_from_dict(full, base_dir=shipped_robots_dir())
     assert scene.effects == ("gravity", "damping", "wrench", "control")
     assert od.simulate(scene.replace_run(duration=0.1)).complete
     solo = od.scene_from_dict(floating)
     assert solo.model.floating_base and solo.q0[2] == 1.0
+    loaded = od.scene_from_dict(payload).model
+    assert loaded.mass.sum() == pytest.approx(od.load_urdf("ur5").mass.sum() + 2.5)
     on_ground = od.scene_from_dict({**floating, **contact})
     assert [p.frame for p in on_ground.contact.points] == ["FL_FOOT"]
     four_bar = tomllib.loads((shipped_robots_dir() / "four_bar.toml").read_text())
