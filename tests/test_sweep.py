@@ -19,8 +19,7 @@ import opendyn as od
 from opendyn.scene import thaw
 from opendyn.sweep import Axis, SweepError, combinations, parse_axis
 
-distributed = pytest.importorskip("distributed")
-pq = pytest.importorskip("pyarrow.parquet")
+import pyarrow.parquet as pq  # the test extra installs the sweep extra
 
 ROBOTS = os.path.join(os.path.dirname(__file__), "..", "robots")
 
@@ -167,6 +166,20 @@ def test_rows_equal_the_runs_done_one_by_one(client, tmp_path):
     failed = [r["run"] for r in rows if r["status"] == "failed"]
     assert failed == [3, 4, 5, 6, 7]
     assert all("exceeded max_speed" in rows[run]["message"] for run in failed)
+
+
+def test_a_payload_sweep_loads_the_robot_once_and_adds_each_payload(client):
+    scene = od.load_scene("panda_computed_torque").replace_run(duration=0.2)
+    settings = thaw(scene.settings)
+    settings["robot"]["payload"] = {"frame": "panda_hand", "mass": 0.0, "com": [0, 0, 0.1]}
+    scene = od.scene_from_dict(settings, source=scene.source, base_dir=ROBOTS)
+    table = od.sweep(scene, {"robot.payload.mass": "0,1.5,3"}, client=client)
+    for row in table.to_pylist():
+        traj = one_by_one(scene, {"robot.payload.mass": row["robot.payload.mass"]})
+        assert row["q_final"] == traj.q[-1].tolist()
+        assert row["energy_error_max"] == np.abs(traj.energy_error).max()
+    finals = table.column("q_final").to_pylist()
+    assert finals[0] != finals[1] != finals[2]  # each run carried its own payload
 
 
 def test_a_seeded_monte_carlo_sweep_is_reproducible(client):
