@@ -435,7 +435,7 @@ def sweep(
         "scene": base.settings,
         "source": base.source,
         "vary": {a.key: a.spec for a in axes},
-        "log": [a.key for a in axes if a.log],
+        "log": [a.key for a in axes if a.log or _spans_decades(a.values)],
         "samples": samples,
         "seed": seed,
         "outputs": list(outputs),
@@ -443,7 +443,7 @@ def sweep(
     record["fingerprint"] = hashlib.sha1(
         json.dumps(record, sort_keys=True, default=str).encode()
     ).hexdigest()[:16]
-    record["opendyn"] = __version__
+    record["name"], record["opendyn"] = scene.name, __version__
     results = Results(parquet, record, axes, runs, outputs)
     todo = [(run, values) for run, values in enumerate(runs) if run not in results.finished]
     cluster = _cluster(client, workers)
@@ -459,6 +459,16 @@ def sweep(
     except KeyboardInterrupt:
         raise SweepInterrupted(results.close()) from None
     return results.close()
+
+
+def _spans_decades(values) -> bool:
+    """Whether a list of positive numbers spans more than a decade (drawn on a log axis)."""
+    numbers_only = [v for v in values if isinstance(v, float)]
+    return (
+        len(numbers_only) == len(values) > 2
+        and min(numbers_only) > 0
+        and max(numbers_only) >= 10 * min(numbers_only)
+    )
 
 
 def _outputs(outputs, metrics) -> tuple[str, ...]:

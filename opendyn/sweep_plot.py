@@ -10,8 +10,6 @@ covers only the time before the failure.
 
 from __future__ import annotations
 
-import itertools
-
 import numpy as np
 
 from .sweep_results import read_record
@@ -47,16 +45,29 @@ def plot_sweep(table, path, metric=None):
     random = record["samples"] is not None
     panels = sorted({tuple(columns[k][i] for k in other) for i in range(table.num_rows)}, key=str)
     fig, axes = plt.subplots(
-        1, len(panels), figsize=(5.2 * len(panels), 4.2), squeeze=False, constrained_layout=True
+        1, len(panels), figsize=(0.6 + 4.6 * len(panels), 4.0), squeeze=False,
+        constrained_layout=True,
     )
+    ok = np.array([status == "complete" for status in columns["status"]])
+    z = _values(columns, metric, range(table.num_rows))
+    norm = _norm(z[ok & np.isfinite(z)])
     for ax, panel in zip(axes[0], panels):
         rows = [i for i in range(table.num_rows)
                 if tuple(columns[k][i] for k in other) == panel]
-        draw = _line if len(numeric) == 1 else _heat_map
-        draw(fig, ax, columns, rows, numeric, metric, random, record["log"])
-        title = ", ".join(f"{k} = {v}" for k, v in zip(other, panel))
-        ax.set_title(title or record.get("source", ""), fontsize=9)
-    fig.suptitle(f"{metric}: {len(columns['run'])} runs", fontsize=10)
+        if len(numeric) == 1:
+            _line(ax, columns, rows, numeric[0], metric, random, record["log"], norm)
+        else:
+            image = _heat_map(ax, columns, rows, numeric, metric, random, record["log"], norm)
+        ax.set_title(", ".join(f"{k} = {v}" for k, v in zip(other, panel)), fontsize=9)
+    if len(numeric) == 2:
+        fig.colorbar(image, ax=list(axes[0]), label=metric)
+    failed = int((~ok).sum())
+    fig.suptitle(
+        f"{record.get('name') or record['source']}: {metric}, {table.num_rows} runs"
+        + (f" ({failed} failed: {'red crosses' if len(numeric) == 1 or random else 'grey'})"
+           if failed else ""),
+        fontsize=10,
+    )
     fig.savefig(path, dpi=110)
     plt.close(fig)
 
@@ -106,68 +117,71 @@ def _values(columns, key, rows):
     return np.array([np.nan if columns[key][i] is None else columns[key][i] for i in rows], float)
 
 
-def _line(fig, ax, columns, rows, keys, metric, random, log):
-    (key,) = keys
+def _norm(good):
+    """A colour scale over the complete runs' values: logarithmic when they are positive and
+    span more than two decades."""
+    from matplotlib.colors import LogNorm, Normalize
+
+    if not len(good):
+        return Normalize(0.0, 1.0)
+    if good.min() > 0 and good.max() > 100 * good.min():
+        return LogNorm(good.min(), good.max())
+    return Normalize(good.min(), good.max())
+
+
+def _line(ax, columns, rows, key, metric, random, log, norm):
     x, z = _values(columns, key, rows), _values(columns, metric, rows)
     ok = np.array([columns["status"][i] == "complete" for i in rows])
     order = np.argsort(x, kind="stable")
     x, z, ok = x[order], z[order], ok[order]
-    ax.plot(x[ok], z[ok], "." if random else "o-", ms=4, label="complete")
-    if not ok.all():
-        ax.plot(x[~ok], np.full((~ok).sum(), np.nanmin(z[ok]) if ok.any() else 0.0), "x",
-                color="red", label="failed")
+    ax.plot(x[ok], z[ok], "." if random else "o-", ms=4)
+    if not ok.all():  # along the bottom: their metric covers only the time before the failure
+        ax.plot(x[~ok], np.full((~ok).sum(), norm.vmin), "x", color="red", label="failed")
         ax.legend(fontsize=8)
     ax.set_xlabel(key)
     ax.set_ylabel(metric)
     if key in log:
         ax.set_xscale("log")
-    if np.all(z[ok] > 0) and ok.any() and z[ok].max() > 100 * z[ok].min():
+    if norm.__class__.__name__ == "LogNorm":
         ax.set_yscale("log")
 
 
-def _heat_map(fig, ax, columns, rows, keys, metric, random, log):
-    from matplotlib.colors import LogNorm, Normalize
-
+def _heat_map(ax, columns, rows, keys, metric, random, log, norm):
+    """metric(x, y) as cells around the grid points (coloured points for random samples);
+    failed runs as grey cells (red crosses). Returns the coloured artist."""
     x, y = (_values(columns, k, rows) for k in keys)
     z = _values(columns, metric, rows)
     ok = np.array([columns["status"][i] == "complete" for i in rows])
-    good = z[ok & np.isfinite(z)]
-    norm = (
-        LogNorm(good.min(), good.max())
-        if len(good) and good.min() > 0 and good.max() > 100 * good.min()
-        else Normalize(*(good.min(), good.max()) if len(good) else (0, 1))
-    )
     xs, ys = np.unique(x), np.unique(y)
     if random or len(xs) * len(ys) != len(rows):
         image = ax.scatter(x[ok], y[ok], c=z[ok], norm=norm, s=14)
-        ax.plot(x[~ok], y[~ok], "x", color="red", label="failed")
+        ax.plot(x[~ok], y[~ok], "x", color="red")
     else:
         grid = np.full((len(ys), len(xs)), np.nan)
-        failed = np.zeros_like(grid, dtype=bool)
+        failed = np.full_like(grid, np.nan)
         for xi, yi, zi, oki in zip(x, y, z, ok):
             cell = (np.searchsorted(ys, yi), np.searchsorted(xs, xi))
-            grid[cell], failed[cell] = (zi if oki else np.nan), not oki
-        image = ax.pcolormesh(_edges(xs, keys[0] in log), _edges(ys, keys[1] in log), grid,
-                              norm=norm, shading="flat")
-        ax.pcolormesh(_edges(xs, keys[0] in log), _edges(ys, keys[1] in log),
-                      np.where(failed, 1.0, np.nan), cmap="Greys", vmin=0, vmax=2,
-                      shading="flat")
-        for (i, j) in itertools.product(range(len(ys)), range(len(xs))):
-            if failed[i, j]:
-                ax.text(xs[j], ys[i], "failed", ha="center", va="center", fontsize=6)
+            if oki:
+                grid[cell] = zi
+            else:
+                failed[cell] = 1.0
+        edges = (_edges(xs, keys[0] in log), _edges(ys, keys[1] in log))
+        image = ax.pcolormesh(*edges, grid, norm=norm, shading="flat")
+        ax.pcolormesh(*edges, failed, cmap="Greys", vmin=0.0, vmax=2.5, shading="flat")
     for key, axis in zip(keys, ("x", "y")):
         getattr(ax, f"set_{axis}label")(key)
         if key in log:
             getattr(ax, f"set_{axis}scale")("log")
-    fig.colorbar(image, ax=ax, label=metric)
+    return image
 
 
 def _edges(centres, log):
-    """Cell edges around grid points: midpoints (in log space for a log grid), the ends
-    mirrored."""
+    """Cell edges around grid points: the midpoints (in log space for a log grid), the ends
+    mirrored; a single point gets a cell of its own size."""
     c = np.log(centres) if log else np.asarray(centres, float)
     if len(c) == 1:
-        e = np.array([c[0] - 0.5, c[0] + 0.5]) if not log else np.array([c[0] - 0.1, c[0] + 0.1])
+        half = 0.1 if log else max(abs(c[0]) * 0.1, 0.5)
+        e = np.array([c[0] - half, c[0] + half])
     else:
         mid = (c[1:] + c[:-1]) / 2
         e = np.concatenate([[2 * c[0] - mid[0]], mid, [2 * c[-1] - mid[-1]]])

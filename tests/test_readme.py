@@ -71,7 +71,7 @@ def test_every_readme_command_exits_zero(command, tmp_path, monkeypatch, capsys)
 
 def test_the_readme_python_examples_run_in_order(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
-    namespace = {}
+    namespace = {"__name__": "__main__"}  # as a script's, which the sweep example needs
     for code in blocks("python"):
         exec(compile(code, "README.md", "exec"), namespace)
     assert namespace["taus"].shape == (10_000, 6)
@@ -80,6 +80,7 @@ def test_the_readme_python_examples_run_in_order(tmp_path, monkeypatch):
     lam = namespace["lam"]
     assert lam.shape == (3,) and np.all(np.isfinite(lam))
     assert abs(lam[2]) < 1e-9  # "its z row is 0 (planar, rank 2)", as its comment says
+    assert namespace["table"].num_rows == 6 and (tmp_path / "pendulum.png").is_file()
 
 
 def test_the_readme_scenes_load_and_the_full_example_runs():
