@@ -773,14 +773,7 @@ class _Reader:
                     f"{key}.{field}",
                     "missing: [robot.payload] needs frame (a frame that moves) and mass (kg)",
                 )
-        frame = self.frame(table["frame"], f"{key}.frame")
-        if m.frames[m.frame_index(frame)].body < 0:
-            moving = [f.name for f in m.frames if f.body >= 0]
-            self.fail(
-                f"{key}.frame",
-                f"{frame!r} is welded to the fixed world (it is the root link or fixed to it), "
-                f"so a payload on it would not move; frames that move: {', '.join(moving)}",
-            )
+        frame = self.moving_frame(table["frame"], f"{key}.frame", "a payload on it would not move")
         mass = self.number(table["mass"], f"{key}.mass", minimum=0.0)
         com = self.vector(table.get("com", [0.0] * 3), f"{key}.com", 3)
         inertia = None
@@ -1003,22 +996,7 @@ class _Reader:
         m = self.model
         if "frame" not in table:
             self.fail(f"{key}.frame", f"missing; frames: {', '.join(m.frame_names)}")
-        frame = self.string(table["frame"], f"{key}.frame")
-        try:
-            m.frame_index(frame)
-        except KeyError:
-            self.fail(
-                f"{key}.frame",
-                f"{frame!r} is not a frame of {m.name!r}{_suggest(frame, m.frame_names)}; "
-                f"frames: {', '.join(m.frame_names)} (a joint name also finds its child link)",
-            )
-        if m.frames[m.frame_index(frame)].body < 0:
-            moving = [f.name for f in m.frames if f.body >= 0]
-            self.fail(
-                f"{key}.frame",
-                f"{frame!r} is welded to the fixed world (it is the root link or fixed to it), "
-                f"so a wrench on it moves nothing; frames that move: {', '.join(moving)}",
-            )
+        frame = self.moving_frame(table["frame"], f"{key}.frame", "a wrench on it moves nothing")
         expressed_in = self.string(
             table.get("expressed_in", "frame"), f"{key}.expressed_in", EXPRESSED_IN
         )
@@ -1205,6 +1183,20 @@ class _Reader:
                 raise
             self.fail(key, str(e))
 
+    def moving_frame(self, value, key, why) -> str:
+        """A frame (`frame`) that moves: one welded to the fixed world is refused, saying `why`
+        and listing the frames that move."""
+        name = self.frame(value, key)
+        m = self.model
+        if m.frames[m.frame_index(name)].body < 0:
+            moving = [f.name for f in m.frames if f.body >= 0]
+            self.fail(
+                key,
+                f"{name!r} is welded to the fixed world (it is the root link or fixed to it), "
+                f"so {why}; frames that move: {', '.join(moving)}",
+            )
+        return name
+
     def frame(self, value, key) -> str:
         name = self.string(value, key)
         try:
@@ -1214,7 +1206,7 @@ class _Reader:
             self.fail(
                 key,
                 f"{name!r} is not a frame of {self.model.name!r}{_suggest(name, frames)}; "
-                f"frames: {', '.join(frames)}",
+                f"frames: {', '.join(frames)} (a joint name also finds its child link)",
             )
         return name
 

@@ -162,10 +162,3 @@ def read_record(table) -> dict:
     """The sweep's record (scene, vary, log, samples, seed, outputs, fingerprint, opendyn
     version) from a results table's metadata."""
     return json.loads(table.schema.metadata[METADATA_KEY])
-
-
-def exists(path) -> bool:
-    """Whether `path` or its parts folder holds rows of some sweep."""
-    path = pathlib.Path(path)
-    return path.is_file() or path.with_name(path.name + ".parts").is_dir()
-
