@@ -361,3 +361,19 @@ def test_the_command_refuses_bad_arguments_in_one_line(tmp_path, capsys):
         assert main(["sweep", "planar_3r_limits", *argv]) == 2
         err = capsys.readouterr().err
         assert err.count("\n") == 1 and words in err, err
+
+
+def test_the_command_runs_on_an_existing_scheduler(client, tmp_path, monkeypatch, capsys):
+    from opendyn.cli import main
+
+    monkeypatch.chdir(tmp_path)
+    argv = ["sweep", "planar_3r_limits", "--vary", "effects.limits.stiffness=1e3,1e4",
+            "--vary", "run.duration=0.1", "--scheduler", client.scheduler.address, "-o", "r.parquet"]
+    assert main(argv) == 0, capsys.readouterr().err
+    table = pq.read_table(tmp_path / "r.parquet")
+    assert table.column("status").to_pylist() == ["complete", "complete"]
+    assert "2 runs (2 complete, 0 failed)" in capsys.readouterr().out
+    unreachable = ["sweep", "planar_3r_limits", "--vary", "run.duration=0.1", "--scheduler",
+                   "tcp://127.0.0.1:9"]
+    assert main(unreachable) == 2
+    assert "--scheduler tcp://127.0.0.1:9: cannot connect" in capsys.readouterr().err
