@@ -526,7 +526,7 @@ class _cluster:
                 n_workers=self.workers or os.cpu_count() or 1,
                 threads_per_worker=1,
                 processes=True,
-                dashboard_address=None,
+                dashboard_address=":0",
                 silence_logs=logging.CRITICAL,
                 env={"NUMBA_NUM_THREADS": "1"},
             )

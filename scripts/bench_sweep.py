@@ -42,7 +42,7 @@ def on_cluster(workers, n):
 
     tic = time.perf_counter()
     with LocalCluster(
-        n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
+        n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0",
         silence_logs=logging.CRITICAL,
     ) as cluster, Client(cluster) as client:
         client.wait_for_workers(workers)

@@ -31,7 +31,7 @@ def client():
     import logging
 
     with LocalCluster(
-        n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None,
+        n_workers=2, threads_per_worker=1, processes=True, dashboard_address=":0",
         silence_logs=logging.ERROR,
     ) as cluster, Client(cluster) as c:
         yield c
@@ -214,7 +214,7 @@ def test_a_killed_worker_loses_and_duplicates_no_row(tmp_path):
     vary = {"initial.q.shoulder": "0:1:24"}
     parquet = tmp_path / "r.parquet"
     with LocalCluster(
-        n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None,
+        n_workers=2, threads_per_worker=1, processes=True, dashboard_address=":0",
         silence_logs=logging.CRITICAL,
     ) as cluster, Client(cluster) as c:
         result = {}
