@@ -327,9 +327,10 @@ def _sweep(args) -> int:
 
 def _counts(table) -> str:
     """'N runs (C complete, F failed)' of a sweep's results table."""
-    statuses = table.column("status").to_pylist()
-    complete = statuses.count("complete")
-    return f"{len(statuses)} runs ({complete} complete, {len(statuses) - complete} failed)"
+    from .sweep_results import status_counts
+
+    complete, failed = status_counts(table)
+    return f"{table.num_rows} runs ({complete} complete, {failed} failed)"
 
 
 def _scene_to_run(args):

@@ -114,9 +114,9 @@ class Results:
     def _count(self, table):
         self.tables.append(table)
         self.finished.update(table.column("run").to_pylist())
-        statuses = table.column("status").to_pylist()
-        self.complete += statuses.count("complete")
-        self.failed += len(statuses) - statuses.count("complete")
+        complete, failed = status_counts(table)
+        self.complete += complete
+        self.failed += failed
 
     def add(self, rows):
         """Append rows (dicts; a key without a value is null) and, with a file, write them to
@@ -156,6 +156,13 @@ def _foreign(file, why):
     return SweepError(
         f"{file}: {why}; name another results file (-o), or remove it to start over"
     )
+
+
+def status_counts(table) -> tuple[int, int]:
+    """(complete, failed): how many rows of a results table have each status."""
+    statuses = table.column("status").to_pylist()
+    complete = statuses.count("complete")
+    return complete, len(statuses) - complete
 
 
 def read_record(table) -> dict:

@@ -348,8 +348,10 @@ def test_the_core_imports_without_the_sweep_extra():
     assert "pip install 'opendyn[sweep]'" in out.stdout
 
 
-def test_the_command_refuses_bad_arguments_in_one_line(tmp_path, capsys):
+def test_the_command_refuses_bad_arguments_in_one_line(tmp_path, monkeypatch, capsys):
     from opendyn.cli import main
+
+    monkeypatch.chdir(tmp_path)  # where the default results file would go
 
     for argv, words in [
         (["--vary", "control.kp"], "expected KEY=SPEC"),
