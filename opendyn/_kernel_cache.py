@@ -3,9 +3,11 @@ source.
 
 numba caches each compiled kernel on disk keyed on the kernel's own source file only, while the
 kernels inline or call helpers from other files (_kernels.py, rnea.py, effects.py, ...); after such
-a helper changes, a kernel would be loaded stale. Every module that defines kernels is therefore
-imported inside `kernel_cache()`, which points numba at a folder named by a hash of all those
-sources (numba reads the setting when a function is decorated) and restores it afterwards.
+a helper changes, or a file moves, a kernel would be loaded stale. The hash therefore covers every
+Python source of the package, found by pattern (`SOURCES`), with its path relative to the
+package: a new, changed, renamed or moved file names a new folder. Every module that defines
+kernels is imported inside `kernel_cache()`, which points numba at that folder (numba reads the
+setting when a function is decorated) and restores it afterwards.
 
 The folder is the first writable one of:
   1. $NUMBA_CACHE_DIR/opendyn-kernels-HASH, when the user sets NUMBA_CACHE_DIR;
@@ -26,21 +28,18 @@ import warnings
 
 from numba.core import config as _numba_config
 
-_HERE = pathlib.Path(__file__).parent
-_SOURCES = (
-    "model.py",
-    "status.py",
-    "constraints.py",
-    "effects.py",
-    "step.py",
-    "integrators.py",
-    "dynamics/*.py",
-)
+_HERE = pathlib.Path(__file__).resolve().parent
+# every compiled source, and everything a kernel may inline or call: all of the package's Python
+# files, wherever they live in it
+SOURCES = "**/*.py"
 
 
-def _digest() -> str:
+def source_digest(package: pathlib.Path = _HERE) -> str:
+    """16 hex digits of a hash of every Python source under `package` (SOURCES): each file's
+    path relative to the package, then its bytes, in path order."""
     digest = hashlib.sha1()
-    for source in sorted(p for pattern in _SOURCES for p in _HERE.glob(pattern)):
+    for source in sorted(package.glob(SOURCES)):
+        digest.update(source.relative_to(package).as_posix().encode() + b"\0")
         digest.update(source.read_bytes())
     return digest.hexdigest()[:16]
 
@@ -67,7 +66,7 @@ def _writable(folder: pathlib.Path) -> bool:
 def _choose():
     """(folder or None, where): the first writable candidate; None when there is none."""
     tried = []
-    for folder, where in _candidates(_digest()):
+    for folder, where in _candidates(source_digest()):
         if _writable(folder):
             return str(folder), where
         tried.append(str(folder))
