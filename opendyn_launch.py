@@ -24,7 +24,7 @@ def main() -> int:
     SIGTERM while opendyn is imported exits with one line and the status 130 or 143."""
     signal.signal(signal.SIGTERM, _terminate)
     try:
-        from opendyn.cli import main as opendyn_main
+        from opendyn.cli.main import main as opendyn_main
     except KeyboardInterrupt:
         print("opendyn: interrupted (Ctrl-C) while starting", file=sys.stderr)
         return 130

@@ -5,33 +5,33 @@ the wrench that frame applies to the environment, in its own coordinates; gravit
 world-frame vector applied as the base acceleration dV_0 = (0, -g).
 """
 
-from ._kernel_cache import kernel_cache
-from .constraints import FixedPose, JointCoupling, PointOnPlane, PointToPoint, PointToWorld
-from .dynamics._args import NonFiniteResultError, SingularMassMatrixError
-from .dynamics.christoffel import christoffel_symbols, coriolis_matrix
-from .dynamics.configuration import (
-    difference,
-    integrate,
-    neutral,
-    normalize,
-    random_configuration,
-)
-from .dynamics.crba import mass_matrix
-from .dynamics.energy import kinetic_energy, potential_energy
-from .dynamics.forward import forward_dynamics
-from .dynamics.kinematics import frame_pose, jacobian
-from .dynamics.rnea import bias_forces, coriolis_forces, gravity_forces, inverse_dynamics
-from .dynamics.task_space import (
+from ._runtime.kernel_cache import kernel_cache
+from ._runtime.version import __version__  # noqa: F401  (opendyn.__version__)
+from .errors import (
+    NonFiniteResultError,
+    SceneError,
+    SceneWarning,
+    SimulationError,
+    SingularMassMatrixError,
     SingularTaskSpaceError,
-    frame_acceleration,
-    task_space_bias,
-    task_space_mass_matrix,
+    SweepError,
+    SweepInterrupted,
+    URDFError,
 )
-from .model import CollisionSphere, Frame, Model
-from .urdf import FidelityReport, URDFError, available_robots, load_urdf
 
-with kernel_cache():  # compiled kernels cache in the folder named by the sources' hash
-    from .dynamics.constraints import (
+# every module that defines kernels is imported inside this block, so that they cache in the
+# folder named by the hash of the package's sources (opendyn._runtime.kernel_cache); by layer:
+# multibody -> algorithm -> io -> sim -> sweep
+with kernel_cache():
+    from .algorithm.christoffel import christoffel_symbols, coriolis_matrix
+    from .algorithm.configuration import (
+        difference,
+        integrate,
+        neutral,
+        normalize,
+        random_configuration,
+    )
+    from .algorithm.constraints import (
         constrained_forward_dynamics,
         constrained_inverse_dynamics,
         constraint_drift,
@@ -40,21 +40,26 @@ with kernel_cache():  # compiled kernels cache in the folder named by the source
         constraint_projection,
         constraint_wrench,
     )
-
-__version__ = "0.1.0"
-
-from .scene import (  # noqa: E402
-    Scene,
-    SceneError,
-    SceneWarning,
-    default_scene,
-    load_scene,
-    scene_from_dict,
-)
-from .simulate import SimulationError, simulate  # noqa: E402
-from .sweep import SweepError, SweepInterrupted, sweep  # noqa: E402
-from .sweep_plot import plot_sweep  # noqa: E402
-from .trajectory import Trajectory  # noqa: E402
+    from .algorithm.crba import mass_matrix
+    from .algorithm.energy import kinetic_energy, potential_energy
+    from .algorithm.forward import forward_dynamics
+    from .algorithm.kinematics import frame_pose, jacobian
+    from .algorithm.rnea import bias_forces, coriolis_forces, gravity_forces, inverse_dynamics
+    from .algorithm.task_space import frame_acceleration, task_space_bias, task_space_mass_matrix
+    from .io.scene import Scene, default_scene, load_scene, scene_from_dict
+    from .io.urdf import FidelityReport, available_robots, load_urdf
+    from .multibody.constraint_objects import (
+        FixedPose,
+        JointCoupling,
+        PointOnPlane,
+        PointToPoint,
+        PointToWorld,
+    )
+    from .multibody.model import CollisionSphere, Frame, Model
+    from .sim.simulate import simulate
+    from .sim.trajectory import Trajectory
+    from .sweep.engine import sweep
+    from .sweep.plot import plot_sweep
 
 __all__ = [
     "Scene",

@@ -69,9 +69,9 @@ import numpy as np  # noqa: E402
 from tqdm import tqdm  # noqa: E402
 
 import opendyn as od  # noqa: E402
-from opendyn import effects, step  # noqa: E402
-from opendyn.dynamics.forward import METHODS, NO_ARMATURE  # noqa: E402
-from opendyn.simulate import stage_costs  # noqa: E402
+from opendyn.algorithm.forward import METHODS, NO_ARMATURE  # noqa: E402
+from opendyn.sim import effects, step  # noqa: E402
+from opendyn.sim.simulate import stage_costs  # noqa: E402
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tests"))
@@ -395,7 +395,7 @@ def pinocchio_aba(path, model):
     """fn(q, qd, tau) -> Pinocchio's aba on the same URDF, states converted, or None without
     Pinocchio."""
     try:
-        from opendyn.verify import PinocchioOracle
+        from opendyn.verify.contract import PinocchioOracle
     except ImportError:
         return None
     try:

@@ -18,7 +18,7 @@ import logging
 import time
 
 import opendyn as od
-from opendyn.sweep import Base, combinations, parse_axis
+from opendyn.sweep.engine import Base, combinations, parse_axis
 
 
 def scene():

@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 import opendyn as od
-from opendyn.dynamics import _kernels
-from opendyn.spatial import adjoint
+from opendyn.multibody import layout
+from opendyn.spatial.algebra import adjoint
 
 STATE_FUNCTIONS = {
     "inverse_dynamics": lambda m, x: od.inverse_dynamics(m, x, x, x),
@@ -125,11 +125,11 @@ def test_batch_f_tip_per_state(ur5, states):
 
 
 def test_kernel_views_of_the_model_buffers_match_the_documented_fields(ur5):
-    parent, jtype, nv_j, iq, iv, mult, offset, S, R_home, p_home = _kernels.tree(
+    parent, jtype, nv_j, iq, iv, mult, offset, S, R_home, p_home = layout.tree(
         ur5._ibuf, ur5._fbuf
     )
-    mass, h, I_o = _kernels.rigid_inertias(ur5._ibuf, ur5._fbuf)
-    G = _kernels.spatial_inertias(ur5._ibuf, ur5._fbuf)
+    mass, h, I_o = layout.rigid_inertias(ur5._ibuf, ur5._fbuf)
+    G = layout.spatial_inertias(ur5._ibuf, ur5._fbuf)
     for ours, field in (
         (parent, ur5.parent),
         (jtype, ur5.jtype),

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import opendyn as od
-from opendyn.cli import main
+from opendyn.cli.main import main
 
 
 def test_demo_prints_the_model_report_and_a_checked_forward_dynamics(capsys):
@@ -153,7 +153,7 @@ def test_verify_prints_a_table_against_pinocchio(capsys):
 def test_compile_ahead_runs_every_core_call_and_the_scenes_named(capsys):
     """`opendyn compile` runs the list of core calls (each must accept its arguments on any
     robot: a wrong call would only show on a user's machine) and simulates each named scene."""
-    from opendyn._compile import core_calls
+    from opendyn._runtime.compile_notice import core_calls
 
     model = od.load_urdf("double_pendulum")
     names = []
@@ -166,7 +166,7 @@ def test_compile_ahead_runs_every_core_call_and_the_scenes_named(capsys):
 
 
 def test_info_cache_names_the_cache_folder(capsys):
-    from opendyn._kernel_cache import CACHE_DIR
+    from opendyn._runtime.kernel_cache import CACHE_DIR
 
     assert main(["info", "--cache"]) == 0
     out = capsys.readouterr().out

@@ -1,5 +1,5 @@
-"""Constrained dynamics: A(q) qd = 0, tau = M qdd + h + A^T lam (opendyn.constraints and
-opendyn.dynamics.constraints).
+"""Constrained dynamics: A(q) qd = 0, tau = M qdd + h + A^T lam
+(opendyn.multibody.constraint_objects and opendyn.algorithm.constraints).
 
 Against independent truths:
 - Pinocchio: constraint rows against its frame Jacobians (LOCAL_WORLD_ALIGNED linear rows at the
@@ -27,9 +27,9 @@ import warnings
 import numpy as np
 import pytest
 
-from opendyn.status import Status, decode
 import opendyn as od
-from opendyn.dynamics import constraints as dc
+from opendyn._runtime.status import Status, decode
+from opendyn.algorithm import constraints as dc
 
 RTOL = 1e-9
 FD_STEP = 1e-3  # five-point stencil: truncation ~ h^4 |f^(5)| / 30, rounding ~ 1e-16 / h

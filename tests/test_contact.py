@@ -10,10 +10,11 @@ import numpy as np
 import pytest
 
 import opendyn as od
-from opendyn import effects
-from opendyn.dynamics.contact import contact_kernel
-from opendyn.scene import SceneError, thaw
-from opendyn.urdf import shipped_robots_dir
+from opendyn.algorithm.contact import contact_kernel
+from opendyn.errors import SceneError
+from opendyn.io.scene import thaw
+from opendyn.io.urdf import shipped_robots_dir
+from opendyn.sim import effects
 
 G = 9.81
 ROBOTS = shipped_robots_dir()

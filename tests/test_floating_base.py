@@ -6,10 +6,10 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from randtree import write_random_tree
 from scipy.spatial.transform import Rotation
 
 import opendyn as od
-from randtree import write_random_tree
 
 pin = pytest.importorskip("pinocchio")
 from pin_adapter import PinOracle  # noqa: E402

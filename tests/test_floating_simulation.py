@@ -12,22 +12,22 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from scipy.special import ellipk, ellipkinc
+from randtree import write_random_tree
 from scipy.spatial.transform import Rotation
+from scipy.special import ellipk, ellipkinc
 
 import opendyn as od
-from opendyn.scene import SceneError
-from opendyn.simulate import QUATERNION_NORM_BOUND
-from randtree import write_random_tree
+from opendyn.errors import SceneError
+from opendyn.sim.simulate import QUATERNION_NORM_BOUND
 
 pin = pytest.importorskip("pinocchio")
 from pin_adapter import PinOracle  # noqa: E402
 
-T_HANDLE = str(od.urdf.shipped_robots_dir() / "t_handle.urdf")
+T_HANDLE = str(od.io.urdf.shipped_robots_dir() / "t_handle.urdf")
 
 
 def _scene(data):
-    return od.scene_from_dict(data, source="floating.toml", base_dir=od.urdf.shipped_robots_dir())
+    return od.scene_from_dict(data, source="floating.toml", base_dir=od.io.urdf.shipped_robots_dir())
 
 
 def _handle_scene(**initial):
@@ -439,7 +439,7 @@ def test_the_playback_moves_the_floating_base(tmp_path):
     pytest.importorskip("meshcat")
     from test_viz import page_commands
 
-    from opendyn import viz
+    from opendyn.viz import playback as viz
 
     scene = _handle_scene(
         base_position=[0.0, 0.0, 1.0],

@@ -22,9 +22,9 @@ import pytest
 from randtree import random_chain_urdf, write_random_tree
 
 import opendyn as od
-from opendyn.cli import main
-from opendyn.scene import thaw
-from opendyn.urdf import shipped_robots_dir
+from opendyn.cli.main import main
+from opendyn.io.scene import thaw
+from opendyn.io.urdf import shipped_robots_dir
 
 EPS = np.finfo(float).eps
 METHODS = ("aba", "crba", "newton_euler")

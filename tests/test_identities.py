@@ -13,8 +13,8 @@ import pytest
 from randtree import write_random_tree
 
 import opendyn as od
-from opendyn.dynamics.energy import kinetic_gradient_kernel
-from opendyn.spatial import adjoint, inverse_transform
+from opendyn.algorithm.energy import kinetic_gradient_kernel
+from opendyn.spatial.algebra import adjoint, inverse_transform
 
 SEEDS = range(20)
 STATES_PER_TREE = 3

@@ -13,9 +13,9 @@ import numpy as np
 import pytest
 
 import opendyn as od
-from opendyn.cli import main
-from opendyn.scene import thaw
-from opendyn.urdf import shipped_robots_dir
+from opendyn.cli.main import main
+from opendyn.io.scene import thaw
+from opendyn.io.urdf import shipped_robots_dir
 
 MODEL_ARRAYS = (
     "G", "S", "A", "mass", "h", "I_o", "R_home", "p_home", "parent", "jtype", "nv_j", "iq",

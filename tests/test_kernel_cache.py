@@ -10,7 +10,7 @@ import shutil
 import pytest
 
 import opendyn
-from opendyn._kernel_cache import CACHE_DIR, source_digest
+from opendyn._runtime.kernel_cache import CACHE_DIR, source_digest
 
 PACKAGE = pathlib.Path(opendyn.__file__).resolve().parent
 

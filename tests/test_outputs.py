@@ -20,9 +20,9 @@ import numpy as np
 import pytest
 
 import opendyn as od
-from opendyn._files import atomic_write
-from opendyn._signals import held_interrupt
-from opendyn.cli import main
+from opendyn._runtime.files import atomic_write
+from opendyn._runtime.signals import held_interrupt
+from opendyn.cli.main import main
 
 REPO = pathlib.Path(__file__).resolve().parents[1]
 # the module (the package's attribute `simulate` is the function)

@@ -19,9 +19,10 @@ import numpy as np
 import pytest
 
 import opendyn as od
-from opendyn.scene import SceneError, _build, scene_from_dict, tomllib
-from opendyn.spatial import exp_so3
-from opendyn.urdf import shipped_robots_dir
+from opendyn.errors import SceneError
+from opendyn.io.scene import _build, scene_from_dict, tomllib
+from opendyn.io.urdf import shipped_robots_dir
+from opendyn.spatial.algebra import exp_so3
 
 RTOL = 1e-10
 N_STATES = 3

@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 import opendyn as od
-from opendyn.dynamics.forward import METHODS
+from opendyn.algorithm.forward import METHODS
 
 pin = pytest.importorskip("pinocchio")
 from pin_adapter import PinOracle  # noqa: E402

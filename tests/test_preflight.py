@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 
 import opendyn as od
-from opendyn import preflight
-from opendyn.cli import main
-from opendyn.scene import shipped_robots_dir, thaw
+from opendyn.cli.main import main
+from opendyn.io.scene import shipped_robots_dir, thaw
+from opendyn.sim import preflight
 
 simulate_module = importlib.import_module("opendyn.simulate")  # od.simulate is the function
 PENDULUM = {"robot": {"name": "double_pendulum"}, "effects": {"gravity": True}}

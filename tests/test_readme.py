@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 
 import opendyn as od
-from opendyn.cli import main
-from opendyn.scene import shipped_robots_dir, tomllib
+from opendyn.cli.main import main
+from opendyn.io.scene import shipped_robots_dir, tomllib
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 README = (ROOT / "README.md").read_text(encoding="utf-8")

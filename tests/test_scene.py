@@ -15,18 +15,18 @@ import numpy as np
 import pytest
 
 import opendyn as od
-from opendyn.scene import (
+from opendyn.errors import SceneError
+from opendyn.io.scene import (
     DEFAULT_SCENE,
     EFFECTS,
     INTEGRATORS,
     Run,
-    SceneError,
     default_scene,
     load_scene,
     scene_from_dict,
     shipped_scenes,
 )
-from opendyn.urdf import shipped_robots_dir
+from opendyn.io.urdf import shipped_robots_dir
 
 PENDULUM = '[robot]\nname = "double_pendulum"\n'
 

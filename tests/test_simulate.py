@@ -2,7 +2,7 @@
 order, energy is conserved or balanced, failures stop with a message and keep the record.
 
 Independent references: Pinocchio's `aba` driven by a plain Python RK4 loop; the closed-form
-effect laws of opendyn.effects' docstring evaluated here in numpy; dynamics functions of the
+effect laws of opendyn.sim.effects' docstring evaluated here in numpy; dynamics functions of the
 core (checked against Pinocchio in test_pinocchio.py) at single states.
 """
 
@@ -20,8 +20,9 @@ import numpy as np
 import pytest
 
 import opendyn as od
-from opendyn import effects, integrators
-from opendyn.simulate import SimulationError, _first_stage, _fixed_chunk, _Samples
+from opendyn.errors import SimulationError
+from opendyn.sim import effects, integrators
+from opendyn.sim.simulate import _first_stage, _fixed_chunk, _Samples
 
 pin = pytest.importorskip("pinocchio")
 from pin_adapter import PinOracle  # noqa: E402
@@ -104,7 +105,7 @@ def _full_scene():
     """The double pendulum with every effect on."""
     return od.scene_from_dict(
         {
-            "robot": {"urdf": str(od.urdf.shipped_robots_dir() / "double_pendulum.urdf")},
+            "robot": {"urdf": str(od.io.urdf.shipped_robots_dir() / "double_pendulum.urdf")},
             "initial": {"q": [2.0, 0.5], "qd": [0.3, -0.2]},
             "run": {"duration": 0.5, "dt": 1e-3, "output_dt": 1e-2},
             "effects": {
@@ -180,7 +181,7 @@ _COMPILED_FOR_DEFAULT_SCENE = r"""
 import json
 import opendyn as od
 from opendyn import effects
-from opendyn.dynamics import aba, contact, crba, forward, rnea
+from opendyn.algorithm import aba, contact, crba, forward, rnea
 od.simulate(od.load_scene("double_pendulum_swing").replace_run(duration=0.01))
 functions = {name: getattr(effects, name) for name in dir(effects) if name.endswith("_effect")}
 functions.update(
@@ -425,7 +426,7 @@ def test_failure_names_every_effect_too_stiff_for_the_step():
     its rate d / M_jj, not only the (stiffer, but idle) limit springs."""
     settings = dict(od.load_scene("planar_3r_limits").settings)
     settings["effects"] = dict(settings["effects"], damping={"coefficients": 20.0})
-    scene = od.scene_from_dict(settings, base_dir=od.scene.shipped_robots_dir())
+    scene = od.scene_from_dict(settings, base_dir=od.io.scene.shipped_robots_dir())
     traj = od.simulate(scene.replace_run(integrator="rk4"), raise_on_failure=False)
     assert not traj.complete and traj.t[-1] < 0.05  # before any limit is reached
     M_33 = od.mass_matrix(scene.model, traj.q[0])[2, 2]

@@ -12,7 +12,7 @@ import pytest
 import scipy.linalg
 from scipy.spatial.transform import Rotation
 
-from opendyn.spatial import (
+from opendyn.spatial.algebra import (
     ad,
     adjoint,
     angular,

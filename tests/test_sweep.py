@@ -13,22 +13,22 @@ import threading
 import time
 
 import numpy as np
+import pyarrow.parquet as pq  # the test extra installs the sweep extra
 import pytest
 
 import opendyn as od
-from opendyn.scene import thaw
-from opendyn.sweep import Axis, SweepError, combinations, parse_axis
-
-import pyarrow.parquet as pq  # the test extra installs the sweep extra
+from opendyn.errors import SweepError
+from opendyn.io.scene import thaw
+from opendyn.sweep.engine import Axis, combinations, parse_axis
 
 ROBOTS = os.path.join(os.path.dirname(__file__), "..", "robots")
 
 
 @pytest.fixture(scope="module")
 def client():
-    from dask.distributed import Client, LocalCluster
-
     import logging
+
+    from dask.distributed import Client, LocalCluster
 
     with LocalCluster(
         n_workers=2, threads_per_worker=1, processes=True, dashboard_address=":0",
@@ -206,9 +206,9 @@ def test_a_run_that_raises_is_a_failed_row(client):
 
 
 def test_a_killed_worker_loses_and_duplicates_no_row(tmp_path):
-    from dask.distributed import Client, LocalCluster
-
     import logging
+
+    from dask.distributed import Client, LocalCluster
 
     scene = od.load_scene("double_pendulum_swing").replace_run(duration=2.0, dt=0.0002)
     vary = {"initial.q.shoulder": "0:1:24"}
@@ -349,7 +349,7 @@ def test_the_core_imports_without_the_sweep_extra():
 
 
 def test_the_command_refuses_bad_arguments_in_one_line(tmp_path, monkeypatch, capsys):
-    from opendyn.cli import main
+    from opendyn.cli.main import main
 
     monkeypatch.chdir(tmp_path)  # where the default results file would go
 
@@ -366,7 +366,7 @@ def test_the_command_refuses_bad_arguments_in_one_line(tmp_path, monkeypatch, ca
 
 
 def test_the_command_runs_on_an_existing_scheduler(client, tmp_path, monkeypatch, capsys):
-    from opendyn.cli import main
+    from opendyn.cli.main import main
 
     monkeypatch.chdir(tmp_path)
     argv = ["sweep", "planar_3r_limits", "--vary", "effects.limits.stiffness=1e3,1e4",

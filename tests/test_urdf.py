@@ -1105,7 +1105,7 @@ def test_plane_and_cdf_collision_are_reported_ignored(tmp_path):
     <collision> or <visual> holding one is read as absent and listed as ignored, by link; the
     spheres of the spec beside them still give contact points, and playback draws the
     visuals it can."""
-    from opendyn import viz
+    from opendyn.viz import playback as viz
 
     sphere = collision("sphere", {"radius": 0.04}, (0, 0, 0.1))
     plane = '<collision><geometry><plane normal="0 0 1"/></geometry></collision>'
@@ -1152,7 +1152,7 @@ def test_lower_above_upper_is_unlimited_and_reported(tmp_path):
     np.testing.assert_array_equal(model.upper, [np.inf, 2.0, 2.0])
     np.testing.assert_array_equal(model.effort_limit, [10.0] * 3)
     np.testing.assert_array_equal(model.velocity_limit, [3.0] * 3)
-    assert not model.continuous[0] and model.jtype[0] == od.model.REVOLUTE
+    assert not model.continuous[0] and model.jtype[0] == od.multibody.joints.REVOLUTE
     assert [line for line in model.report.transformed if "lower" in line] == [
         "joint 'j1': <limit> lower 1 > upper -1, Bullet's convention for no limit: taken as "
         "unlimited (its effort and velocity limits kept)"

@@ -1,0 +1,59 @@
+"""Array plumbing shared by every layer: immutable arrays, and the compiled loops that fill, copy
+and check 1-D and 2-D arrays without numba's slice-assignment error paths."""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from .kernel_cache import JIT
+from .status import Status
+
+
+def immutable(x, dtype=np.float64) -> np.ndarray:
+    """x as a C-contiguous array that can never be written. Its memory is a bytes object, so
+    numpy refuses even ``flags.writeable = True`` (a read-only view of writeable memory, or a
+    read-only array that owns its memory, can be made writeable again)."""
+    a = np.ascontiguousarray(x, dtype=dtype)
+    return np.frombuffer(a.tobytes(), dtype=a.dtype).reshape(a.shape)
+
+
+
+@njit(**JIT)
+def copy_into(src, dst):
+    """dst[k] = src[k] for 1-D arrays of one length. An explicit loop: a slice assignment
+    `dst[:] = src` makes numba compile a shape-mismatch error path into every kernel."""
+    for k in range(dst.shape[0]):
+        dst[k] = src[k]
+
+
+@njit(**JIT)
+def fill(x, value):
+    """x[k] = value for every entry of the 1-D array x (see copy_into)."""
+    for k in range(x.shape[0]):
+        x[k] = value
+
+
+@njit(**JIT)
+def zero_matrix(X):
+    """X[r, c] = 0 for a 2-D array (see copy_into)."""
+    for r in range(X.shape[0]):
+        for c in range(X.shape[1]):
+            X[r, c] = 0.0
+
+
+@njit(**JIT)
+def all_finite(x):
+    """True when every entry of the 1-D array x is finite."""
+    for k in range(x.shape[0]):
+        if not np.isfinite(x[k]):
+            return False
+    return True
+
+
+@njit(**JIT)
+def result_status(x):
+    """OK when every entry of the C-contiguous result x is finite, else RESULT_NOT_FINITE: a
+    kernel's last check, after its finite arguments (float64 overflowed on the way)."""
+    return Status.OK.value if all_finite(x.reshape(x.size)) else Status.RESULT_NOT_FINITE.value
+

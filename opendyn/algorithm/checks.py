@@ -1,0 +1,314 @@
+"""Argument checking shared by the public dynamics functions: the model, states, gravity,
+f_tip and any other array or number.
+
+The model must be a Model, and every array argument must hold real numbers (integers or
+floats); anything else (None or a robot's name for a model; booleans, complex numbers, text or
+objects for an array) is a TypeError that names the argument. A configuration is a (nq,)
+vector or a batch (N, nq), a velocity-like argument (qd, qdd, tau) a (nv,) vector or a batch
+(N, nv); any other shape raises a ValueError that names the argument. Gravity and f_tip reach
+the kernels as one array of external loads. Finiteness is checked inside the compiled kernels
+(it costs nothing there) and reported through a status code that `raise_status` turns into
+the same kind of error; so is a result that overflowed float64 although every argument was
+finite (RESULT_NOT_FINITE), which `raise_status` and `check_result` turn into a
+NonFiniteResultError naming the result and the likely cause.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+
+import numpy as np
+
+from .._runtime.status import NOT_FINITE_ARGUMENT, Status, decode
+from ..errors import NonFiniteResultError, SingularMassMatrixError
+from ..multibody.joints import FREE
+from ..multibody.model import Model
+from ..spatial.algebra import angular, linear
+
+F64 = np.dtype(np.float64)
+# what an array holds, by numpy dtype kind, when it is not real numbers (kinds i, u, f)
+NOT_NUMBERS = {
+    "b": "booleans",
+    "c": "complex numbers",
+    "U": "text",
+    "S": "bytes",
+    "O": "Python objects",
+    "M": "dates",
+    "m": "time spans",
+    "V": "raw records",
+}
+
+
+def check_model(model, what):
+    """TypeError unless `model` is a Model: the first check of every public function that
+    takes one, saying what was passed and how to get a Model."""
+    if isinstance(model, Model):
+        return
+    if isinstance(model, (str, os.PathLike)):
+        hint = f"; load it with od.load_urdf({os.fspath(model)!r})"
+    elif isinstance(getattr(model, "model", None), Model):
+        hint = f"; a {type(model).__name__}'s model is its .model"
+    else:
+        hint = ""
+    found = "None" if model is None else f"{type(model).__name__} {_short_repr(model)}"
+    raise TypeError(
+        f"{what}: model must be an opendyn Model (from od.load_urdf), got {found}{hint}"
+    )
+
+
+def _short_repr(value, limit=40):
+    text = repr(value)
+    return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
+def as_float_array(x, name, expected="an array of numbers (integers or floats)"):
+    """x as a float64 array (no copy when it is one already). Its entries must be real
+    numbers, integers or floats: booleans, complex numbers, text (['0.3', '-0.2']) or objects
+    are a TypeError naming `name`, what was `expected` and what was found, never converted; a
+    ragged nesting of lists is a ValueError."""
+    try:
+        a = np.asarray(x)
+    except (TypeError, ValueError):
+        raise ValueError(
+            f"{name} must be an array of numbers, got {type(x).__name__} {_short_repr(x)} "
+            "(rows of different lengths?)"
+        ) from None
+    if a.dtype is F64:
+        return a
+    if a.dtype.kind not in "iuf":
+        found = NOT_NUMBERS.get(a.dtype.kind, "something else")
+        raise TypeError(
+            f"{name} must be {expected}, got {found} (dtype {a.dtype}): {_short_repr(x)}"
+        )
+    return a.astype(np.float64, copy=False)
+
+
+def as_real(x, name):
+    """x as a float: a real number (an int, a float or a 0-d array of one), else a TypeError
+    (or, for an array of several, a ValueError) naming `name`."""
+    a = as_float_array(x, name, "a real number (an int or a float)")
+    if a.ndim != 0:
+        raise ValueError(f"{name} must be a single number, got shape {a.shape}")
+    return float(a)
+
+
+def is_single(model, q, v=None, a=None):
+    """True when q is a float64 (nq,) array and v, a (when given) float64 (nv,) arrays: the
+    fast path, no conversion. Written out rather than looped: it runs on every call."""
+    ndarray = np.ndarray
+    if type(q) is not ndarray or q.shape != model._q_shape or q.dtype is not F64:
+        return False
+    shape = model._vector_shape
+    if v is not None and (type(v) is not ndarray or v.shape != shape or v.dtype is not F64):
+        return False
+    return a is None or (type(a) is ndarray and a.shape == shape and a.dtype is F64)
+
+
+def as_state(model, x, name, n=None):
+    """x as a writeable C-contiguous float64 array of shape (n,) or (N, n); n = nv unless
+    given (model.nq for a configuration: see as_q)."""
+    n = model.nv if n is None else n
+    x = np.ascontiguousarray(as_float_array(x, name))
+    if x.ndim not in (1, 2) or x.shape[-1] != n:
+        sizes = f"nq={model.nq}" if n == model.nq != model.nv else f"nv={model.nv}"
+        raise ValueError(
+            f"{name} must have shape ({n},) or (N, {n}) for model {model.name!r} ({sizes}), "
+            f"got shape {x.shape}"
+        )
+    # a read-only array is a different type to numba: copy it rather than compile again
+    return x if x.flags.writeable else x.copy()
+
+
+def as_q(model, q, name="q"):
+    """A configuration as a writeable C-contiguous float64 array (nq,) or (N, nq)."""
+    return as_state(model, q, name, model.nq)
+
+
+def as_states(model, q, *named):
+    """A configuration q and (name, value) velocity-like arguments: all single, or batches
+    broadcast to one N. Returns [q, *values] and whether they are a batch."""
+    arrays = [as_q(model, q)] + [as_state(model, x, name) for name, x in named]
+    names = ["q"] + [name for name, _ in named]
+    if all(a.ndim == 1 for a in arrays):
+        return arrays, False
+    n = max(a.shape[0] for a in arrays if a.ndim == 2)
+    for name, a in zip(names, arrays):
+        if a.ndim == 2 and a.shape[0] != n:
+            raise ValueError(
+                f"{name} has {a.shape[0]} states but another argument has {n}; "
+                f"a batch must have one N"
+            )
+    return [a if a.ndim == 2 else np.tile(a, (n, 1)) for a in arrays], True
+
+
+def as_gravity(model, gravity):
+    """The (3,) world-frame gravity vector: the model's default, or the override."""
+    if gravity is None:
+        return model._gravity
+    g = np.array(as_float_array(gravity, "gravity"))  # a writeable copy: one type for the kernels
+    if g.shape != (3,):
+        raise ValueError(f"gravity must be a 3-vector (m/s^2, world frame), got shape {g.shape}")
+    if not np.all(np.isfinite(g)):
+        raise ValueError(f"gravity must be finite, got {g}")
+    return g
+
+
+def loads(model, gravity, f_tip, n_states=None):
+    """The kernels' external-load array: row 0 the base acceleration dV_0 = (0, -g), then (only
+    when f_tip is given) one row per body with the wrench it applies to the environment.
+
+    Shape (1, 6) or (1 + nb, 6); for a batch (1, rows, 6) shared by every state, or
+    (N, 1 + nb, 6) when f_tip varies per state.
+
+    f_tip[frame] = (m, f) is the wrench that frame applies TO THE ENVIRONMENT, in that frame's
+    coordinates; (6,) or, for a batch, (N, 6). On body b it is F_b = Ad_{T_{frame, b}}^T F =
+    (R m + p x (R f), R f), with (R, p) = T_{b, frame}. A frame of the fixed world moves no joint.
+    """
+    if gravity is None and f_tip is None:
+        return model._loads if n_states is None else model._loads[None]
+    dV_0 = np.zeros(6)
+    linear(dV_0)[:] = -as_gravity(model, gravity)
+    if not f_tip:
+        return dV_0[None] if n_states is None else dV_0[None, None]
+    if not isinstance(f_tip, dict):
+        raise ValueError(
+            "f_tip must be a dict {frame_name: (6,) wrench (m, f) in that frame}, "
+            f"got {type(f_tip).__name__}"
+        )
+    per_state = n_states is not None and any(np.ndim(F) == 2 for F in f_tip.values())
+    out = np.zeros((n_states, 1 + model.nb, 6) if per_state else (1 + model.nb, 6))
+    out[..., 0, :] = dV_0
+    for frame, F in f_tip.items():
+        k = model.frame_index(frame)
+        F = as_float_array(F, f"f_tip[{frame!r}]")
+        if F.shape != (6,) and not (per_state and F.shape == (n_states, 6)):
+            want = "(6,)" if n_states is None else f"(6,) or ({n_states}, 6)"
+            raise ValueError(
+                f"f_tip[{frame!r}] must have shape {want} (moment, force), got shape {F.shape}"
+            )
+        if not np.all(np.isfinite(F)):
+            raise ValueError(f"f_tip[{frame!r}] must be finite, got {F}")
+        fr = model.frames[k]
+        if fr.body < 0:
+            continue
+        R, p = fr.T_body_frame[:3, :3], fr.T_body_frame[:3, 3]
+        f_b = linear(F) @ R.T
+        m_b = angular(F) @ R.T + np.cross(p, f_b)
+        angular(out[..., 1 + fr.body, :])[...] += m_b
+        linear(out[..., 1 + fr.body, :])[...] += f_b
+    return out if per_state or n_states is None else out[None]
+
+
+def raise_status(status, model, what, result=None, arguments=None):
+    """Turn a kernel's failing Status into a ValueError naming the argument, the joints or,
+    for RESULT_NOT_FINITE, the result (its name, e.g. "tau") and the likely cause among the
+    arguments ({name: value} of the call: needed where the kernel reports RESULT_NOT_FINITE,
+    and its configuration "q" where it reports SINGULAR, as a kernel solving with M(q) does)."""
+    status, _ = decode(status)
+    if status in NOT_FINITE_ARGUMENT:
+        raise ValueError(
+            f"{what}: {NOT_FINITE_ARGUMENT[status]} must be finite (it has NaN or inf)"
+        )
+    if status == Status.RESULT_NOT_FINITE:
+        raise NonFiniteResultError(what, result, arguments)
+    if status == Status.Q_NOT_UNIT_QUATERNION:
+        raise ValueError(f"{what}: {quaternion_problem(model)}")
+    if status == Status.SINGULAR:
+        raise singular_mass_matrix(model, arguments["q"], what)
+    raise RuntimeError(f"{what}: kernel failed with status {status.name}")
+
+
+def check_result(x, what, result, arguments):
+    """x, a result computed outside the kernels (a float or an array), when it is finite;
+    else NonFiniteResultError as raise_status. (math.isfinite for a float: numpy takes 2 us.)"""
+    if not (math.isfinite(x) if isinstance(x, float) else np.isfinite(x).all()):
+        raise NonFiniteResultError(what, result, arguments)
+    return x
+
+
+def quaternion_problem(model, name="q"):
+    """What is wrong with the quaternions of the configuration `name`, for an error message:
+    the slice of each free joint's quaternion and the tolerance."""
+    from ..multibody.joints import QUATERNION_TOLERANCE
+
+    slices = ", ".join(
+        f"{name}[{model.iq[i] + 3}:{model.iq[i] + 7}] ({model.body_names[i]})"
+        for i in range(model.nb)
+        if model.jtype[i] == FREE
+    )
+    return (
+        f"the quaternion {slices} (x, y, z, w) must have unit norm (within "
+        f"{QUATERNION_TOLERANCE:g}); od.normalize(model, {name}) normalises it"
+    )
+
+
+def raise_batch_status(statuses, model, what, result=None, arguments=None):
+    """The first failing state of a batch, named by its row, as raise_status with that row of
+    every (N, n) argument."""
+    bad = np.flatnonzero(statuses)
+    if bad.size:
+        k, n = bad[0], len(statuses)
+        row = {
+            name: x[k] if isinstance(x, np.ndarray) and x.ndim == 2 and len(x) == n else x
+            for name, x in (arguments or {}).items()
+        }
+        raise_status(int(statuses[k]), model, f"{what} (state {k} of the batch)", result, row)
+
+
+def mass_matrix_with_armature(model, q, armature=None):
+    """M(q) (nv, nv), plus diag(armature) on the joints' coordinates (model.v_index) as a
+    scene's armature effect adds it; armature: (n,) or None."""
+    from .crba import mass_matrix
+
+    M = mass_matrix(model, q)
+    if armature is not None:
+        M[model.v_index, model.v_index] += armature
+    return M
+
+
+def singular_mass_matrix(model, q, what, armature=None):
+    """The SingularMassMatrixError for M(q) (+ diag(armature)) of `model`, raised by `what`,
+    naming the joints that move no inertia (singular_coordinates)."""
+    joints, together, why = singular_coordinates(model, q, armature)
+    return SingularMassMatrixError(what, model.name, joints, together, why)
+
+
+def singular_coordinates(model, q, armature=None):
+    """Why M(q) (+ diag(armature) on the joints, as a scene adds it) is singular:
+    (massless, together, sentence).
+
+    massless: the coordinates k whose diagonal entry M_kk = S_k^T Ic_k S_k (Ic_k the composite
+    inertia of everything below joint k) is zero to the forward dynamics' pivot tolerance;
+    M is positive semi-definite, so their whole column of M is zero. When there are none,
+    together: the coordinates of M's null direction (of M scaled to a unit diagonal, so that
+    revolute and prismatic units do not matter): joints whose combined motion moves nothing
+    with inertia, as two joints moving one body along or about the same axis. The sentence
+    says so.
+    """
+    from .cholesky import SINGULAR_PIVOT
+
+    M = mass_matrix_with_armature(model, q, armature)
+    d = np.diag(M)
+    massless = [model.v_names[k] for k in np.flatnonzero(d <= SINGULAR_PIVOT * d.max(initial=0))]
+    if massless:
+        names = ", ".join(map(repr, massless))
+        if len(massless) == 1:
+            subject, pronoun = f"joint {names}, so its acceleration is", "it"
+        else:
+            subject, pronoun = f"joints {names}, so their accelerations are", "them"
+        return massless, [], (
+            f"nothing with mass or inertia moves with {subject} undetermined (give the links "
+            f"below {pronoun} inertia, or name the armature effect for {pronoun} in a scene)"
+        )
+    scale = 1 / np.sqrt(d)
+    null = np.linalg.eigh(scale[:, None] * M * scale)[1][:, 0] * scale
+    null /= null[np.argmax(np.abs(null))]
+    involved = np.flatnonzero(np.abs(null) > 1e-6)
+    together = [model.v_names[k] for k in involved]
+    ratio = ", ".join(f"{x:.3g}" for x in null[involved])
+    return [], together, (
+        f"every joint moves some inertia, but joints {', '.join(map(repr, together))} moving "
+        f"together, with velocities in the ratio ({ratio}), move none (as two joints moving one "
+        f"body along or about the same axis), so that motion's acceleration is undetermined"
+    )

@@ -1,0 +1,191 @@
+"""Ground contact: compliant spheres on the plane z = h, as generalized forces tau = J_c^T f.
+
+For each contact point p (a sphere of radius r whose centre c_p is welded to a body), at the
+sphere's lowest point x_p = c_p - r e_z, world frame {s}:
+
+    delta   = max(0, h - x_z)                                   penetration (m)
+    v_p     = J_p(q) v,   J_p (3, nv): the point's linear velocity in {s},
+              column k = v_k + w_k x x_p for the space-frame joint axis (w_k, v_k) of column k
+    f_n     = max(0, k delta + d delta_dot),  delta_dot = -v_z   (no pull: clamped at zero)
+    f_t     = -mu f_n v_t / sqrt(|v_t|^2 + v_s^2),  v_t = (v_x, v_y)   (regularised Coulomb)
+    tau    += J_p^T f,  f = (f_t, f_n): the force the ground applies to the robot at x_p
+
+(k stiffness N/m, d damping N s/m, mu the Coulomb coefficient, v_s the slip velocity m/s).
+A point not touching the ground (delta = 0) costs its position only. The model omits rolling
+resistance, torsional friction, contact between links, and any ground but the plane.
+
+Energy: the spring part k delta is conservative, with U_p = 1/2 k delta^2; the rest does the work
+P_nc = f . v_p + k delta delta_dot (the normal damper's -d delta_dot^2 and friction's
+f_t . v_t <= 0 while f_n > 0; k delta delta_dot < 0, the spring energy let go, while the clamp
+holds f_n at zero). The kernel returns sum_p k delta_p delta_dot_p, which the step adds to the
+passive power.
+
+For an implicit integrator the linearisation, mapped to joint space (full matrices):
+
+    K += J_p^T K_p J_p,  K_p = k e_z e_z^T                 (stiffness -dtau/dq)
+    D += J_p^T D_p J_p,  D_p = d e_z e_z^T + mu f_n (I_2 / s - v_t v_t^T / s^3) on (x, y)
+                         s = sqrt(|v_t|^2 + v_s^2)           (damping -dtau/dv)
+
+while f_n > 0; near zero slip the friction term is a stiff damper mu f_n / v_s. The slopes of
+f_t with respect to delta and delta_dot (through f_n) are left out, which keeps K and D
+symmetric positive semi-definite.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from .._runtime.kernel_cache import BATCH, JIT
+from ..multibody.layout import body_count, tree
+from ..spatial.compiled import cross3
+from .kinematics import forward_kinematics, space_axis
+
+# the contact parameters' layout: the shared values, then (c_b (3,), r) per point
+GROUND, STIFFNESS, DAMPING, FRICTION, SLIP = range(5)
+SHARED = 5
+PER_POINT = 4
+
+
+@njit(**JIT)
+def point_jacobian(body_tree, R_s, p_s, body, x_s, J_p):
+    """J_p (3, nv) <- the linear velocity Jacobian of the point x_s (3,) fixed to `body`, in
+    {s}: column k = mult (v_k + w_k x x_s) over the joints on the path from the root to the
+    body, (w_k, v_k) = Ad_{T_{s,i}} s_k their space-frame axes (R_s, p_s from
+    forward_kinematics)."""
+    parent, jtype, nv_j, iq, iv, mult, offset, S_rows, R_home, p_home = body_tree
+    S = np.empty(6)
+    w_x = np.empty(3)
+    J_p[:, :] = 0.0
+    i = body
+    while i >= 0:
+        for k in range(nv_j[i]):
+            space_axis(R_s[i], p_s[i], S_rows[i, k], S)
+            cross3(S[:3], x_s, w_x)
+            for r in range(3):
+                J_p[r, iv[i] + k] += mult[i] * (S[3 + r] + w_x[r])
+        i = parent[i]
+
+
+@njit(**JIT)
+def lowest_point(R_s, p_s, bodies, params, p, x_s):
+    """x_s (3,) <- p_sb + R_sb c_b - r e_z, the lowest point of contact sphere p (centre c_b in
+    its body b's frame, radius r, from params) in {s}. Returns b."""
+    b = bodies[p]
+    at = SHARED + PER_POINT * p
+    for r in range(3):
+        x_s[r] = (
+            p_s[b, r]
+            + R_s[b, r, 0] * params[at]
+            + R_s[b, r, 1] * params[at + 1]
+            + R_s[b, r, 2] * params[at + 2]
+        )
+    x_s[2] -= params[at + 3]
+    return b
+
+
+@njit(**JIT)
+def add_congruence(J_p, C, out):
+    """out (nv, nv) += J_p^T C J_p with J_p (3, nv), C (3, 3)."""
+    nv = J_p.shape[1]
+    CJ = np.zeros((3, nv))
+    for r in range(3):
+        for c in range(3):
+            if C[r, c] != 0.0:
+                for j in range(nv):
+                    CJ[r, j] += C[r, c] * J_p[c, j]
+    for r in range(3):
+        for a in range(nv):
+            if J_p[r, a] != 0.0:
+                for b in range(nv):
+                    out[a, b] += J_p[r, a] * CJ[r, b]
+
+
+@njit(**JIT)
+def contact_kernel(ibuf, fbuf, bodies, params, q, qd, tau, K, D, jac, x_c, f_c, delta):
+    """The contact forces at (q, qd): tau (nv,) += sum_p J_p^T f_p; x_c (P, 3) <- the points'
+    lowest points x_p (m, {s}), f_c (P, 3) <- their forces f_p (N, {s}), delta (P,) <- their
+    penetrations (m). With jac, K, D (nv, nv) += the contacts' stiffness and damping (module
+    docstring). bodies (P,) int64: each point's body; params: SHARED values (ground height,
+    k, d, mu, v_s), then (c_b (3,) m in the body's frame, r m) per point. q must be a valid
+    configuration. Returns sum_p k delta_p delta_dot_p (W), the spring's share of the power."""
+    body_tree = tree(ibuf, fbuf)
+    nb = body_count(ibuf)
+    nv = qd.shape[0]
+    R_s = np.empty((nb, 3, 3))
+    p_s = np.empty((nb, 3))
+    forward_kinematics(body_tree, q, R_s, p_s, np.int64(-1))
+    h, k, d = params[GROUND], params[STIFFNESS], params[DAMPING]
+    mu, v_s = params[FRICTION], params[SLIP]
+    J_p = np.empty((3, nv))
+    v_p = np.empty(3)
+    C = np.zeros((3, 3))
+    spring = 0.0
+    for p in range(bodies.shape[0]):
+        # x_p = p_sb + R_sb c_b - r e_z; delta = max(0, h - x_z)
+        b = lowest_point(R_s, p_s, bodies, params, p, x_c[p])
+        f_c[p, :] = 0.0
+        delta[p] = max(0.0, h - x_c[p, 2])
+        if delta[p] == 0.0:
+            continue
+        # v_p = J_p v
+        point_jacobian(body_tree, R_s, p_s, b, x_c[p], J_p)
+        for r in range(3):
+            v_p[r] = 0.0
+            for j in range(nv):
+                v_p[r] += J_p[r, j] * qd[j]
+        delta_dot = -v_p[2]
+        spring += k * delta[p] * delta_dot
+        # f_n = max(0, k delta + d delta_dot); f_t = -mu f_n v_t / s
+        f_n = k * delta[p] + d * delta_dot
+        if f_n <= 0.0:
+            continue
+        s = np.sqrt(v_p[0] * v_p[0] + v_p[1] * v_p[1] + v_s * v_s)
+        f_c[p, 0] = -mu * f_n * v_p[0] / s
+        f_c[p, 1] = -mu * f_n * v_p[1] / s
+        f_c[p, 2] = f_n
+        # tau += J_p^T f_p
+        for j in range(nv):
+            tau[j] += J_p[0, j] * f_c[p, 0] + J_p[1, j] * f_c[p, 1] + J_p[2, j] * f_c[p, 2]
+        if jac:
+            # K_p = k e_z e_z^T
+            C[:, :] = 0.0
+            C[2, 2] = k
+            add_congruence(J_p, C, K)
+            # D_p = d e_z e_z^T + mu f_n (I / s - v_t v_t^T / s^3) on (x, y)
+            C[2, 2] = d
+            slope = mu * f_n / s
+            for r in range(2):
+                for c in range(2):
+                    C[r, c] = -slope * v_p[r] * v_p[c] / (s * s)
+                C[r, r] += slope
+            add_congruence(J_p, C, D)
+    return spring
+
+
+@njit(**BATCH)
+def contact_record_kernel(ibuf, fbuf, bodies, params, q, qd, x_c, f_c, delta, start, stop):
+    """The contact points, forces and penetrations (x_c, f_c (N, P, 3), delta (N, P)) at the
+    recorded states q (N, nq), qd (N, nv), rows [start, stop)."""
+    tau = np.empty(qd.shape[1])
+    unused = np.empty((0, 0))
+    no_jac = np.bool_(False)  # a run-time flag, as the step passes it: one compiled kernel
+    for n in range(start, stop):
+        contact_kernel(
+            ibuf, fbuf, bodies, params, q[n], qd[n], tau, unused, unused, no_jac,
+            x_c[n], f_c[n], delta[n],
+        )
+
+
+@njit(**JIT)
+def contact_jacobians_kernel(ibuf, fbuf, bodies, params, q, J):
+    """J (P, 3, nv) <- each contact point's J_p at q (the lowest point of its sphere)."""
+    body_tree = tree(ibuf, fbuf)
+    nb = body_count(ibuf)
+    R_s = np.empty((nb, 3, 3))
+    p_s = np.empty((nb, 3))
+    forward_kinematics(body_tree, q, R_s, p_s, np.int64(-1))
+    x_s = np.empty(3)
+    for p in range(bodies.shape[0]):
+        b = lowest_point(R_s, p_s, bodies, params, p, x_s)
+        point_jacobian(body_tree, R_s, p_s, b, x_s, J[p])

@@ -1,0 +1,131 @@
+"""Mass matrix by the composite-rigid-body algorithm (CRBA):
+
+    M_ij = S_i^T Ad_{T_{j,i}}^T Ic_j S_j   for j a descendant of i (or i itself), else 0
+
+(blocks nv_i x nv_j; S_i = A_i for a 1-dof joint, I_6 for a free one). Backward pass, tips to
+base, composite inertias of the subtrees:
+    Ic_i = G_i + sum_children Ad_{T_{c,i}}^T Ic_c Ad_{T_{c,i}}
+then for each row s of S_i the wrench F = Ic_i s gives the entries with the joint's own rows,
+s'^T F, and is carried up its ancestors j: F <- Ad_{T_{j',j}}^T F, M_ij = F^T S_j.
+(Featherstone, Rigid Body Dynamics Algorithms, 2008, Section 6.2.)
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from .._runtime.arrays import result_status, zero_matrix
+from .._runtime.batch import run_rows
+from .._runtime.kernel_cache import BATCH, JIT
+from ..multibody.joints import configuration_status, joint_transform, prepare_joint_transforms
+from ..multibody.layout import rigid_inertias, tree
+from ..spatial.compiled import (
+    add_rigid_inertia_to_parent,
+    dot6,
+    rigid_inertia_times,
+    wrench_to_parent,
+)
+from . import checks
+
+
+@njit(**JIT)
+def crba_kernel(ibuf, fbuf, q, M):
+    """M (nv, nv) <- CRBA at one configuration q (nq,).
+    Returns a Status: OK, Q_NOT_FINITE, Q_NOT_UNIT_QUATERNION or RESULT_NOT_FINITE."""
+    status = configuration_status(ibuf, q)
+    if status:
+        return status
+    body_tree = tree(ibuf, fbuf)
+    parent, jtype, nv_j, iq, iv, mult, offset, S, R_home, p_home = body_tree
+    mass, h, I_o = rigid_inertias(ibuf, fbuf)
+    nb = parent.shape[0]
+    # one block for the poses (R, p) and one for the composite inertias (I_c, h_c, mass_c):
+    # two allocations instead of five (measured: 920 -> 840 ns for a UR5)
+    pose = np.empty((nb, 4, 3))
+    R, p = pose[:, :3], pose[:, 3]
+    composite = np.empty((nb, 5, 3))
+    I_c, h_c, mass_c = composite[:, :3], composite[:, 3], composite[:, 4, 0]
+    scratch = np.empty((3, 3))
+    F = np.empty(6)
+    prepare_joint_transforms(body_tree, q, R, p)
+    for i in range(nb):
+        joint_transform(
+            jtype[i], S[i], R_home[i], p_home[i], q, iq[i], mult[i], offset[i], R[i], p[i]
+        )
+        mass_c[i] = mass[i]
+        for r in range(3):
+            h_c[i, r] = h[i, r]
+            for c in range(3):
+                I_c[i, r, c] = I_o[i, r, c]
+    # backward pass: Ic_lambda += Ad^T Ic_i Ad, in rigid-body form (mass, h, I_o)
+    for i in range(nb - 1, -1, -1):
+        lam = parent[i]
+        if lam >= 0:
+            add_rigid_inertia_to_parent(
+                R[i],
+                p[i],
+                mass_c[i],
+                h_c[i],
+                I_c[i],
+                mass_c[lam : lam + 1],
+                h_c[lam],
+                I_c[lam],
+                scratch,
+            )
+    # M_ab = (Ad^T ... Ic_i s_a)^T s_b along the path from i to the root, s_a a row of S_i and
+    # s_b a row of S_j for each j on the path (one row for a 1-dof joint, written out)
+    zero_matrix(M)
+    for i in range(nb):
+        for k in range(nv_j[i]):
+            a = iv[i] + k
+            rigid_inertia_times(mass_c[i], h_c[i], I_c[i], S[i, k], F)
+            for k2 in range(nv_j[i]):
+                M[a, iv[i] + k2] += mult[i] * mult[i] * dot6(F, S[i, k2])
+            j = i
+            while parent[j] >= 0:
+                wrench_to_parent(R[j], p[j], F)
+                j = parent[j]
+                b = iv[j]
+                if nv_j[j] == 1:
+                    m_ab = mult[i] * mult[j] * dot6(F, S[j, 0])
+                    M[a, b] += m_ab
+                    M[b, a] += m_ab
+                    continue
+                for k2 in range(nv_j[j]):
+                    m_ab = mult[i] * mult[j] * dot6(F, S[j, k2])
+                    M[a, b + k2] += m_ab
+                    M[b + k2, a] += m_ab
+    return result_status(M)
+
+
+@njit(**BATCH)
+def crba_batch_kernel(ibuf, fbuf, q, M, status, start, stop):
+    """CRBA over rows [start, stop) of a batch of configurations (N, nq) -> M (N, nv, nv)."""
+    for n in range(start, stop):
+        status[n] = crba_kernel(ibuf, fbuf, q[n], M[n])
+
+
+def mass_matrix(model, q):
+    """M(q): the (nv, nv) joint-space mass matrix, symmetric positive definite, by CRBA.
+
+    q: (nq,) configuration (joint positions in rad or m, after a floating base's (p, quat)),
+    or a batch (N, nq) -> (N, nv, nv).
+    Units: kg m^2 (rotation-rotation), kg m (mixed), kg (translation-translation); a floating
+    base's block is the spatial inertia of the whole robot in the base frame.
+    """
+    checks.check_model(model, "mass_matrix")
+    if checks.is_single(model, q):
+        M = np.empty(model._matrix_shape)
+        status = crba_kernel(model._ibuf, model._fbuf, q, M)
+        if status:
+            checks.raise_status(status, model, "mass_matrix", "M", {"q": q})
+        return M
+    q = checks.as_q(model, q)
+    if q.ndim == 1:
+        return mass_matrix(model, q)
+    M = np.empty((q.shape[0], model.nv, model.nv))
+    status = np.zeros(q.shape[0], dtype=np.int64)
+    run_rows(crba_batch_kernel, q.shape[0], model._ibuf, model._fbuf, q, M, status)
+    checks.raise_batch_status(status, model, "mass_matrix", "M", {"q": q})
+    return M

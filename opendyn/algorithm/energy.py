@@ -1,0 +1,173 @@
+"""Kinetic and potential energy of the tree:
+
+    K(q, qd) = 1/2 qd^T M(q) qd = sum_i 1/2 V_i^T G_i V_i          (V_i: body twist in {i})
+    U(q)     = - sum_i m_i g . c_i(q)                               (c_i: centre of mass in {s})
+
+so that dU/dq = g(q), the gravity torques (Lynch & Park, Section 8.1). The gradient of K in q
+at fixed qd, the force term of the momentum form of the equations of motion
+(d/dt (M qd) = dK/dq - g + tau), takes one forward and one backward pass:
+
+    dV_i/dq_j = Ad_{T_ij} ad_{V_j} s_j     (i in the subtree of j; 0 elsewhere; s_j a row of S_j)
+    dK/dq_j   = (ad_{V_j} s_j)^T P_j,      P_j = G_j V_j + sum_children Ad_{T_cj}^T P_c
+
+with P_j the momentum of the subtree of j in {j}.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from .._runtime.arrays import fill
+from .._runtime.batch import run_rows
+from .._runtime.kernel_cache import BATCH, INLINE, JIT
+from .._runtime.status import Status
+from ..multibody.joints import joint_motion, joint_transform, prepare_joint_transforms, state_status
+from ..multibody.layout import rigid_inertias, tree
+from ..spatial.compiled import (
+    add_neg_ad_transpose,
+    add_wrench_to_parent,
+    dot6,
+    rigid_inertia_times,
+    twist_to_child,
+)
+from . import checks
+from .kinematics import world_pose
+from .rnea import forward_pass
+
+
+@njit(**INLINE)
+def body_twists(ibuf, fbuf, q, qd):
+    """(R, p, V): each body's pose in its parent (nb, 3, 3), (nb, 3) and twist V_i in {i}
+    (nb, 6), from the RNEA forward pass."""
+    body_tree = tree(ibuf, fbuf)
+    nb = body_tree[0].shape[0]
+    R, p = np.empty((nb, 3, 3)), np.empty((nb, 3))
+    V, dV = np.empty((nb, 6)), np.empty((nb, 6))
+    forward_pass(body_tree, q, qd, np.zeros_like(qd), np.zeros(6), R, p, V, dV, np.empty((2, 6)))
+    return R, p, V
+
+
+@njit(**JIT)
+def kinetic_gradient_kernel(ibuf, fbuf, q, qd, dK_dq):
+    """dK_dq (nv,) <- dK/dq at fixed qd (N m or N). Returns a Status: OK, Q/QD_NOT_FINITE or
+    Q_NOT_UNIT_QUATERNION."""
+    status = state_status(ibuf, q, qd)
+    if status:
+        return status
+    parent, jtype, nv_j, iq, iv, mult, offset, S, R_home, p_home = tree(ibuf, fbuf)
+    mass, h, I_o = rigid_inertias(ibuf, fbuf)
+    nb = mass.shape[0]
+    R, p, V = body_twists(ibuf, fbuf, q, qd)
+    P = np.empty((nb, 6))
+    s = np.empty(6)
+    # backward pass: P_j = G_j V_j + sum_children Ad_{T_cj}^T P_c
+    for i in range(nb):
+        rigid_inertia_times(mass[i], h[i], I_o[i], V[i], P[i])
+    fill(dK_dq, 0.0)
+    for j in range(nb - 1, -1, -1):
+        # dK/dq_j = (ad_{V_j} s_j)^T P_j = -s_j . (-ad_{V_j}^T P_j) for each row s_j of S_j
+        fill(s, 0.0)
+        add_neg_ad_transpose(V[j], P[j], s)
+        for k in range(nv_j[j]):
+            dK_dq[iv[j] + k] -= mult[j] * dot6(S[j, k], s)
+        if parent[j] >= 0:
+            add_wrench_to_parent(R[j], p[j], P[j], P[parent[j]])
+    return Status.OK.value
+
+
+@njit(**JIT)
+def energy_kernel(ibuf, fbuf, q, qd, gravity, out):
+    """out (2,) <- (K(q, qd), U(q)) under the world-frame gravity (3,), in one pass from the
+    base to the tips:
+        T_{s,i} = T_{s,lambda} T_{lambda,i},   V_i = Ad_{T_{i,lambda}} V_lambda + S_i qd_i,
+        K = sum_i 1/2 V_i^T G_i V_i,           U = -sum_i g . (R_si h_i + m_i p_si).
+    Returns a Status: OK, Q/QD_NOT_FINITE or Q_NOT_UNIT_QUATERNION."""
+    status = state_status(ibuf, q, qd)
+    if status:
+        return status
+    body_tree = tree(ibuf, fbuf)
+    parent, jtype, nv_j, iq, iv, mult, offset, S, R_home, p_home = body_tree
+    mass, h, I_o = rigid_inertias(ibuf, fbuf)
+    nb = parent.shape[0]
+    R, p = np.empty((nb, 3, 3)), np.empty((nb, 3))
+    prepare_joint_transforms(body_tree, q, R, p)
+    R_s, p_s = np.empty((nb, 3, 3)), np.empty((nb, 3))
+    V = np.empty((nb, 6))
+    s = np.empty(6)
+    V_J = np.empty(6)
+    K = 0.0
+    U = 0.0
+    for i in range(nb):
+        joint_transform(
+            jtype[i], S[i], R_home[i], p_home[i], q, iq[i], mult[i], offset[i], R[i], p[i]
+        )
+        lam = parent[i]
+        world_pose(R_s, p_s, lam, R[i], p[i], i)
+        joint_motion(nv_j[i], S[i], mult[i], qd, iv[i], V_J)
+        if lam < 0:
+            fill(V[i], 0.0)
+        else:
+            twist_to_child(R[i], p[i], V[lam], V[i])
+        for k in range(6):
+            V[i, k] += V_J[k]
+        rigid_inertia_times(mass[i], h[i], I_o[i], V[i], s)
+        K += 0.5 * dot6(V[i], s)
+        for r in range(3):
+            mc = (
+                R_s[i, r, 0] * h[i, 0]
+                + R_s[i, r, 1] * h[i, 1]
+                + R_s[i, r, 2] * h[i, 2]
+                + mass[i] * p_s[i, r]
+            )
+            U -= gravity[r] * mc
+    out[0] = K
+    out[1] = U
+    return Status.OK.value
+
+
+@njit(**BATCH)
+def energy_batch_kernel(ibuf, fbuf, q, qd, gravity, out, status, start, stop):
+    """(K, U) over rows [start, stop) of a batch -> out (N, 2)."""
+    for n in range(start, stop):
+        status[n] = energy_kernel(ibuf, fbuf, q[n], qd[n], gravity, out[n])
+
+
+def energies(model, q, qd, gravity=None, what="energies"):
+    """(K, U): kinetic energy 1/2 qd^T M qd and potential energy -sum_i m_i g . c_i (J), each a
+    float, or (N,) arrays for batches (N, nq), (N, nv), by one compiled kernel. gravity:
+    optional (3,) world-frame vector (m/s^2); what: the function named in error messages.
+    An energy that overflows float64 is returned as it is (inf): a simulation records the
+    energies of its states with this; kinetic_energy and potential_energy refuse it."""
+    (q, qd), batch = checks.as_states(model, q, ("qd", qd))
+    g = checks.as_gravity(model, gravity)
+    if not batch:
+        out = np.empty(2)
+        status = energy_kernel(model._ibuf, model._fbuf, q, qd, g, out)
+        if status:
+            checks.raise_status(status, model, what)
+        return float(out[0]), float(out[1])
+    out = np.empty((q.shape[0], 2))
+    status = np.zeros(q.shape[0], dtype=np.int64)
+    run_rows(energy_batch_kernel, q.shape[0], model._ibuf, model._fbuf, q, qd, g, out, status)
+    checks.raise_batch_status(status, model, what)
+    return out[:, 0], out[:, 1]
+
+
+def kinetic_energy(model, q, qd):
+    """K = 1/2 qd^T M(q) qd (J): float, or (N,) for a batch of states (q (N, nq), qd (N, nv))."""
+    checks.check_model(model, "kinetic_energy")
+    K = energies(model, q, qd, what="kinetic_energy")[0]
+    return checks.check_result(K, "kinetic_energy", "K", {"q": q, "qd": qd})
+
+
+def potential_energy(model, q, gravity=None):
+    """U(q) = -sum_i m_i g . c_i(q) (J), zero at the world origin: float, or (N,) for (N, nq).
+
+    gravity: optional (3,) world-frame vector (m/s^2), default model.gravity; dU/dq = g(q).
+    """
+    checks.check_model(model, "potential_energy")
+    q = checks.as_q(model, q)
+    zero = np.zeros(q.shape[:-1] + (model.nv,))
+    U = energies(model, q, zero, gravity, "potential_energy")[1]
+    return checks.check_result(U, "potential_energy", "U", {"q": q, "gravity": gravity})

@@ -1,0 +1,194 @@
+"""Forward dynamics: solve M(q) qdd = tau - h(q, qd) - sum_frames J_b(frame)^T F_tip(frame).
+
+Three methods, same answer, different cost:
+  "aba"           articulated-body algorithm, O(n) (module aba)
+  "crba"          M by CRBA, h by RNEA, then the Cholesky factorisation M = L L^T, O(n^3)
+  "newton_euler"  the seed's method: column k of M is RNEA with qdd = e_k, qd = 0, g = 0 and no
+                  F_tip (n RNEA calls), h is RNEA with qdd = 0, then Cholesky, O(n^3)
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from .._runtime.arrays import all_finite, result_status
+from .._runtime.batch import run_rows
+from .._runtime.kernel_cache import BATCH, JIT
+from .._runtime.status import Status
+from . import checks
+from .aba import aba_kernel
+from .cholesky import cholesky_solve
+from .crba import crba_kernel
+from .rnea import rnea_kernel
+
+METHODS = ("aba", "crba", "newton_euler")
+NO_ARMATURE = np.zeros(0)  # the rigid-body M: no rotor inertias
+
+
+@njit(**JIT)
+def newton_euler_mass_matrix(ibuf, fbuf, q, M):
+    """M (nv, nv) <- the seed's method: column k is RNEA's tau with qdd = e_k, qd = 0,
+    gravity = 0 and no F_tip (nv RNEA calls). Returns a Status."""
+    nv = M.shape[0]
+    zero = np.zeros(nv)
+    e_k = np.zeros(nv)
+    col = np.empty(nv)
+    no_loads = np.zeros((1, 6))
+    for k in range(nv):
+        e_k[k] = 1.0
+        status = rnea_kernel(ibuf, fbuf, q, zero, e_k, no_loads, col)
+        if status:
+            return status
+        for r in range(nv):
+            M[r, k] = col[r]
+        e_k[k] = 0.0
+    return Status.OK.value
+
+
+@njit(**JIT)
+def mass_matrix_solve(ibuf, fbuf, q, qd, tau, loads, qdd, armature, crba, newton_euler):
+    """qdd <- (M + diag(armature))^-1 (tau - h - J^T F_tip), M by CRBA or by nv RNEA calls,
+    whichever compile-time switch is not None; armature (nv,) or empty.
+    Returns a Status as aba_kernel, or RESULT_NOT_FINITE when h overflowed."""
+    nv = qdd.shape[0]
+    M = np.empty((nv, nv))
+    b = np.empty(nv)
+    status = rnea_kernel(ibuf, fbuf, q, qd, np.zeros(nv), loads, b)
+    if status:
+        return status
+    if not all_finite(tau):
+        return Status.TAU_NOT_FINITE.value
+    if crba is not None:
+        crba_kernel(ibuf, fbuf, q, M)
+    if newton_euler is not None:
+        newton_euler_mass_matrix(ibuf, fbuf, q, M)
+    for k in range(armature.shape[0]):
+        M[k, k] += armature[k]
+    for k in range(nv):
+        b[k] = tau[k] - b[k]
+    return cholesky_solve(M, b, qdd)
+
+
+@njit(**JIT)
+def forward_kernel(ibuf, fbuf, q, qd, tau, loads, qdd, armature, aba, crba, newton_euler):
+    """One state by the method the compile-time switches (aba, crba, newton_euler) name: one
+    of them True, the others None (method_switches). numba drops the code behind a None
+    argument when it compiles, so only the method asked for is compiled. armature (nv,)
+    rotor inertias on M's diagonal, or an empty array for none. Returns a Status, the
+    method's or RESULT_NOT_FINITE (qdd overflowed)."""
+    if aba is not None:
+        status = aba_kernel(ibuf, fbuf, q, qd, tau, loads, qdd, armature)
+        return status if status else result_status(qdd)
+    if crba is not None or newton_euler is not None:
+        status = mass_matrix_solve(
+            ibuf, fbuf, q, qd, tau, loads, qdd, armature, crba, newton_euler
+        )
+        return status if status else result_status(qdd)
+    return Status.OK.value  # no method switched on: nothing to compile
+
+
+@njit(**BATCH)
+def forward_batch_kernel(
+    ibuf, fbuf, q, qd, tau, loads, qdd, armature, method, status, start, stop
+):
+    """Forward dynamics over rows [start, stop) of a batch (q (N, nq), the others (N, nv));
+    loads (1 or N, rows, 6);
+    armature as in forward_kernel, an argument (a global array would be a read-only constant to
+    numba, and the kernel would compile again for it)."""
+    shared = loads.shape[0] == 1
+    aba, crba, newton_euler = method
+    for n in range(start, stop):
+        status[n] = forward_kernel(
+            ibuf,
+            fbuf,
+            q[n],
+            qd[n],
+            tau[n],
+            loads[0] if shared else loads[n],
+            qdd[n],
+            armature,
+            aba,
+            crba,
+            newton_euler,
+        )
+
+
+_SWITCHES = {m: tuple(True if m == k else None for k in METHODS) for m in (*METHODS, None)}
+
+
+def method_switches(model, method):
+    """(aba, crba, newton_euler): the compile-time switches of forward_kernel for a method
+    name, True for the method and None for the others (all None for a method name of None: no
+    forward dynamics). Models with coupled (mimic) joints solve "aba" by CRBA (ABA needs one
+    coordinate a body). A table look-up: it runs on every forward_dynamics call."""
+    try:
+        return _SWITCHES["crba" if method == "aba" and model.coupled else method]
+    except (KeyError, TypeError):
+        raise ValueError(
+            f"forward_dynamics: method must be one of {', '.join(METHODS)}, got {method!r}"
+        ) from None
+
+
+def forward_dynamics(model, q, qd, tau, f_tip=None, gravity=None, method="aba"):
+    """qdd = M(q)^-1 (tau - c(q, qd) - g(q) - sum_frames J_b(frame)^T F_tip(frame)).
+
+    Args:
+      q: (nq,) configuration (joint positions in rad or m, after a floating base's (p, quat));
+      qd, tau: (nv,) velocities and generalized forces (N m or N; a floating base's twist
+        (omega_b, v_b) and wrench (m_b, f_b) in its own frame first); or batches (N, nq), (N, nv).
+      f_tip: optional {frame_name: (6,) wrench (m, f)} that each frame applies TO THE
+        ENVIRONMENT, in that frame's coordinates.
+      gravity: optional (3,) world-frame gravity (m/s^2), default model.gravity.
+      method: "aba" (O(n), default), "crba" (CRBA + Cholesky) or "newton_euler" (the seed's
+        n-RNEA mass matrix + Cholesky). Models with coupled mimic joints solve "aba" by CRBA.
+    Returns qdd, (nv,) or (N, nv) (rad/s^2 or m/s^2).
+    Raises SingularMassMatrixError (a ValueError) naming every joint that moves nothing with
+    mass or inertia (or the joints whose combined motion moves none) when M(q) is singular.
+    """
+    checks.check_model(model, "forward_dynamics")
+    aba, crba, newton_euler = method_switches(model, method)
+    if checks.is_single(model, q, qd, tau):
+        qdd = np.empty(model._vector_shape)
+        status = forward_kernel(
+            model._ibuf,
+            model._fbuf,
+            q,
+            qd,
+            tau,
+            model._loads
+            if gravity is None and f_tip is None
+            else checks.loads(model, gravity, f_tip),
+            qdd,
+            NO_ARMATURE,
+            aba,
+            crba,
+            newton_euler,
+        )
+        if status:
+            arguments = {"q": q, "qd": qd, "tau": tau, "gravity": gravity, "f_tip": f_tip}
+            checks.raise_status(status, model, "forward_dynamics", "qdd", arguments)
+        return qdd
+    (q, qd, tau), batch = checks.as_states(model, q, ("qd", qd), ("tau", tau))
+    if not batch:
+        return forward_dynamics(model, q, qd, tau, f_tip, gravity, method)
+    n = q.shape[0]
+    qdd = np.empty((n, model.nv))
+    status = np.zeros(n, dtype=np.int64)
+    run_rows(
+        forward_batch_kernel,
+        n,
+        model._ibuf,
+        model._fbuf,
+        q,
+        qd,
+        tau,
+        checks.loads(model, gravity, f_tip, n),
+        qdd,
+        NO_ARMATURE,
+        (aba, crba, newton_euler),
+        status,
+    )
+    arguments = {"q": q, "qd": qd, "tau": tau, "gravity": gravity, "f_tip": f_tip}
+    checks.raise_batch_status(status, model, "forward_dynamics", "qdd", arguments)
+    return qdd

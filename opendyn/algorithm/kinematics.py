@@ -1,0 +1,237 @@
+"""Forward kinematics and Jacobians on the tree, product of exponentials in body frames:
+
+    T_{s,i}(q) = T_{s,lambda(i)} M_{lambda(i), i} X_J(q_i)
+    T_{s,frame} = T_{s,body} T_{body,frame}
+    J_s(q)[:, k] = sum over the frame's path of mult_i Ad_{T_{s,i}} s_i (rows s_i of S_i with
+                   velocity coordinate k)
+    J_b(q) = Ad_{T_{frame,s}} J_s(q)
+
+so that V_s = J_s v and V_b = J_b v are the frame's twists in the space and the frame's own
+coordinates (angular first; Lynch & Park, Sections 4.1 and 5.1). For a floating base v starts
+with the base twist in its own frame, so its columns of J are the base's body-frame axes.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from .._runtime.arrays import copy_into, result_status, zero_matrix
+from .._runtime.batch import run_rows
+from .._runtime.kernel_cache import BATCH, INLINE, JIT
+from ..multibody.joints import configuration_status, joint_transform, prepare_joint_transforms
+from ..multibody.layout import body_count, tree
+from ..spatial.compiled import twist_to_child
+from . import checks
+
+
+@njit(**INLINE)
+def world_pose(R_s, p_s, lam, R, p, i):
+    """R_s[i], p_s[i] <- T_{s,i} = T_{s,lambda} T_{lambda,i} with (R, p) = T_{lambda,i};
+    lam -1 is the world (T_{s,i} = T_{lambda,i})."""
+    if lam < 0:
+        for r in range(3):
+            p_s[i, r] = p[r]
+            for c in range(3):
+                R_s[i, r, c] = R[r, c]
+        return
+    for r in range(3):
+        for c in range(3):
+            R_s[i, r, c] = (
+                R_s[lam, r, 0] * R[0, c] + R_s[lam, r, 1] * R[1, c] + R_s[lam, r, 2] * R[2, c]
+            )
+        p_s[i, r] = (
+            p_s[lam, r] + R_s[lam, r, 0] * p[0] + R_s[lam, r, 1] * p[1] + R_s[lam, r, 2] * p[2]
+        )
+
+
+@njit(**JIT)
+def forward_kinematics(body_tree, q, R_s, p_s, last):
+    """R_s[i], p_s[i] <- T_{s,i}(q) (world frame = the root link) for every body, or, when
+    last >= 0, only for the bodies on the path from the root to body `last`.
+    body_tree is layout.tree(ibuf, fbuf). Compiled once and called by the kernels that need
+    world poses."""
+    parent, jtype, nv_j, iq, iv, mult, offset, S, R_home, p_home = body_tree
+    nb = parent.shape[0]
+    R = np.empty((nb, 3, 3))
+    p = np.empty((nb, 3))
+    prepare_joint_transforms(body_tree, q, R, p)
+    wanted = np.empty(nb, dtype=np.bool_)
+    for i in range(nb):
+        wanted[i] = last < 0
+    if last >= 0:
+        i = last
+        while i >= 0:
+            wanted[i] = True
+            i = parent[i]
+    for i in range(nb if last < 0 else last + 1):
+        if not wanted[i]:
+            continue
+        joint_transform(
+            jtype[i], S[i], R_home[i], p_home[i], q, iq[i], mult[i], offset[i], R[i], p[i]
+        )
+        world_pose(R_s, p_s, parent[i], R[i], p[i], i)
+
+
+@njit(**INLINE)
+def space_axis(R_s, p_s, A_i, S):
+    """S <- Ad_{T_{s,i}} A_i = (R w, p x (R w) + R v), a motion axis of joint i (a row of
+    S_i) in {s}, with (R, p) = (R_s, p_s) = T_{s,i} and A_i = (w, v)."""
+    for r in range(3):
+        S[r] = R_s[r, 0] * A_i[0] + R_s[r, 1] * A_i[1] + R_s[r, 2] * A_i[2]
+        S[3 + r] = R_s[r, 0] * A_i[3] + R_s[r, 1] * A_i[4] + R_s[r, 2] * A_i[5]
+    S[3] += p_s[1] * S[2] - p_s[2] * S[1]
+    S[4] += p_s[2] * S[0] - p_s[0] * S[2]
+    S[5] += p_s[0] * S[1] - p_s[1] * S[0]
+
+
+@njit(**JIT)
+def compose_frame(R_s, p_s, body, T_bf, T_sf):
+    """T_sf (4, 4) <- T_{s,body} T_{body,frame}; body -1 is the world."""
+    zero_matrix(T_sf)
+    T_sf[3, 3] = 1.0
+    for r in range(3):
+        for c in range(4):
+            T_sf[r, c] = (
+                T_bf[r, c]
+                if body < 0
+                else (
+                    R_s[body, r, 0] * T_bf[0, c]
+                    + R_s[body, r, 1] * T_bf[1, c]
+                    + R_s[body, r, 2] * T_bf[2, c]
+                )
+            )
+        if body >= 0:
+            T_sf[r, 3] += p_s[body, r]
+
+
+@njit(**JIT)
+def frame_pose_kernel(ibuf, fbuf, q, body, T_bf, T_sf):
+    """T_sf (4, 4) <- T_{s,body}(q) T_{body,frame}. Returns a Status: OK, Q_NOT_FINITE,
+    Q_NOT_UNIT_QUATERNION or RESULT_NOT_FINITE."""
+    status = configuration_status(ibuf, q)
+    if status:
+        return status
+    nb = body_count(ibuf)
+    R_s = np.empty((nb, 3, 3))
+    p_s = np.empty((nb, 3))
+    if body >= 0:
+        forward_kinematics(tree(ibuf, fbuf), q, R_s, p_s, body)
+    compose_frame(R_s, p_s, body, T_bf, T_sf)
+    return result_status(T_sf)
+
+
+@njit(**JIT)
+def jacobian_kernel(ibuf, fbuf, q, body, T_bf, body_frame, J):
+    """J (6, nv) <- J_s, or J_b of the frame when body_frame. Returns a Status: OK,
+    Q_NOT_FINITE, Q_NOT_UNIT_QUATERNION or RESULT_NOT_FINITE."""
+    status = configuration_status(ibuf, q)
+    if status:
+        return status
+    body_tree = tree(ibuf, fbuf)
+    parent, jtype, nv_j, iq, iv, mult, offset, S_rows, R_home, p_home = body_tree
+    nb = parent.shape[0]
+    R_s = np.empty((nb, 3, 3))
+    p_s = np.empty((nb, 3))
+    if body >= 0:
+        forward_kinematics(body_tree, q, R_s, p_s, body)
+    T_sf = np.empty((4, 4))
+    compose_frame(R_s, p_s, body, T_bf, T_sf)
+    S = np.empty(6)
+    col = np.empty(6)
+    zero_matrix(J)
+    i = body
+    while i >= 0:
+        for k in range(nv_j[i]):
+            space_axis(R_s[i], p_s[i], S_rows[i, k], S)
+            if body_frame:
+                # Ad_{T_{frame,s}} S = (R^T w, R^T (v + w x p)) with (R, p) = T_sf
+                twist_to_child(T_sf[:3, :3], T_sf[:3, 3], S, col)
+            else:
+                copy_into(S, col)
+            for r in range(6):
+                J[r, iv[i] + k] += mult[i] * col[r]
+        i = parent[i]
+    return result_status(J)
+
+
+@njit(**BATCH)
+def jacobian_batch_kernel(ibuf, fbuf, q, body, T_bf, body_frame, J, status, start, stop):
+    """Jacobians over rows [start, stop) of a batch of configurations (N, nq) -> (N, 6, nv)."""
+    for n in range(start, stop):
+        status[n] = jacobian_kernel(ibuf, fbuf, q[n], body, T_bf, body_frame, J[n])
+
+
+@njit(**BATCH)
+def frame_pose_batch_kernel(ibuf, fbuf, q, body, T_bf, T_sf, status, start, stop):
+    """Frame poses over rows [start, stop) of a batch of configurations (N, nq) -> (N, 4, 4)."""
+    for n in range(start, stop):
+        status[n] = frame_pose_kernel(ibuf, fbuf, q[n], body, T_bf, T_sf[n])
+
+
+def _frame(model, frame):
+    fr = model.frames[model.frame_index(frame)]
+    return fr.body, fr.T_body_frame
+
+
+def frame_pose(model, q, frame):
+    """T_sf(q): (4, 4) pose of a frame (any URDF link) in the world frame (the root link).
+
+    q: (nq,) or (N, nq) -> (4, 4) or (N, 4, 4); translation in metres.
+    Raises KeyError naming the frame if it is not a frame of the model.
+    """
+    checks.check_model(model, "frame_pose")
+    if not checks.is_single(model, q):
+        q = checks.as_q(model, q)
+    body, T_bf = _frame(model, frame)
+    if q.ndim == 1:
+        T = np.empty((4, 4))
+        status = frame_pose_kernel(model._ibuf, model._fbuf, q, body, T_bf, T)
+        if status:
+            checks.raise_status(status, model, "frame_pose", "T_sf", {"q": q})
+        return T
+    T = np.empty((q.shape[0], 4, 4))
+    status = np.zeros(q.shape[0], dtype=np.int64)
+    run_rows(
+        frame_pose_batch_kernel, q.shape[0], model._ibuf, model._fbuf, q, body, T_bf, T, status
+    )
+    checks.raise_batch_status(status, model, "frame_pose", "T_sf", {"q": q})
+    return T
+
+
+def jacobian(model, q, frame, expressed_in="space"):
+    """The (6, nv) Jacobian of a frame: V = J(q) v, twist (omega, v) angular first.
+
+    expressed_in="space": J_s, the frame's twist in the world frame (MR eq. 5.11);
+    expressed_in="body":  J_b, the twist in the frame's own coordinates (MR eq. 5.18);
+    J_s = Ad_{T_sf} J_b. q: (nq,) or (N, nq) -> (6, nv) or (N, 6, nv).
+    """
+    checks.check_model(model, "jacobian")
+    if expressed_in not in ("space", "body"):
+        raise ValueError(f"jacobian: expressed_in must be 'space' or 'body', got {expressed_in!r}")
+    if not checks.is_single(model, q):
+        q = checks.as_q(model, q)
+    body, T_bf = _frame(model, frame)
+    body_frame = expressed_in == "body"
+    if q.ndim == 1:
+        J = np.empty((6, model.nv))
+        status = jacobian_kernel(model._ibuf, model._fbuf, q, body, T_bf, body_frame, J)
+        if status:
+            checks.raise_status(status, model, "jacobian", "J", {"q": q})
+        return J
+    J = np.empty((q.shape[0], 6, model.nv))
+    status = np.zeros(q.shape[0], dtype=np.int64)
+    run_rows(
+        jacobian_batch_kernel,
+        q.shape[0],
+        model._ibuf,
+        model._fbuf,
+        q,
+        body,
+        T_bf,
+        body_frame,
+        J,
+        status,
+    )
+    checks.raise_batch_status(status, model, "jacobian", "J", {"q": q})
+    return J

@@ -1,0 +1,234 @@
+"""Inverse dynamics by the recursive Newton-Euler algorithm (RNEA) on a kinematic tree:
+
+    tau = M(q) qdd + c(q, qd) + g(q) + sum_frames J_b(frame)^T F_tip(frame)
+
+Forward pass, base to tips, dV_0 = (0, -g) (gravity as a fictitious base acceleration), joint
+i with motion subspace S_i (A_i for a 1-dof joint, I_6 for a free one; module joints):
+    T_{i,lambda} = X_J(q_i)^-1 M_{i,lambda}
+    V_i  = Ad_{T_{i,lambda}} V_lambda + S_i qd_i
+    dV_i = Ad_{T_{i,lambda}} dV_lambda + ad_{V_i} S_i qd_i + S_i qdd_i
+Backward pass, tips to base:
+    F_i = G_i dV_i - ad_{V_i}^T G_i V_i + F_tip,i + sum_children Ad_{T_{c,i}}^T F_c
+    tau_i = S_i^T F_i
+(Lynch & Park, Modern Robotics, Section 8.3.2; the seed notes, "Newton-Euler inverse dynamics";
+Featherstone, Rigid Body Dynamics Algorithms, Table 5.1, for multi-dof joints.)
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from .._runtime.arrays import all_finite, fill, result_status
+from .._runtime.batch import run_rows
+from .._runtime.kernel_cache import BATCH, INLINE, JIT
+from .._runtime.status import Status
+from ..multibody.joints import (
+    add_joint_force,
+    joint_transform,
+    prepare_joint_transforms,
+    state_status,
+)
+from ..multibody.layout import rigid_inertias, tree
+from ..spatial.compiled import (
+    ad_twist,
+    add_neg_ad_transpose,
+    add_wrench_to_parent,
+    rigid_inertia_times,
+    twist_to_child,
+)
+from . import checks
+
+
+@njit(**INLINE)
+def forward_pass(body_tree, q, qd, qdd, dV_0, R, p, V, dV, s):
+    """Forward pass of RNEA: R[i], p[i] = T_{lambda,i}; V[i], dV[i] twist and its rate in {i}.
+
+    body_tree is layout.tree(ibuf, fbuf); dV_0 is the base's acceleration, (0, -g) for
+    gravity. s is scratch of at least one row of 6. Also used for energies and frame
+    accelerations.
+    """
+    parent, jtype, nv_j, iq, iv, mult, offset, S, R_home, p_home = body_tree
+    a = s[0]
+    prepare_joint_transforms(body_tree, q, R, p)
+    for i in range(parent.shape[0]):
+        joint_transform(
+            jtype[i], S[i], R_home[i], p_home[i], q, iq[i], mult[i], offset[i], R[i], p[i]
+        )
+        lam = parent[i]
+        # V_i = Ad_{T_{i,lambda}} V_lambda + S_i qd_i  (the world does not move: V_0 = 0)
+        if lam < 0:
+            fill(V[i], 0.0)
+        else:
+            twist_to_child(R[i], p[i], V[lam], V[i])
+        for k in range(nv_j[i]):
+            qd_k = mult[i] * qd[iv[i] + k]
+            for r in range(6):
+                V[i, r] += S[i, k, r] * qd_k
+        # dV_i = Ad_{T_{i,lambda}} dV_lambda + sum_k (ad_{V_i} s_k) qd_k + s_k qdd_k over the
+        # rows s_k of S_i
+        twist_to_child(R[i], p[i], dV_0 if lam < 0 else dV[lam], dV[i])
+        for k in range(nv_j[i]):
+            qd_k, qdd_k = mult[i] * qd[iv[i] + k], mult[i] * qdd[iv[i] + k]
+            ad_twist(V[i], S[i, k], a)
+            for r in range(6):
+                dV[i, r] += a[r] * qd_k + S[i, k, r] * qdd_k
+
+
+@njit(**JIT)
+def rnea_kernel(ibuf, fbuf, q, qd, qdd, loads, tau):
+    """tau (nv,) <- RNEA at one state. loads[0] = dV_0 = (0, -g); loads[1 + i], when present,
+    the wrench body i applies to the environment. Returns a Status: OK, Q/QD/QDD_NOT_FINITE,
+    Q_NOT_UNIT_QUATERNION or RESULT_NOT_FINITE (tau overflowed)."""
+    status = state_status(ibuf, q, qd)
+    if status:
+        return status
+    if not all_finite(qdd):
+        return Status.QDD_NOT_FINITE.value
+    body_tree = tree(ibuf, fbuf)
+    parent, jtype, nv_j, iq, iv, mult, offset, S, R_home, p_home = body_tree
+    mass, h, I_o = rigid_inertias(ibuf, fbuf)
+    nb = parent.shape[0]
+    vec = np.empty((3, nb, 6))
+    V, dV, F = vec[0], vec[1], vec[2]
+    R = np.empty((nb, 3, 3))
+    p = np.empty((nb, 3))
+    s = np.empty((2, 6))
+    forward_pass(body_tree, q, qd, qdd, loads[0], R, p, V, dV, s)
+
+    # backward pass: F_i = G_i dV_i - ad_{V_i}^T G_i V_i + F_tip,i + sum_children Ad^T F_c,
+    # tau_i = S_i^T F_i
+    wrenches = loads.shape[0] > 1
+    for i in range(nb):
+        rigid_inertia_times(mass[i], h[i], I_o[i], dV[i], F[i])
+        rigid_inertia_times(mass[i], h[i], I_o[i], V[i], s[0])
+        add_neg_ad_transpose(V[i], s[0], F[i])
+        if wrenches:
+            for k in range(6):
+                F[i, k] += loads[1 + i, k]
+    fill(tau, 0.0)
+    for i in range(nb - 1, -1, -1):
+        add_joint_force(nv_j[i], S[i], mult[i], F[i], iv[i], tau)
+        if parent[i] >= 0:
+            add_wrench_to_parent(R[i], p[i], F[i], F[parent[i]])
+    return result_status(tau)
+
+
+@njit(**BATCH)
+def rnea_batch_kernel(ibuf, fbuf, q, qd, qdd, loads, tau, status, start, stop):
+    """RNEA over rows [start, stop) of a batch: q (N, nq), qd and qdd (N, nv); loads
+    (1, rows, 6) shared or (N, rows, 6)."""
+    shared = loads.shape[0] == 1
+    for n in range(start, stop):
+        status[n] = rnea_kernel(
+            ibuf, fbuf, q[n], qd[n], qdd[n], loads[0] if shared else loads[n], tau[n]
+        )
+
+
+_NO_GRAVITY = np.zeros(3)
+
+
+def run_rnea(model, q, qd, qdd, f_tip, gravity, what, result):
+    """Checked RNEA for single states (nv,) or batches (N, nv); the public functions' core.
+    what, result: the function and its result (e.g. "tau") as error messages name them."""
+    (q, qd, qdd), batch = checks.as_states(model, q, ("qd", qd), ("qdd", qdd))
+    arguments = {"q": q, "qd": qd, "qdd": qdd, "gravity": gravity, "f_tip": f_tip}
+    if not batch:
+        tau = np.empty(model._vector_shape)
+        status = rnea_kernel(
+            model._ibuf,
+            model._fbuf,
+            q,
+            qd,
+            qdd,
+            checks.loads(model, gravity, f_tip),
+            tau,
+        )
+        if status:
+            checks.raise_status(status, model, what, result, arguments)
+        return tau
+    n = q.shape[0]
+    tau = np.empty((n, model.nv))
+    status = np.zeros(n, dtype=np.int64)
+    run_rows(
+        rnea_batch_kernel,
+        n,
+        model._ibuf,
+        model._fbuf,
+        q,
+        qd,
+        qdd,
+        checks.loads(model, gravity, f_tip, n),
+        tau,
+        status,
+    )
+    checks.raise_batch_status(status, model, what, result, arguments)
+    return tau
+
+
+def inverse_dynamics(model, q, qd, qdd, f_tip=None, gravity=None):
+    """tau = M(q) qdd + c(q, qd) + g(q) + sum_frames J_b(frame)^T F_tip(frame), by RNEA.
+
+    Args:
+      q: (nq,) configuration: joint positions (rad or m), after the base pose (p, quat) for a
+        floating base; qd, qdd: (nv,) velocities and accelerations (the base twist (omega_b,
+        v_b) in its own frame first, then the joints'); or batches (N, nq), (N, nv).
+      f_tip: optional {frame_name: (6,) wrench (m, f)} that each frame applies TO THE
+        ENVIRONMENT, in that frame's coordinates (N m, N); (N, 6) per frame for a batch.
+      gravity: optional (3,) world-frame gravity (m/s^2), default model.gravity.
+    Returns tau, (nv,) or (N, nv): joint torques (N m) or forces (N), after the wrench
+    (m_b, f_b) on a floating base in its own frame.
+    """
+    checks.check_model(model, "inverse_dynamics")
+    if gravity is None and f_tip is None and checks.is_single(model, q, qd, qdd):
+        # the common call, with nothing to convert: straight to the kernel
+        tau = np.empty(model._vector_shape)
+        status = rnea_kernel(
+            model._ibuf, model._fbuf, q, qd, qdd, model._loads, tau
+        )
+        if status:
+            arguments = {"q": q, "qd": qd, "qdd": qdd}
+            checks.raise_status(status, model, "inverse_dynamics", "tau", arguments)
+        return tau
+    return run_rnea(model, q, qd, qdd, f_tip, gravity, "inverse_dynamics", "tau")
+
+
+def _zeros_like_state(model, q):
+    """q checked, and a zero velocity: (nv,), or (N, nv) for a batch."""
+    if checks.is_single(model, q):
+        return q, model._zero_v
+    q = checks.as_q(model, q)
+    return q, np.zeros(q.shape[:-1] + model._vector_shape)
+
+
+def gravity_forces(model, q, gravity=None):
+    """g(q) = dU/dq: the joint torques that hold the robot still against gravity (RNEA with
+    qd = qdd = 0).
+
+    q: (nq,) or (N, nq); gravity: optional (3,) world-frame vector (m/s^2).
+    Returns (nv,) or (N, nv).
+    """
+    checks.check_model(model, "gravity_forces")
+    q, zero = _zeros_like_state(model, q)
+    return run_rnea(model, q, zero, zero, None, gravity, "gravity_forces", "g")
+
+
+def coriolis_forces(model, q, qd):
+    """c(q, qd) = C(q, qd) qd: Coriolis and centripetal torques (RNEA, qdd = 0, no gravity).
+
+    q, qd: (nq,) and (nv,), or (N, nq) and (N, nv). Returns (nv,) or (N, nv).
+    """
+    checks.check_model(model, "coriolis_forces")
+    q, zero = _zeros_like_state(model, q)
+    return run_rnea(model, q, qd, zero, None, _NO_GRAVITY, "coriolis_forces", "c")
+
+
+def bias_forces(model, q, qd, gravity=None):
+    """h(q, qd) = c(q, qd) + g(q): the torques when qdd = 0 (RNEA).
+
+    q, qd: (nq,) and (nv,), or batches; gravity: optional (3,) world-frame vector. Returns (nv,)
+    or (N, nv).
+    """
+    checks.check_model(model, "bias_forces")
+    q, zero = _zeros_like_state(model, q)
+    return run_rnea(model, q, qd, zero, None, gravity, "bias_forces", "h")

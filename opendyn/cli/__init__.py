@@ -1,0 +1,1 @@
+"""The `opendyn` command (`python -m opendyn.cli` runs it too)."""

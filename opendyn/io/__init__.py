@@ -1,0 +1,1 @@
+"""Reading robots and scenes: URDF files into Models, scene files into Scenes."""

@@ -1,0 +1,174 @@
+"""Before a run: what it will need and whether it can start, checked before anything is allocated
+or compiled.
+
+    steps        N = duration / dt            a whole number, at most 2^53 (scene.check_fixed_steps)
+    samples      K = N / every + 1            (adaptive: ceil(duration / output_dt) + 1)
+    memory       8 K (3 + nq + 2 nv + 2 + 7 P + 2 c)  bytes, twice over, below what is available
+    start        |qd0_k| <= max_speed,  lower_j <= q0_j <= upper_j,  K(q0, qd0), U(q0) finite
+
+with P contact points and c = 1 with constraints (their violation). A scene that fails any of
+these raises SceneError naming the key to change; a joint starting outside its limits is a
+SceneWarning when the scene does not enforce them (no [effects.limits] spring on it) and a
+SceneError when it does. The energy at the start is computed by the kernel that computes the
+record's energies, so the check compiles nothing the run does not.
+"""
+
+from __future__ import annotations
+
+import os
+import warnings
+
+import numpy as np
+
+from ..algorithm.energy import energies
+from ..errors import SceneError, SceneWarning
+from ..io.scene import MAX_STEPS, check_fixed_steps
+from ..multibody.joints import FREE
+
+# the record's arrays are built, then energies, contact and copies: room for the record twice
+_RECORD_COPIES = 2
+
+
+def preflight(scene, integ):
+    """Check `scene` (opendyn.io.scene.Scene) can run with `integ` (its Integrator). Returns
+    (nsteps, every, rows): the fixed steps (0 for adaptive methods), the steps between samples
+    and the number of samples. Raises SceneError naming the key to change; warns SceneWarning."""
+    nsteps, every, rows = _run_size(scene, integ)
+    _check_memory(scene, rows)
+    _check_start(scene)
+    _check_energy(scene)
+    return nsteps, every, rows
+
+
+def _run_size(scene, integ):
+    run = scene.run
+    if integ.adaptive:
+        samples = run.duration / run.output_dt
+        if not samples < MAX_STEPS:
+            _fail(scene, "run.output_dt", f"{run.duration:g} s / {run.output_dt:g} s is "
+                  f"{samples:.3g} samples, more than any record can hold; raise run.output_dt")
+        return 0, 0, int(np.ceil(samples - 1e-9)) + 1
+    check_fixed_steps(run, scene.source)  # as the scene's reader does, for a Run built directly
+    nsteps = round(run.duration / run.dt)
+    every = max(1, round(run.output_dt / run.dt))
+    return nsteps, every, nsteps // every + 1 + (nsteps % every != 0)
+
+
+def _check_memory(scene, rows):
+    """Refuse a record that would not fit in the memory available now."""
+    model = scene.model
+    points = len(scene.contact.points) if scene.contact is not None else 0
+    per_sample = 3 + model.nq + 2 * model.nv + 2 + 7 * points + 2 * bool(scene.constraints)
+    need = 8.0 * rows * per_sample * _RECORD_COPIES
+    have = available_memory()
+    if have is not None and need > have:
+        _fail(
+            scene,
+            "run.output_dt",
+            f"the record would hold {rows:.4g} samples of {per_sample} numbers, about "
+            f"{_bytes(need)} with its post-processing, more than the {_bytes(have)} of memory "
+            f"available; raise run.output_dt (now {scene.run.output_dt:g} s) or shorten "
+            f"run.duration (now {scene.run.duration:g} s)",
+        )
+
+
+def available_memory():
+    """Bytes of memory available to a new allocation (Linux: MemAvailable; elsewhere the
+    physical memory), or None where the system does not say."""
+    try:
+        with open("/proc/meminfo") as f:
+            for line in f:
+                if line.startswith("MemAvailable:"):
+                    return float(line.split()[1]) * 1024
+    except OSError:
+        pass
+    try:
+        return float(os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE"))
+    except (AttributeError, OSError, ValueError):
+        return None
+
+
+def _check_start(scene):
+    """The initial velocities within max_speed, the initial positions within the joint limits."""
+    model, run = scene.model, scene.run
+    fast = np.flatnonzero(np.abs(scene.qd0) > run.max_speed)
+    if fast.size:
+        k = int(fast[np.argmax(np.abs(scene.qd0[fast]))])
+        _fail(
+            scene,
+            _velocity_key(model, k),
+            f"the initial velocity {scene.qd0[k]:g} of {model.v_names[k]!r} is beyond "
+            f"run.max_speed = {run.max_speed:g} (rad/s or m/s), where a run stops as diverging; "
+            "lower the initial velocity or raise run.max_speed",
+        )
+    q = scene.q0[model.q_index]
+    outside = np.flatnonzero((q < model.lower) | (q > model.upper))
+    enforced = scene.limits.stiffness > 0 if scene.limits is not None else np.zeros(len(q), bool)
+    for j in outside:
+        name = model.joint_names[j]
+        what = (
+            f"joint {name!r} starts at {q[j]:g}, outside its limits [{model.lower[j]:g}, "
+            f"{model.upper[j]:g}] (rad or m)"
+        )
+        if enforced[j]:
+            _fail(
+                scene,
+                f"initial.q.{name}",
+                f"{what}, which [effects.limits] enforces: its spring would start "
+                f"{_beyond(q[j], model.lower[j], model.upper[j]):.3g} deep; start inside them",
+            )
+        warnings.warn(
+            f"{scene.source}: initial.q.{name}: {what}; the scene does not enforce them, so it "
+            "runs as given",
+            SceneWarning,
+            stacklevel=4,  # the caller of simulate
+        )
+
+
+def _check_energy(scene):
+    """A start whose kinetic or potential energy is not a finite number cannot be followed."""
+    model = scene.model
+    gravity = scene.gravity if scene.gravity is not None else np.zeros(3)
+    q, qd = np.array(scene.q0)[None], np.array(scene.qd0)[None]  # (1, n): the record's batch kernel
+    kinetic, potential = (float(e[0]) for e in energies(model, q, qd, gravity))
+    if np.isfinite(kinetic) and np.isfinite(potential):
+        return
+    if not np.isfinite(kinetic):
+        key, cause = "initial.qd", f"the initial velocities, |qd| up to {np.abs(scene.qd0).max():.3g}"
+    else:
+        key = "effects.gravity"
+        cause = (
+            f"gravity, up to {np.abs(gravity).max():.3g} m/s^2, on the initial positions, |q| "
+            f"up to {np.abs(scene.q0).max():.3g}"
+        )
+    _fail(
+        scene,
+        key,
+        f"the energy at the initial state is not a finite number (kinetic {kinetic:g} J, "
+        f"potential {potential:g} J): {cause} overflow float64",
+    )
+
+
+def _velocity_key(model, k):
+    """The scene key of velocity coordinate k: a joint's, or the floating base's."""
+    free = np.flatnonzero(model.jtype == FREE)
+    for i in free:
+        first = int(model.iv[i])
+        if first <= k < first + 6:
+            return "initial.base_angular_velocity" if k < first + 3 else "initial.base_velocity"
+    return f"initial.qd.{model.v_names[k]}"
+
+
+def _beyond(q, lower, upper):
+    return lower - q if q < lower else q - upper
+
+
+def _bytes(n):
+    """n bytes in the largest decimal unit up to PB that keeps the number at least 1."""
+    units = ("B", "kB", "MB", "GB", "TB", "PB")
+    k = min(len(units) - 1, max(0, int(np.log10(max(n, 1.0)) // 3)))
+    return f"{n / 1000.0**k:.3g} {units[k]}"
+
+
+def _fail(scene, key, what):
+    raise SceneError(f"{scene.source}: {key}: {what}")

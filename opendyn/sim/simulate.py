@@ -1,0 +1,854 @@
+"""simulate(scene) -> Trajectory: the scene's step, a short list of named stages, advanced by its
+integrator in compiled loops.
+
+    step = [effect stages the scene names] -> forward dynamics -> integrate(q, v, dt)
+
+The loops run in chunks of about a tenth of a second of wall time, so that a progress bar moves,
+Ctrl-C is answered, and a failure keeps everything computed before it. A failure (a state that is
+not finite or faster than the run's max_speed, a singular mass matrix, an adaptive step that
+underflows) stops the run with a message naming the time, the step and the likely cause.
+
+A floating base changes nothing here: positions advance through integrate (the exponential map
+for the base, which keeps its quaternion a unit one), and the record carries q (nq) and v (nv)
+with the model's coordinate names. The largest deviation of a recorded quaternion's norm from 1
+is the run's `quaternion_norm_error` (bound QUATERNION_NORM_BOUND).
+"""
+
+from __future__ import annotations
+
+import datetime
+import os
+import platform
+import signal
+import sys
+import threading
+import time
+
+import numpy as np
+
+from .._runtime.batch import run_rows
+from .._runtime.compile_notice import compile_seconds, compiling
+from .._runtime.signals import signal_name
+from .._runtime.status import Status, decode
+from .._runtime.version import __version__
+from ..algorithm.checks import mass_matrix_with_armature, singular_coordinates
+from ..algorithm.constraints import constraint_terms_kernel
+from ..algorithm.contact import contact_record_kernel
+from ..algorithm.energy import energies
+from ..errors import SceneError, SimulationError
+from ..io.scene import Scene, load_scene, thaw
+from ..multibody.joints import FREE
+from ..multibody.model import Model
+from . import effects, integrators, step
+from .preflight import preflight
+
+_CHUNK_SECONDS = 0.1  # wall time of one compiled chunk: progress and Ctrl-C granularity
+_FIRST_CHUNK = 64  # steps in the first chunk
+# integrate renormalises the quaternion at every step, so a recorded one is a product of unit
+# quaternions rounded a few times: its norm is 1 within a few units of float64 rounding (2.2e-16)
+QUATERNION_NORM_BOUND = 1e-14
+# what compiling a scene's pieces takes on a 2-core machine, by integrator (measured by
+# scripts/bench_coldstart.py; constraints add about half again)
+_COMPILE_ESTIMATE = {
+    integrators.EXPLICIT_RK: "about 15 s",
+    integrators.SEMI_IMPLICIT: "about 20 s",
+    integrators.IMPLICIT: "about 20 s",
+}
+
+
+class _Interrupt:
+    """While a run is on (in the main thread), Ctrl-C sets `requested` instead of raising; the
+    loops stop after the current chunk, so that the record stays consistent. `signum` is the
+    signal that asked (SIGINT, or SIGTERM when the command line hands it over)."""
+
+    requested = False
+    signum = signal.SIGINT
+
+    def __enter__(self):
+        self._previous = None
+        if threading.current_thread() is threading.main_thread():
+            self._previous = signal.signal(signal.SIGINT, self._handler)
+        return self
+
+    def _handler(self, signum, frame):
+        self.requested = True
+        self.signum = signum
+
+    def __exit__(self, *exc):
+        if self._previous is not None:
+            signal.signal(signal.SIGINT, self._previous)
+
+
+def simulate(scene, *, progress=False, raise_on_failure=True):
+    """Run `scene` and return its Trajectory.
+
+    scene: a Scene (od.load_scene, od.default_scene, od.scene_from_dict), or a scene file or
+      shipped scene's name, which load_scene reads.
+    progress: show a progress bar (tqdm, on stderr) once the run has taken more than a second.
+    raise_on_failure: on a failure or Ctrl-C raise SimulationError carrying the partial
+      trajectory; with False, return it with complete=False and the message.
+    The trajectory is sampled every scene.run.output_dt seconds and at the end; its stats give
+    steps, rejected steps, dynamics evaluations, the wall time (s) and, apart from it, the time
+    taken to get the compiled step ready: compile_s compiling it (once per machine and opendyn
+    version; 0 when the on-disk cache had it) and load_s loading it.
+    """
+    scene = _as_scene(scene)
+    run = scene.run
+    model = scene.model
+    integ = integrators.INTEGRATORS[run.integrator]
+    if scene.constraints and integ.kind == integrators.SEMI_IMPLICIT:
+        raise SceneError(
+            f"{scene.source}: run.integrator: semi_implicit_euler (symplectic, in momentum form) "
+            "does not support constraints; use rk4, dopri5, euler or implicit_euler"
+        )
+    nsteps, every, rows = preflight(scene, integ)
+    table = effects.stage_table(scene)
+    check_contact_step(scene, table)
+    out = _Samples(rows, model.nq, model.nv)
+    q = np.array(scene.q0, dtype=np.float64)
+    qd = np.array(scene.qd0, dtype=np.float64)
+    w = np.zeros(2)
+    counters = np.zeros(3, dtype=np.int64)  # evaluations, accepted, rejected (adaptive)
+    start = time.perf_counter()
+    compiled_before = compile_seconds()
+    _load_kernels(scene, integ, table, q, qd, w, out, counters)
+    compile_s = compile_seconds() - compiled_before
+    load = time.perf_counter() - start - compile_s
+    bar = _progress_bar(run.duration) if progress else None
+    start = time.perf_counter()
+    with _Interrupt() as stop:
+        if integ.adaptive:
+            status, t = _run_adaptive(scene, integ, table, q, qd, w, out, counters, bar, stop)
+        else:
+            status, t = _run_fixed(
+                scene, integ, table, nsteps, every, q, qd, w, out, counters, bar, stop
+            )
+    wall = time.perf_counter() - start
+    if bar is not None:
+        bar.close()
+    steps = int(counters[1]) if integ.adaptive else int(round(t / run.dt))
+    message = ""
+    if status == Status.INTERRUPTED:
+        message = f"interrupted ({signal_name(stop.signum)}) at t = {t:.6g} s (step {steps})"
+    elif status:
+        message = failure_message(scene, table, status, t, steps, q, qd)
+    if status:
+        # the last good state ends the partial record, unless it is already its last row
+        if not out.filled or out.t[out.filled - 1] < t:
+            _record_state(scene, table, t, q, qd, w, out)
+    stats = {
+        "integrator": integ.name,
+        "steps": steps,
+        "rejected_steps": int(counters[2]),
+        "evaluations": int(counters[0]),
+        "wall_s": wall,
+        "compile_s": compile_s,
+        "load_s": load,
+        "simulated_s": float(out.t[out.filled - 1]) if out.filled else 0.0,
+    }
+    if model.floating_base:
+        stats["quaternion_norm_error"] = float(
+            quaternion_norm_error(model, out.q[: out.filled]).max(initial=0.0)
+        )
+    traj = _trajectory(scene, table, out, status == 0, message, stats)
+    if status and raise_on_failure:
+        raise SimulationError(message, traj)
+    return traj
+
+
+def _load_kernels(scene, integ, table, q, qd, w, out, counters):
+    """Get the run's compiled pieces ready before the clock starts, one by one: forward
+    dynamics, the effects, one evaluation, the loop (called for zero steps) and the energies of
+    the record. numba loads each from its on-disk cache or, the first time on a machine,
+    compiles it; then a notice and a bar over these pieces show on stderr."""
+    model = scene.model
+    nv = model.nv
+    data = step.scene_data(model, table)
+    first = (np.zeros((2, nv)), np.zeros(2), np.zeros(nv))
+    ibuf, fbuf, _, armature, method, con, (_, loads, KD) = data
+    tau, qdd = np.zeros(nv), np.empty(nv)
+    state = (q[None].copy(), qd[None].copy())
+    pieces = [
+        lambda: step.dynamics(ibuf, fbuf, armature, method, con, loads, q, qd, tau, qdd),
+        lambda: step.generalized_forces(
+            data, 0.0, q, qd, np.empty(nv), np.empty(nv), np.empty(2), KD[0], KD[1], False
+        ),
+        lambda: _first_stage(scene, table, 0.0, q, qd, *first),
+        lambda: _adaptive_chunk(
+            scene, integ, table, 0.0, 0.0, scene.run.dt, 1, q, qd, w, first, out, counters
+        )
+        if integ.adaptive
+        else _fixed_chunk(scene, integ, table, 0, 0, 1, q, qd, w, out, counters),
+        lambda: energies(model, *state, _gravity(scene)),
+    ]
+    if scene.constraints:
+        pieces.append(lambda: _violation(model, table, *state))
+    if scene.contact is not None:
+        pieces.append(lambda: _contact_record(model, table, *state))
+    what = f"the simulation step for {integ.name} with {', '.join(table.names) or 'no effects'}"
+    with compiling(what, len(pieces), _COMPILE_ESTIMATE[integ.kind]) as done:
+        for piece in pieces:
+            piece()
+            done()
+
+
+def _gravity(scene):
+    """The scene's gravity (3,), or zeros when it names none (then U = 0)."""
+    return np.zeros(3) if scene.gravity is None else np.asarray(scene.gravity, float)
+
+
+def _fixed_chunk(scene, integ, table, step0, nsteps, every, q, qd, w, out, counters):
+    """integrators.run_fixed on the run's arrays: up to nsteps steps from global step step0,
+    recording every `every`-th. Returns (status, steps done)."""
+    run = scene.run
+    return integrators.run_fixed(
+        integ.switches(),
+        step.scene_data(scene.model, table),
+        0.0,
+        run.dt,
+        step0,
+        nsteps,
+        every,
+        run.max_speed,
+        q,
+        qd,
+        w,
+        out.arrays(),
+        counters,
+        free_joints(scene.model),
+    )
+
+
+def free_joints(model):
+    """None for a fixed base (the loops then compile no Munthe-Kaas correction), else the
+    first v index of each free joint (int64), for integrators.rk_stages."""
+    if not model.floating_base:
+        return None
+    return np.array([model.iv[i] for i in range(model.nb) if model.jtype[i] == FREE], np.int64)
+
+
+def _adaptive_chunk(scene, integ, table, t, t_stop, h, row, q, qd, w, first, out, counters):
+    """integrators.run_adaptive on the run's arrays from t to t_stop, first step h, next
+    output row `row`; first = (k_first, power_first, tau_first), the FSAL stage.
+    Returns (status, t, h, row)."""
+    run = scene.run
+    return integrators.run_adaptive(
+        integ.A,
+        integ.b,
+        integ.c,
+        integ.e,
+        step.scene_data(scene.model, table),
+        t,
+        t_stop,
+        run.duration,
+        h,
+        run.rtol,
+        run.atol,
+        error_size_index(scene.model),
+        run.output_dt,
+        row,
+        run.max_speed,
+        q,
+        qd,
+        w,
+        *first,
+        out.arrays(),
+        counters,
+        free_joints(scene.model),
+    )
+
+
+def error_size_index(model):
+    """(nv,) int64 for run_adaptive's error norm: for each v coordinate, the q index whose
+    magnitude sets its tolerance atol + rtol |q_k| (a joint's own coordinate; a floating base's
+    position for its translation rows), -1 for a floating base's rotation rows (1 rad)."""
+    index = np.full(model.nv, -1, dtype=np.int64)
+    index[model.v_index] = model.q_index
+    for i in np.flatnonzero(model.jtype == FREE):
+        index[model.iv[i] + 3 : model.iv[i] + 6] = model.iq[i] + np.arange(3)
+    return index
+
+
+class _Samples:
+    """The recorded rows: t, q, qd, tau and the work (applied, passive) of each sample."""
+
+    def __init__(self, rows, nq, nv):
+        self.t = np.full(rows, np.nan)
+        self.q = np.full((rows, nq), np.nan)
+        self.qd = np.full((rows, nv), np.nan)
+        self.tau = np.full((rows, nv), np.nan)
+        self.w = np.full((rows, 2), np.nan)
+        self.filled = 0
+
+    def arrays(self):
+        """(t, q, qd, tau, w): the record as the compiled loops write it."""
+        return self.t, self.q, self.qd, self.tau, self.w
+
+
+def _progress_bar(duration):
+    from tqdm import tqdm
+
+    return tqdm(
+        total=duration,
+        unit="s",
+        unit_scale=False,
+        delay=1.0,
+        desc="simulating",
+        file=sys.stderr,
+        bar_format="{desc}: {percentage:3.0f}%|{bar}| {n:.2f}/{total:.2f} s simulated "
+        "[{elapsed}<{remaining}]",
+    )
+
+
+def _chunk_steps(steps, seconds, current):
+    """The next chunk's size: enough steps for about _CHUNK_SECONDS at the measured rate."""
+    if seconds <= 0:
+        return current * 4
+    return int(min(current * 8, max(16, steps / seconds * _CHUNK_SECONDS)))
+
+
+def _run_fixed(scene, integ, table, nsteps, every, q, qd, w, out, counters, bar, stop):
+    """Fixed steps in compiled chunks. Returns (status, time reached)."""
+    run = scene.run
+    done, chunk = 0, _FIRST_CHUNK
+    while done < nsteps:
+        n = min(chunk, nsteps - done)
+        tic = time.perf_counter()
+        status, steps = _fixed_chunk(scene, integ, table, done, n, every, q, qd, w, out, counters)
+        done += steps
+        out.filled = (done - 1) // every + 1 if done else 0
+        if bar is not None:
+            bar.update(steps * run.dt)
+        if status:
+            return status, done * run.dt
+        if stop.requested and done < nsteps:
+            return Status.INTERRUPTED, done * run.dt
+        chunk = _chunk_steps(steps, time.perf_counter() - tic, chunk)
+    t_end = nsteps * run.dt
+    if out.filled < len(out.t):
+        _record_state(scene, table, t_end, q, qd, w, out)
+    return 0, t_end
+
+
+def _run_adaptive(scene, integ, table, q, qd, w, out, counters, bar, stop):
+    """Adaptive steps in compiled chunks of simulated time. Returns (status, time reached)."""
+    run = scene.run
+    model = scene.model
+    nv = model.nv
+    first = (np.empty((2, nv)), np.empty(2), np.empty(nv))  # the FSAL stage: k, power, tau
+    status = _first_stage(scene, table, 0.0, q, qd, *first)
+    counters[0] += 1
+    if status:
+        return status, 0.0
+    out.t[0], out.q[0], out.qd[0], out.tau[0], out.w[0] = 0.0, q, qd, first[2], w
+    out.filled = 1
+    t, h, row = 0.0, run.dt, 1
+    span = max(run.output_dt, run.duration / 1000)
+    while t < run.duration:
+        t_stop = min(run.duration, t + span)
+        tic = time.perf_counter()
+        t_before = t
+        status, t, h, row = _adaptive_chunk(
+            scene, integ, table, t, t_stop, h, row, q, qd, w, first, out, counters
+        )
+        out.filled = row
+        if bar is not None:
+            bar.update(t - t_before)
+        if status:
+            return status, t
+        if stop.requested and t < run.duration:
+            return Status.INTERRUPTED, t
+        elapsed = time.perf_counter() - tic
+        if elapsed > 0:
+            span = min(
+                run.duration, max(span * 0.5, min(span * 4, span * _CHUNK_SECONDS / elapsed))
+            )
+    return 0, t
+
+
+def _first_stage(scene, table, t, q, qd, k_first, power, tau):
+    """k_first (2, nv) <- (qd, qdd), power (2,) <- (applied, passive) power and tau <- the
+    control torque, at (t, q, qd). Returns the dynamics' status."""
+    k_first[0] = qd
+    return step.evaluate(step.scene_data(scene.model, table), t, q, qd, k_first[1], tau, power)
+
+
+def _record_state(scene, table, t, q, qd, w, out):
+    """Append (t, q, qd, w) with the control torque there (NaN when the dynamics fail there)."""
+    k = np.empty((2, scene.model.nv))
+    tau = np.empty(scene.model.nv)
+    if _first_stage(scene, table, t, q, qd, k, np.empty(2), tau):
+        tau[:] = np.nan
+    r = out.filled
+    if r == len(out.t):
+        for name in ("t", "q", "qd", "tau", "w"):
+            arr = getattr(out, name)
+            setattr(out, name, np.concatenate([arr, np.full_like(arr[:1], np.nan)]))
+    out.t[r], out.q[r], out.qd[r], out.tau[r], out.w[r] = t, q, qd, tau, w
+    out.filled = r + 1
+
+
+def quaternion_norm_error(model, q):
+    """(K,) max over the free joints of | |quat| - 1 | at each configuration of q (K, nq)."""
+    error = np.zeros(len(q))
+    for i in np.flatnonzero(model.jtype == FREE):
+        k = int(model.iq[i]) + 3
+        error = np.maximum(error, np.abs(np.linalg.norm(q[:, k : k + 4], axis=1) - 1.0))
+    return error
+
+
+def _trajectory(scene, table, out, complete, message, stats):
+    from .trajectory import Trajectory
+
+    model = scene.model
+    n = out.filled
+    t, q, qd, tau, w = out.t[:n], out.q[:n], out.qd[:n], out.tau[:n], out.w[:n]
+    kinetic, potential = energies(model, q, qd, _gravity(scene)) if n else (np.zeros(0),) * 2
+    if scene.armature is not None and n:
+        kinetic = kinetic + 0.5 * (qd[:, model.v_index] ** 2) @ scene.armature
+    violation = _violation(model, table, q, qd) if scene.constraints else (np.zeros(0),) * 2
+    contact = {}
+    if scene.contact is not None:
+        points, forces, depth = _contact_record(model, table, q, qd)
+        potential = potential + 0.5 * scene.contact.stiffness * (depth**2).sum(axis=1)
+        contact = dict(
+            contact_names=tuple(p.name for p in scene.contact.points),
+            contact_point=points,
+            contact_force=forces,
+            penetration=depth,
+            ground_height=scene.contact.ground_height,
+        )
+    return Trajectory(
+        **contact,
+        violation_position=violation[0],
+        violation_velocity=violation[1],
+        t=t,
+        q=q,
+        qd=qd,
+        tau=tau,
+        kinetic=np.atleast_1d(kinetic),
+        potential=np.atleast_1d(potential),
+        work_applied=w[:, 0].copy(),
+        work_passive=w[:, 1].copy(),
+        joint_names=tuple(model.joint_names),
+        q_names=tuple(model.q_names),
+        v_names=tuple(model.v_names),
+        complete=complete,
+        message=message,
+        stats=stats,
+        provenance=_provenance(scene, table),
+    )
+
+
+def _violation(model, table, q, qd):
+    """(max_i |phi_i|, max_i |(A qd)_i|) at each sample (K,): how far the samples are off the
+    constraints, in position (m or rad) and velocity (m/s or rad/s)."""
+    rows, params, _ = table.constraints
+    k = int(rows[:, 2].sum())
+    A, Adot_qd, phi = np.empty((k, model.nv)), np.empty(k), np.empty(k)
+    position, velocity = np.empty(len(q)), np.empty(len(q))
+    for i in range(len(q)):
+        constraint_terms_kernel(
+            model._ibuf, model._fbuf, rows, params, q[i], qd[i], A, Adot_qd, phi
+        )
+        position[i] = np.abs(phi).max()
+        velocity[i] = np.abs(A @ qd[i]).max()
+    return position, velocity
+
+
+def _contact_record(model, table, q, qd):
+    """(points (K, P, 3) m, forces (K, P, 3) N, penetrations (K, P) m) of the scene's contact
+    spheres at the samples (q (K, nq), qd (K, nv)), world frame (opendyn.algorithm.contact)."""
+    bodies, params = table.effects[effects.CONTACT]
+    shape = (len(q), len(bodies))
+    points, forces, depth = np.empty(shape + (3,)), np.empty(shape + (3,)), np.empty(shape)
+    run_rows(
+        contact_record_kernel, len(q), model._ibuf, model._fbuf, bodies, params, q, qd,
+        points, forces, depth,
+    )
+    return points, forces, depth
+
+
+def _provenance(scene, table):
+    import numba
+
+    run = scene.run
+    return {
+        "scene": {
+            "name": scene.name,
+            "source": scene.source,
+            "settings": thaw(scene.settings),
+            "effects": list(scene.effects),
+            "stages": list(table.names) + (["armature"] if scene.armature is not None else []),
+        },
+        "robot": {
+            "name": scene.model.name,
+            "urdf": scene.model.source,
+            "floating_base": scene.model.floating_base,
+            "nq": scene.model.nq,
+            "nv": scene.model.nv,
+        },
+        "run": {
+            "integrator": run.integrator,
+            "duration": run.duration,
+            "dt": run.dt,
+            "output_dt": run.output_dt,
+            "rtol": run.rtol,
+            "atol": run.atol,
+            "max_speed": run.max_speed,
+        },
+        "versions": {
+            "opendyn": __version__,
+            "python": platform.python_version(),
+            "numpy": np.__version__,
+            "numba": numba.__version__,
+        },
+        "platform": platform.platform(),
+        "created": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
+    }
+
+
+def _as_scene(scene):
+    """scene itself, or the scene that a file or a shipped scene's name names."""
+    if isinstance(scene, Scene):
+        return scene
+    if isinstance(scene, (str, os.PathLike)):
+        return load_scene(scene)
+    hint = ""
+    if isinstance(scene, Model):
+        hint = f"; od.default_scene(model) is the plainest scene of {scene.name!r}"
+    elif isinstance(scene, dict):
+        hint = "; od.scene_from_dict(data) makes a Scene of a dict"
+    raise TypeError(
+        "simulate: scene must be an opendyn Scene (from od.load_scene or od.default_scene) or "
+        f"a scene file or shipped scene's name, got {type(scene).__name__}{hint}"
+    )
+
+
+def failure_message(scene, table, status, t, steps, q, qd):
+    """Why a run stopped at time t after `steps` steps, from the kernel's status and the last
+    good state: what failed, and the likely cause. table: the scene's effects.StageTable."""
+    model = scene.model
+    run = scene.run
+    where = f"at t = {t:.6g} s (step {steps})"
+    status, _ = decode(status)
+    implicit = integrators.INTEGRATORS[run.integrator].kind == integrators.IMPLICIT
+    if status == Status.SINGULAR and implicit and _regular_mass_matrix(scene, q):
+        stiff = _stiff_effects(_effect_rates(scene, table, q), run.dt, 0.0)[:1]
+        return (
+            f"the implicit step's matrix M + dt D + dt^2 K became singular {where}, while the "
+            "mass matrix M alone is regular: the effects' stiffness and damping swamp M in "
+            "float64"
+            + (f"; the stiffest: {_describe(stiff, run.dt, lead=False)}" if stiff else "")
+            + ". Lower the stiffness, or the step."
+        )
+    if status == Status.SINGULAR:
+        return f"singular mass matrix {where}: {singular_coordinates(model, q, scene.armature)[2]}"
+    if status == Status.NO_CONVERGENCE:
+        return (
+            f"semi-implicit Euler's momentum update did not converge {where}: the step is too "
+            f"large for the velocities here (|qd| up to {np.abs(qd).max():.3g}); use a smaller "
+            "step"
+        )
+    if status == Status.STEP_UNDERFLOW:
+        # below 1e-14 s even DOPRI5's stability interval (about 3.3 / rate) is left behind
+        stiff = _stiff_effects(_effect_rates(scene, table, q), 1e-14, 3.3)
+        cause = (
+            f"a step that small is still too large for {_describe(stiff, 1e-14)}, above 3.3. "
+            "Lower the stiffness, or use integrator implicit_euler"
+            if stiff
+            else "The dynamics are likely discontinuous or singular here"
+        )
+        return (
+            f"adaptive step underflow {where}: no step down to 1e-14 s met the tolerances. "
+            f"Likely cause: {cause}."
+        )
+    what = {
+        Status.Q_NOT_FINITE: "the positions q became non-finite",
+        Status.QD_NOT_FINITE: "the velocities qd became non-finite",
+        Status.TAU_NOT_FINITE: "a generalized force became non-finite",
+        Status.RESULT_NOT_FINITE: "the dynamics overflowed float64 (a force or an acceleration "
+        "became inf or NaN at a finite state)",
+        Status.DIVERGED: f"a joint velocity exceeded max_speed = {run.max_speed:g}",
+    }.get(status, f"the dynamics failed ({status.name})")
+    fastest = int(np.argmax(np.abs(qd))) if model.nv else 0
+    state = (
+        f"the last good state has |qd| up to {np.abs(qd).max():.3g} on coordinate "
+        f"{model.v_names[fastest]!r}"
+        if model.nv
+        else ""
+    )
+    stiff = [] if implicit else _stiff_effects(_effect_rates(scene, table, q), run.dt, 2.0)
+    if stiff:
+        cause = _step_too_large(stiff, run.dt, 2.0)
+    elif steps == 0:
+        cause = _start_cause(scene, table, q, qd)
+    elif run.integrator == "euler":
+        cause = (
+            "explicit Euler adds energy on every oscillation and diverges; "
+            "use semi_implicit_euler, rk4 or a smaller step"
+        )
+    elif integrators.INTEGRATORS[run.integrator].adaptive:
+        cause = "the motion became too fast to follow; check the scene's forces"
+    else:
+        cause = (
+            f"the integrator is unstable at dt = {run.dt:g} s for this motion; "
+            "use a smaller step or dopri5"
+        )
+    return f"simulation stopped {where}: {what}; {state}.\nLikely cause: {cause}."
+
+
+def _start_cause(scene, table, q, qd):
+    """Why the very first step failed, when no effect is too stiff for it: the accelerations
+    at the initial state, which one step of dt turns into velocities."""
+    model, run = scene.model, scene.run
+    k, tau = np.empty((2, model.nv)), np.empty(model.nv)
+    status = _first_stage(scene, table, 0.0, q, qd, k, np.empty(2), tau)
+    qdd = k[1]
+    if status or not np.all(np.isfinite(qdd)):
+        return (
+            "the dynamics are not finite at the initial state: the forces there (gravity, "
+            "wrenches, control) overflow float64; check the scene's parameters"
+        )
+    j = int(np.argmax(np.abs(qdd)))
+    reach = abs(qdd[j]) * (run.dt if not integrators.INTEGRATORS[run.integrator].adaptive else 1.0)
+    return (
+        f"the forces at the initial state: they accelerate {model.v_names[j]!r} at "
+        f"{qdd[j]:.3g} (rad or m)/s^2, "
+        + (
+            f"so one step of {run.dt:g} s already reaches {reach:.3g}, beyond run.max_speed = "
+            f"{run.max_speed:g}"
+            if reach > run.max_speed
+            else "and the first step does not survive them"
+        )
+        + "; check the scene's forces (gravity, wrenches, control gains) and initial state"
+    )
+
+
+def _scene_mass_matrix(scene, q):
+    """M(q) with the scene's armature, or None where it cannot be computed."""
+    try:
+        return mass_matrix_with_armature(scene.model, q, scene.armature)
+    except ValueError:
+        return None
+
+
+def _regular_mass_matrix(scene, q):
+    """Whether M(q) (with the scene's armature) is positive definite to float64."""
+    M = _scene_mass_matrix(scene, q)
+    if M is None:
+        return False
+    try:
+        np.linalg.cholesky(M)
+    except np.linalg.LinAlgError:
+        return False
+    return True
+
+
+def _effect_rates(scene, table, q):
+    """[(name, rates, where)]: the effects' rates at q. For each joint, the natural frequency
+    w = sqrt(k / M_jj) of its springs (limits, PD) and the rate d / M_jj of its dampers; for each
+    contact point, those of the contact's spring and damper over the point's apparent mass
+    m_p = 1 / (e_z^T J_p M^-1 J_p^T e_z), and of friction near zero slip, mu f_n / (v_s m_p)
+    with f_n the point's share of the robot's weight. Explicit methods need dt x rate below
+    about 2 (Euler) to 2.8 (RK4). Empty where M(q) cannot be computed."""
+    model = scene.model
+    M = _scene_mass_matrix(scene, q) if model.nv else None
+    if M is None:
+        return []
+    m = np.diag(M)[model.v_index]  # the joints' entries
+    joints = [f"joint {name!r}" for name in model.joint_names]
+    candidates = []
+    if scene.limits is not None:
+        lim = scene.limits
+        candidates += [
+            ("joint-limit stiffness", np.sqrt(lim.stiffness / m), joints),
+            ("joint-limit damping", lim.damping / m, joints),
+        ]
+    if scene.damping is not None:
+        candidates.append(("viscous damping", scene.damping / m, joints))
+    if scene.friction is not None:
+        candidates.append(
+            ("friction smoothing", scene.friction.coulomb / scene.friction.smoothing / m, joints)
+        )
+    control = scene.control
+    if control is not None and control.kind == "pd":
+        candidates += [
+            ("PD stiffness", np.sqrt(control.kp / m), joints),
+            ("PD damping", control.kd / m, joints),
+        ]
+    if scene.contact is not None:
+        candidates += _contact_rates(scene, table, q)
+    return candidates
+
+
+def _stiff_effects(candidates, dt, limit):
+    """[(rate, name, where)] of the candidates (name, rates, where) whose largest rate has
+    dt x rate >= limit (and is not zero), the stiffest first."""
+    stiff = []
+    for name, rate, where in candidates:
+        j = int(np.argmax(rate))
+        if rate[j] > 0 and rate[j] * dt >= limit:
+            stiff.append((float(rate[j]), name, where[j]))
+    return sorted(stiff, reverse=True)
+
+
+def _step_too_large(stiff, dt, limit):
+    """The sentence for an explicit step past the stability `limit` of dt x rate of the stiff
+    effects (_stiff_effects), with the step that suits them all."""
+    return (
+        f"the step is too large for {_describe(stiff, dt)}, above {limit:g}. Use dt below "
+        f"{limit / stiff[0][0]:.2g} s, or integrator implicit_euler"
+    )
+
+
+def _describe(stiff, dt, lead=True):
+    """The stiff effects of _stiff_effects as a phrase naming each, with its rate and dt x rate;
+    lead: open with "a stiff effect: " or "stiff effects: "."""
+    named = "; ".join(
+        f"{name} on {where} has rate {rate:.3g} 1/s (dt x rate = {rate * dt:.3g})"
+        for rate, name, where in stiff
+    )
+    if not lead:
+        return named
+    return ("a stiff effect: " if len(stiff) == 1 else "stiff effects: ") + named
+
+
+def check_contact_step(scene, table):
+    """Refuse a fixed-step explicit run whose step the contact makes unstable: at q0, the
+    contact's rates (_contact_rates) times dt must stay inside the method's stability interval
+    on the real and imaginary axes (RK4 about 2.8, Euler and semi-implicit Euler 2). Beyond it
+    a contact does not always blow up (the clamp f_n >= 0 and friction's saturation bound it):
+    the feet chatter and the run returns nonsense, so it is refused before it starts.
+    table: the scene's effects.StageTable. Raises SceneError naming the contact point, the
+    rate and the step that suits it."""
+    run = scene.run
+    integ = integrators.INTEGRATORS[run.integrator]
+    if scene.contact is None or integ.adaptive or integ.kind == integrators.IMPLICIT:
+        return
+    limit = 2.8 if integ.order == 4 else 2.0
+    stiff = _stiff_effects(_contact_rates(scene, table, scene.q0), run.dt, limit)
+    if stiff:
+        raise SceneError(
+            f"{scene.source}: run.dt: {run.integrator} at dt = {run.dt:g} s is unstable for "
+            f"the contact at the initial state: {_step_too_large(stiff, run.dt, limit)}"
+        )
+
+
+def _contact_rates(scene, table, q):
+    """[(name, rates (P,), where (P,))] of the contact's spring, damper and friction at each
+    point, over its apparent mass m_p = 1 / (e_r^T J_p M^-1 J_p^T e_r) (see _effect_rates).
+    M^-1 J_p^T e_r is the scene's own forward dynamics at rest without gravity, so that the check
+    compiles nothing the run does not. table: the scene's effects.StageTable."""
+    from ..algorithm.contact import contact_jacobians_kernel
+    from ..algorithm.forward import method_switches
+
+    contact, model = scene.contact, scene.model
+    q = np.array(q, dtype=np.float64)  # writable, as in the run: no new specialisation
+    bodies, params = table.effects[effects.CONTACT]
+    J = np.empty((len(bodies), 3, model.nv))
+    contact_jacobians_kernel(model._ibuf, model._fbuf, bodies, params, q, J)
+    method = method_switches(model, table.method)
+    at_rest, no_loads, qdd = np.zeros(model.nv), np.zeros((1, 6)), np.empty(model.nv)
+    inverse_mass = np.empty((len(bodies), 3))
+    for p in range(len(bodies)):
+        for r in range(3):
+            tau = np.ascontiguousarray(J[p, r])
+            status = step.dynamics(
+                model._ibuf, model._fbuf, table.armature, method, None, no_loads, q, at_rest,
+                tau, qdd,
+            )
+            if status:
+                return []
+            inverse_mass[p, r] = tau @ qdd
+    normal = 1.0 / np.maximum(inverse_mass[:, 2], 1e-300)
+    tangential = 1.0 / np.maximum(inverse_mass[:, :2].max(axis=1), 1e-300)
+    where = [f"contact point {p.name!r}" for p in contact.points]
+    rates = [
+        ("contact stiffness", np.sqrt(contact.stiffness / normal), where),
+        ("contact damping", contact.damping / normal, where),
+    ]
+    if scene.gravity is not None and contact.friction > 0:
+        weight = float(np.linalg.norm(scene.gravity)) * float(np.sum(model.mass))
+        f_n = weight / len(contact.points)
+        rates.append(
+            (
+                "contact friction near zero slip",
+                contact.friction * f_n / contact.slip_velocity / tangential,
+                where,
+            )
+        )
+    return rates
+
+
+def stage_costs(scene, *, steps=2000, evaluations=20000):
+    """What each stage of the scene's step costs: a list of (name, us per call, us per step).
+
+    The whole loop is timed on up to `steps` steps of the scene (best of three runs after a
+    warm-up); then each stage alone, forward dynamics alone and the whole evaluation are timed
+    (best of three) in a compiled loop over the states of that run, repeated to about
+    `evaluations` calls. Per step = per call x the integrator's evaluations per step; the last
+    two rows are the rest of the step (the integrator itself, or the implicit solve) and the
+    measured step, with no per-call time (None).
+    """
+    run = scene.run
+    if not integrators.INTEGRATORS[run.integrator].adaptive:
+        short = scene.replace_run(duration=min(run.duration, steps * run.dt), output_dt=run.dt)
+    else:
+        short = scene.replace_run(duration=min(run.duration, 10.0))
+    runs = [simulate(short, raise_on_failure=False) for _ in range(4)]  # the first warms up
+    traj = runs[0]
+    stats = traj.stats
+    n_steps = max(1, stats["steps"])
+    per_step = min(r.stats["wall_s"] for r in runs[1:]) / n_steps
+    evals_per_step = stats["evaluations"] / n_steps
+    model = scene.model
+    table = effects.stage_table(scene)
+    reps = max(1, evaluations // max(1, len(traj.t)))
+    t = np.tile(traj.t, reps)
+    q = np.ascontiguousarray(np.tile(traj.q, (reps, 1)))
+    qd = np.ascontiguousarray(np.tile(traj.qd, (reps, 1)))
+
+    def cost(which):
+        data = step.scene_data(model, table)
+        step.stage_cost_kernel(data, which, t[:1], q[:1], qd[:1])
+        best = np.inf
+        for _ in range(3):
+            tic = time.perf_counter()
+            step.stage_cost_kernel(data, which, t, q, qd)
+            best = min(best, time.perf_counter() - tic)
+        return best / len(t) * 1e6
+
+    # implicit and semi-implicit Euler run the stages, then their own solve, not an evaluation
+    implicit = integrators.INTEGRATORS[run.integrator].kind != integrators.EXPLICIT_RK
+    rows = [(name, cost(slot)) for slot, name in zip(table.slots, table.names)]
+    if not implicit:
+        if scene.constraints:
+            dynamics = "constrained forward dynamics (CRBA"
+        else:
+            dynamics = "forward dynamics (ABA" if table.method == "aba" else "forward dynamics (CRBA"
+        dynamics += ", with armature)" if scene.armature is not None else ")"
+        rows.append((dynamics, cost(-1)))
+    evaluation = sum(us for _, us in rows) if implicit else cost(-2)
+    rows.append(("stages" if implicit else "whole evaluation", evaluation))
+    costs = [(name, us, us * evals_per_step) for name, us in rows]
+    per_step_us = per_step * 1e6
+    rest_name = "own solve + integrator" if implicit else "integrator and loop"
+    costs.append((rest_name, None, per_step_us - evaluation * evals_per_step))
+    costs.append(("step (measured)", None, per_step_us))
+    return costs, n_steps, evals_per_step
+
+
+def profile(scene, *, steps=2000, evaluations=20000):
+    """stage_costs(scene) as a text table: us per call, us per step and share of the step."""
+    costs, n_steps, evals_per_step = stage_costs(scene, steps=steps, evaluations=evaluations)
+    per_step = costs[-1][2]
+    lines = [
+        f"profile: {scene.name}, {scene.run.integrator}, {n_steps} steps, "
+        f"{evals_per_step:.3g} evaluations per step",
+        f"{'stage':<34}{'us/call':>10}{'us/step':>10}{'share':>8}",
+    ]
+    for name, per_call, step_us in costs:
+        call = f"{per_call:>10.3f}" if per_call is not None else f"{'':>10}"
+        lines.append(f"{name:<34}{call}{step_us:>10.3f}{step_us / per_step:>8.0%}")
+    return "\n".join(lines)

@@ -1,0 +1,221 @@
+"""One evaluation of the scene's dynamics: the stages it names, then forward dynamics.
+
+    tau = sum over the scene's effects of tau_e(t, q, qd)             (effects, control)
+    qdd = (M(q) + diag(armature))^-1 (tau - c(q, qd) - g(q))         (forward dynamics, ABA)
+
+with g(q) present only when the scene names gravity (it sets dV_0 = (0, -g); without it the
+base does not accelerate). With constraints A(q) qd = 0 the forward dynamics is instead
+
+    (M + diag(armature)) qdd + A^T lambda = tau - c - g,
+    A qdd = -(Adot qd + 2 alpha A qd + beta^2 phi)                  (Baumgarte gains alpha, beta)
+
+(M by CRBA, the multipliers as in opendyn.algorithm.constraints). Alongside, the power of the
+non-conservative forces for the energy balance dE/dt = qd . tau_applied + qd . tau_passive,
+where E = T + U_gravity:
+  applied = control torques and applied wrenches (work put in),
+  passive = damping, friction, joint-limit spring-dampers and the contacts' dampers and friction
+            (work taken out, mostly); the contacts' springs are conservative (their energy is
+            in E, see opendyn.algorithm.contact).
+
+Only the effects the scene names are compiled and run: an effect it does not name has None in
+its slot of the effects tuple, and numba drops its call when it compiles the step (not even a
+multiplication by zero remains).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from .._runtime.arrays import fill, zero_matrix
+from .._runtime.kernel_cache import INLINE, JIT
+from .._runtime.status import Status
+from ..algorithm.constraints import constrained_forward_kernel
+from ..algorithm.forward import forward_kernel, method_switches
+from .effects import (
+    CLIP,
+    COMPUTED_TORQUE,
+    CONSTANT,
+    CONTACT,
+    DAMPING,
+    FRICTION,
+    GRAVITY,
+    LIMITS,
+    PD,
+    SLOT_NAMES,
+    WRENCH,
+    clip_effect,
+    computed_torque_effect,
+    constant_effect,
+    contact_effect,
+    damping_effect,
+    friction_effect,
+    gravity_effect,
+    limits_effect,
+    pd_effect,
+    wrench_effect,
+)
+
+
+@njit(**INLINE)
+def run_slot(
+    slot, effects, ibuf, fbuf, armature, t, q, qd, dV_0, tau_ctrl, tau_app, tau_pas, power, K, D,
+    jac,
+):
+    """One effect of the scene's effects tuple: adds its generalized force to tau_ctrl
+    (control), tau_app (applied wrenches) or tau_pas (passive effects and contact), or sets
+    dV_0 (gravity); contact adds its springs' share of the power to power[1].
+    An empty slot (None) compiles to nothing: its effect function compiles to a bare return
+    and the test `is not None` on a None-typed slot is a constant, so the call is dropped
+    (a call left in, with its array arguments, cost about 60 ns per empty slot and evaluation).
+    Returns a Status."""
+    if slot == GRAVITY and effects[GRAVITY] is not None:
+        gravity_effect(effects[GRAVITY], dV_0)
+    elif slot == DAMPING and effects[DAMPING] is not None:
+        damping_effect(effects[DAMPING], qd, tau_pas, D, jac)
+    elif slot == FRICTION and effects[FRICTION] is not None:
+        friction_effect(effects[FRICTION], qd, tau_pas, D, jac)
+    elif slot == LIMITS and effects[LIMITS] is not None:
+        limits_effect(effects[LIMITS], q, qd, tau_pas, K, D, jac)
+    elif slot == WRENCH and effects[WRENCH] is not None:
+        wrench_effect(effects[WRENCH], ibuf, fbuf, t, q, tau_app)
+    elif slot == CONTACT and effects[CONTACT] is not None:
+        contact_effect(effects[CONTACT], ibuf, fbuf, q, qd, tau_pas, K, D, jac, power)
+    elif slot == CONSTANT and effects[CONSTANT] is not None:
+        constant_effect(effects[CONSTANT], tau_ctrl)
+    elif slot == PD and effects[PD] is not None:
+        pd_effect(effects[PD], q, qd, tau_ctrl, K, D, jac)
+    elif slot == COMPUTED_TORQUE and effects[COMPUTED_TORQUE] is not None:
+        return computed_torque_effect(
+            effects[COMPUTED_TORQUE], ibuf, fbuf, t, q, qd, dV_0, armature, tau_ctrl
+        )
+    elif slot == CLIP and effects[CLIP] is not None:
+        clip_effect(effects[CLIP], tau_ctrl)
+    return Status.OK.value
+
+
+@njit(**INLINE)
+def generalized_forces(scene, t, q, qd, tau, tau_ctrl, power, K, D, jac):
+    """Run every effect the scene names: tau (nv,) <- their total generalized force, tau_ctrl
+    (nv,) <- the control's share, the scene's base acceleration dV_0 (6,) <- (0, -g) or 0,
+    power (2,) <- (applied, passive) power qd . tau_applied and qd . tau_passive (W), the
+    passive one less the work of the contacts' springs. With jac, K and D (nv, nv) <- the
+    stiffness -d tau/dq and damping -d tau/dqd of the effects; without, K and D are not
+    touched. Returns a Status."""
+    ibuf, fbuf, effects, armature, _, _, (forces, loads, _) = scene
+    tau_app, tau_pas, dV_0 = forces[1], forces[2], loads[0]
+    fill(tau_app, 0.0)
+    fill(tau_pas, 0.0)
+    fill(tau_ctrl, 0.0)
+    fill(dV_0, 0.0)
+    fill(power, 0.0)
+    if jac:
+        zero_matrix(K)
+        zero_matrix(D)
+    for slot in range(len(SLOT_NAMES)):
+        status = run_slot(
+            slot, effects, ibuf, fbuf, armature, t, q, qd, dV_0, tau_ctrl, tau_app,
+            tau_pas, power, K, D, jac,
+        )
+        if status:
+            return status
+    applied = 0.0
+    passive = power[1]  # the contact springs' share, if any
+    for j in range(qd.shape[0]):
+        applied += qd[j] * (tau_ctrl[j] + tau_app[j])
+        passive += qd[j] * tau_pas[j]
+        tau[j] = tau_ctrl[j] + tau_app[j] + tau_pas[j]
+    power[0] = applied
+    power[1] = passive
+    return Status.OK.value
+
+
+@njit(**JIT)
+def dynamics(ibuf, fbuf, armature, method, con, loads, q, qd, tau, qdd):
+    """qdd (nv,) <- forward dynamics under tau (nv,) and the base acceleration loads[0]: the
+    method's without constraints (con None), the constrained solve with them (the method's
+    switches, (aba, crba, newton_euler) as dynamics.forward.method_switches gives them, are
+    then all None). numba tests con and the switches against None when it compiles, so only
+    the branch a scene selects is compiled. Returns a Status."""
+    if con is None:
+        aba, crba, newton_euler = method
+        return forward_kernel(
+            ibuf, fbuf, q, qd, tau, loads, qdd, armature, aba, crba, newton_euler
+        )
+    rows, cparams, gains = con
+    lam = np.empty(rows[:, 2].sum())
+    return constrained_forward_kernel(
+        ibuf, fbuf, rows, cparams, gains, q, qd, tau, loads, armature, qdd, lam
+    )
+
+
+def scene_data(model, table):
+    """The scene as the compiled step takes it: one tuple (ibuf, fbuf, effects, armature,
+    method, con, (forces, loads, KD)) of the model's buffers, the stage table
+    (effects.StageTable: its effects tuple, armature, the forward-dynamics method as the
+    compile-time switches of dynamics.forward.forward_kernel, none with constraints, and its
+    constraints or None), and the step's own scratch: forces (3, nv)
+    (tau, tau_applied, tau_passive), loads (1, 6) with dV_0, KD (2, nv, nv) the stiffness K and
+    damping D of the effects for the implicit integrator."""
+    method = method_switches(model, None if table.constraints else table.method)
+    scratch = (np.empty((3, model.nv)), np.zeros((1, 6)), np.empty((2, model.nv, model.nv)))
+    return (
+        model._ibuf,
+        model._fbuf,
+        table.effects,
+        table.armature,
+        method,
+        table.constraints,
+        scratch,
+    )
+
+
+@njit(**JIT)
+def evaluate(scene, t, q, qd, qdd, tau_ctrl, power):
+    """qdd (nv,) <- the scene's forward dynamics at (t, q, qd); tau_ctrl (nv,) <- the control
+    torque; power (2,) <- (applied, passive) power. scene: scene_data(model, table).
+    Compiled once and called by every loop. Returns a Status."""
+    ibuf, fbuf, _, armature, method, con, (forces, loads, KD) = scene
+    tau = forces[0]
+    status = generalized_forces(scene, t, q, qd, tau, tau_ctrl, power, KD[0], KD[1], False)
+    if status:
+        return status
+    return dynamics(ibuf, fbuf, armature, method, con, loads, q, qd, tau, qdd)
+
+
+@njit(**JIT)
+def stage_cost_kernel(scene, which, t, q, qd):
+    """Run one part of the step at every state (t[n], q[n], qd[n]), for timing it:
+    which >= 0 the effect in slot `which`, -1 forward dynamics alone (with the scene's
+    gravity, zero torque), -2 the whole evaluation. scene: scene_data(model, table).
+    Returns a checksum of the outputs."""
+    nv = q.shape[1]
+    tau_ctrl = np.empty(nv)
+    tau_app = np.empty(nv)
+    tau_pas = np.empty(nv)
+    qdd = np.empty(nv)
+    power = np.empty(2)
+    ibuf, fbuf, effects, armature, method, con, (_, loads, KD) = scene
+    K, D = KD[0], KD[1]
+    fill(loads[0], 0.0)
+    gravity_effect(effects[GRAVITY], loads[0])
+    total = 0.0
+    for n in range(q.shape[0]):
+        if which >= 0:
+            fill(tau_ctrl, 0.0)
+            fill(tau_app, 0.0)
+            fill(tau_pas, 0.0)
+            run_slot(
+                which, effects, ibuf, fbuf, armature, t[n], q[n], qd[n], loads[0],
+                tau_ctrl, tau_app, tau_pas, power, K, D, False,
+            )
+            for j in range(nv):
+                total += tau_ctrl[j] + tau_app[j] + tau_pas[j]
+        elif which == -1:
+            fill(tau_ctrl, 0.0)
+            dynamics(ibuf, fbuf, armature, method, con, loads, q[n], qd[n], tau_ctrl, qdd)
+            total += qdd.sum()
+        else:
+            evaluate(scene, t[n], q[n], qd[n], qdd, tau_ctrl, power)
+            total += qdd.sum()
+    return total

@@ -1,0 +1,589 @@
+"""Sweeps and Monte Carlo runs of a scene on a Dask cluster: one table row per run.
+
+    runs = lists x grids                  every combination (no samples)
+    runs = N draws of (key_1, ..., key_m)   samples = N: each key drawn on its own from one seeded
+                                          generator; a distribution draws a value, a list or a
+                                          grid one of its values, uniformly
+    row(run) = the run's values + simulate(scene with those values): status, stats, final
+               state, metrics (opendyn.sim.metrics)
+
+A key is a dotted scene key (`control.kp`, `initial.q.shoulder_pan_joint`, `run.dt`,
+`effects.damping.coefficients`, `robot.payload.mass`); a value replaces what the scene file
+says there, or adds it (`effects.damping.coefficients` switches damping on). A per-joint list or
+number in the scene (`initial.q = [...]`) takes a joint's name after it (`initial.q.JOINT`) and
+keeps its other joints' values; a list of tables takes an index (`effects.contact.points.0.radius`).
+
+Every run's scene is read (and so checked) before anything runs: a bad key or value is a
+SweepError naming the run, its values and the key, with the valid keys. What simulate itself
+refuses or stops on (a step too large for contact, an initial state outside enforced limits, a
+state that blows up) is a failed row, and the other runs go on.
+
+The runs go to the workers of a Dask cluster in chunks (tasks of several runs, not one tiny task
+per short run): a local cluster of worker processes by default, or any cluster through its
+Client. A worker that dies has its chunk rerun elsewhere (Dask's retries); a chunk that keeps
+killing workers is split and each of its runs retried alone, and a run that still kills its
+worker is a failed row. The workers rebuild each run's scene from the base scene's settings and
+the run's values (each worker loads a robot's URDF once), and load the compiled kernels from
+the cache, which the client fills before the first task (`opendyn compile` prepares the workers
+of a cluster that does not share the client's disk).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import importlib.util
+import itertools
+import json
+import math
+import multiprocessing
+import numbers
+import os
+import signal
+import sys
+import threading
+import time
+import warnings
+
+import numpy as np
+
+from .._runtime.version import __version__
+from ..errors import SceneError, SceneWarning, SweepError, SweepInterrupted
+from ..io.scene import Scene, _build, _Reader, thaw
+from ..sim.metrics import METRICS, applicable, run_metrics
+from ..sim.simulate import _as_scene, simulate
+
+# more runs than this is a mistake in a spec (a grid of 1e3 points on each of 4 keys), not a sweep
+MAX_RUNS = 10_000_000
+# a chunk holds at most this many runs, and the runs are cut into at least this many chunks per
+# worker, so that progress, Ctrl-C and a lost worker cost little
+MAX_CHUNK = 50
+CHUNKS_PER_WORKER = 4
+# the distributions a spec can name, with their parameters
+DISTRIBUTIONS = {"uniform": ("lo", "hi"), "normal": ("mu", "sigma")}
+SPEC_FORMS = (
+    "a list 'a,b,c', a grid 'lo:hi:n' or 'log:lo:hi:n', or a distribution 'uniform:lo:hi' or "
+    "'normal:mu:sigma'"
+)
+# the local cluster's workers are new Python processes that import the __main__ module first
+_MAIN_GUARD = (
+    "a script that calls od.sweep must do it under `if __name__ == \"__main__\":`, since each "
+    "worker process of the local cluster imports the script"
+)
+_MODELS: dict = {}  # each process's robots, by their [robot] table (payload apart) and folder
+_MAX_MODELS = 16
+
+
+EXTRA_HINT = "pip install 'opendyn[sweep]' (dask[distributed] and pyarrow)"
+
+
+def check_installed():
+    """Raise ImportError, saying what to install, without dask.distributed or pyarrow."""
+    missing = [m for m in ("distributed", "pyarrow") if importlib.util.find_spec(m) is None]
+    if missing:
+        raise ImportError(f"sweeps need {' and '.join(missing)}: {EXTRA_HINT}")
+
+
+@dataclasses.dataclass(frozen=True)
+class Axis:
+    """One varied key: values (a list or grid) or a distribution (kind, parameters).
+
+    key: dotted scene key; spec: the spec as written (for the results' record); log: a
+    logarithmic grid (plots use a log axis)."""
+
+    key: str
+    spec: str
+    values: tuple = ()
+    distribution: tuple = ()
+    log: bool = False
+
+    def draw(self, rng, n) -> list:
+        """n values: a distribution's draws, or values picked uniformly from the list or grid."""
+        if self.distribution:
+            kind, a, b = self.distribution
+            x = rng.uniform(a, b, n) if kind == "uniform" else rng.normal(a, b, n)
+            return [float(v) for v in x]
+        return [self.values[i] for i in rng.integers(len(self.values), size=n)]
+
+
+def parse_axis(key, spec) -> Axis:
+    """The Axis of `key` from a spec: a string in one of SPEC_FORMS, or a sequence of values."""
+    if not isinstance(key, str) or not key or any(not part for part in key.split(".")):
+        raise SweepError(f"vary: {key!r} is not a dotted scene key (e.g. 'control.kp')")
+    if isinstance(spec, (list, tuple, np.ndarray)):
+        values = tuple(_plain(v) for v in spec)
+        if not values:
+            raise SweepError(f"vary {key}: an empty list of values")
+        return Axis(key, ",".join(map(str, values)), values=values)
+    if isinstance(spec, (numbers.Real, bool)):
+        return Axis(key, str(spec), values=(_plain(spec),))
+    if not isinstance(spec, str):
+        raise SweepError(f"vary {key}: expected {SPEC_FORMS}, found {spec!r}")
+    fields = spec.split(":")
+    head = fields[0].strip()
+
+    def numbers_of(parts, names):
+        if len(parts) != len(names):
+            raise SweepError(
+                f"vary {key}={spec}: expected {head}:{':'.join(names)}, found {len(parts)} "
+                f"field(s) after '{head}:'"
+            )
+        out = []
+        for name, text in zip(names, parts):
+            x = _number(text)
+            if x is None or not math.isfinite(x):
+                raise SweepError(f"vary {key}={spec}: {name} = {text!r} is not a finite number")
+            out.append(x)
+        return out
+
+    if head in DISTRIBUTIONS:
+        a, b = numbers_of(fields[1:], DISTRIBUTIONS[head])
+        if head == "uniform" and not a < b:
+            raise SweepError(f"vary {key}={spec}: uniform needs lo < hi")
+        if head == "normal" and not b > 0:
+            raise SweepError(f"vary {key}={spec}: normal needs sigma > 0")
+        return Axis(key, spec, distribution=(head, a, b))
+    if head == "log" or len(fields) == 3:
+        log = head == "log"
+        lo, hi, n = numbers_of(fields[1:] if log else fields, ("lo", "hi", "n"))
+        if n != int(n) or n < 1:
+            raise SweepError(f"vary {key}={spec}: n = {n:g} must be a whole number >= 1")
+        if log and not (lo > 0 and hi > 0):
+            raise SweepError(f"vary {key}={spec}: a log grid needs lo > 0 and hi > 0")
+        grid = np.geomspace(lo, hi, int(n)) if log else np.linspace(lo, hi, int(n))
+        return Axis(key, spec, values=tuple(float(v) for v in grid), log=log)
+    if ":" in spec:
+        raise SweepError(f"vary {key}={spec}: expected {SPEC_FORMS}")
+    values = tuple(_value(text.strip()) for text in spec.split(","))
+    if any(v == "" for v in values):
+        raise SweepError(f"vary {key}={spec}: an empty value in the list")
+    return Axis(key, spec, values=values)
+
+
+def _number(text):
+    try:
+        return float(text)
+    except ValueError:
+        return None
+
+
+def _value(text):
+    """A list entry as the scene file would hold it: a number, true/false, or a string."""
+    if text in ("true", "false"):
+        return text == "true"
+    x = _number(text)
+    return text if x is None else x
+
+
+def _plain(v):
+    """A numpy scalar as the Python number it holds (the scene reader and Parquet want them)."""
+    return v.item() if isinstance(v, np.generic) else v
+
+
+def combinations(axes, samples=None, seed=0) -> list[dict]:
+    """The runs' values [{key: value}], in run order: every combination of the axes (their
+    lists and grids multiply; the last axis varies fastest) or, with `samples` = N, N draws
+    from np.random.default_rng(seed), one axis after another."""
+    if samples is None:
+        for axis in axes:
+            if axis.distribution:
+                raise SweepError(
+                    f"vary {axis.key}={axis.spec} is a distribution: give samples=N "
+                    f"(--samples N) for N random runs"
+                )
+        count = math.prod(len(a.values) for a in axes)
+        if count > MAX_RUNS:
+            raise SweepError(
+                f"the grids multiply to {count:,} runs, more than {MAX_RUNS:,}; use fewer "
+                f"points, or draw samples=N random combinations"
+            )
+        keys = [a.key for a in axes]
+        return [dict(zip(keys, combo)) for combo in itertools.product(*(a.values for a in axes))]
+    if isinstance(samples, bool) or not isinstance(samples, numbers.Integral) or samples < 1:
+        raise SweepError(f"samples: expected a whole number >= 1, found {samples!r}")
+    if samples > MAX_RUNS:
+        raise SweepError(f"samples: {samples:,} runs, more than {MAX_RUNS:,}")
+    rng = np.random.default_rng(seed)
+    columns = [axis.draw(rng, int(samples)) for axis in axes]
+    return [dict(zip((a.key for a in axes), row)) for row in zip(*columns)]
+
+
+# --- a run's scene ----------------------------------------------------------------------------
+
+
+@dataclasses.dataclass(frozen=True)
+class Base:
+    """What a worker needs to rebuild any run's scene: the base scene's settings (a plain
+    dict), its source (for messages), the folder a relative robot.urdf is found from, and its
+    robot's joint names (for per-joint keys)."""
+
+    settings: dict
+    source: str
+    base_dir: str | None
+    joints: tuple[str, ...]
+
+    @classmethod
+    def of(cls, scene: Scene) -> Base:
+        folder = os.path.dirname(scene.source) if os.path.isfile(scene.source) else None
+        return cls(thaw(scene.settings), scene.source, folder, tuple(scene.model.joint_names))
+
+    def settings_for(self, values: dict) -> dict:
+        """The base settings with each dotted key of `values` set to its value."""
+        settings = thaw(self.settings)
+        for key, value in values.items():
+            _assign(settings, key, value, self.joints)
+        return settings
+
+    def scene_for(self, values: dict) -> Scene:
+        """The run's scene, read (and checked) as a scene file with these values would be; the
+        robot is loaded once per process and [robot] table (a payload is added to it)."""
+        settings = self.settings_for(values)
+        return _build(settings, self.source, self.base_dir, model=self._model(settings))
+
+    def _model(self, settings):
+        robot = settings.get("robot")
+        if not isinstance(robot, dict):
+            return None  # the reader names what is missing
+        table = {k: v for k, v in robot.items() if k != "payload"}
+        key = json.dumps([table, self.base_dir], sort_keys=True, default=str)
+        if key not in _MODELS:
+            if len(_MODELS) >= _MAX_MODELS:
+                _MODELS.clear()
+            _MODELS[key] = _Reader(self.source).robot(table, self.base_dir)
+        return _MODELS[key]
+
+
+def _assign(settings, key, value, joints):
+    """settings[k1][k2]...[kn] = value for key = 'k1.k2...kn', making missing tables; a joint's
+    name in a per-joint list or number turns it into a table {joint: value}, an index in a list
+    picks its entry."""
+    parts = key.split(".")
+    node = settings
+    for depth, part in enumerate(parts):
+        last = depth == len(parts) - 1
+        if isinstance(node, list) and part.isdigit():
+            index = int(part)
+            if index >= len(node):
+                raise SweepError(
+                    f"vary {key}: {'.'.join(parts[:depth])} has {len(node)} entries, no entry "
+                    f"{index}"
+                )
+            if last:
+                node[index] = value
+                return
+            node = node[index]
+            continue
+        if not isinstance(node, dict):
+            where = ".".join(parts[:depth])
+            if isinstance(node, list) and len(node) == len(joints):
+                raise SweepError(
+                    f"vary {key}: {where} is a list of one value per joint in the scene, and "
+                    f"{part!r} is not a joint; joints: {', '.join(joints)}"
+                )
+            raise SweepError(
+                f"vary {key}: {where} is {node!r} in the scene, not a table, so it has no key "
+                f"{part!r}"
+            )
+        if last:
+            node[part] = value
+            return
+        child = node.get(part)
+        following = parts[depth + 1]
+        if child is None:
+            child = node[part] = {}
+        elif following in joints and isinstance(child, list) and len(child) == len(joints):
+            child = node[part] = dict(zip(joints, child))
+        elif following in joints and isinstance(child, numbers.Real):
+            child = node[part] = {joint: child for joint in joints}
+        node = child
+
+
+def check_runs(base: Base, runs) -> list[Scene]:
+    """Read every run's scene (SceneError -> SweepError naming the run and its values), the
+    first scene of each distinct step (integrator, effects, constraints, base) returned, in
+    order, for compiling ahead; and the union of the metrics that apply, in METRICS order."""
+    firsts, metrics = {}, set()
+    for run, values in enumerate(runs):
+        try:
+            scene = base.scene_for(values)
+        except SceneError as e:
+            raise SweepError(f"run {run} ({_describe(values)}): {e}") from None
+        step = (scene.run.integrator, scene.effects, bool(scene.constraints), scene.model.nq)
+        firsts.setdefault(step, scene)
+        metrics.update(applicable(scene))
+    return list(firsts.values()), tuple(m for m in METRICS if m in metrics)
+
+
+def _describe(values) -> str:
+    return ", ".join(f"{k} = {v!r}" for k, v in values.items())
+
+
+# --- on a worker -------------------------------------------------------------------------------
+
+
+def run_chunk(base: Base, runs, outputs, keep_trajectories, version):
+    """[(row, trajectory or None)] of the runs [(run, values)]: a worker's task. Each run is
+    simulated with simulate(); anything a run raises is its failed row."""
+    if version != __version__:
+        message = f"the worker has opendyn {__version__}, the client {version}"
+        return [(failed_row(run, values, message), None) for run, values in runs]
+    return [_run_one(base, run, values, outputs, keep_trajectories) for run, values in runs]
+
+
+def _run_one(base, run, values, outputs, keep):
+    try:
+        scene = base.scene_for(values)
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", SceneWarning)
+            traj = simulate(scene, raise_on_failure=False)
+    except Exception as e:  # a run's failure is its row; the sweep goes on
+        return failed_row(run, values, str(e) or type(e).__name__), None
+    stats = traj.stats
+    row = {
+        "run": run,
+        **values,
+        "status": "complete" if traj.complete else "failed",
+        "message": traj.message,
+        "warnings": "; ".join(str(w.message) for w in caught),
+        "simulated_s": stats["simulated_s"],
+        "wall_s": stats["wall_s"],
+        "steps": stats["steps"],
+        "rejected_steps": stats["rejected_steps"],
+        "evaluations": stats["evaluations"],
+        **run_metrics(scene, traj, outputs),
+        "q_final": traj.q[-1].tolist() if len(traj.t) else None,
+        "qd_final": traj.qd[-1].tolist() if len(traj.t) else None,
+    }
+    return row, (traj if keep else None)
+
+
+def failed_row(run, values, message) -> dict:
+    """The row of a run that produced no trajectory: its values, status 'failed', the cause."""
+    return {"run": run, **values, "status": "failed", "message": message}
+
+
+# --- the sweep ----------------------------------------------------------------------------------
+
+
+def sweep(
+    scene,
+    vary,
+    samples=None,
+    seed=0,
+    client=None,
+    outputs=None,
+    *,
+    parquet=None,
+    trajectories=None,
+    workers=None,
+    chunk_size=None,
+    progress=False,
+):
+    """Run `scene` once per combination of the varied keys, on a Dask cluster; returns the
+    results, one row per run, as a pyarrow Table sorted by run (needs the extra `sweep`:
+    dask[distributed] and pyarrow).
+
+    scene: a Scene, or a scene file or shipped scene's name.
+    vary: {dotted key: spec}, spec a list of values or a string: 'a,b,c', a grid 'lo:hi:n' or
+      'log:lo:hi:n', or a distribution 'uniform:lo:hi' or 'normal:mu:sigma' (needs samples).
+    samples: None for every combination of the lists and grids; N for N random runs, each key
+      drawn on its own (seeded by `seed`).
+    client: a dask.distributed Client of the cluster to run on; None starts a local cluster of
+      `workers` worker processes (default: one per core) for the sweep.
+    outputs: names of opendyn.sim.metrics.METRICS to compute for every run; None: every metric
+      that applies to some run's scene.
+    parquet: a Parquet file the rows are written to as they arrive (parts in the folder
+      PARQUET.parts until the sweep ends, then one file); if it holds rows of the same sweep,
+      those runs are skipped (a sweep stopped by Ctrl-C or a lost client resumes), and if it
+      holds another sweep's rows, SweepError. None: rows only in the returned table.
+    trajectories: a folder to save each run's trajectory in (run-NNNNNN.npz and .json).
+    chunk_size: runs per task; default: up to MAX_CHUNK, at least CHUNKS_PER_WORKER tasks a
+      worker.
+    progress: show a progress bar (on stderr) with the complete and failed counts.
+
+    Columns: run (its index), one per varied key (named by the key), status ('complete' or
+    'failed'), message (the failure's cause as simulate states it), warnings (the scene's
+    warnings), simulated_s and wall_s (s), steps, rejected_steps, evaluations, one column per
+    metric, q_final (nq,) and qd_final (nv,), the last sample. A Ctrl-C stops the sweep after
+    saving the rows that arrived, raising SweepInterrupted (a KeyboardInterrupt) with the
+    table of every row saved.
+    """
+    check_installed()
+    from .results import Results
+
+    scene = _as_scene(scene)
+    if not isinstance(vary, dict) or not vary:
+        raise SweepError("vary: expected a dict {dotted scene key: spec} with at least one key")
+    axes = [parse_axis(key, spec) for key, spec in vary.items()]
+    runs = combinations(axes, samples, seed)
+    base = Base.of(scene)
+    firsts, metrics = check_runs(base, runs)
+    outputs = _outputs(outputs, metrics)
+    record = {
+        "scene": base.settings,
+        "source": base.source,
+        "vary": {a.key: a.spec for a in axes},
+        "log": [a.key for a in axes if a.log or _spans_decades(a.values)],
+        "samples": samples,
+        "seed": seed,
+        "outputs": list(outputs),
+    }
+    record["fingerprint"] = hashlib.sha1(
+        json.dumps(record, sort_keys=True, default=str).encode()
+    ).hexdigest()[:16]
+    record["name"], record["opendyn"] = scene.name, __version__
+    results = Results(parquet, record, axes, runs, outputs)
+    todo = [(run, values) for run, values in enumerate(runs) if run not in results.finished]
+    cluster = _cluster(client, workers)
+    try:
+        if todo:
+            _compile(firsts, progress)
+            if trajectories is not None:
+                os.makedirs(trajectories, exist_ok=True)
+            with cluster as dask_client:
+                _execute(
+                    dask_client, base, todo, outputs, trajectories, results, chunk_size, progress
+                )
+    except KeyboardInterrupt:
+        raise SweepInterrupted(results.close()) from None
+    return results.close()
+
+
+def _spans_decades(values) -> bool:
+    """Whether a list of positive numbers spans more than a decade (drawn on a log axis)."""
+    numbers_only = [v for v in values if isinstance(v, float)]
+    return (
+        len(numbers_only) == len(values) > 2
+        and min(numbers_only) > 0
+        and max(numbers_only) >= 10 * min(numbers_only)
+    )
+
+
+def _outputs(outputs, metrics) -> tuple[str, ...]:
+    if outputs is None:
+        return metrics
+    names = (outputs,) if isinstance(outputs, str) else tuple(outputs)
+    for name in names:
+        if name not in METRICS:
+            raise SweepError(f"outputs: unknown metric {name!r}; metrics: {', '.join(METRICS)}")
+        if name not in metrics:
+            raise SweepError(
+                f"outputs: {name!r} applies to no run of this sweep ({METRICS[name][0]}); "
+                f"those that apply: {', '.join(metrics)}"
+            )
+    return names
+
+
+def _compile(scenes, progress):
+    """Compile (or load from the cache) each distinct step before the workers start, so that
+    they load it rather than each compile it."""
+    from .._runtime.compile_notice import compile_ahead
+
+    with open(os.devnull, "w") as devnull:
+        compile_ahead(scenes, functions=False, out=sys.stderr if progress else devnull)
+
+
+class _cluster:
+    """The client to run on: `client` itself, or a local cluster of worker processes for the
+    duration of the block (started with Ctrl-C ignored, so that the terminal's Ctrl-C reaches
+    the client only, which stops the sweep in order)."""
+
+    def __init__(self, client, workers):
+        if workers is not None and (
+            isinstance(workers, bool) or not isinstance(workers, numbers.Integral) or workers < 1
+        ):
+            raise SweepError(f"workers: expected a whole number >= 1, found {workers!r}")
+        if client is not None and workers is not None:
+            raise SweepError("workers: give workers for a local cluster, or a client, not both")
+        self.client, self.workers = client, workers
+
+    def __enter__(self):
+        if self.client is not None:
+            self.own = None
+            return self.client
+        import logging
+
+        from dask.distributed import Client, LocalCluster
+
+        if multiprocessing.parent_process() is not None:
+            raise SweepError(f"a worker process started a sweep: {_MAIN_GUARD}")
+        main = threading.current_thread() is threading.main_thread()
+        previous = signal.signal(signal.SIGINT, signal.SIG_IGN) if main else None
+        try:
+            cluster = LocalCluster(
+                n_workers=self.workers or os.cpu_count() or 1,
+                threads_per_worker=1,
+                processes=True,
+                dashboard_address=":0",
+                silence_logs=logging.CRITICAL,
+                env={"NUMBA_NUM_THREADS": "1"},
+            )
+        except RuntimeError as e:
+            raise SweepError(
+                f"the local cluster's workers did not start ({e}); {_MAIN_GUARD}"
+            ) from None
+        finally:
+            if main:
+                signal.signal(signal.SIGINT, previous)
+        self.own = (cluster, Client(cluster))
+        return self.own[1]
+
+    def __exit__(self, *exc):
+        if self.own is not None:
+            cluster, client = self.own
+            client.close()
+            cluster.close()
+
+
+def _execute(client, base, todo, outputs, folder, results, chunk_size, progress):
+    """Send `todo` [(run, values)] to the cluster in chunks and hand each chunk's rows to
+    `results` as it arrives; a chunk lost with its workers is split and its runs retried
+    alone."""
+    from dask.distributed import as_completed
+    from tqdm import tqdm
+
+    workers = max(1, len(client.scheduler_info(n_workers=-1)["workers"]))
+    size = chunk_size or max(1, min(MAX_CHUNK, -(-len(todo) // (workers * CHUNKS_PER_WORKER))))
+    keep = folder is not None
+
+    def submit(chunk):
+        future = client.submit(run_chunk, base, chunk, outputs, keep, __version__, pure=False)
+        pending[future] = chunk
+        return future
+
+    pending = {}
+    done = as_completed([submit(todo[i : i + size]) for i in range(0, len(todo), size)])
+    bar = tqdm(
+        total=len(results.finished) + len(todo),
+        initial=len(results.finished),
+        unit="run",
+        desc="sweep",
+        file=sys.stderr,
+        disable=not progress or None,
+        smoothing=0.1,
+    )
+    start = time.perf_counter()
+    try:
+        for future in done:
+            chunk = pending.pop(future)
+            try:
+                pairs = future.result()
+            except Exception as e:  # the chunk's workers died: retry its runs one by one
+                if len(chunk) > 1:
+                    for item in chunk:
+                        done.add(submit([item]))
+                    continue
+                run, values = chunk[0]
+                pairs = [(failed_row(run, values, f"its worker was lost: {e}"), None)]
+            for row, traj in pairs:
+                if traj is not None:
+                    traj.save(os.path.join(folder, f"run-{row['run']:06d}.npz"))
+            results.add([row for row, _ in pairs])
+            bar.update(len(pairs))
+            bar.set_postfix_str(f"{results.complete} complete, {results.failed} failed")
+    except BaseException:
+        client.cancel(list(pending))
+        raise
+    finally:
+        bar.close()
+        results.wall_s = time.perf_counter() - start

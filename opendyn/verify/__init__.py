@@ -1,0 +1,1 @@
+"""opendyn against Pinocchio, function by function, as a table."""

@@ -1,0 +1,618 @@
+"""The largest difference between each contract function of opendyn and Pinocchio's answer for
+the same URDF, over random states: ``verify(robot) -> [Check]``, ``format_table(checks, model)``.
+
+For every function f and every state k (and frame, for frame functions)
+
+    abs error = max_entries |f_opendyn - f_Pinocchio|
+    rel error = abs error / max(1, max_entries |f_Pinocchio|)
+
+and a function passes when its largest rel error over all states is at most ``rtol``. The floor
+of 1 makes answers near zero (a potential energy, a Jacobian column) compare absolutely.
+
+Pinocchio (the ``pin`` package) is the oracle and a test dependency only: it is imported when
+``verify`` or ``PinocchioOracle`` is called, never when opendyn is imported.
+``PinocchioOracle`` holds every conversion between Pinocchio's conventions and opendyn's, once:
+
+- Pinocchio's spatial vectors are linear first (v, omega) and forces (f, m); opendyn's are
+  angular first (omega, v) and (m, f).
+- A continuous joint is (cos, sin) in Pinocchio's q and one angle in opendyn's.
+- A free joint (a floating base, Pinocchio's JointModelFreeFlyer) has the same q (p, quat
+  (x, y, z, w)); its velocity and force are linear first in Pinocchio, (v_b, omega_b) and
+  (f_b, m_b), angular first in opendyn: one permutation of v, `perm_v`, maps both.
+- Pinocchio's joint order may differ; joints are matched by name.
+- Pinocchio's external forces ``fext[joint]`` act ON the body, in the joint frame, and enter as
+  tau = M a + h - J^T fext; opendyn's ``f_tip[frame]`` is the wrench the frame applies TO THE
+  ENVIRONMENT, in the frame's coordinates: tau = M a + h + J_b^T F.
+- With coupled mimic joints Pinocchio has no ABA, Coriolis matrix or energies; the oracle then
+  composes them from Pinocchio's RNEA, CRBA and centre of mass (see each method).
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..algorithm.christoffel import christoffel_symbols, coriolis_matrix
+from ..algorithm.configuration import random_configuration
+from ..algorithm.crba import mass_matrix
+from ..algorithm.energy import kinetic_energy, potential_energy
+from ..algorithm.forward import METHODS, forward_dynamics
+from ..algorithm.kinematics import frame_pose, jacobian
+from ..algorithm.rnea import bias_forces, coriolis_forces, gravity_forces, inverse_dynamics
+from ..algorithm.task_space import task_space_mass_matrix
+from ..errors import SingularMassMatrixError
+from ..io.urdf import ROOT_JOINT, load_urdf
+from ..multibody.joints import FREE
+from ..multibody.model import Model
+from ..spatial.algebra import angular, linear
+
+PINOCCHIO_MISSING = "opendyn verify needs Pinocchio: pip install pin"
+
+# gravity override used by the checks (m/s^2, world frame): not parallel to any axis
+OTHER_GRAVITY = np.array([0.3, -0.2, -1.62])
+
+# Lambda is compared only where Pinocchio's J_b M^-1 J_b^T has a condition number below this:
+# inverting it multiplies rounding errors by about that much
+TASK_SPACE_MAX_CONDITION = 1e6
+
+# M is singular (forward dynamics must be refused) below this fraction of its largest entry
+SINGULAR_M = 1e-12
+
+
+class PinocchioMissingError(ImportError):
+    """Pinocchio is not installed; the message says how to install it."""
+
+    def __init__(self, message=PINOCCHIO_MISSING):
+        super().__init__(message)
+
+
+def import_pinocchio():
+    """The ``pinocchio`` module; PinocchioMissingError (an ImportError) when not installed."""
+    try:
+        import pinocchio
+    except ImportError as e:
+        raise PinocchioMissingError() from e
+    return pinocchio
+
+
+def swap_halves(x, axis=0):
+    """Linear-first <-> angular-first: swap the two 3-blocks of an axis of length 6."""
+    x = np.asarray(x)
+    return np.concatenate(
+        [np.take(x, range(3, 6), axis=axis), np.take(x, range(0, 3), axis=axis)], axis=axis
+    )
+
+
+class PinocchioOracle:
+    """A Pinocchio model of the same URDF, with opendyn-ordered inputs and outputs.
+
+    Every method takes and returns opendyn's conventions: q (nv,) with one angle per continuous
+    joint, vectors in ``od_model.joint_names`` order, twists and wrenches angular first, f_tip
+    as the wrenches frames apply to the environment, gravity a world-frame (3,) vector (m/s^2,
+    None = (0, 0, -9.81)).
+    """
+
+    def __init__(self, urdf_path, od_model, mimic=False):
+        """urdf_path: the URDF file ``od_model`` was loaded from; mimic: couple mimic joints,
+        as ``od_model`` was loaded; a floating base (a free joint named "root_joint") is given
+        to Pinocchio as a JointModelFreeFlyer root. Raises PinocchioMissingError without
+        Pinocchio, KeyError naming a joint Pinocchio lacks, ValueError when the two models
+        disagree on nv."""
+        pin = self.pin = import_pinocchio()
+        added_root = od_model.floating_base and ROOT_JOINT in od_model.body_joints
+        if added_root:
+            self.model = pin.buildModelFromUrdf(str(urdf_path), pin.JointModelFreeFlyer(), mimic)
+        else:
+            self.model = pin.buildModelFromUrdf(str(urdf_path), mimic)
+        self.data = self.model.createData()
+        self.od = od_model
+        # coupled mimic joints: Pinocchio's ABA, Coriolis matrix and energies refuse them
+        self.coupled = od_model.coupled
+        if self.model.nv != od_model.nv:
+            raise ValueError(
+                f"Pinocchio's model of {urdf_path} has nv={self.model.nv}, opendyn's "
+                f"{od_model.nv} (mimic={mimic}: load both with the same mimic choice)"
+            )
+        # perm_v[k]: Pinocchio's index of opendyn's velocity coordinate k
+        self.perm_v = np.empty(od_model.nv, dtype=int)
+        self.free = []  # (opendyn q index, Pinocchio q index) of each free joint
+        for i in range(od_model.nb):
+            if od_model.jtype[i] != FREE:
+                continue
+            joint = self.model.joints[self._joint_id(od_model.body_joints[i], urdf_path)]
+            iv = od_model.iv[i]
+            self.perm_v[iv : iv + 3] = joint.idx_v + np.arange(3, 6)
+            self.perm_v[iv + 3 : iv + 6] = joint.idx_v + np.arange(3)
+            self.free.append((od_model.iq[i], joint.idx_q))
+        nj = len(od_model.joint_names)
+        self.idx_q = np.empty(nj, dtype=int)
+        self.cos_sin = np.zeros(nj, dtype=bool)
+        for k, name in enumerate(od_model.joint_names):
+            joint = self.model.joints[self._joint_id(name, urdf_path)]
+            self.idx_q[k] = joint.idx_q
+            self.perm_v[od_model.v_index[k]] = joint.idx_v
+            self.cos_sin[k] = joint.nq == 2
+
+    def _joint_id(self, name, urdf_path):
+        jid = self.model.getJointId(name)
+        if jid >= self.model.njoints:
+            raise KeyError(f"Pinocchio model of {urdf_path} has no joint {name!r}")
+        return jid
+
+    # conversions -------------------------------------------------------------------------
+    def q(self, q):
+        """opendyn q (nq,) -> Pinocchio q: (cos, sin) for continuous joints, free joints'
+        (p, quat) as they are."""
+        out = self.pin.neutral(self.model)
+        for ours, theirs in self.free:
+            out[theirs : theirs + 7] = q[ours : ours + 7]
+        for k, iq in enumerate(self.od.q_index):
+            if self.cos_sin[k]:
+                out[self.idx_q[k] : self.idx_q[k] + 2] = np.cos(q[iq]), np.sin(q[iq])
+            else:
+                out[self.idx_q[k]] = q[iq]
+        return out
+
+    def v(self, x):
+        """An opendyn-ordered (nv,) velocity, acceleration or generalized force in Pinocchio's
+        order (and a free joint's halves linear first)."""
+        out = np.zeros(self.model.nv)
+        out[self.perm_v] = x
+        return out
+
+    def back(self, x):
+        """A Pinocchio v-ordered vector (or the first axis of an array) in opendyn order."""
+        return np.asarray(x)[self.perm_v]
+
+    def back_matrix(self, X):
+        """A Pinocchio (nv, nv) matrix in opendyn order (rows and columns)."""
+        return np.asarray(X)[np.ix_(self.perm_v, self.perm_v)]
+
+    def frame_id(self, name):
+        """Pinocchio's frame id of a link (BODY frame) or, failing that, any frame so named;
+        KeyError naming the frame when Pinocchio has none."""
+        fid = self.model.getFrameId(name, self.pin.BODY)
+        if fid >= self.model.nframes:
+            fid = self.model.getFrameId(name)
+        if fid >= self.model.nframes:
+            raise KeyError(f"Pinocchio's model has no frame {name!r}")
+        return fid
+
+    def fext(self, q, f_tip):
+        """opendyn f_tip {frame: (m, f) applied to the environment} -> Pinocchio fext."""
+        pin = self.pin
+        fext = [pin.Force.Zero() for _ in range(self.model.njoints)]
+        for name, F in (f_tip or {}).items():
+            frame = self.model.frames[self.frame_id(name)]
+            F = np.asarray(F, dtype=float)
+            on_body = pin.Force(-linear(F), -angular(F))
+            fext[frame.parentJoint] += frame.placement.act(on_body)
+        return pin.StdVec_Force(fext)
+
+    # dynamics, all in opendyn's conventions ----------------------------------------------
+    def set_gravity(self, gravity):
+        """Set Pinocchio's gravity to a world-frame (3,) vector, None = (0, 0, -9.81)."""
+        self.model.gravity.linear = np.array([0, 0, -9.81] if gravity is None else gravity)
+
+    def rnea(self, q, qd, qdd, f_tip=None, gravity=None):
+        """tau (nv,) = M qdd + h + sum J_b^T F_tip, by Pinocchio's RNEA."""
+        pin = self.pin
+        self.set_gravity(gravity)
+        args = (self.model, self.data, self.q(q), self.v(qd), self.v(qdd))
+        tau = pin.rnea(*args, self.fext(q, f_tip)) if f_tip else pin.rnea(*args)
+        return self.back(tau)
+
+    def mass_matrix(self, q):
+        """M (nv, nv), by Pinocchio's CRBA (upper triangle mirrored)."""
+        M = self.pin.crba(self.model, self.data, self.q(q))
+        M = np.triu(M) + np.triu(M, 1).T
+        return self.back_matrix(M)
+
+    def aba(self, q, qd, tau, f_tip=None, gravity=None):
+        """qdd (nv,) by Pinocchio's ABA; with coupled mimic joints (no ABA in Pinocchio),
+        M^-1 (tau - rnea(q, qd, 0, f_tip)) from Pinocchio's CRBA and RNEA."""
+        pin = self.pin
+        if self.coupled:
+            rhs = tau - self.rnea(q, qd, np.zeros(self.od.nv), f_tip, gravity)
+            return np.linalg.solve(self.mass_matrix(q), rhs)
+        self.set_gravity(gravity)
+        args = (self.model, self.data, self.q(q), self.v(qd), self.v(tau))
+        qdd = pin.aba(*args, self.fext(q, f_tip)) if f_tip else pin.aba(*args)
+        return self.back(qdd)
+
+    def gravity_forces(self, q, gravity=None):
+        """g (nv,), by Pinocchio's computeGeneralizedGravity."""
+        self.set_gravity(gravity)
+        return self.back(self.pin.computeGeneralizedGravity(self.model, self.data, self.q(q)))
+
+    def coriolis_matrix(self, q, qd):
+        """C (nv, nv) by Pinocchio's computeCoriolisMatrix; with coupled mimic joints (which
+        it does not project consistently), C[i, j] = sum_k Gamma[i, j, k] qd_k from
+        ``christoffel``, which is the Coriolis matrix only when every velocity coordinate is
+        the rate of a coordinate (a fixed base): ValueError on a floating base then."""
+        if self.coupled and self.od.floating_base:
+            raise ValueError(
+                "no Coriolis matrix reference for coupled mimic joints on a floating base"
+            )
+        if self.coupled:
+            return np.einsum("ijk,k->ij", self.christoffel(q), qd)
+        C = self.pin.computeCoriolisMatrix(self.model, self.data, self.q(q), self.v(qd))
+        return self.back_matrix(C)
+
+    def christoffel(self, q):
+        """Gamma[i, j, k] from c(qd) = qd^T Gamma qd being quadratic (exact polarisation):
+        Gamma[:, j, k] = (c(e_j + e_k) - c(e_j - e_k)) / 4, with c from Pinocchio's RNEA."""
+        pin = self.pin
+        n = self.od.nv
+        self.set_gravity((0.0, 0.0, 0.0))
+        qp, zero = self.q(q), np.zeros(self.model.nv)
+
+        def c(qd):
+            return self.back(pin.rnea(self.model, self.data, qp, self.v(qd), zero))
+
+        E = np.eye(n)
+        Gamma = np.empty((n, n, n))
+        for j in range(n):
+            for k in range(j, n):
+                Gamma[:, j, k] = Gamma[:, k, j] = (c(E[j] + E[k]) - c(E[j] - E[k])) / 4.0
+        self.set_gravity(None)
+        return Gamma
+
+    def frame_pose(self, q, frame):
+        """T_sf (4, 4) of a frame, by Pinocchio's framesForwardKinematics."""
+        self.pin.framesForwardKinematics(self.model, self.data, self.q(q))
+        return self.data.oMf[self.frame_id(frame)].homogeneous
+
+    def jacobian(self, q, frame, expressed_in="space"):
+        """J_s (WORLD) or J_b (LOCAL) (6, nv), angular rows first, by computeFrameJacobian."""
+        pin = self.pin
+        ref = pin.WORLD if expressed_in == "space" else pin.LOCAL
+        J = pin.computeFrameJacobian(self.model, self.data, self.q(q), self.frame_id(frame), ref)
+        return swap_halves(J, axis=0)[:, self.perm_v]
+
+    def kinetic_energy(self, q, qd):
+        """K = qd^T M qd / 2 by computeKineticEnergy; with coupled mimic joints (which it
+        refuses), from Pinocchio's CRBA."""
+        if self.coupled:
+            return 0.5 * float(qd @ self.mass_matrix(q) @ qd)
+        return self.pin.computeKineticEnergy(self.model, self.data, self.q(q), self.v(qd))
+
+    def potential_energy(self, q, gravity=None):
+        """U = -sum_i m_i g . c_i by computePotentialEnergy; with coupled mimic joints (which
+        it refuses), -m g . c from Pinocchio's centre of mass c and total mass m."""
+        pin = self.pin
+        self.set_gravity(gravity)
+        if self.coupled:
+            com = pin.centerOfMass(self.model, self.data, self.q(q))
+            return -float(self.data.mass[0]) * float(np.dot(self.model.gravity.linear, com))
+        return pin.computePotentialEnergy(self.model, self.data, self.q(q))
+
+    def task_space_mass_matrix(self, q, frame, max_condition=np.inf):
+        """Lambda = (J_b M^-1 J_b^T)^-1 (6, 6), angular first, from Pinocchio's LOCAL frame
+        Jacobian and CRBA, and the condition number of J_b M^-1 J_b^T; Lambda is None where
+        that exceeds max_condition (inf where singular)."""
+        J_b = self.jacobian(q, frame, "body")
+        Lambda_inv = J_b @ np.linalg.solve(self.mass_matrix(q), J_b.T)
+        sv = np.linalg.svd(Lambda_inv, compute_uv=False)
+        condition = float(sv[0] / sv[-1]) if sv[-1] > 0 else np.inf
+        if not condition <= max_condition:
+            return None, condition
+        return np.linalg.inv(Lambda_inv), condition
+
+
+@dataclass
+class Check:
+    """How far one opendyn function is from Pinocchio over the random states.
+
+    max_abs_error: the largest |opendyn - Pinocchio| entry over every state (and frame).
+    max_rel_error: the largest abs error / max(1, largest |entry| of Pinocchio's answer).
+    states: number of states compared (0: none, e.g. Lambda undefined everywhere; see note).
+    passed: max_rel_error <= rtol (and opendyn raised nothing it should not have).
+    rtol: the tolerance used; note: what was skipped, or where the worst error was.
+    """
+
+    function: str
+    max_abs_error: float
+    max_rel_error: float
+    states: int
+    passed: bool
+    rtol: float = 1e-9
+    note: str = ""
+
+
+@dataclass
+class _Row:
+    """Accumulates the comparisons of one function."""
+
+    function: str
+    abs_error: float = 0.0
+    rel_error: float = 0.0
+    states: set = field(default_factory=set)
+    worst: str = ""
+    failures: list = field(default_factory=list)
+    remarks: dict = field(default_factory=dict)  # remark -> states it applies to
+
+    def compare(self, k, ours, ref, where=""):
+        """Compare ``ours()`` (called here, so that an exception is a failure of this
+        function) with Pinocchio's ``ref`` at state k."""
+        self.states.add(k)
+        at = f"state {k}" + (f", {where}" if where else "")
+        try:
+            got = np.asarray(ours(), dtype=float)
+        except Exception as e:  # noqa: BLE001 - any opendyn error is this function failing
+            return self.fail(f"{at}: opendyn raised {type(e).__name__}: {_first_line(e)}")
+        ref = np.asarray(ref, dtype=float)
+        if got.shape != ref.shape:
+            return self.fail(f"{at}: shape {got.shape}, Pinocchio's {ref.shape}")
+        if ref.size == 0:
+            return
+        abs_error = float(np.max(np.abs(got - ref)))
+        if not np.isfinite(abs_error):
+            return self.fail(f"{at}: opendyn returned a non-finite number")
+        rel_error = abs_error / max(1.0, float(np.max(np.abs(ref))))
+        self.abs_error = max(self.abs_error, abs_error)
+        if rel_error > self.rel_error:
+            self.rel_error, self.worst = rel_error, at
+
+    def expect_raise(self, k, ours, error, why):
+        """At state k opendyn must raise ``error``: Pinocchio's answer is undefined (why)."""
+        self.states.add(k)
+        try:
+            ours()
+        except error:
+            return self.remark(k, f"{why}: refused as expected")
+        except Exception as e:  # noqa: BLE001
+            return self.fail(f"state {k}: {why}; opendyn raised {type(e).__name__}: {e}")
+        self.fail(f"state {k}: {why}, but opendyn returned an answer")
+
+    def remark(self, k, remark):
+        """Something to report about state k that is not a failure (e.g. a skipped state)."""
+        self.remarks.setdefault(remark, []).append(k)
+
+    def fail(self, message):
+        self.abs_error = self.rel_error = np.inf
+        self.failures.append(message)
+
+    def check(self, rtol):
+        passed = bool(self.rel_error <= rtol)
+        notes = list(self.failures)
+        if not passed and self.worst and np.isfinite(self.rel_error):
+            notes.append(f"worst at {self.worst}")
+        for remark, ks in self.remarks.items():
+            ks = sorted(set(ks))
+            notes.append(f"{remark} (state{'s' * (len(ks) > 1)} {', '.join(map(str, ks))})")
+        return Check(
+            function=self.function,
+            max_abs_error=self.abs_error,
+            max_rel_error=self.rel_error,
+            states=len(self.states),
+            passed=passed,
+            rtol=rtol,
+            note="; ".join(notes),
+        )
+
+
+def _first_line(e):
+    text = str(e).strip().splitlines()
+    return text[0] if text else ""
+
+
+def random_states(model, n, seed):
+    """n random states, fixed by seed: q from random_configuration (joints uniform within
+    their limits, or +-pi rad / +-1 m where a joint has none; a free joint anywhere in the
+    cube [-1, 1]^3 m with a uniformly random rotation); qd, qdd and tau standard normal; F (6,)
+    a standard normal wrench. Yields (q (nq,), qd, qdd, tau (nv,), F (6,)), in opendyn's order."""
+    rng = np.random.default_rng(seed)
+    for _ in range(n):
+        q = random_configuration(model, rng)
+        qd, qdd, tau = rng.normal(size=(3, model.nv))
+        yield q, qd, qdd, tau, rng.normal(size=6)
+
+
+def tip_frame(model):
+    """The frame the f_tip and task-space checks use: the last frame (URDF order) on the last
+    moving body; None for a model without moving bodies."""
+    on_last = [f.name for f in model.frames if model.nb and f.body == model.nb - 1]
+    return on_last[-1] if on_last else None
+
+
+def _load(robot, mimic, check_inertia, floating_base):
+    if isinstance(robot, Model):
+        if not robot.source or not os.path.isfile(robot.source):
+            raise ValueError(
+                f"verify: model {robot.name!r} has no URDF file to give Pinocchio "
+                f"(model.source is {robot.source!r}); pass the URDF path instead"
+            )
+        return robot
+    return load_urdf(
+        robot, mimic=mimic, check_inertia=check_inertia, floating_base=floating_base
+    )
+
+
+def verify(
+    robot, *, states=5, seed=0, rtol=1e-9, mimic=False, check_inertia=True, floating_base=False
+):
+    """Compare every contract function of opendyn with Pinocchio on one robot.
+
+    Args:
+      robot: a Model (compared with Pinocchio's model of ``model.source``, its URDF, with the
+        mimic choice it was loaded with), a URDF path or a robot name (as ``load_urdf``).
+      states: number of random states (``random_states``: q within the joint limits or +-pi,
+        qd, qdd, tau standard normal), fixed by ``seed``.
+      rtol: a function passes when max |opendyn - Pinocchio| / max(1, max |Pinocchio|) <= rtol
+        at every state.
+      mimic, check_inertia, floating_base: passed to ``load_urdf`` when robot is a path or a
+        name (a floating base is compared with Pinocchio's JointModelFreeFlyer root).
+    Returns one Check per function, in this order: inverse_dynamics (plain, with an f_tip
+    wrench on ``tip_frame``, with gravity (0.3, -0.2, -1.62)), mass_matrix, gravity_forces,
+    coriolis_forces, bias_forces, coriolis_matrix, christoffel_symbols,
+    forward_dynamics[aba|crba|newton_euler] (plain and with the f_tip wrench), frame_pose and
+    jacobian[space], jacobian[body] on every frame, kinetic_energy, potential_energy,
+    task_space_mass_matrix on ``tip_frame`` (only where J_b M^-1 J_b^T has a condition number
+    below 1e6). Functions taking a gravity argument are checked with the default and the
+    override.
+    Raises PinocchioMissingError (an ImportError) when Pinocchio is not installed, ValueError
+    when Pinocchio cannot load the URDF or for bad arguments.
+    """
+    import_pinocchio()
+    if isinstance(states, bool) or not isinstance(states, (int, np.integer)) or states < 1:
+        raise ValueError(f"verify: states must be an integer >= 1, got {states!r}")
+    if not (isinstance(rtol, (int, float)) and rtol > 0 and np.isfinite(rtol)):
+        raise ValueError(f"verify: rtol must be a finite number > 0, got {rtol!r}")
+    model = _load(robot, mimic, check_inertia, floating_base)
+    try:
+        P = PinocchioOracle(model.source, model, mimic=model.coupled)
+    except (ValueError, RuntimeError) as e:
+        raise ValueError(f"verify: Pinocchio cannot load {model.source}: {e}") from e
+
+    rows = {}
+
+    def row(name):
+        return rows.setdefault(name, _Row(name))
+
+    tip = tip_frame(model)
+    frames = [f.name for f in model.frames]
+    zero = np.zeros(model.nv)
+    g2 = OTHER_GRAVITY
+    for k, (q, qd, qdd, tau, F) in enumerate(random_states(model, states, seed)):
+        f_tip = {tip: F} if tip else None
+        row("inverse_dynamics").compare(
+            k, lambda: inverse_dynamics(model, q, qd, qdd), P.rnea(q, qd, qdd)
+        )
+        if f_tip:
+            row("inverse_dynamics[f_tip]").compare(
+                k,
+                lambda: inverse_dynamics(model, q, qd, qdd, f_tip=f_tip),
+                P.rnea(q, qd, qdd, f_tip=f_tip),
+                f"f_tip on {tip!r}",
+            )
+        row("inverse_dynamics[gravity]").compare(
+            k,
+            lambda: inverse_dynamics(model, q, qd, qdd, gravity=g2),
+            P.rnea(q, qd, qdd, gravity=g2),
+        )
+        M_ref = P.mass_matrix(q)
+        row("mass_matrix").compare(k, lambda: mass_matrix(model, q), M_ref)
+        for g in (None, g2):
+            row("gravity_forces").compare(
+                k, lambda: gravity_forces(model, q, gravity=g), P.gravity_forces(q, g)
+            )
+        row("coriolis_forces").compare(
+            k, lambda: coriolis_forces(model, q, qd), P.rnea(q, qd, zero, gravity=(0, 0, 0))
+        )
+        for g in (None, g2):
+            row("bias_forces").compare(
+                k, lambda: bias_forces(model, q, qd, gravity=g), P.rnea(q, qd, zero, gravity=g)
+            )
+        if model.floating_base and P.coupled:
+            row("coriolis_matrix").remark(
+                k, "no reference: Pinocchio has no Coriolis matrix for coupled mimic joints"
+            )
+        else:
+            row("coriolis_matrix").compare(
+                k, lambda: coriolis_matrix(model, q, qd), P.coriolis_matrix(q, qd)
+            )
+        row("christoffel_symbols").compare(
+            k, lambda: christoffel_symbols(model, q), P.christoffel(q)
+        )
+        singular = model.nv and np.linalg.eigvalsh(M_ref)[0] <= SINGULAR_M * np.abs(M_ref).max()
+        variants = [{}] + ([{"f_tip": f_tip}] if f_tip else [])
+        for method in METHODS:
+            fd = row(f"forward_dynamics[{method}]")
+            for loads in variants:
+                if singular:
+                    fd.expect_raise(
+                        k,
+                        lambda: forward_dynamics(model, q, qd, tau, method=method, **loads),
+                        SingularMassMatrixError,
+                        "M is singular",
+                    )
+                else:
+                    fd.compare(
+                        k,
+                        lambda: forward_dynamics(model, q, qd, tau, method=method, **loads),
+                        P.aba(q, qd, tau, **loads),
+                        "with f_tip" if loads else "",
+                    )
+        for name in frames:
+            row("frame_pose").compare(
+                k, lambda: frame_pose(model, q, name), P.frame_pose(q, name), f"frame {name!r}"
+            )
+            for where in ("space", "body"):
+                row(f"jacobian[{where}]").compare(
+                    k,
+                    lambda: jacobian(model, q, name, expressed_in=where),
+                    P.jacobian(q, name, where),
+                    f"frame {name!r}",
+                )
+        row("kinetic_energy").compare(
+            k, lambda: kinetic_energy(model, q, qd), P.kinetic_energy(q, qd)
+        )
+        for g in (None, g2):
+            row("potential_energy").compare(
+                k, lambda: potential_energy(model, q, gravity=g), P.potential_energy(q, g)
+            )
+        _task_space(row("task_space_mass_matrix"), model, P, k, q, tip, singular)
+    return [r.check(rtol) for r in rows.values()]
+
+
+def _task_space(r, model, P, k, q, tip, singular):
+    """Lambda on the tip frame where Pinocchio's J_b M^-1 J_b^T is well conditioned; where M
+    is singular opendyn must refuse."""
+    if tip is None:
+        return r.remark(k, "not compared: no frame on a moving body")
+    if model.nv < 6:
+        return r.remark(k, f"undefined: J_b M^-1 J_b^T has rank <= nv = {model.nv} < 6")
+    if singular:
+        return r.expect_raise(
+            k,
+            lambda: task_space_mass_matrix(model, q, tip),
+            SingularMassMatrixError,
+            "M is singular",
+        )
+    Lambda, _ = P.task_space_mass_matrix(q, tip, TASK_SPACE_MAX_CONDITION)
+    if Lambda is None:
+        return r.remark(
+            k,
+            f"skipped: J_b M^-1 J_b^T of {tip!r} has a condition number above "
+            f"{TASK_SPACE_MAX_CONDITION:.0e}",
+        )
+    r.compare(k, lambda: task_space_mass_matrix(model, q, tip), Lambda, f"frame {tip!r}")
+
+
+def format_table(checks, model):
+    """A plain-text table of ``verify``'s checks: a header naming the robot, nv and rtol, one
+    row per function (states, max abs and rel error, PASS / FAIL, or n/a when no state could
+    be compared), a summary line, then the notes."""
+    rtol = checks[0].rtol if checks else float("nan")
+    width = max([len("function")] + [len(c.function) for c in checks])
+    lines = [
+        f"opendyn verify: robot {model.name!r}, nv = {model.nv}, rtol = {rtol:g}, "
+        f"against Pinocchio ({model.source})",
+        "rel error = max |opendyn - Pinocchio| / max(1, max |Pinocchio|), the worst state",
+        "",
+        f"{'function':<{width}}  states  max abs error  max rel error  result",
+        f"{'-' * width}  ------  -------------  -------------  ------",
+    ]
+    for c in checks:
+        result = "n/a" if c.states == 0 else ("PASS" if c.passed else "FAIL")
+        errors = (
+            f"{'-':>13}  {'-':>13}"
+            if c.states == 0
+            else f"{c.max_abs_error:>13.3e}  {c.max_rel_error:>13.3e}"
+        )
+        lines.append(f"{c.function:<{width}}  {c.states:>6}  {errors}  {result}")
+    failed = [c.function for c in checks if not c.passed]
+    compared = [c for c in checks if c.states]
+    lines.append("")
+    if failed:
+        lines.append(f"FAILED: {len(failed)} of {len(checks)} functions: {', '.join(failed)}")
+    else:
+        lines.append(f"all {len(compared)} compared functions agree with Pinocchio")
+    notes = [c for c in checks if c.note]
+    if notes:
+        lines.append("notes:")
+        lines.extend(f"  {c.function}: {c.note}" for c in notes)
+    return "\n".join(lines)

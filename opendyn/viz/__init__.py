@@ -1,0 +1,1 @@
+"""Playback of a motion in meshcat."""
