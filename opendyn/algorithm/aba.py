@@ -119,7 +119,10 @@ def aba_kernel(ibuf, fbuf, q, qd, tau, loads, qdd, armature):
     if not all_finite(tau):
         return Status.TAU_NOT_FINITE.value
     body_tree = tree(ibuf, fbuf)
-    parent, jtype, nv_j, iq, iv, mult, offset, S, R_home, p_home = body_tree
+    parent, jtype, nv_j = body_tree.parent, body_tree.jtype, body_tree.nv_j
+    iq, iv, mult = body_tree.iq, body_tree.iv, body_tree.mult
+    offset, S, R_home = body_tree.offset, body_tree.S, body_tree.R_home
+    p_home = body_tree.p_home
     G = spatial_inertias(ibuf, fbuf)
     mass, h, I_o = rigid_inertias(ibuf, fbuf)
     nb = parent.shape[0]

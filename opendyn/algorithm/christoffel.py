@@ -68,7 +68,8 @@ def space_axes_and_inertias(ibuf, fbuf, q, S_s, G_s, Gc):
     k < nv_i; G_s[i] = Ad_{T_is}^T G_i Ad_{T_is}; Gc[i] = the sum of G_s over the subtree of i
     (all in the world frame)."""
     body_tree = tree(ibuf, fbuf)
-    parent, jtype, nv_j, iq, iv, mult, offset, S, R_home, p_home = body_tree
+    parent, nv_j, mult = body_tree.parent, body_tree.nv_j, body_tree.mult
+    S = body_tree.S
     G = spatial_inertias(ibuf, fbuf)
     nb = parent.shape[0]
     R_s = np.empty((nb, 3, 3))
@@ -114,7 +115,8 @@ def velocity_terms(ibuf, fbuf, v, S_s, G_s, V_s, dS, Bc, idle):
     idle[i]: V_s = 0 on the path from the root to i and in the subtree of i, so that dS = 0 on
     that path and Bc[i] = 0: body i adds nothing to C (the unit velocities of
     christoffel_kernel leave most bodies idle)."""
-    parent, jtype, nv_j, iq, iv, mult, offset, S, R_home, p_home = tree(ibuf, fbuf)
+    body_tree = tree(ibuf, fbuf)
+    parent, nv_j, iv = body_tree.parent, body_tree.nv_j, body_tree.iv
     nb = parent.shape[0]
     P = np.empty(6)
     # [w], [u], [h], [p_ang] of the body at hand
@@ -174,7 +176,8 @@ def assemble(ibuf, fbuf, S_s, Gc, dS, Bc, idle, C):
     """C (nv, nv) <- C[a, b] = S_a^T (Gc_b dS_b + Bc_b S_b) for a on the path from the root to b,
     C[b, a] = S_b^T (Gc_b dS_a + Bc_b S_a) for a strictly above b (the module docstring);
     idle bodies (velocity_terms) add nothing and are skipped."""
-    parent, jtype, nv_j, iq, iv, mult, offset, S, R_home, p_home = tree(ibuf, fbuf)
+    body_tree = tree(ibuf, fbuf)
+    parent, nv_j, iv = body_tree.parent, body_tree.nv_j, body_tree.iv
     zero_matrix(C)
     F = np.empty(6)
     GcS = np.empty(6)

@@ -271,7 +271,8 @@ def constraint_terms_kernel(ibuf, fbuf, rows, params, q, qd, A, Adot_qd, phi):
     if status:
         return status
     body_tree = tree(ibuf, fbuf)
-    parent, jtype, nv_j, iq, iv, mult, offset, axes, R_home, p_home = body_tree
+    parent, nv_j, iv = body_tree.parent, body_tree.nv_j, body_tree.iv
+    mult, axes = body_tree.mult, body_tree.S
     nb = parent.shape[0]
     nv = qd.shape[0]
     poses = np.empty((2, nb, 3, 3))

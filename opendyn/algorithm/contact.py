@@ -53,7 +53,8 @@ def point_jacobian(body_tree, R_s, p_s, body, x_s, J_p):
     {s}: column k = mult (v_k + w_k x x_s) over the joints on the path from the root to the
     body, (w_k, v_k) = Ad_{T_{s,i}} s_k their space-frame axes (R_s, p_s from
     forward_kinematics)."""
-    parent, jtype, nv_j, iq, iv, mult, offset, S_rows, R_home, p_home = body_tree
+    parent, nv_j, iv = body_tree.parent, body_tree.nv_j, body_tree.iv
+    mult, S_rows = body_tree.mult, body_tree.S
     S = np.empty(6)
     w_x = np.empty(3)
     J_p[:, :] = 0.0

@@ -37,7 +37,10 @@ def crba_kernel(ibuf, fbuf, q, M):
     if status:
         return status
     body_tree = tree(ibuf, fbuf)
-    parent, jtype, nv_j, iq, iv, mult, offset, S, R_home, p_home = body_tree
+    parent, jtype, nv_j = body_tree.parent, body_tree.jtype, body_tree.nv_j
+    iq, iv, mult = body_tree.iq, body_tree.iv, body_tree.mult
+    offset, S, R_home = body_tree.offset, body_tree.S, body_tree.R_home
+    p_home = body_tree.p_home
     mass, h, I_o = rigid_inertias(ibuf, fbuf)
     nb = parent.shape[0]
     # one block for the poses (R, p) and one for the composite inertias (I_c, h_c, mass_c):

@@ -55,7 +55,9 @@ def kinetic_gradient_kernel(ibuf, fbuf, q, qd, dK_dq):
     status = state_status(ibuf, q, qd)
     if status:
         return status
-    parent, jtype, nv_j, iq, iv, mult, offset, S, R_home, p_home = tree(ibuf, fbuf)
+    body_tree = tree(ibuf, fbuf)
+    parent, nv_j, iv = body_tree.parent, body_tree.nv_j, body_tree.iv
+    mult, S = body_tree.mult, body_tree.S
     mass, h, I_o = rigid_inertias(ibuf, fbuf)
     nb = mass.shape[0]
     R, p, V = body_twists(ibuf, fbuf, q, qd)
@@ -87,7 +89,10 @@ def energy_kernel(ibuf, fbuf, q, qd, gravity, out):
     if status:
         return status
     body_tree = tree(ibuf, fbuf)
-    parent, jtype, nv_j, iq, iv, mult, offset, S, R_home, p_home = body_tree
+    parent, jtype, nv_j = body_tree.parent, body_tree.jtype, body_tree.nv_j
+    iq, iv, mult = body_tree.iq, body_tree.iv, body_tree.mult
+    offset, S, R_home = body_tree.offset, body_tree.S, body_tree.R_home
+    p_home = body_tree.p_home
     mass, h, I_o = rigid_inertias(ibuf, fbuf)
     nb = parent.shape[0]
     R, p = np.empty((nb, 3, 3)), np.empty((nb, 3))

@@ -51,7 +51,9 @@ def forward_kinematics(body_tree, q, R_s, p_s, last):
     last >= 0, only for the bodies on the path from the root to body `last`.
     body_tree is layout.tree(ibuf, fbuf). Compiled once and called by the kernels that need
     world poses."""
-    parent, jtype, nv_j, iq, iv, mult, offset, S, R_home, p_home = body_tree
+    parent, jtype, iq = body_tree.parent, body_tree.jtype, body_tree.iq
+    mult, offset, S = body_tree.mult, body_tree.offset, body_tree.S
+    R_home, p_home = body_tree.R_home, body_tree.p_home
     nb = parent.shape[0]
     R = np.empty((nb, 3, 3))
     p = np.empty((nb, 3))
@@ -129,7 +131,8 @@ def jacobian_kernel(ibuf, fbuf, q, body, T_bf, body_frame, J):
     if status:
         return status
     body_tree = tree(ibuf, fbuf)
-    parent, jtype, nv_j, iq, iv, mult, offset, S_rows, R_home, p_home = body_tree
+    parent, nv_j, iv = body_tree.parent, body_tree.nv_j, body_tree.iv
+    mult, S_rows = body_tree.mult, body_tree.S
     nb = parent.shape[0]
     R_s = np.empty((nb, 3, 3))
     p_s = np.empty((nb, 3))

@@ -48,7 +48,10 @@ def forward_pass(body_tree, q, qd, qdd, dV_0, R, p, V, dV, s):
     gravity. s is scratch of at least one row of 6. Also used for energies and frame
     accelerations.
     """
-    parent, jtype, nv_j, iq, iv, mult, offset, S, R_home, p_home = body_tree
+    parent, jtype, nv_j = body_tree.parent, body_tree.jtype, body_tree.nv_j
+    iq, iv, mult = body_tree.iq, body_tree.iv, body_tree.mult
+    offset, S, R_home = body_tree.offset, body_tree.S, body_tree.R_home
+    p_home = body_tree.p_home
     a = s[0]
     prepare_joint_transforms(body_tree, q, R, p)
     for i in range(parent.shape[0]):
@@ -86,7 +89,8 @@ def rnea_kernel(ibuf, fbuf, q, qd, qdd, loads, tau):
     if not all_finite(qdd):
         return Status.QDD_NOT_FINITE.value
     body_tree = tree(ibuf, fbuf)
-    parent, jtype, nv_j, iq, iv, mult, offset, S, R_home, p_home = body_tree
+    parent, nv_j, iv = body_tree.parent, body_tree.nv_j, body_tree.iv
+    mult, S = body_tree.mult, body_tree.S
     mass, h, I_o = rigid_inertias(ibuf, fbuf)
     nb = parent.shape[0]
     vec = np.empty((3, nb, 6))

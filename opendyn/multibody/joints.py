@@ -139,7 +139,8 @@ def joint_transform(jtype, S_i, R_home, p_home, q, iq, mult, offset, R, p):
 @njit(**JIT)
 def free_joint_transforms(body_tree, q, R, p):
     """R[i], p[i] <- T_{lambda(i), i}(q_i) = M X_J(q_i) of every free joint i."""
-    parent, jtype, nv_j, iq, iv, mult, offset, S, R_home, p_home = body_tree
+    parent, jtype, iq = body_tree.parent, body_tree.jtype, body_tree.iq
+    R_home, p_home = body_tree.R_home, body_tree.p_home
     for i in range(parent.shape[0]):
         if jtype[i] == FREE:
             free_transform(R_home[i], p_home[i], q, iq[i], R[i], p[i])

@@ -8,6 +8,8 @@ per body; `tree`, `rigid_inertias` and `spatial_inertias` are the kernels' named
 
 from __future__ import annotations
 
+from collections import namedtuple
+
 import numpy as np
 from numba import njit
 
@@ -112,13 +114,21 @@ def body_count(ibuf):
     return np.int64(ibuf[0])
 
 
+# The kinematic tree as the kernels see it, each field a view of the model's buffers (nb bodies):
+#   parent (nb,) int, -1 = the fixed world; jtype (nb,) int joint type; nv_j, iq, iv (nb,) int
+#   joint i's velocity size and first indices in q and v; mult, offset (nb,) the mimic law;
+#   S (nb, 6, 6) motion subspaces by rows; R_home (nb, 3, 3), p_home (nb, 3) M_{lambda(i), i}.
+BodyTree = namedtuple(
+    "BodyTree", ("parent", "jtype", "nv_j", "iq", "iv", "mult", "offset", "S", "R_home", "p_home")
+)
+
+
 @njit(**INLINE)
 def tree(ibuf, fbuf):
-    """Views of the model's tree: parent, jtype, nv_j, iq, iv, mult, offset, S, R_home, p_home
-    (fields of model.INT_FIELDS and model.FLOAT_FIELDS). Each kernel takes only the views it
-    needs (a reshaped view costs about 20 ns)."""
+    """The model's kinematic tree: a BodyTree of views of its buffers (fields of INT_FIELDS and
+    FLOAT_FIELDS), read by name (`body_tree.parent[i]`)."""
     nb = body_count(ibuf)
-    return (
+    return BodyTree(
         field(ibuf, nb, _PARENT),
         field(ibuf, nb, _JTYPE),
         field(ibuf, nb, _NV_J),
