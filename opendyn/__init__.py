@@ -46,7 +46,8 @@ with kernel_cache():
     from .algorithm.kinematics import frame_pose, jacobian
     from .algorithm.rnea import bias_forces, coriolis_forces, gravity_forces, inverse_dynamics
     from .algorithm.task_space import frame_acceleration, task_space_bias, task_space_mass_matrix
-    from .io.scene import Scene, default_scene, load_scene, scene_from_dict
+    from .io.scene.files import default_scene, load_scene, scene_from_dict
+    from .io.scene.schema import Scene
     from .io.urdf import FidelityReport, available_robots, load_urdf
     from .multibody.constraint_objects import (
         FixedPose,

@@ -147,7 +147,7 @@ def test_locked_elbow_makes_the_double_pendulum_one_rigid_pendulum():
             "effects": {"gravity": True},
             "constraints": [{"type": "joint_coupling", "coefficients": {"elbow": 1.0}}],
         },
-        base_dir=od.io.scene.shipped_robots_dir(),
+        base_dir=od.io.urdf.shipped_robots_dir(),
     )
     model = scene.model
     rng = np.random.default_rng(2)
@@ -203,7 +203,7 @@ def _scene(constraints, baumgarte=None, q=(0.3, 0.8, 0.9)):
     }
     if baumgarte is not None:
         data["baumgarte"] = baumgarte
-    return od.scene_from_dict(data, source="bad.toml", base_dir=od.io.scene.shipped_robots_dir())
+    return od.scene_from_dict(data, source="bad.toml", base_dir=od.io.urdf.shipped_robots_dir())
 
 
 @pytest.mark.parametrize(
@@ -248,7 +248,7 @@ def test_baumgarte_without_constraints_is_refused():
     with pytest.raises(od.SceneError, match="baumgarte: stabilises constraints"):
         od.scene_from_dict(
             {"robot": {"urdf": "planar_3r.urdf"}, "baumgarte": {"alpha": 1.0}},
-            base_dir=od.io.scene.shipped_robots_dir(),
+            base_dir=od.io.urdf.shipped_robots_dir(),
         )
 
 
@@ -260,7 +260,7 @@ def test_initial_velocity_must_satisfy_the_constraints():
                 "initial": {"q": [0.3, 0.8, 0.9], "qd": [1.0, 0.0, 0.0]},
                 "constraints": [{"type": "point_to_world", "frame": "tool"}],
             },
-            base_dir=od.io.scene.shipped_robots_dir(),
+            base_dir=od.io.urdf.shipped_robots_dir(),
         )
 
 

@@ -12,7 +12,7 @@ import pytest
 import opendyn as od
 from opendyn.algorithm.contact import contact_kernel
 from opendyn.errors import SceneError
-from opendyn.io.scene import thaw
+from opendyn.io.scene.schema import thaw
 from opendyn.io.urdf import shipped_robots_dir
 from opendyn.sim import effects
 

@@ -20,7 +20,8 @@ import pytest
 
 import opendyn as od
 from opendyn.errors import SceneError
-from opendyn.io.scene import _build, scene_from_dict, tomllib
+from opendyn.io.scene.files import scene_from_dict, tomllib
+from opendyn.io.scene.reader import _build
 from opendyn.io.urdf import shipped_robots_dir
 from opendyn.spatial.algebra import exp_so3
 

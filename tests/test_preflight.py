@@ -11,7 +11,8 @@ import pytest
 
 import opendyn as od
 from opendyn.cli.main import main
-from opendyn.io.scene import shipped_robots_dir, thaw
+from opendyn.io.scene.schema import thaw
+from opendyn.io.urdf import shipped_robots_dir
 from opendyn.sim import preflight
 
 simulate_module = importlib.import_module("opendyn.sim.simulate")  # od.simulate is the function

@@ -13,7 +13,8 @@ import pytest
 
 import opendyn as od
 from opendyn.cli.main import main
-from opendyn.io.scene import shipped_robots_dir, tomllib
+from opendyn.io.scene.files import tomllib
+from opendyn.io.urdf import shipped_robots_dir
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 README = (ROOT / "README.md").read_text(encoding="utf-8")

@@ -16,16 +16,15 @@ import pytest
 
 import opendyn as od
 from opendyn.errors import SceneError
-from opendyn.io.scene import (
+from opendyn.io.scene.files import (
     DEFAULT_SCENE,
-    EFFECTS,
-    INTEGRATORS,
-    Run,
     default_scene,
     load_scene,
     scene_from_dict,
     shipped_scenes,
 )
+from opendyn.io.scene.schema import EFFECTS
+from opendyn.io.scene.sections_run import INTEGRATORS, Run
 from opendyn.io.urdf import shipped_robots_dir
 
 PENDULUM = '[robot]\nname = "double_pendulum"\n'

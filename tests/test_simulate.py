@@ -426,7 +426,7 @@ def test_failure_names_every_effect_too_stiff_for_the_step():
     its rate d / M_jj, not only the (stiffer, but idle) limit springs."""
     settings = dict(od.load_scene("planar_3r_limits").settings)
     settings["effects"] = dict(settings["effects"], damping={"coefficients": 20.0})
-    scene = od.scene_from_dict(settings, base_dir=od.io.scene.shipped_robots_dir())
+    scene = od.scene_from_dict(settings, base_dir=od.io.urdf.shipped_robots_dir())
     traj = od.simulate(scene.replace_run(integrator="rk4"), raise_on_failure=False)
     assert not traj.complete and traj.t[-1] < 0.05  # before any limit is reached
     M_33 = od.mass_matrix(scene.model, traj.q[0])[2, 2]

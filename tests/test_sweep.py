@@ -18,7 +18,7 @@ import pytest
 
 import opendyn as od
 from opendyn.errors import SweepError
-from opendyn.io.scene import thaw
+from opendyn.io.scene.schema import thaw
 from opendyn.sweep.engine import Axis, combinations, parse_axis
 
 ROBOTS = os.path.join(os.path.dirname(__file__), "..", "robots")

@@ -37,17 +37,16 @@ import numpy as np
 from .. import forward_dynamics, gravity_forces, inverse_dynamics, load_urdf, mass_matrix
 from .._runtime.signals import SigtermAsInterrupt, held_interrupt, signal_name
 from ..errors import SceneError, SceneWarning, URDFError
-from ..io.scene import (
+from ..io.scene.files import (
     DEFAULT_SCENE,
-    EFFECTS,
-    INTEGRATORS,
     default_scene,
     is_scene_file,
     load_scene,
     scene_from_dict,
     shipped_scenes,
-    thaw,
 )
+from ..io.scene.schema import EFFECTS, thaw
+from ..io.scene.sections_run import INTEGRATORS
 from ..io.urdf import looks_mobile
 from ..sim.trajectory import saved_paths
 

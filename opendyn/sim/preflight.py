@@ -22,7 +22,7 @@ import numpy as np
 
 from ..algorithm.energy import energies
 from ..errors import SceneError, SceneWarning
-from ..io.scene import MAX_STEPS, check_fixed_steps
+from ..io.scene.sections_run import MAX_STEPS, check_fixed_steps
 from ..multibody.joints import FREE
 
 # the record's arrays are built, then energies, contact and copies: room for the record twice
@@ -30,7 +30,7 @@ _RECORD_COPIES = 2
 
 
 def preflight(scene, integ):
-    """Check `scene` (opendyn.io.scene.Scene) can run with `integ` (its Integrator). Returns
+    """Check `scene` (opendyn.io.scene.schema.Scene) can run with `integ` (its Integrator). Returns
     (nsteps, every, rows): the fixed steps (0 for adaptive methods), the steps between samples
     and the number of samples. Raises SceneError naming the key to change; warns SceneWarning."""
     nsteps, every, rows = _run_size(scene, integ)

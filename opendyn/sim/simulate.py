@@ -36,7 +36,8 @@ from ..algorithm.constraints import constraint_terms_kernel
 from ..algorithm.contact import contact_record_kernel
 from ..algorithm.energy import energies
 from ..errors import SceneError, SimulationError
-from ..io.scene import Scene, load_scene, thaw
+from ..io.scene.files import load_scene
+from ..io.scene.schema import Scene, thaw
 from ..multibody.joints import FREE
 from ..multibody.model import Model
 from . import effects, integrators, step

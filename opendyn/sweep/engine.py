@@ -49,7 +49,8 @@ import numpy as np
 
 from .._runtime.version import __version__
 from ..errors import SceneError, SceneWarning, SweepError, SweepInterrupted
-from ..io.scene import Scene, _build, _Reader, thaw
+from ..io.scene.reader import _build, _Reader
+from ..io.scene.schema import Scene, thaw
 from ..sim.metrics import METRICS, applicable, run_metrics
 from ..sim.simulate import _as_scene, simulate
 

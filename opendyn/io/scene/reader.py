@@ -1,0 +1,193 @@
+"""A scene's settings (a dict in the layout of the TOML file) -> a validated, frozen ``Scene``.
+
+Every number is checked here (type, shape, sign, finiteness, joint and frame names), so a scene
+that loads is one the simulator can run; anything else raises ``SceneError`` naming the file,
+the dotted key (``effects.damping.coefficients``), what was expected and what was found. What
+depends on the run as a whole (the record's size against the memory available, the initial
+state's speed, energy and limits) is checked by ``simulate`` before it allocates or compiles
+anything (opendyn.sim.preflight), with the same kind of message.
+
+The file format (every key optional unless marked required):
+
+    name = "double pendulum swinging"      # default: the file stem
+    description = "..."                    # free text
+
+    [robot]                                # required: exactly one of urdf and name
+    urdf = "double_pendulum.urdf"          # a URDF path, relative to the scene file's folder
+    # name = "ur5"                         # or a robot name that load_urdf resolves
+    mimic = false                          # passed to load_urdf
+    check_inertia = true                   # passed to load_urdf
+    floating_base = false                  # passed to load_urdf: true makes the root link a
+                                           # free body (a 6-dof base, unactuated)
+    [robot.payload]                        # a rigid payload welded to a frame: its inertia is
+                                           # added to the frame's body (model.with_payload)
+    frame = "tool0"                        # required: a frame (link or joint name) that moves
+    mass = 2.5                             # required: kg >= 0
+    com = [0.0, 0.0, 0.05]                 # m, its centre of mass in the frame (default 0)
+    inertia = { ixx = 0.01, iyy = 0.01, izz = 0.005 }   # kg m^2 about the centre of mass,
+                                           # frame axes, as a URDF <inertia>: ixx iyy izz ixy
+                                           # ixz iyz, missing entries 0 (default: a point mass)
+
+    [initial]
+    q = { shoulder = 1.0 }                 # a table {joint = value} (others 0) or a list with
+                                           # one number per joint (model.joint_names)
+    qd = [0.0, 0.0]                        # the same; default zeros
+    # a floating base only (each optional; default: at the origin, upright, at rest):
+    base_position = [0.0, 0.0, 0.5]        # m, the root frame's origin in the world
+    base_orientation = [0.0, 0.0, 0.0, 1.0]  # unit quaternion (x, y, z, w), root frame in world
+    # base_rpy = [0.0, 0.0, 0.0]           # or roll, pitch, yaw (rad, as a URDF <origin>);
+                                           # not both
+    base_velocity = [0.0, 0.0, 0.0]        # m/s, the root frame origin's velocity, world axes
+    base_angular_velocity = [0.0, 0.0, 0.0]  # rad/s, the root's angular velocity, world axes
+
+    [run]
+    duration = 10.0                        # s, > 0 (default 5); for a fixed-step integrator
+                                           # a whole number of steps dt
+    integrator = "rk4"                     # euler, semi_implicit_euler, rk4, dopri5,
+                                           # implicit_euler (default rk4)
+    dt = 0.001                             # s, > 0: the fixed step, or dopri5's first trial step
+    output_dt = 0.01                       # s: recorded sample interval (default 0.01, or dt if
+                                           # dt > 0.01); a whole multiple of dt for fixed steps
+    rtol = 1e-6                            # dopri5's tolerances
+    atol = 1e-9
+    max_speed = 1e4                        # rad/s or m/s: a faster joint stops the run
+
+    [effects]
+    gravity = true                         # true = the model's gravity; a vector [gx, gy, gz]
+                                           # in m/s^2; false or absent = no gravity
+    [effects.damping]                      # a table that is present switches the effect on
+    coefficients = "urdf"                  # "urdf" (default: <dynamics damping>), a number (every
+                                           # joint), a list (one per joint), or a table
+                                           # {joint = value}
+    [effects.friction]
+    coefficients = "urdf"                  # as damping, from <dynamics friction>
+    smoothing = 0.01                       # rad/s or m/s, > 0
+    [effects.armature]
+    values = 0.1                           # required: number, list or table
+    [effects.limits]
+    stiffness = 1e4                        # required: number, list or table; acts only on
+                                           # joints with a finite limit (a number is 0 elsewhere)
+    damping = 10.0                         # default 0
+
+    [effects.contact]                      # the ground: the plane z = ground_height, normal +z
+    ground_height = 0.0                    # m (world frame; default 0)
+    stiffness = 1e5                        # required: N/m, the normal spring k > 0
+    damping = 0.0                          # N s/m, the normal damper d >= 0 (default 0)
+    friction = 0.8                         # required: the Coulomb coefficient mu >= 0 (0 =
+                                           # frictionless)
+    slip_velocity = 1e-3                   # m/s > 0, regularises friction near zero slip
+    points = "urdf"                        # required: "urdf" (the spheres and box corners of
+                                           # the URDF's <collision> elements) or tables:
+    # [[effects.contact.points]]
+    # frame = "FL_FOOT"                    # required: a frame (link or joint name) that moves
+    # position = [0.0, 0.0, 0.0]           # m, the sphere's centre in the frame (default 0)
+    # radius = 0.02                        # m >= 0 (default 0: a point)
+
+    [[effects.wrench]]                     # any number of these
+    frame = "tip"                          # required: a frame (link) or joint name
+    expressed_in = "frame"                 # "frame" (default) or "world"
+    value = [0, 0, 0, 0, 0, -10]           # a constant (m, f) applied to the robot; or
+    # times = [0.0, 1.0, 2.0]              # strictly increasing times (s) and one wrench per
+    # values = [[...], [...], [...]]       # time: linear in between, held outside
+
+    [control]
+    type = "pd"                            # "none" (default), "constant", "pd", "computed_torque"
+    tau = 1.0                              # constant: tau (required)
+    kp = 100.0                             # pd, computed_torque: gains (required)
+    kd = 20.0
+    setpoint = { shoulder = 0.5 }          # pd: tau = kp (setpoint - q) - kd qd; default q0
+    offset = [0.0, 0.0]                    # computed_torque: q_r(t) = offset + amplitude
+    amplitude = 0.1                        #   sin(2 pi frequency t + phase); offset default q0,
+    frequency = 0.5                        #   amplitude and phase 0, frequency 0.5 Hz;
+    phase = 0.0                            #   the torque is M (qdd_r + kd ed + kp e) + h
+    clip = false                           # clip the torque to +-effort_limit
+
+    [[constraints]]                        # any number of these: A(q) qd = 0 (see below)
+    type = "point_to_point"                # loop closure: two points coincide
+    frame_a = "rocker"                     # required: frames (link or joint names)
+    point_a = [0.4, 0.0, 0.0]              # m, in frame_a's coordinates (default the origin)
+    frame_b = "base_link"                  # a frame of the fixed world is fine
+    point_b = [0.8, 0.0, 0.0]
+    # type = "point_to_world": frame, point, target ([x, y, z] world; default: where the
+    #                          point is at the initial state)
+    # type = "point_on_plane": frame, point, normal (required, world), offset (n . x = offset;
+    #                          default: the plane through the point at the initial state)
+    # type = "fixed_pose":     frame_a, frame_b, xyz, rpy (frame_b's pose in frame_a; default
+    #                          the initial relative pose)
+    # type = "joint_coupling": coefficients = {joint = c} (sum c_j qd_j = 0) or
+    #                          matrix = [[nv numbers], ...] (rows of a constant A)
+
+    [baumgarte]                            # optional drift stabilisation of the constraints:
+    alpha = 10.0                           # 1/s   A qdd + Adot qd + 2 alpha A qd
+    beta = 10.0                            # 1/s                 + beta^2 phi = 0
+
+Every per-joint value (gains, coefficients, tau...) is a number for every joint, a list of one
+number per joint (model.joint_names), or a table by joint name; joints a table does not name take
+the key's default (0, or q0 for ``setpoint`` and ``offset``). They act on the joint coordinates
+only: a floating base is moved by gravity, wrenches and the joints' reactions, never damped or
+actuated directly.
+"""
+
+from __future__ import annotations
+
+from .schema import Scene
+from .sections_constraints import ConstraintsSection
+from .sections_control import ControlSection
+from .sections_effects import _EFFECT_KEYS, EffectsSection
+from .sections_robot import RobotSection
+from .sections_run import RunSection
+
+_TOP_KEYS = (
+    "name",
+    "description",
+    "robot",
+    "initial",
+    "run",
+    "effects",
+    "control",
+    "constraints",
+    "baumgarte",
+)
+
+
+def _build(data, source, base_dir, default_name=None, model=None) -> Scene:
+    r = _Reader(source)
+    r.keys(data, "", _TOP_KEYS)
+    if model is None:
+        model = r.robot(data.get("robot"), base_dir)
+    r.model = model
+    # after the robot is loaded or given, so that a given model (a sweep's, loaded once) gets
+    # the payload its scene names
+    model = r.model = r.payload((data.get("robot") or {}).get("payload"))
+    name = data.get("name", default_name if default_name is not None else model.name)
+    r.string(name, "name")
+    if "description" in data:
+        r.string(data["description"], "description")
+    q0, qd0 = r.initial(data.get("initial", {}))
+    run = r.run(data.get("run", {}))
+    effects = r.table(data.get("effects", {}), "effects")
+    r.keys(effects, "effects", _EFFECT_KEYS)
+    return Scene(
+        name=name,
+        model=model,
+        q0=q0,
+        qd0=qd0,
+        run=run,
+        gravity=r.gravity(effects.get("gravity")),
+        damping=r.damping(effects.get("damping")),
+        friction=r.friction(effects.get("friction")),
+        armature=r.armature(effects.get("armature")),
+        limits=r.limits(effects.get("limits")),
+        wrenches=r.wrenches(effects.get("wrench")),
+        contact=r.contact(effects.get("contact")),
+        control=r.control(data.get("control"), q0[model.q_index]),
+        source=source,
+        settings=data,
+        constraints=r.constraints(data.get("constraints"), q0, qd0),
+        baumgarte=r.baumgarte(data.get("baumgarte"), "constraints" in data),
+    )
+
+
+class _Reader(RobotSection, RunSection, EffectsSection, ConstraintsSection, ControlSection):
+    """Checks one scene's values, every section; every error names ``source`` and the dotted
+    key."""

@@ -1,0 +1,171 @@
+"""[robot] and [initial]: the robot a scene loads (a URDF path or a robot name, with the options
+of load_urdf), a payload welded to one of its frames, and its initial state.
+
+A floating base's initial motion is given in world axes (as one thinks of it) and stored as the
+body twist of the convention, v = (omega_b, v_b, qd_joints) with omega_b = R^T omega_s and
+v_b = R^T p_dot (R the base's orientation in the world); q0 = (p, quat, q_joints).
+"""
+
+from __future__ import annotations
+
+import os
+import pathlib
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from ..._runtime.arrays import immutable
+from ...errors import URDFError
+from ...multibody.joints import FREE
+from ...multibody.model import Model
+from ..urdf import load_urdf
+from .values import ValueReader, _found
+
+_ROBOT_KEYS = ("urdf", "name", "mimic", "check_inertia", "floating_base", "payload")
+_PAYLOAD_KEYS = ("frame", "mass", "com", "inertia")
+# a URDF <inertia>'s attributes, each the entry (row, column) of the symmetric matrix
+_INERTIA_ENTRIES = {
+    "ixx": (0, 0), "iyy": (1, 1), "izz": (2, 2), "ixy": (0, 1), "ixz": (0, 2), "iyz": (1, 2)
+}
+_BASE_KEYS = (
+    "base_position",
+    "base_orientation",
+    "base_rpy",
+    "base_velocity",
+    "base_angular_velocity",
+)
+_INITIAL_KEYS = ("q", "qd") + _BASE_KEYS
+# a base_orientation quaternion whose norm is off 1 by more than this is refused as a mistake
+BASE_QUATERNION_TOLERANCE = 1e-6
+
+
+class RobotSection(ValueReader):
+    """Reads [robot] into a Model (with its payload) and [initial] into (q0, qd0)."""
+
+    def robot(self, table, base_dir) -> Model:
+        if table is None:
+            self.fail("robot", "missing: a scene needs [robot] with urdf = PATH or name = NAME")
+        self.keys(table, "robot", _ROBOT_KEYS)
+        given = [k for k in ("urdf", "name") if k in table]
+        if len(given) != 1:
+            what = "both" if given else "neither"
+            self.fail(
+                "robot",
+                f"{what} of robot.urdf and robot.name given; give exactly one: urdf = a URDF "
+                f"path (relative to the scene file) or name = a robot name (e.g. 'ur5')",
+            )
+        key = f"robot.{given[0]}"
+        target = self.string(table[given[0]], key)
+        options = {
+            "mimic": self.boolean(table.get("mimic", False), "robot.mimic"),
+            "check_inertia": self.boolean(table.get("check_inertia", True), "robot.check_inertia"),
+            "floating_base": self.boolean(
+                table.get("floating_base", False), "robot.floating_base"
+            ),
+        }
+        if given[0] == "urdf":
+            path = pathlib.Path(target)
+            if not path.is_absolute() and base_dir is not None:
+                path = pathlib.Path(base_dir) / path
+            if not path.is_file():
+                self.fail(key, f"no such URDF file: {path}")
+            target = str(path)
+        elif "/" in target or os.sep in target or target.endswith(".urdf"):
+            self.fail(key, f"{target!r} is a path, not a robot name; use robot.urdf for a file")
+        try:
+            return load_urdf(target, **options)
+        except URDFError as e:
+            self.fail(key, str(e))
+
+    def payload(self, table) -> Model:
+        """[robot.payload] -> self.model.with_payload(frame, mass, com, inertia); self.model
+        itself when there is none. inertia: a table of a URDF <inertia>'s entries (kg m^2,
+        about the centre of mass in the frame's axes), missing entries 0."""
+        m = self.model
+        if table is None:
+            return m
+        key = "robot.payload"
+        self.keys(table, key, _PAYLOAD_KEYS)
+        for field in ("frame", "mass"):
+            if field not in table:
+                self.fail(
+                    f"{key}.{field}",
+                    "missing: [robot.payload] needs frame (a frame that moves) and mass (kg)",
+                )
+        frame = self.moving_frame(table["frame"], f"{key}.frame", "a payload on it would not move")
+        mass = self.number(table["mass"], f"{key}.mass", minimum=0.0)
+        com = self.vector(table.get("com", [0.0] * 3), f"{key}.com", 3)
+        inertia = None
+        if "inertia" in table:
+            entries = table["inertia"]
+            if not isinstance(entries, dict):
+                self.fail(
+                    f"{key}.inertia",
+                    f"expected a table {{{', '.join(_INERTIA_ENTRIES)}}} (kg m^2, about the "
+                    f"centre of mass in the frame's axes), found {_found(entries)}",
+                )
+            self.keys(entries, f"{key}.inertia", tuple(_INERTIA_ENTRIES))
+            inertia = np.zeros((3, 3))
+            for name, (row, column) in _INERTIA_ENTRIES.items():
+                value = self.number(entries.get(name, 0.0), f"{key}.inertia.{name}")
+                inertia[row, column] = inertia[column, row] = value
+        try:
+            return m.with_payload(frame, mass, com, inertia)
+        except ValueError as e:  # frame, mass and com are checked above: the inertia is wrong
+            self.fail(f"{key}.inertia", str(e))
+
+    def initial(self, table) -> tuple[np.ndarray, np.ndarray]:
+        """[initial] -> (q0 (nq,), qd0 (nv,)): the joints from q and qd, a floating base from
+        the base_* keys (world-frame motion turned into the body twist)."""
+        m = self.model
+        self.keys(table, "initial", _INITIAL_KEYS)
+        given = [k for k in _BASE_KEYS if k in table]
+        if given and not m.floating_base:
+            self.fail(
+                f"initial.{given[0]}",
+                f"{m.name!r} is loaded with a fixed base (welded to the world), so it has no base "
+                f"state; set floating_base = true under [robot] to make its root link free",
+            )
+        zeros = np.zeros(len(m.joint_names))
+        q0, qd0 = np.zeros(m.nq), np.zeros(m.nv)
+        q0[m.q_index] = self.per_joint(table.get("q"), "initial.q", zeros, scalar=False)
+        qd0[m.v_index] = self.per_joint(table.get("qd"), "initial.qd", zeros, scalar=False)
+        if m.floating_base:
+            self.base_state(table, q0, qd0)
+        return immutable(q0), immutable(qd0)
+
+    def base_state(self, table, q0, qd0):
+        """q0's (p, quat) and qd0's (omega_b, v_b) of the free joint from the base_* keys:
+        omega_b = R^T omega_s, v_b = R^T p_dot."""
+        m = self.model
+        free = int(np.flatnonzero(m.jtype == FREE)[0])
+        a, b = int(m.iq[free]), int(m.iv[free])
+
+        def vec3(key):
+            value = table.get(key)
+            return np.zeros(3) if value is None else self.vector(value, f"initial.{key}", 3)
+
+        if "base_orientation" in table and "base_rpy" in table:
+            self.fail(
+                "initial.base_rpy",
+                "both base_orientation and base_rpy given; give the base's orientation once: "
+                "a quaternion [x, y, z, w] or roll, pitch, yaw in rad",
+            )
+        if "base_orientation" in table:
+            key = "initial.base_orientation"
+            quat = self.vector(table["base_orientation"], key, 4)
+            norm = float(np.linalg.norm(quat))
+            if not abs(norm - 1.0) <= BASE_QUATERNION_TOLERANCE:
+                self.fail(
+                    key,
+                    f"expected a unit quaternion [x, y, z, w] (norm within "
+                    f"{BASE_QUATERNION_TOLERANCE:g} of 1), found norm {norm:.6g}",
+                )
+            R_sb = Rotation.from_quat(quat)
+        else:
+            R_sb = Rotation.from_euler("xyz", vec3("base_rpy"))
+        q0[a : a + 3] = vec3("base_position")
+        q0[a + 3 : a + 7] = R_sb.as_quat()
+        R = R_sb.as_matrix()
+        qd0[b : b + 3] = R.T @ vec3("base_angular_velocity")
+        qd0[b + 3 : b + 6] = R.T @ vec3("base_velocity")
