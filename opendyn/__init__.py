@@ -47,7 +47,8 @@ with kernel_cache():
     from .algorithm.rnea import bias_forces, coriolis_forces, gravity_forces, inverse_dynamics
     from .algorithm.task_space import frame_acceleration, task_space_bias, task_space_mass_matrix
     from .io.scene import Scene, default_scene, load_scene, scene_from_dict
-    from .io.urdf import FidelityReport, available_robots, load_urdf
+    from .io.urdf import available_robots, load_urdf
+    from .io.urdf_xml import FidelityReport
     from .multibody.constraint_objects import (
         FixedPose,
         JointCoupling,

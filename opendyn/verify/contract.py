@@ -43,7 +43,8 @@ from ..algorithm.kinematics import frame_pose, jacobian
 from ..algorithm.rnea import bias_forces, coriolis_forces, gravity_forces, inverse_dynamics
 from ..algorithm.task_space import task_space_mass_matrix
 from ..errors import SingularMassMatrixError
-from ..io.urdf import ROOT_JOINT, load_urdf
+from ..io.urdf import load_urdf
+from ..io.urdf_model import ROOT_JOINT
 from ..multibody.joints import FREE
 from ..multibody.model import Model
 from ..spatial.algebra import angular, linear

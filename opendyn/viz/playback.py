@@ -136,7 +136,7 @@ def _parse_urdf(source):
     """The yourdfpy robot of the URDF file, read as load_urdf reads it; None (with a
     PlaybackWarning) when it cannot be read."""
     from ..errors import URDFError
-    from ..io.urdf import read_urdf
+    from ..io.urdf_xml import read_urdf
 
     try:
         return read_urdf(source)[1]
