@@ -19,7 +19,7 @@ from randtree import write_random_tree
 import opendyn as od
 
 # the module, whatever opendyn/__init__ re-exports under the name "verify"
-V = importlib.import_module("opendyn.verify")
+V = importlib.import_module("opendyn.verify.contract")
 
 needs_pinocchio = pytest.mark.skipif(
     importlib.util.find_spec("pinocchio") is None, reason="Pinocchio (pin) is not installed"
