@@ -396,7 +396,7 @@ def _check_outputs(outputs, others=()):
 def _check_meshcat(args):
     """Raise ImportError naming --html or --view, and the install command, without meshcat."""
     if (args.html is not None or args.view) and importlib.util.find_spec("meshcat") is None:
-        from ..viz.playback import MESHCAT_HINT
+        from ..viz import MESHCAT_HINT
 
         raise ImportError(f"{'--html' if args.html is not None else '--view'}: {MESHCAT_HINT}")
 
