@@ -48,7 +48,8 @@ with kernel_cache():
     from .algorithm.task_space import frame_acceleration, task_space_bias, task_space_mass_matrix
     from .io.scene.files import default_scene, load_scene, scene_from_dict
     from .io.scene.schema import Scene
-    from .io.urdf import FidelityReport, available_robots, load_urdf
+    from .io.urdf import available_robots, load_urdf
+    from .io.urdf_xml import FidelityReport
     from .multibody.constraint_objects import (
         FixedPose,
         JointCoupling,

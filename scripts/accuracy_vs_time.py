@@ -395,7 +395,7 @@ def pinocchio_aba(path, model):
     """fn(q, qd, tau) -> Pinocchio's aba on the same URDF, states converted, or None without
     Pinocchio."""
     try:
-        from opendyn.verify.contract import PinocchioOracle
+        from opendyn.verify.oracle import PinocchioOracle
     except ImportError:
         return None
     try:

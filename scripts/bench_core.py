@@ -27,7 +27,7 @@ import numpy as np
 import pinocchio as pin
 
 import opendyn as od
-from opendyn.verify.contract import PinocchioOracle
+from opendyn.verify.oracle import PinocchioOracle
 
 # (robot, floating base)
 ROBOTS = (

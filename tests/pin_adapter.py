@@ -4,7 +4,7 @@ order, cos/sin continuous joints, joint order by name, external-force sign and f
 
 from __future__ import annotations
 
-from opendyn.verify.contract import PinocchioOracle as PinOracle
-from opendyn.verify.contract import swap_halves
+from opendyn.verify.oracle import PinocchioOracle as PinOracle
+from opendyn.verify.oracle import swap_halves
 
 __all__ = ["PinOracle", "swap_halves"]

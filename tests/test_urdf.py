@@ -1105,7 +1105,7 @@ def test_plane_and_cdf_collision_are_reported_ignored(tmp_path):
     <collision> or <visual> holding one is read as absent and listed as ignored, by link; the
     spheres of the spec beside them still give contact points, and playback draws the
     visuals it can."""
-    from opendyn.viz import playback as viz
+    from opendyn import viz
 
     sphere = collision("sphere", {"radius": 0.04}, (0, 0, 0.1))
     plane = '<collision><geometry><plane normal="0 0 1"/></geometry></collision>'

@@ -23,8 +23,8 @@ import numpy as np
 import pytest
 
 import opendyn as od
+from opendyn import viz
 from opendyn.io.urdf import shipped_robots_dir
-from opendyn.viz import playback as viz
 
 CHROMIUM_NAMES = ("chromium", "chromium-browser", "google-chrome", "google-chrome-stable")
 WIDTH, HEIGHT = 800, 600

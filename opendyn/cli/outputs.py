@@ -1,0 +1,202 @@
+"""The output files of `opendyn simulate`: each checked before the run (a file that cannot be
+written, or that two options name, stops the command before anything is loaded), each written
+after it with what failed said, and a fallback file for a trajectory that would otherwise be lost.
+
+`opendyn simulate` saves the trajectory by default: SCENE.npz and SCENE.json in the current
+folder (SCENE the scene's name; SCENE-partial.npz for a run that stopped early, so that it
+never replaces a complete record), `-o` elsewhere, `--no-save` not at all.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import pathlib
+import sys
+import tempfile
+
+from .._runtime.signals import held_interrupt
+from ..sim.trajectory import saved_paths
+from .interrupts import _doing
+
+# the options of `simulate` that name an output file, and their attributes in args
+OUTPUT_OPTIONS = {"-o": "output", "--csv": "csv", "--plot": "plot", "--html": "html"}
+DEFAULT_SAVE = "the trajectory"  # how messages name the file saved without -o
+DEFAULT_SAVE_HINT = "-o names another file, --no-save skips saving"
+
+
+def _default_record(scene, complete):
+    """The trajectory's file without -o: SCENE.npz in the current folder, SCENE-partial.npz for
+    a run that stopped early (so that it never replaces a complete record)."""
+    return f"{_slug(scene.name)}{'' if complete else '-partial'}.npz"
+
+
+def _named_outputs(args):
+    """(option, name, path) for each file the options name: -o's .npz and its .json record,
+    --csv, --plot, --html. Raises ValueError for an empty name."""
+    named = []
+    for option, attr in OUTPUT_OPTIONS.items():
+        name = getattr(args, attr)
+        if name is None:
+            continue
+        if not name.strip():
+            raise ValueError(f"{option}: the file name is empty")
+        if option == "-o" and os.path.isdir(name):
+            raise ValueError(f"{option} {name}: is a folder, not a file; name the .npz to write")
+        paths = saved_paths(name) if option == "-o" else [pathlib.Path(name)]
+        named += [(option, name, path) for path in paths]
+    return named
+
+
+def _check_outputs(outputs, others=()):
+    """Raise ValueError naming the option and the file for the first of `outputs` (option,
+    name, path) that cannot be written (`_unwritable`), that is also the file of another
+    output (of `outputs` or `others`), or, for --plot, whose format matplotlib does not write.
+    Quick: nothing is loaded or run."""
+    seen = {os.path.realpath(path): (option, name) for option, name, path in others}
+    for option, name, path in outputs:
+        real = os.path.realpath(path)
+        problem = _unwritable(name, path)
+        if problem is None and seen.get(real, (option, name)) != (option, name):
+            problem = "is also the file of {} {!r}".format(*seen[real])
+        if problem is None and option == "--plot":
+            problem = _unplottable(path)
+        if problem is not None:
+            which = f" {path}:" if path != pathlib.Path(name) else ""
+            hint = f" ({DEFAULT_SAVE_HINT})" if option == DEFAULT_SAVE else ""
+            raise ValueError(f"{option} {name!r}:{which} {problem}{hint}")
+        seen.setdefault(real, (option, name))
+
+
+def _unwritable(name, path):
+    """Why a file cannot be written at `path` (`name` as the user wrote it), or None: a name
+    that ends like a folder's, a folder in its place, a folder that is missing or is a file, a
+    read-only file, a folder where no file can be created (tried: a temporary file is created
+    there and removed)."""
+    if name.endswith(tuple(sep for sep in (os.sep, os.altsep) if sep)):
+        return "names a folder, not a file"
+    if path.is_dir():
+        return "is a folder, not a file"
+    if path.exists() and not path.is_file():  # a device or a pipe: written in place
+        return None if os.access(path, os.W_OK) else "cannot be written (permission denied)"
+    folder = path.parent
+    if not folder.is_dir():
+        blocking = next((p for p in (folder, *folder.parents) if p.exists()), None)
+        if blocking is not None and not blocking.is_dir():
+            return f"{blocking} is a file, not a folder"
+        return f"the folder {folder} does not exist"
+    if path.exists() and not os.access(path, os.W_OK):
+        return "the file is read-only"
+    real_folder = os.path.dirname(os.path.realpath(path))  # where atomic_write writes
+    try:
+        with tempfile.NamedTemporaryFile(dir=real_folder, prefix=".opendyn-check-"):
+            pass
+    except OSError as e:
+        return f"no file can be written in the folder {folder} ({e.strerror})"
+    return None
+
+
+def _unplottable(path):
+    """Why matplotlib cannot write a plot to `path` (its format, by the suffix), or None."""
+    from matplotlib.backend_bases import FigureCanvasBase
+
+    formats = FigureCanvasBase.get_supported_filetypes()
+    suffix = path.suffix[1:].lower()
+    if suffix and suffix not in formats:
+        return f"matplotlib writes no .{suffix} files (it writes {', '.join(sorted(formats))})"
+    return None
+
+
+def _save_record(scene, traj, args) -> bool | None:
+    """Save the trajectory: to -o, or by default to SCENE.npz (`_default_record`). Returns
+    whether it was saved; None with --no-save."""
+    if args.no_save:
+        return None
+    if args.output is not None:
+        return _write("-o", args.output, lambda: saved_paths(traj.save(args.output)))
+    name = _default_record(scene, traj.complete)
+    return _write(DEFAULT_SAVE, name, lambda: saved_paths(traj.save(name)))
+
+
+def _write_outputs(scene, traj, args, saved) -> bool:
+    """Write the other outputs asked for: --csv, --plot, --html. One that fails does not stop
+    the others; and when one failed and the trajectory has no file (`saved`: False, or None
+    with --no-save), it goes to a fallback file (`_save_fallback`), so that the run is never
+    lost. Returns whether everything asked for was written, the trajectory's file included."""
+    writes = []
+    if args.csv is not None:
+        writes.append(("--csv", args.csv, lambda: [traj.to_csv(args.csv)]))
+    if args.plot is not None:
+        writes.append(("--plot", args.plot, lambda: [traj.plot(args.plot)]))
+    if args.html is not None:
+        writes.append(("--html", args.html, lambda: [_write_html(scene, traj, args.html)]))
+    failed = saved is False
+    for option, name, write in writes:
+        failed = not _write(option, name, write) or failed
+    if failed and not saved:
+        with held_interrupt():
+            _save_fallback(scene, traj)
+    return not failed
+
+
+def _write(option, name, write) -> bool:
+    """Run `write()` (it returns the paths written) and print each path written, or say that
+    the output `option` `name` could not be written, and why. Returns whether it was."""
+    try:
+        with _doing(f"writing {option} {name!r}"):
+            paths = write()
+    except Exception as e:
+        reason = e.strerror if isinstance(e, OSError) and e.strerror else e
+        print(f"opendyn simulate: could not write {option} {name!r}: {reason}", file=sys.stderr)
+        return False
+    for path in paths:
+        print(f"wrote {path}")
+    return True
+
+
+def _save_fallback(scene, traj):
+    """Save the trajectory under a new name (SCENE-XXXXXXXX.npz and its .json) in the current
+    folder or, failing that, the system's temporary folder, and say where; or say that neither
+    could take it."""
+    stem = pathlib.Path(_default_record(scene, traj.complete)).stem
+    tried = []
+    try:
+        folders = [os.getcwd()]
+    except OSError as e:  # the current folder was removed
+        folders = []
+        tried.append(f"the current folder ({e.strerror})")
+    folders.append(tempfile.gettempdir())
+    for folder in folders:
+        try:
+            fd, name = tempfile.mkstemp(prefix=f"{stem}-", suffix=".npz", dir=folder)
+        except OSError as e:
+            tried.append(f"{folder} ({e.strerror})")
+            continue
+        os.close(fd)  # the name is now reserved; the save replaces the empty file
+        if _write("the fallback", name, lambda: saved_paths(traj.save(name))):
+            print(f"opendyn simulate: the trajectory was saved to {name} instead", file=sys.stderr)
+            return
+        with contextlib.suppress(OSError):
+            os.unlink(name)
+        tried.append(folder)
+    print(
+        f"opendyn simulate: the trajectory could not be saved anywhere (tried {'; '.join(tried)})",
+        file=sys.stderr,
+    )
+
+
+def _contact(traj):
+    """The contact argument of viz.write_html and viz.view: None without contact."""
+    if not traj.has_contact:
+        return None
+    return traj.ground_height, traj.contact_point, traj.contact_force
+
+
+def _write_html(scene, traj, path):
+    from ..viz import playback as viz
+
+    return viz.write_html(scene.model, traj.t, traj.q, path, contact=_contact(traj))
+
+
+def _slug(name):
+    return "".join(c if c.isalnum() or c in "-_" else "_" for c in name).strip("_") or "scene"

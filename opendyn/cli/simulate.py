@@ -1,0 +1,247 @@
+"""`opendyn simulate`: the scene a target names (``scene_for``), with the run settings and effects
+of the arguments; every output checked, the run, its report (``summary``), the outputs written,
+and the motion played in meshcat with --view."""
+
+from __future__ import annotations
+
+import importlib.util
+import pathlib
+import sys
+import time
+
+import numpy as np
+
+from .._runtime.signals import held_interrupt
+from ..io.scene.files import (
+    DEFAULT_SCENE,
+    default_scene,
+    is_scene_file,
+    load_scene,
+    scene_from_dict,
+    shipped_scenes,
+)
+from ..io.scene.schema import thaw
+from ..sim.trajectory import saved_paths
+from .interrupts import _doing
+from .outputs import (
+    DEFAULT_SAVE,
+    _check_outputs,
+    _contact,
+    _default_record,
+    _named_outputs,
+    _save_record,
+    _write_outputs,
+)
+
+# effects that `--enable` can switch on for any robot: their parameters come from the URDF
+ENABLE_FROM_URDF = {"gravity": True, "damping": {}, "friction": {}}
+WRITE_FAILED = 3  # exit status: an output could not be written after the run
+
+
+def scene_for(target):
+    """The scene a `simulate` target names: a scene file, a shipped scene's name, a URDF file or
+    a robot name (the robot's default scene: gravity only)."""
+    if target is None:
+        return load_scene(DEFAULT_SCENE)
+    path = pathlib.Path(target)
+    if path.is_file():
+        return load_scene(path) if is_scene_file(path) else default_scene(target)
+    if path.suffix.lower() == ".toml" or target in shipped_scenes():
+        return load_scene(target)
+    return default_scene(target)
+
+
+def _with_effects(scene, enable, disable):
+    """The scene with `enable` switched on from the URDF's values and `disable` switched off."""
+    if enable:
+        settings = thaw(scene.settings)
+        effects = settings.setdefault("effects", {})
+        for name in enable:
+            effects.setdefault(name, ENABLE_FROM_URDF[name])
+        if "robot" not in settings or scene.source.startswith("<"):
+            settings["robot"] = {"urdf": scene.model.source}
+        source = pathlib.Path(scene.source)
+        scene = scene_from_dict(
+            settings, source=scene.source, base_dir=source.parent if source.is_file() else None
+        )
+    return scene.without(*disable) if disable else scene
+
+
+def _simulate(args) -> int:
+    """opendyn simulate: check every output, load the scene, run it, report, write the outputs.
+    Returns the exit status (see the module's docstring)."""
+    from ..sim.simulate import profile, simulate
+
+    named = _named_outputs(args)
+    _check_outputs(named)
+    _check_meshcat(args)
+    with _doing("loading the scene and its robot; nothing was run"):
+        scene = _scene_to_run(args)
+    if args.output is None and not args.no_save:
+        defaults = [_default_record(scene, complete) for complete in (True, False)]
+        _check_outputs(
+            [(DEFAULT_SAVE, name, path) for name in defaults for path in saved_paths(name)], named
+        )
+    if not args.quiet:
+        print(_scene_header(scene))
+    with _doing("getting the compiled step ready; the run had not started"):
+        traj = simulate(scene, progress=not args.quiet, raise_on_failure=False)
+    with _doing("writing the outputs"):
+        with held_interrupt():  # from the end of the run until its record is saved
+            if not args.quiet or not traj.complete:
+                print(summary(scene, traj))
+            saved = _save_record(scene, traj, args)
+        written = _write_outputs(scene, traj, args, saved)
+    if not traj.complete:
+        print(f"opendyn simulate: {traj.message}", file=sys.stderr)
+    if args.profile:
+        with _doing("timing the stages for --profile; the outputs are written"):
+            print(profile(scene))
+    if args.view:
+        _view(scene, traj)
+    if not written:
+        return WRITE_FAILED
+    return 0 if traj.complete else 1
+
+
+def _scene_to_run(args):
+    """The scene the arguments name, with their run settings and effects."""
+    scene = scene_for(args.target)
+    run = {
+        "duration": args.duration,
+        "dt": args.dt,
+        "integrator": args.integrator,
+        "rtol": args.rtol,
+        "atol": args.atol,
+        "output_dt": args.output_dt,
+    }
+    run = {k: v for k, v in run.items() if v is not None}
+    if run:
+        scene = scene.replace_run(**run)
+    return _with_effects(scene, args.enable, args.disable)
+
+
+def _check_meshcat(args):
+    """Raise ImportError naming --html or --view, and the install command, without meshcat."""
+    if (args.html is not None or args.view) and importlib.util.find_spec("meshcat") is None:
+        from ..viz import MESHCAT_HINT
+
+        raise ImportError(f"{'--html' if args.html is not None else '--view'}: {MESHCAT_HINT}")
+
+
+def _view(scene, traj):
+    from ..viz import playback as viz
+
+    url = viz.view(scene.model, traj.t, traj.q, open_browser=True, contact=_contact(traj))
+    print(f"meshcat viewer at {url} (Ctrl-C to quit)")
+    _wait_for_interrupt()
+
+
+def _wait_for_interrupt():
+    try:
+        while True:
+            time.sleep(1.0)
+    except KeyboardInterrupt:
+        pass
+
+
+def _scene_header(scene):
+    run = scene.run
+    step = (
+        f"rtol = {run.rtol:g}, atol = {run.atol:g}"
+        if run.integrator == "dopri5"
+        else f"dt = {run.dt:g} s"
+    )
+    effects = ", ".join(scene.effects) or "none (free motion)"
+    lines = [
+        f"scene       {scene.name} ({scene.source})",
+        f"robot       {scene.model.name}, "
+        + (
+            f"floating base, nq = {scene.model.nq}, nv = {scene.model.nv}"
+            if scene.model.floating_base
+            else f"nv = {scene.model.nv}"
+        ),
+        f"effects     {effects}",
+    ]
+    if scene.constraints:
+        kinds = ", ".join(type(c).__name__ for c in scene.constraints)
+        lines.append(f"constraints {kinds}")
+    lines.append(f"integrator  {run.integrator}, {step}, {run.duration:g} s")
+    return "\n".join(lines)
+
+
+def summary(scene, traj):
+    """The run in a few lines: time, speed, steps, integrator statistics, energy."""
+    stats = traj.stats
+    wall = stats["wall_s"]
+    simulated = stats["simulated_s"]
+    factor = simulated / wall if wall > 0 else float("inf")
+    status = "complete" if traj.complete else "STOPPED EARLY (partial record)"
+    if stats["compile_s"] > 0:
+        ready = (
+            f"{stats['compile_s']:.3g} s more compiling the step, once per machine and opendyn "
+            "version"
+        )
+    else:
+        ready = f"{stats['load_s']:.2g} s more to load the compiled step"
+    lines = [
+        f"run         {status}",
+        f"simulated   {simulated:.4g} s in {wall:.3g} s wall ({factor:.3g}x real time; {ready})",
+        f"steps       {stats['steps']} accepted, {stats['rejected_steps']} rejected, "
+        f"{stats['evaluations']} dynamics evaluations",
+    ]
+    if len(traj.t):
+        energy = traj.energy
+        error = np.abs(traj.energy_error)
+        scale = max(np.abs(energy).max(), traj.kinetic.max(), 1e-300)
+        conservative = not np.any(traj.work_applied) and not np.any(traj.work_passive)
+        if conservative:
+            lines.append(
+                f"energy      E(0) = {energy[0]:.6g} J, drift max |E - E(0)| = "
+                f"{error.max():.3g} J ({error.max() / scale:.2g} of max |E|)"
+            )
+        else:
+            lines.append(
+                f"energy      E(0) = {energy[0]:.6g} J, E(end) = {energy[-1]:.6g} J; work "
+                f"applied {traj.work_applied[-1]:.6g} J, passive {traj.work_passive[-1]:.6g} J"
+            )
+            lines.append(
+                f"balance     max |E - E(0) - W| = {error.max():.3g} J "
+                f"({error.max() / scale:.2g} of max |E|): the integration error"
+            )
+    if "quaternion_norm_error" in stats:
+        from ..sim.simulate import QUATERNION_NORM_BOUND
+
+        lines.append(
+            f"base        max | |quat| - 1 | = {stats['quaternion_norm_error']:.2g} over the "
+            f"samples (bound {QUATERNION_NORM_BOUND:g}: integrate keeps it a unit quaternion)"
+        )
+    if traj.has_contact and len(traj.t):
+        lines.append(_contact_line(traj))
+    if len(traj.violation_position):
+        gains = scene.baumgarte
+        how = (
+            f"Baumgarte alpha = {gains[0]:g}, beta = {gains[1]:g} 1/s"
+            if gains is not None
+            else "no stabilisation"
+        )
+        lines.append(
+            f"constraints {len(scene.constraints)} ({how}): max |phi| = "
+            f"{traj.violation_position.max():.3g} (end {traj.violation_position[-1]:.3g}) m or "
+            f"rad, max |A qd| = {traj.violation_velocity.max():.3g} m/s or rad/s"
+        )
+    return "\n".join(lines)
+
+
+def _contact_line(traj):
+    """The contact in one line: the points, the largest penetration and force, where and when."""
+    names = traj.contact_names
+    depth = traj.penetration
+    force = np.linalg.norm(traj.contact_force, axis=2)
+    k, p = np.unravel_index(np.argmax(depth), depth.shape)
+    kf, pf = np.unravel_index(np.argmax(force), force.shape)
+    return (
+        f"contact     {len(names)} points on the ground z = {traj.ground_height:g} m: max "
+        f"penetration {depth[k, p] * 1e3:.3g} mm ({names[p]} at t = {traj.t[k]:.4g} s), max "
+        f"force {force[kf, pf]:.4g} N ({names[pf]} at t = {traj.t[kf]:.4g} s)"
+    )
