@@ -57,6 +57,7 @@ with kernel_cache():
         PointToPoint,
         PointToWorld,
     )
+    from .multibody.data import Data
     from .multibody.model import CollisionSphere, Frame, Model
     from .sim.simulate import simulate
     from .sim.trajectory import Trajectory
@@ -96,6 +97,7 @@ __all__ = [
     "constraint_jacobian",
     "constraint_projection",
     "constraint_wrench",
+    "Data",
     "FidelityReport",
     "Model",
     "NonFiniteResultError",

@@ -243,7 +243,10 @@ def _contact_tau(scene, q, qd, jac=False):
     n = len(bodies)
     tau, K, D = np.zeros(model.nv), np.zeros((model.nv,) * 2), np.zeros((model.nv,) * 2)
     x, f, delta = np.empty((n, 3)), np.empty((n, 3)), np.empty(n)
-    contact_kernel(model._ibuf, model._fbuf, bodies, params, q, qd, tau, K, D, jac, x, f, delta)
+    contact_kernel(
+        model._ibuf, model._fbuf, model.data()._work, (bodies, params), q, qd, tau, (K, D, jac),
+        (x, f, delta),
+    )
     return tau, K, D, x, f, delta
 
 

@@ -20,7 +20,8 @@ ABA needs one coordinate per joint: models with coupled (mimic) joints use CRBA 
 
 from __future__ import annotations
 
-import numpy as np
+from collections import namedtuple
+
 from numba import njit
 
 from .._runtime.arrays import all_finite, copy_into, fill
@@ -33,7 +34,15 @@ from ..multibody.joints import (
     prepare_joint_transforms,
     state_status,
 )
-from ..multibody.layout import rigid_inertias, spatial_inertias, tree
+from ..multibody.data import (
+    articulated_biases,
+    articulated_inertias,
+    body_motion,
+    joint_poses,
+    scratch_rows,
+    temp_vectors,
+)
+from ..multibody.layout import body_count, dof_count, rigid_inertias, spatial_inertias, tree
 from ..spatial.compiled import (
     ad_twist,
     add_inertia_to_parent,
@@ -48,19 +57,26 @@ from ..spatial.compiled import (
 from .cholesky import SINGULAR_PIVOT, cholesky_factor, cholesky_substitute
 
 
+# One body's ABA quantities, views of the Data's rows for body i: IA_i, pA_i, c_i (the
+# velocity-product acceleration), U_i, L_i (D_i's Cholesky factor) and u_i.
+ArticulatedBody = namedtuple("ArticulatedBody", ("IA", "pA", "c", "U", "L", "u"))
+
+
 @njit(**JIT)
-def articulate_multi_dof(n, b, S_i, IA_i, pA_i, c_i, tau, armature, scale, U_i, L_i, u_i):
-    """Pass 2 of ABA for a joint with n > 1 velocity coordinates v[b : b + n], in place:
+def articulate_multi_dof(n, b, S_i, body, tau, armature, scale, s, x):
+    """Pass 2 of ABA for a joint with n > 1 velocity coordinates v[b : b + n], in place on
+    body (an ArticulatedBody):
 
       U_i = IA_i S_i (rows k < n of U_i),  D_i = S_i^T U_i (+ armature) = L_i L_i^T,
       u_i = tau_i - S_i^T pA_i,
       IA_i <- IA_i - U_i D_i^-1 U_i^T,     pA_i <- pA_i + IA_i c_i + U_i D_i^-1 u_i.
 
-    Returns Status.OK.value or SINGULAR + k (coordinate k with no inertia). Compiled once and
-    called: ABA's loop keeps only the 1-dof arithmetic inline."""
+    s, x: (6,) scratch. Returns Status.OK.value or SINGULAR + k (coordinate k with no
+    inertia). Compiled once and called: ABA's loop keeps only the 1-dof arithmetic inline."""
+    IA_i, U_i, L_i, u_i = body.IA, body.U, body.L, body.u
     for k in range(n):
         inertia_times_motion(IA_i, S_i[k], U_i[k])
-        u_i[k] = tau[b + k] - dot6(S_i[k], pA_i)
+        u_i[k] = tau[b + k] - dot6(S_i[k], body.pA)
     for k in range(n):
         for k2 in range(n):
             L_i[k, k2] = dot6(S_i[k], U_i[k2])
@@ -69,8 +85,6 @@ def articulate_multi_dof(n, b, S_i, IA_i, pA_i, c_i, tau, armature, scale, U_i, 
     status = cholesky_factor(L_i, n, scale)
     if status:
         return status + b
-    x = np.empty(6)
-    s = np.empty(6)
     for r in range(6):  # column r of D_i^-1 U_i^T, from the factor
         for k in range(n):
             s[k] = U_i[k, r]
@@ -79,23 +93,22 @@ def articulate_multi_dof(n, b, S_i, IA_i, pA_i, c_i, tau, armature, scale, U_i, 
             for k in range(n):
                 IA_i[col, r] -= U_i[k, col] * x[k]
     cholesky_substitute(L_i, n, u_i, x)
-    mat6_vec(IA_i, c_i, s)
+    mat6_vec(IA_i, body.c, s)
     for r in range(6):
         for k in range(n):
             s[r] += U_i[k, r] * x[k]
-        pA_i[r] += s[r]
+        body.pA[r] += s[r]
     return Status.OK.value
 
 
 @njit(**JIT)
-def accelerate_multi_dof(n, b, S_i, U_i, L_i, u_i, dV_i, qdd):
+def accelerate_multi_dof(n, b, S_i, body, dV_i, qdd, s, x):
     """Pass 3 of ABA for a joint with n > 1 velocity coordinates, dV_i holding a_i on entry:
-    qdd_i = D_i^-1 (u_i - U_i^T a_i) by the factor L_i, then dV_i <- a_i + S_i qdd_i."""
-    s = np.empty(6)
-    x = np.empty(6)
+    qdd_i = D_i^-1 (u_i - U_i^T a_i) by the factor L_i of body (an ArticulatedBody), then
+    dV_i <- a_i + S_i qdd_i. s, x: (6,) scratch."""
     for k in range(n):
-        s[k] = u_i[k] - dot6(U_i[k], dV_i)
-    cholesky_substitute(L_i, n, s, x)
+        s[k] = body.u[k] - dot6(body.U[k], dV_i)
+    cholesky_substitute(body.L, n, s, x)
     for k in range(n):
         qdd[b + k] = x[k]
         for r in range(6):
@@ -108,8 +121,10 @@ accelerate_free_joint = free_joints_only(accelerate_multi_dof)
 
 
 @njit(**JIT)
-def aba_kernel(ibuf, fbuf, q, qd, tau, loads, qdd, armature):
-    """qdd (nv,) <- ABA at one state; loads as in rnea_kernel (dV_0, then body wrenches).
+def aba_kernel(ibuf, fbuf, work, q, qd, tau, loads, qdd, armature):
+    """qdd (nv,) <- ABA at one state, working in `work` (a Data's buffer: R, p, V, dV, IA, pA,
+    a_vp, U, L, u are left as this state's); loads as in rnea_kernel (dV_0, then body
+    wrenches).
     armature: (nv,) rotor inertias added to D_i (M's diagonal), or an empty array for none.
     Returns a Status: OK, Q/QD/TAU_NOT_FINITE, Q_NOT_UNIT_QUATERNION, or SINGULAR + k when
     velocity coordinate k has no inertia moving with it (a pivot of D_i ~ 0)."""
@@ -125,18 +140,16 @@ def aba_kernel(ibuf, fbuf, q, qd, tau, loads, qdd, armature):
     p_home = body_tree.p_home
     G = spatial_inertias(ibuf, fbuf)
     mass, h, I_o = rigid_inertias(ibuf, fbuf)
-    nb = parent.shape[0]
-    R = np.empty((nb, 3, 3))
-    p = np.empty((nb, 3))
+    nb, nv = body_count(ibuf), dof_count(ibuf)
+    R, p = joint_poses(work, nb)
     # IA_i, and per joint U_i (rows k < nv_i: IA_i s_k) and L_i (D_i, or its Cholesky factor
     # when nv_i > 1)
-    mats = np.empty((3, nb, 6, 6))
-    IA, U, L = mats[0], mats[1], mats[2]
-    vec = np.empty((5, nb, 6))
-    V, c, pA, u, dV = vec[0], vec[1], vec[2], vec[3], vec[4]
-    scratch = np.empty((9, 6))
-    s = np.empty(6)
-    V_J = np.empty(6)
+    IA, U, L = articulated_inertias(work, nb)
+    c, pA, u = articulated_biases(work, nb)
+    V, dV, _ = body_motion(work, nb)
+    scratch = scratch_rows(work, nb, nv)
+    temp = temp_vectors(work, nb, nv)
+    s, V_J, x = temp[0], temp[1], temp[2]
     wrenches = loads.shape[0] > 1
     rotors = armature.shape[0] > 0
     scale = 0.0
@@ -175,21 +188,8 @@ def aba_kernel(ibuf, fbuf, q, qd, tau, loads, qdd, armature):
         n, b = nv_j[i], iv[i]
         lam = parent[i]
         if n > 1:
-            status = articulate_free_joint(
-                ibuf,
-                n,
-                b,
-                S[i],
-                IA[i],
-                pA[i],
-                c[i],
-                tau,
-                armature,
-                scale,
-                U[i],
-                L[i],
-                u[i],
-            )
+            body = ArticulatedBody(IA[i], pA[i], c[i], U[i], L[i], u[i])
+            status = articulate_free_joint(ibuf, n, b, S[i], body, tau, armature, scale, s, x)
             if status:
                 return status
         else:
@@ -224,7 +224,8 @@ def aba_kernel(ibuf, fbuf, q, qd, tau, loads, qdd, armature):
         for k in range(6):
             dV[i, k] += c[i, k]
         if n > 1:
-            accelerate_free_joint(ibuf, n, b, S[i], U[i], L[i], u[i], dV[i], qdd)
+            body = ArticulatedBody(IA[i], pA[i], c[i], U[i], L[i], u[i])
+            accelerate_free_joint(ibuf, n, b, S[i], body, dV[i], qdd, s, x)
         else:
             qdd[b] = (u[i, 0] - dot6(U[i, 0], dV[i])) / L[i, 0, 0]
             for r in range(6):

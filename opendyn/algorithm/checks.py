@@ -23,6 +23,7 @@ import numpy as np
 from .._runtime.status import NOT_FINITE_ARGUMENT, Status, decode
 from ..errors import NonFiniteResultError, SingularMassMatrixError
 from ..multibody.joints import FREE
+from ..multibody.data import Data
 from ..multibody.model import Model
 from ..spatial.algebra import angular, linear
 
@@ -60,6 +61,33 @@ def check_model(model, what):
 def _short_repr(value, limit=40):
     text = repr(value)
     return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
+def work_of(model, data, what):
+    """The work buffer a call runs in: the Data's (checked to be a Data of `model`), or the
+    model's own for a call without data=."""
+    if data is None:
+        return model._work
+    if type(data) is not Data:
+        raise TypeError(
+            f"{what}: data must be an opendyn Data (od.Data(model) or model.data()), got "
+            f"{type(data).__name__} {_short_repr(data)}"
+        )
+    if data.model is not model:
+        raise ValueError(
+            f"{what}: data was made for model {data.model.name!r} (nv={data.model.nv}), not "
+            f"for this model {model.name!r} (nv={model.nv}); make one with model.data()"
+        )
+    return data._work
+
+
+def single_state_only(data, what):
+    """ValueError when data= comes with a batch of states: a Data holds one state's results."""
+    if data is not None:
+        raise ValueError(
+            f"{what}: data= works for a single state (it holds one state's results); call "
+            "without data= for a batch (N, nq)"
+        )
 
 
 def as_float_array(x, name, expected="an array of numbers (integers or floats)"):

@@ -56,9 +56,10 @@ from .._runtime.batch import run_rows
 from .._runtime.kernel_cache import BATCH, INLINE, JIT
 from .._runtime.status import Status
 from ..multibody.joints import configuration_status
-from ..multibody.layout import body_count, spatial_inertias, tree
+from ..multibody.layout import body_count, dof_count, spatial_inertias, tree
 from ..spatial.compiled import ad_twist, add_inertia_to_parent, dot6, mat6_vec
 from . import checks
+from ..multibody.data import new_work, world_poses
 from .kinematics import forward_kinematics, space_axis
 
 
@@ -72,11 +73,11 @@ def space_axes_and_inertias(ibuf, fbuf, q, S_s, G_s, Gc):
     S = body_tree.S
     G = spatial_inertias(ibuf, fbuf)
     nb = parent.shape[0]
-    R_s = np.empty((nb, 3, 3))
-    p_s = np.empty((nb, 3))
+    work = new_work(nb, dof_count(ibuf))  # the world poses R_s, p_s
     # every body: last = -1, typed int64 as the other callers' body index (a literal -1
     # would compile forward_kinematics a second time)
-    forward_kinematics(body_tree, q, R_s, p_s, np.int64(-1))
+    forward_kinematics(body_tree, work, q, np.int64(-1))
+    R_s, p_s = world_poses(work, nb)
     scratch = np.empty((9, 6))
     for i in range(nb):
         for k in range(nv_j[i]):

@@ -59,11 +59,12 @@ from ..multibody.constraint_objects import (
     PointToWorld,
 )
 from ..multibody.joints import quaternion_status, state_status
-from ..multibody.layout import tree
+from ..multibody.layout import body_count, tree
 from ..spatial.compiled import ad_twist, twist_to_child
 from . import checks
 from .cholesky import cholesky_solve
 from .configuration import difference_kernel
+from ..multibody.data import new_work
 from .crba import crba_kernel, mass_matrix
 from .kinematics import frame_pose, jacobian, space_axis
 from .rnea import forward_pass, rnea_kernel
@@ -577,14 +578,15 @@ def constrained_forward_kernel(
     if not all_finite(tau):
         return Status.TAU_NOT_FINITE.value
     nv = qd.shape[0]
+    work = new_work(body_count(ibuf), nv)
     rhs = np.empty(nv)
-    status = rnea_kernel(ibuf, fbuf, q, qd, np.zeros(nv), loads, rhs)
+    status = rnea_kernel(ibuf, fbuf, work, q, qd, np.zeros(nv), loads, rhs)
     if status:
         return status
     for i in range(nv):
         rhs[i] = tau[i] - rhs[i]
     M = np.empty((nv, nv))
-    crba_kernel(ibuf, fbuf, q, M)
+    crba_kernel(ibuf, fbuf, work, q, M)
     for i in range(armature.shape[0]):
         M[i, i] += armature[i]
     return constrained_solve_at(ibuf, fbuf, rows, params, gains, q, qd, M, rhs, qdd, lam)
@@ -922,7 +924,7 @@ def constrained_forward_dynamics(
         A = _matrix_A(model, A, what)
         gamma = _vector_k(Adot_qd, A.shape[0], "Adot_qd", what)
         rhs = np.empty(model.nv)
-        rnea_kernel(model._ibuf, model._fbuf, q, qd, model._zero_v, loads, rhs)
+        rnea_kernel(model._ibuf, model._fbuf, model._work, q, qd, model._zero_v, loads, rhs)
         rhs = tau - rhs
         M = mass_matrix(model, q)
         qdd, lam = np.empty(model.nv), np.empty(A.shape[0])
@@ -1010,6 +1012,7 @@ def constrained_inverse_dynamics(model, q, qd, qdd, A, lam=None, gravity=None):
     status = rnea_kernel(
         model._ibuf,
         model._fbuf,
+        model._work,
         q,
         qd,
         qdd,

@@ -37,8 +37,9 @@ import numpy as np
 from numba import njit
 
 from .._runtime.kernel_cache import BATCH, JIT
-from ..multibody.layout import body_count, tree
+from ..multibody.layout import body_count, dof_count, tree
 from ..spatial.compiled import cross3
+from ..multibody.data import new_work, world_poses
 from .kinematics import forward_kinematics, space_axis
 
 # the contact parameters' layout: the shared values, then (c_b (3,), r) per point
@@ -103,19 +104,23 @@ def add_congruence(J_p, C, out):
 
 
 @njit(**JIT)
-def contact_kernel(ibuf, fbuf, bodies, params, q, qd, tau, K, D, jac, x_c, f_c, delta):
-    """The contact forces at (q, qd): tau (nv,) += sum_p J_p^T f_p; x_c (P, 3) <- the points'
-    lowest points x_p (m, {s}), f_c (P, 3) <- their forces f_p (N, {s}), delta (P,) <- their
-    penetrations (m). With jac, K, D (nv, nv) += the contacts' stiffness and damping (module
-    docstring). bodies (P,) int64: each point's body; params: SHARED values (ground height,
-    k, d, mu, v_s), then (c_b (3,) m in the body's frame, r m) per point. q must be a valid
-    configuration. Returns sum_p k delta_p delta_dot_p (W), the spring's share of the power."""
+def contact_kernel(ibuf, fbuf, work, contacts, q, qd, tau, linear, record):
+    """The contact forces at (q, qd): tau (nv,) += sum_p J_p^T f_p; record = (x_c (P, 3),
+    f_c (P, 3), delta (P,)) <- the points' lowest points x_p (m, {s}), their forces f_p
+    (N, {s}) and their penetrations (m). linear = (K, D, jac): with jac, K, D (nv, nv) += the
+    contacts' stiffness and damping (module docstring). contacts = (bodies (P,) int64: each
+    point's body; params: SHARED values (ground height, k, d, mu, v_s), then (c_b (3,) m in
+    the body's frame, r m) per point). q must be a valid configuration. Works in `work` (a
+    Data's buffer: the world poses R_s, p_s of every body). Returns sum_p k delta_p
+    delta_dot_p (W), the spring's share of the power."""
+    bodies, params = contacts
+    K, D, jac = linear
+    x_c, f_c, delta = record
     body_tree = tree(ibuf, fbuf)
     nb = body_count(ibuf)
     nv = qd.shape[0]
-    R_s = np.empty((nb, 3, 3))
-    p_s = np.empty((nb, 3))
-    forward_kinematics(body_tree, q, R_s, p_s, np.int64(-1))
+    forward_kinematics(body_tree, work, q, np.int64(-1))
+    R_s, p_s = world_poses(work, nb)
     h, k, d = params[GROUND], params[STIFFNESS], params[DAMPING]
     mu, v_s = params[FRICTION], params[SLIP]
     J_p = np.empty((3, nv))
@@ -165,27 +170,32 @@ def contact_kernel(ibuf, fbuf, bodies, params, q, qd, tau, K, D, jac, x_c, f_c, 
 
 
 @njit(**BATCH)
-def contact_record_kernel(ibuf, fbuf, bodies, params, q, qd, x_c, f_c, delta, start, stop):
-    """The contact points, forces and penetrations (x_c, f_c (N, P, 3), delta (N, P)) at the
-    recorded states q (N, nq), qd (N, nv), rows [start, stop)."""
+def contact_record_kernel(ibuf, fbuf, contacts, states, record, start, stop):
+    """The contact points, forces and penetrations record = (x_c, f_c (N, P, 3), delta (N, P))
+    at the recorded states = (q (N, nq), qd (N, nv)), rows [start, stop)."""
+    q, qd = states
+    x_c, f_c, delta = record
     tau = np.empty(qd.shape[1])
     unused = np.empty((0, 0))
     no_jac = np.bool_(False)  # a run-time flag, as the step passes it: one compiled kernel
+    work = new_work(body_count(ibuf), dof_count(ibuf))
     for n in range(start, stop):
         contact_kernel(
-            ibuf, fbuf, bodies, params, q[n], qd[n], tau, unused, unused, no_jac,
-            x_c[n], f_c[n], delta[n],
+            ibuf, fbuf, work, contacts, q[n], qd[n], tau, (unused, unused, no_jac),
+            (x_c[n], f_c[n], delta[n]),
         )
 
 
 @njit(**JIT)
-def contact_jacobians_kernel(ibuf, fbuf, bodies, params, q, J):
-    """J (P, 3, nv) <- each contact point's J_p at q (the lowest point of its sphere)."""
+def contact_jacobians_kernel(ibuf, fbuf, contacts, q, J):
+    """J (P, 3, nv) <- each contact point's J_p at q (the lowest point of its sphere);
+    contacts = (bodies, params) as contact_kernel's."""
+    bodies, params = contacts
     body_tree = tree(ibuf, fbuf)
     nb = body_count(ibuf)
-    R_s = np.empty((nb, 3, 3))
-    p_s = np.empty((nb, 3))
-    forward_kinematics(body_tree, q, R_s, p_s, np.int64(-1))
+    work = new_work(nb, dof_count(ibuf))  # the world poses R_s, p_s
+    forward_kinematics(body_tree, work, q, np.int64(-1))
+    R_s, p_s = world_poses(work, nb)
     x_s = np.empty(3)
     for p in range(bodies.shape[0]):
         b = lowest_point(R_s, p_s, bodies, params, p, x_s)

@@ -17,6 +17,8 @@ from .._runtime.batch import run_rows
 from .._runtime.kernel_cache import BATCH, JIT
 from .._runtime.status import Status
 from . import checks
+from ..multibody.data import joint_vectors, mass_matrix_field, new_work, no_loads
+from ..multibody.layout import body_count, dof_count
 from .aba import aba_kernel
 from .cholesky import cholesky_solve
 from .crba import crba_kernel
@@ -27,42 +29,42 @@ NO_ARMATURE = np.zeros(0)  # the rigid-body M: no rotor inertias
 
 
 @njit(**JIT)
-def newton_euler_mass_matrix(ibuf, fbuf, q, M):
+def newton_euler_mass_matrix(ibuf, fbuf, work, q, M):
     """M (nv, nv) <- the seed's method: column k is RNEA's tau with qdd = e_k, qd = 0,
-    gravity = 0 and no F_tip (nv RNEA calls). Returns a Status."""
-    nv = M.shape[0]
-    zero = np.zeros(nv)
-    e_k = np.zeros(nv)
-    col = np.empty(nv)
-    no_loads = np.zeros((1, 6))
+    gravity = 0 and no F_tip (nv RNEA calls), written as row k (M is symmetric), in `work`.
+    Returns a Status."""
+    nb, nv = body_count(ibuf), dof_count(ibuf)
+    _, zero, e_k = joint_vectors(work, nb, nv)
+    loads = no_loads(work, nb, nv)
     for k in range(nv):
         e_k[k] = 1.0
-        status = rnea_kernel(ibuf, fbuf, q, zero, e_k, no_loads, col)
+        status = rnea_kernel(ibuf, fbuf, work, q, zero, e_k, loads, M[k])
+        e_k[k] = 0.0
         if status:
             return status
-        for r in range(nv):
-            M[r, k] = col[r]
-        e_k[k] = 0.0
     return Status.OK.value
 
 
 @njit(**JIT)
-def mass_matrix_solve(ibuf, fbuf, q, qd, tau, loads, qdd, armature, crba, newton_euler):
-    """qdd <- (M + diag(armature))^-1 (tau - h - J^T F_tip), M by CRBA or by nv RNEA calls,
-    whichever compile-time switch is not None; armature (nv,) or empty.
+def mass_matrix_solve(ibuf, fbuf, work, state, loads, qdd, armature, crba, newton_euler):
+    """qdd <- (M + diag(armature))^-1 (tau - h - J^T F_tip) at state = (q, qd, tau), M by CRBA
+    or by nv RNEA calls, whichever compile-time switch (crba, newton_euler) is not None;
+    armature (nv,) or empty. In `work`: its h ends as the right-hand side tau - h - J^T F_tip,
+    and its M as the Cholesky factor L (in the lower triangle, M = L L^T).
     Returns a Status as aba_kernel, or RESULT_NOT_FINITE when h overflowed."""
-    nv = qdd.shape[0]
-    M = np.empty((nv, nv))
-    b = np.empty(nv)
-    status = rnea_kernel(ibuf, fbuf, q, qd, np.zeros(nv), loads, b)
+    q, qd, tau = state
+    nb, nv = body_count(ibuf), dof_count(ibuf)
+    M = mass_matrix_field(work, nb, nv)
+    b, zero, _ = joint_vectors(work, nb, nv)
+    status = rnea_kernel(ibuf, fbuf, work, q, qd, zero, loads, b)
     if status:
         return status
     if not all_finite(tau):
         return Status.TAU_NOT_FINITE.value
     if crba is not None:
-        crba_kernel(ibuf, fbuf, q, M)
+        crba_kernel(ibuf, fbuf, work, q, M)
     if newton_euler is not None:
-        newton_euler_mass_matrix(ibuf, fbuf, q, M)
+        newton_euler_mass_matrix(ibuf, fbuf, work, q, M)
     for k in range(armature.shape[0]):
         M[k, k] += armature[k]
     for k in range(nv):
@@ -71,46 +73,54 @@ def mass_matrix_solve(ibuf, fbuf, q, qd, tau, loads, qdd, armature, crba, newton
 
 
 @njit(**JIT)
-def forward_kernel(ibuf, fbuf, q, qd, tau, loads, qdd, armature, aba, crba, newton_euler):
-    """One state by the method the compile-time switches (aba, crba, newton_euler) name: one
-    of them True, the others None (method_switches). numba drops the code behind a None
-    argument when it compiles, so only the method asked for is compiled. armature (nv,)
-    rotor inertias on M's diagonal, or an empty array for none. Returns a Status, the
-    method's or RESULT_NOT_FINITE (qdd overflowed)."""
+def solve_by(aba, crba, newton_euler, ibuf, fbuf, work, state, loads, qdd, armature):
+    """qdd at state = (q, qd, tau) by the method the compile-time switches name: one of aba,
+    crba, newton_euler True, the others None (method_switches). numba drops the code behind a
+    None argument when it compiles, so only the method asked for is compiled. Returns a
+    Status, the method's or RESULT_NOT_FINITE (qdd overflowed)."""
     if aba is not None:
-        status = aba_kernel(ibuf, fbuf, q, qd, tau, loads, qdd, armature)
+        q, qd, tau = state
+        status = aba_kernel(ibuf, fbuf, work, q, qd, tau, loads, qdd, armature)
         return status if status else result_status(qdd)
     if crba is not None or newton_euler is not None:
         status = mass_matrix_solve(
-            ibuf, fbuf, q, qd, tau, loads, qdd, armature, crba, newton_euler
+            ibuf, fbuf, work, state, loads, qdd, armature, crba, newton_euler
         )
         return status if status else result_status(qdd)
     return Status.OK.value  # no method switched on: nothing to compile
 
 
-@njit(**BATCH)
-def forward_batch_kernel(
-    ibuf, fbuf, q, qd, tau, loads, qdd, armature, method, status, start, stop
-):
-    """Forward dynamics over rows [start, stop) of a batch (q (N, nq), the others (N, nv));
-    loads (1 or N, rows, 6);
-    armature as in forward_kernel, an argument (a global array would be a read-only constant to
-    numba, and the kernel would compile again for it)."""
-    shared = loads.shape[0] == 1
+@njit(**JIT)
+def forward_kernel(ibuf, fbuf, work, q, qd, tau, loads, qdd, armature, method):
+    """qdd (nv,) <- forward dynamics at one state by the method whose switch in method =
+    (aba, crba, newton_euler) is True (solve_by); armature (nv,) rotor inertias on M's
+    diagonal, or an empty array for none. Works in `work` (a Data's buffer). Returns a
+    Status."""
     aba, crba, newton_euler = method
+    return solve_by(aba, crba, newton_euler, ibuf, fbuf, work, (q, qd, tau), loads, qdd, armature)
+
+
+@njit(**BATCH)
+def forward_batch_kernel(ibuf, fbuf, states, loads, qdd, armature, method, status, start, stop):
+    """Forward dynamics over rows [start, stop) of a batch, states = (q (N, nq), qd (N, nv),
+    tau (N, nv)); loads (1 or N, rows, 6); armature as in forward_kernel, an argument (a
+    global array would be a read-only constant to numba, and the kernel would compile again
+    for it). The rows work in a buffer of their own."""
+    q, qd, tau = states
+    shared = loads.shape[0] == 1
+    work = new_work(body_count(ibuf), dof_count(ibuf))
     for n in range(start, stop):
         status[n] = forward_kernel(
             ibuf,
             fbuf,
+            work,
             q[n],
             qd[n],
             tau[n],
             loads[0] if shared else loads[n],
             qdd[n],
             armature,
-            aba,
-            crba,
-            newton_euler,
+            method,
         )
 
 
@@ -130,7 +140,7 @@ def method_switches(model, method):
         ) from None
 
 
-def forward_dynamics(model, q, qd, tau, f_tip=None, gravity=None, method="aba"):
+def forward_dynamics(model, q, qd, tau, f_tip=None, gravity=None, method="aba", data=None):
     """qdd = M(q)^-1 (tau - c(q, qd) - g(q) - sum_frames J_b(frame)^T F_tip(frame)).
 
     Args:
@@ -142,17 +152,25 @@ def forward_dynamics(model, q, qd, tau, f_tip=None, gravity=None, method="aba"):
       gravity: optional (3,) world-frame gravity (m/s^2), default model.gravity.
       method: "aba" (O(n), default), "crba" (CRBA + Cholesky) or "newton_euler" (the seed's
         n-RNEA mass matrix + Cholesky). Models with coupled mimic joints solve "aba" by CRBA.
+      data: optional Data of this model (single states): the call works in it and returns
+        data.qdd, allocating nothing (f_tip and a gravity override are converted first); ABA
+        leaves its articulated inertias and biases in data.IA, data.pA, ..., the CRBA methods
+        M's Cholesky factor L in data.M's lower triangle.
     Returns qdd, (nv,) or (N, nv) (rad/s^2 or m/s^2).
     Raises SingularMassMatrixError (a ValueError) naming every joint that moves nothing with
     mass or inertia (or the joints whose combined motion moves none) when M(q) is singular.
     """
     checks.check_model(model, "forward_dynamics")
-    aba, crba, newton_euler = method_switches(model, method)
+    switches = method_switches(model, method)
     if checks.is_single(model, q, qd, tau):
-        qdd = np.empty(model._vector_shape)
+        if data is None:
+            work, qdd = model._work, np.empty(model._vector_shape)
+        else:
+            work, qdd = checks.work_of(model, data, "forward_dynamics"), data.qdd
         status = forward_kernel(
             model._ibuf,
             model._fbuf,
+            work,
             q,
             qd,
             tau,
@@ -161,9 +179,7 @@ def forward_dynamics(model, q, qd, tau, f_tip=None, gravity=None, method="aba"):
             else checks.loads(model, gravity, f_tip),
             qdd,
             NO_ARMATURE,
-            aba,
-            crba,
-            newton_euler,
+            switches,
         )
         if status:
             arguments = {"q": q, "qd": qd, "tau": tau, "gravity": gravity, "f_tip": f_tip}
@@ -171,7 +187,8 @@ def forward_dynamics(model, q, qd, tau, f_tip=None, gravity=None, method="aba"):
         return qdd
     (q, qd, tau), batch = checks.as_states(model, q, ("qd", qd), ("tau", tau))
     if not batch:
-        return forward_dynamics(model, q, qd, tau, f_tip, gravity, method)
+        return forward_dynamics(model, q, qd, tau, f_tip, gravity, method, data)
+    checks.single_state_only(data, "forward_dynamics")
     n = q.shape[0]
     qdd = np.empty((n, model.nv))
     status = np.zeros(n, dtype=np.int64)
@@ -180,13 +197,11 @@ def forward_dynamics(model, q, qd, tau, f_tip=None, gravity=None, method="aba"):
         n,
         model._ibuf,
         model._fbuf,
-        q,
-        qd,
-        tau,
+        (q, qd, tau),
         checks.loads(model, gravity, f_tip, n),
         qdd,
         NO_ARMATURE,
-        (aba, crba, newton_euler),
+        switches,
         status,
     )
     arguments = {"q": q, "qd": qd, "tau": tau, "gravity": gravity, "f_tip": f_tip}

@@ -16,11 +16,19 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .._runtime.arrays import copy_into, result_status, zero_matrix
+from .._runtime.arrays import copy_into, fill, result_status, zero_matrix
 from .._runtime.batch import run_rows
 from .._runtime.kernel_cache import BATCH, INLINE, JIT
 from ..multibody.joints import configuration_status, joint_transform, prepare_joint_transforms
-from ..multibody.layout import body_count, tree
+from ..multibody.data import (
+    body_flags,
+    frame_pose_field,
+    joint_poses,
+    new_work,
+    temp_vectors,
+    world_poses,
+)
+from ..multibody.layout import body_count, dof_count, tree
 from ..spatial.compiled import twist_to_child
 from . import checks
 
@@ -46,28 +54,27 @@ def world_pose(R_s, p_s, lam, R, p, i):
 
 
 @njit(**JIT)
-def forward_kinematics(body_tree, q, R_s, p_s, last):
-    """R_s[i], p_s[i] <- T_{s,i}(q) (world frame = the root link) for every body, or, when
-    last >= 0, only for the bodies on the path from the root to body `last`.
-    body_tree is layout.tree(ibuf, fbuf). Compiled once and called by the kernels that need
-    world poses."""
+def forward_kinematics(body_tree, work, q, last):
+    """The work buffer's R_s[i], p_s[i] <- T_{s,i}(q) (world frame = the root link) for every
+    body, or, when last >= 0, only for the bodies on the path from the root to body `last`
+    (its R, p <- their T_{lambda(i), i}). body_tree is layout.tree(ibuf, fbuf). Compiled once
+    and called by the kernels that need world poses."""
     parent, jtype, iq = body_tree.parent, body_tree.jtype, body_tree.iq
     mult, offset, S = body_tree.mult, body_tree.offset, body_tree.S
     R_home, p_home = body_tree.R_home, body_tree.p_home
     nb = parent.shape[0]
-    R = np.empty((nb, 3, 3))
-    p = np.empty((nb, 3))
+    R, p = joint_poses(work, nb)
+    R_s, p_s = world_poses(work, nb)
     prepare_joint_transforms(body_tree, q, R, p)
-    wanted = np.empty(nb, dtype=np.bool_)
-    for i in range(nb):
-        wanted[i] = last < 0
+    wanted = body_flags(work, nb)  # 1.0 for a body on the path
+    fill(wanted, 1.0 if last < 0 else 0.0)
     if last >= 0:
         i = last
         while i >= 0:
-            wanted[i] = True
+            wanted[i] = 1.0
             i = parent[i]
     for i in range(nb if last < 0 else last + 1):
-        if not wanted[i]:
+        if wanted[i] == 0.0:
             continue
         joint_transform(
             jtype[i], S[i], R_home[i], p_home[i], q, iq[i], mult[i], offset[i], R[i], p[i]
@@ -108,40 +115,42 @@ def compose_frame(R_s, p_s, body, T_bf, T_sf):
 
 
 @njit(**JIT)
-def frame_pose_kernel(ibuf, fbuf, q, body, T_bf, T_sf):
-    """T_sf (4, 4) <- T_{s,body}(q) T_{body,frame}. Returns a Status: OK, Q_NOT_FINITE,
+def frame_pose_kernel(ibuf, fbuf, work, q, body, T_bf, T_sf):
+    """T_sf (4, 4) <- T_{s,body}(q) T_{body,frame}, in `work` (a Data's buffer: R_s, p_s hold
+    the poses of the bodies from the root to `body`). Returns a Status: OK, Q_NOT_FINITE,
     Q_NOT_UNIT_QUATERNION or RESULT_NOT_FINITE."""
     status = configuration_status(ibuf, q)
     if status:
         return status
     nb = body_count(ibuf)
-    R_s = np.empty((nb, 3, 3))
-    p_s = np.empty((nb, 3))
+    R_s, p_s = world_poses(work, nb)
     if body >= 0:
-        forward_kinematics(tree(ibuf, fbuf), q, R_s, p_s, body)
+        forward_kinematics(tree(ibuf, fbuf), work, q, body)
     compose_frame(R_s, p_s, body, T_bf, T_sf)
     return result_status(T_sf)
 
 
 @njit(**JIT)
-def jacobian_kernel(ibuf, fbuf, q, body, T_bf, body_frame, J):
-    """J (6, nv) <- J_s, or J_b of the frame when body_frame. Returns a Status: OK,
-    Q_NOT_FINITE, Q_NOT_UNIT_QUATERNION or RESULT_NOT_FINITE."""
+def jacobian_kernel(ibuf, fbuf, work, q, frame, body_frame, J):
+    """J (6, nv) <- J_s, or J_b of the frame when body_frame, in `work` (a Data's buffer: R_s,
+    p_s as frame_pose_kernel leaves them, T_sf the frame's pose). frame = (body, T_bf): the
+    frame's body and its pose in the body. Returns a Status: OK, Q_NOT_FINITE,
+    Q_NOT_UNIT_QUATERNION or RESULT_NOT_FINITE."""
     status = configuration_status(ibuf, q)
     if status:
         return status
     body_tree = tree(ibuf, fbuf)
     parent, nv_j, iv = body_tree.parent, body_tree.nv_j, body_tree.iv
     mult, S_rows = body_tree.mult, body_tree.S
-    nb = parent.shape[0]
-    R_s = np.empty((nb, 3, 3))
-    p_s = np.empty((nb, 3))
+    nb, nv = parent.shape[0], J.shape[1]
+    body, T_bf = frame
+    R_s, p_s = world_poses(work, nb)
     if body >= 0:
-        forward_kinematics(body_tree, q, R_s, p_s, body)
-    T_sf = np.empty((4, 4))
+        forward_kinematics(body_tree, work, q, body)
+    T_sf = frame_pose_field(work, nb, nv)
     compose_frame(R_s, p_s, body, T_bf, T_sf)
-    S = np.empty(6)
-    col = np.empty(6)
+    temp = temp_vectors(work, nb, nv)
+    S, col = temp[0], temp[1]
     zero_matrix(J)
     i = body
     while i >= 0:
@@ -159,17 +168,21 @@ def jacobian_kernel(ibuf, fbuf, q, body, T_bf, body_frame, J):
 
 
 @njit(**BATCH)
-def jacobian_batch_kernel(ibuf, fbuf, q, body, T_bf, body_frame, J, status, start, stop):
-    """Jacobians over rows [start, stop) of a batch of configurations (N, nq) -> (N, 6, nv)."""
+def jacobian_batch_kernel(ibuf, fbuf, q, frame, body_frame, J, status, start, stop):
+    """Jacobians over rows [start, stop) of a batch of configurations (N, nq) -> (N, 6, nv),
+    in a work buffer of their own."""
+    work = new_work(body_count(ibuf), J.shape[2])
     for n in range(start, stop):
-        status[n] = jacobian_kernel(ibuf, fbuf, q[n], body, T_bf, body_frame, J[n])
+        status[n] = jacobian_kernel(ibuf, fbuf, work, q[n], frame, body_frame, J[n])
 
 
 @njit(**BATCH)
 def frame_pose_batch_kernel(ibuf, fbuf, q, body, T_bf, T_sf, status, start, stop):
-    """Frame poses over rows [start, stop) of a batch of configurations (N, nq) -> (N, 4, 4)."""
+    """Frame poses over rows [start, stop) of a batch of configurations (N, nq) -> (N, 4, 4),
+    in a work buffer of their own."""
+    work = new_work(body_count(ibuf), dof_count(ibuf))
     for n in range(start, stop):
-        status[n] = frame_pose_kernel(ibuf, fbuf, q[n], body, T_bf, T_sf[n])
+        status[n] = frame_pose_kernel(ibuf, fbuf, work, q[n], body, T_bf, T_sf[n])
 
 
 def _frame(model, frame):
@@ -177,10 +190,13 @@ def _frame(model, frame):
     return fr.body, fr.T_body_frame
 
 
-def frame_pose(model, q, frame):
+def frame_pose(model, q, frame, data=None):
     """T_sf(q): (4, 4) pose of a frame (any URDF link) in the world frame (the root link).
 
     q: (nq,) or (N, nq) -> (4, 4) or (N, 4, 4); translation in metres.
+    data: optional Data of this model (single configurations): returns data.T_sf, allocating
+    nothing; data.R_s, data.p_s hold the world poses of the bodies from the root to the
+    frame's.
     Raises KeyError naming the frame if it is not a frame of the model.
     """
     checks.check_model(model, "frame_pose")
@@ -188,11 +204,15 @@ def frame_pose(model, q, frame):
         q = checks.as_q(model, q)
     body, T_bf = _frame(model, frame)
     if q.ndim == 1:
-        T = np.empty((4, 4))
-        status = frame_pose_kernel(model._ibuf, model._fbuf, q, body, T_bf, T)
+        if data is None:
+            work, T = model._work, np.empty((4, 4))
+        else:
+            work, T = checks.work_of(model, data, "frame_pose"), data.T_sf
+        status = frame_pose_kernel(model._ibuf, model._fbuf, work, q, body, T_bf, T)
         if status:
             checks.raise_status(status, model, "frame_pose", "T_sf", {"q": q})
         return T
+    checks.single_state_only(data, "frame_pose")
     T = np.empty((q.shape[0], 4, 4))
     status = np.zeros(q.shape[0], dtype=np.int64)
     run_rows(
@@ -202,26 +222,32 @@ def frame_pose(model, q, frame):
     return T
 
 
-def jacobian(model, q, frame, expressed_in="space"):
+def jacobian(model, q, frame, expressed_in="space", data=None):
     """The (6, nv) Jacobian of a frame: V = J(q) v, twist (omega, v) angular first.
 
     expressed_in="space": J_s, the frame's twist in the world frame (MR eq. 5.11);
     expressed_in="body":  J_b, the twist in the frame's own coordinates (MR eq. 5.18);
     J_s = Ad_{T_sf} J_b. q: (nq,) or (N, nq) -> (6, nv) or (N, 6, nv).
+    data: optional Data of this model (single configurations): returns data.J, allocating
+    nothing; data.T_sf holds the frame's pose.
     """
     checks.check_model(model, "jacobian")
     if expressed_in not in ("space", "body"):
         raise ValueError(f"jacobian: expressed_in must be 'space' or 'body', got {expressed_in!r}")
     if not checks.is_single(model, q):
         q = checks.as_q(model, q)
-    body, T_bf = _frame(model, frame)
+    frame = _frame(model, frame)
     body_frame = expressed_in == "body"
     if q.ndim == 1:
-        J = np.empty((6, model.nv))
-        status = jacobian_kernel(model._ibuf, model._fbuf, q, body, T_bf, body_frame, J)
+        if data is None:
+            work, J = model._work, np.empty((6, model.nv))
+        else:
+            work, J = checks.work_of(model, data, "jacobian"), data.J
+        status = jacobian_kernel(model._ibuf, model._fbuf, work, q, frame, body_frame, J)
         if status:
             checks.raise_status(status, model, "jacobian", "J", {"q": q})
         return J
+    checks.single_state_only(data, "jacobian")
     J = np.empty((q.shape[0], 6, model.nv))
     status = np.zeros(q.shape[0], dtype=np.int64)
     run_rows(
@@ -230,8 +256,7 @@ def jacobian(model, q, frame, expressed_in="space"):
         model._ibuf,
         model._fbuf,
         q,
-        body,
-        T_bf,
+        frame,
         body_frame,
         J,
         status,

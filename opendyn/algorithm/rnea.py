@@ -29,7 +29,8 @@ from ..multibody.joints import (
     prepare_joint_transforms,
     state_status,
 )
-from ..multibody.layout import rigid_inertias, tree
+from ..multibody.data import body_motion, joint_poses, new_work, scratch_rows
+from ..multibody.layout import body_count, dof_count, rigid_inertias, tree
 from ..spatial.compiled import (
     ad_twist,
     add_neg_ad_transpose,
@@ -79,8 +80,9 @@ def forward_pass(body_tree, q, qd, qdd, dV_0, R, p, V, dV, s):
 
 
 @njit(**JIT)
-def rnea_kernel(ibuf, fbuf, q, qd, qdd, loads, tau):
-    """tau (nv,) <- RNEA at one state. loads[0] = dV_0 = (0, -g); loads[1 + i], when present,
+def rnea_kernel(ibuf, fbuf, work, q, qd, qdd, loads, tau):
+    """tau (nv,) <- RNEA at one state, working in `work` (a Data's buffer: its R, p, V, dV and
+    F are left as this state's). loads[0] = dV_0 = (0, -g); loads[1 + i], when present,
     the wrench body i applies to the environment. Returns a Status: OK, Q/QD/QDD_NOT_FINITE,
     Q_NOT_UNIT_QUATERNION or RESULT_NOT_FINITE (tau overflowed)."""
     status = state_status(ibuf, q, qd)
@@ -92,12 +94,10 @@ def rnea_kernel(ibuf, fbuf, q, qd, qdd, loads, tau):
     parent, nv_j, iv = body_tree.parent, body_tree.nv_j, body_tree.iv
     mult, S = body_tree.mult, body_tree.S
     mass, h, I_o = rigid_inertias(ibuf, fbuf)
-    nb = parent.shape[0]
-    vec = np.empty((3, nb, 6))
-    V, dV, F = vec[0], vec[1], vec[2]
-    R = np.empty((nb, 3, 3))
-    p = np.empty((nb, 3))
-    s = np.empty((2, 6))
+    nb, nv = body_count(ibuf), dof_count(ibuf)
+    R, p = joint_poses(work, nb)
+    V, dV, F = body_motion(work, nb)
+    s = scratch_rows(work, nb, nv)
     forward_pass(body_tree, q, qd, qdd, loads[0], R, p, V, dV, s)
 
     # backward pass: F_i = G_i dV_i - ad_{V_i}^T G_i V_i + F_tip,i + sum_children Ad^T F_c,
@@ -121,27 +121,31 @@ def rnea_kernel(ibuf, fbuf, q, qd, qdd, loads, tau):
 @njit(**BATCH)
 def rnea_batch_kernel(ibuf, fbuf, q, qd, qdd, loads, tau, status, start, stop):
     """RNEA over rows [start, stop) of a batch: q (N, nq), qd and qdd (N, nv); loads
-    (1, rows, 6) shared or (N, rows, 6)."""
+    (1, rows, 6) shared or (N, rows, 6). The rows work in a buffer of their own."""
     shared = loads.shape[0] == 1
+    work = new_work(body_count(ibuf), dof_count(ibuf))
     for n in range(start, stop):
         status[n] = rnea_kernel(
-            ibuf, fbuf, q[n], qd[n], qdd[n], loads[0] if shared else loads[n], tau[n]
+            ibuf, fbuf, work, q[n], qd[n], qdd[n], loads[0] if shared else loads[n], tau[n]
         )
 
 
 _NO_GRAVITY = np.zeros(3)
 
 
-def run_rnea(model, q, qd, qdd, f_tip, gravity, what, result):
+def run_rnea(model, q, qd, qdd, f_tip, gravity, what, result, data=None):
     """Checked RNEA for single states (nv,) or batches (N, nv); the public functions' core.
-    what, result: the function and its result (e.g. "tau") as error messages name them."""
+    what, result: the function and its result (e.g. "tau") as error messages name them, and
+    the Data field that holds it with data=."""
+    work = checks.work_of(model, data, what)
     (q, qd, qdd), batch = checks.as_states(model, q, ("qd", qd), ("qdd", qdd))
     arguments = {"q": q, "qd": qd, "qdd": qdd, "gravity": gravity, "f_tip": f_tip}
     if not batch:
-        tau = np.empty(model._vector_shape)
+        tau = np.empty(model._vector_shape) if data is None else getattr(data, result)
         status = rnea_kernel(
             model._ibuf,
             model._fbuf,
+            work,
             q,
             qd,
             qdd,
@@ -151,6 +155,7 @@ def run_rnea(model, q, qd, qdd, f_tip, gravity, what, result):
         if status:
             checks.raise_status(status, model, what, result, arguments)
         return tau
+    checks.single_state_only(data, what)
     n = q.shape[0]
     tau = np.empty((n, model.nv))
     status = np.zeros(n, dtype=np.int64)
@@ -170,7 +175,7 @@ def run_rnea(model, q, qd, qdd, f_tip, gravity, what, result):
     return tau
 
 
-def inverse_dynamics(model, q, qd, qdd, f_tip=None, gravity=None):
+def inverse_dynamics(model, q, qd, qdd, f_tip=None, gravity=None, data=None):
     """tau = M(q) qdd + c(q, qd) + g(q) + sum_frames J_b(frame)^T F_tip(frame), by RNEA.
 
     Args:
@@ -180,21 +185,25 @@ def inverse_dynamics(model, q, qd, qdd, f_tip=None, gravity=None):
       f_tip: optional {frame_name: (6,) wrench (m, f)} that each frame applies TO THE
         ENVIRONMENT, in that frame's coordinates (N m, N); (N, 6) per frame for a batch.
       gravity: optional (3,) world-frame gravity (m/s^2), default model.gravity.
+      data: optional Data of this model (single states): the call works in it and returns
+        data.tau, allocating nothing (f_tip and a gravity override are converted first);
+        data.V, data.dV and data.F hold the body twists, accelerations and wrenches.
     Returns tau, (nv,) or (N, nv): joint torques (N m) or forces (N), after the wrench
     (m_b, f_b) on a floating base in its own frame.
     """
     checks.check_model(model, "inverse_dynamics")
     if gravity is None and f_tip is None and checks.is_single(model, q, qd, qdd):
         # the common call, with nothing to convert: straight to the kernel
-        tau = np.empty(model._vector_shape)
-        status = rnea_kernel(
-            model._ibuf, model._fbuf, q, qd, qdd, model._loads, tau
-        )
+        if data is None:
+            work, tau = model._work, np.empty(model._vector_shape)
+        else:
+            work, tau = checks.work_of(model, data, "inverse_dynamics"), data.tau
+        status = rnea_kernel(model._ibuf, model._fbuf, work, q, qd, qdd, model._loads, tau)
         if status:
             arguments = {"q": q, "qd": qd, "qdd": qdd}
             checks.raise_status(status, model, "inverse_dynamics", "tau", arguments)
         return tau
-    return run_rnea(model, q, qd, qdd, f_tip, gravity, "inverse_dynamics", "tau")
+    return run_rnea(model, q, qd, qdd, f_tip, gravity, "inverse_dynamics", "tau", data)
 
 
 def _zeros_like_state(model, q):
@@ -205,34 +214,38 @@ def _zeros_like_state(model, q):
     return q, np.zeros(q.shape[:-1] + model._vector_shape)
 
 
-def gravity_forces(model, q, gravity=None):
+def gravity_forces(model, q, gravity=None, data=None):
     """g(q) = dU/dq: the joint torques that hold the robot still against gravity (RNEA with
     qd = qdd = 0).
 
     q: (nq,) or (N, nq); gravity: optional (3,) world-frame vector (m/s^2).
+    data: optional Data of this model (single states): returns data.g, allocating nothing.
     Returns (nv,) or (N, nv).
     """
     checks.check_model(model, "gravity_forces")
     q, zero = _zeros_like_state(model, q)
-    return run_rnea(model, q, zero, zero, None, gravity, "gravity_forces", "g")
+    return run_rnea(model, q, zero, zero, None, gravity, "gravity_forces", "g", data)
 
 
-def coriolis_forces(model, q, qd):
+def coriolis_forces(model, q, qd, data=None):
     """c(q, qd) = C(q, qd) qd: Coriolis and centripetal torques (RNEA, qdd = 0, no gravity).
 
-    q, qd: (nq,) and (nv,), or (N, nq) and (N, nv). Returns (nv,) or (N, nv).
+    q, qd: (nq,) and (nv,), or (N, nq) and (N, nv).
+    data: optional Data of this model (single states): returns data.c, allocating nothing.
+    Returns (nv,) or (N, nv).
     """
     checks.check_model(model, "coriolis_forces")
     q, zero = _zeros_like_state(model, q)
-    return run_rnea(model, q, qd, zero, None, _NO_GRAVITY, "coriolis_forces", "c")
+    return run_rnea(model, q, qd, zero, None, _NO_GRAVITY, "coriolis_forces", "c", data)
 
 
-def bias_forces(model, q, qd, gravity=None):
+def bias_forces(model, q, qd, gravity=None, data=None):
     """h(q, qd) = c(q, qd) + g(q): the torques when qdd = 0 (RNEA).
 
-    q, qd: (nq,) and (nv,), or batches; gravity: optional (3,) world-frame vector. Returns (nv,)
-    or (N, nv).
+    q, qd: (nq,) and (nv,), or batches; gravity: optional (3,) world-frame vector.
+    data: optional Data of this model (single states): returns data.h, allocating nothing.
+    Returns (nv,) or (N, nv).
     """
     checks.check_model(model, "bias_forces")
     q, zero = _zeros_like_state(model, q)
-    return run_rnea(model, q, qd, zero, None, gravity, "bias_forces", "h")
+    return run_rnea(model, q, qd, zero, None, gravity, "bias_forces", "h", data)

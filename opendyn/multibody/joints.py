@@ -74,30 +74,34 @@ QUATERNION_TOLERANCE = 1e-3
 
 
 @njit(**INLINE)
-def quaternion_rotation(x, y, z, w, R):
-    """R (3, 3) <- the rotation of the quaternion (x, y, z, w) / |(x, y, z, w)|:
-    R = I + 2 w [u] + 2 [u]^2 for the unit quaternion (u, w)."""
+def quaternion_rows(x, y, z, w):
+    """The rotation of the quaternion (x, y, z, w) / |(x, y, z, w)|, as its three rows (tuples,
+    so that no array is made): R = I + 2 w [u] + 2 [u]^2 for the unit quaternion (u, w)."""
     s = 2.0 / (x * x + y * y + z * z + w * w)
-    R[0, 0] = 1.0 - s * (y * y + z * z)
-    R[0, 1] = s * (x * y - z * w)
-    R[0, 2] = s * (x * z + y * w)
-    R[1, 0] = s * (x * y + z * w)
-    R[1, 1] = 1.0 - s * (x * x + z * z)
-    R[1, 2] = s * (y * z - x * w)
-    R[2, 0] = s * (x * z - y * w)
-    R[2, 1] = s * (y * z + x * w)
-    R[2, 2] = 1.0 - s * (x * x + y * y)
+    return (
+        (1.0 - s * (y * y + z * z), s * (x * y - z * w), s * (x * z + y * w)),
+        (s * (x * y + z * w), 1.0 - s * (x * x + z * z), s * (y * z - x * w)),
+        (s * (x * z - y * w), s * (y * z + x * w), 1.0 - s * (x * x + y * y)),
+    )
+
+
+@njit(**INLINE)
+def quaternion_rotation(x, y, z, w, R):
+    """R (3, 3) <- the rotation of the quaternion (x, y, z, w) (quaternion_rows)."""
+    rows = quaternion_rows(x, y, z, w)
+    for r in range(3):
+        for c in range(3):
+            R[r, c] = rows[r][c]
 
 
 @njit(**INLINE)
 def free_transform(R_home, p_home, q, iq, R, p):
     """(R, p) = M X_J for a free joint: X_J = (R(quat), p_J), (p_J, quat) = q[iq : iq + 7]."""
-    R_J = np.empty((3, 3))
-    quaternion_rotation(q[iq + 3], q[iq + 4], q[iq + 5], q[iq + 6], R_J)
+    R_J = quaternion_rows(q[iq + 3], q[iq + 4], q[iq + 5], q[iq + 6])
     for r in range(3):
         h0, h1, h2 = R_home[r, 0], R_home[r, 1], R_home[r, 2]
         for c in range(3):
-            R[r, c] = h0 * R_J[0, c] + h1 * R_J[1, c] + h2 * R_J[2, c]
+            R[r, c] = h0 * R_J[0][c] + h1 * R_J[1][c] + h2 * R_J[2][c]
         p[r] = p_home[r] + h0 * q[iq] + h1 * q[iq + 1] + h2 * q[iq + 2]
 
 

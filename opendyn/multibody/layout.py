@@ -114,6 +114,12 @@ def body_count(ibuf):
     return np.int64(ibuf[0])
 
 
+@njit(**INLINE)
+def dof_count(ibuf):
+    """nv from the model's int buffer, as int64 (see body_count)."""
+    return np.int64(ibuf[1])
+
+
 # The kinematic tree as the kernels see it, each field a view of the model's buffers (nb bodies):
 #   parent (nb,) int, -1 = the fixed world; jtype (nb,) int joint type; nv_j, iq, iv (nb,) int
 #   joint i's velocity size and first indices in q and v; mult, offset (nb,) the mimic law;

@@ -46,6 +46,7 @@ from ..spatial.algebra import (
     spatial_inertia,
     transform_inertia,
 )
+from .data import Data, work_size
 from .joints import FREE, FREE_Q_NAMES, FREE_V_NAMES, JOINT_NQ, JOINT_NV, JOINT_TYPE_NAMES
 from .layout import (
     FIXED_JOINTS_INT,
@@ -329,6 +330,9 @@ class Model:
         loads = np.zeros((1, 6))
         linear(loads[0])[:] = -self._gravity  # the kernels' dV_0 = (0, -g), no wrenches
         object.__setattr__(self, "_loads", loads)
+        # the work buffer of calls made without data= (the kernels hold the GIL, so calls from
+        # several threads take turns in it; batches give each thread a buffer of its own)
+        object.__setattr__(self, "_work", np.zeros(work_size(nb, nv)))
 
     parent = property(lambda self: self._fields["parent"], doc="(nb,) parent body, -1 = world")
     jtype = property(lambda self: self._fields["jtype"], doc="(nb,) REVOLUTE/PRISMATIC/FREE")
@@ -397,6 +401,11 @@ class Model:
         for key, values in zip(("G", "mass", "h", "I_o"), (G, *rigid_body_form(G))):
             write_field(fbuf, FLOAT_AT, key, self.nb, values)
         return dataclasses.replace(self, _fbuf=fbuf)
+
+    def data(self) -> Data:
+        """A new Data for this model: the work arrays that the dynamics functions' ``data=``
+        works in (opendyn.multibody.data)."""
+        return Data(self)
 
     def home_transform(self, i: int) -> np.ndarray:
         """M_{lambda(i), i}: (4, 4) home configuration of body i in its parent's frame."""

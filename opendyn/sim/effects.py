@@ -62,7 +62,9 @@ from ..algorithm.constraints import constraint_table
 from ..algorithm.contact import contact_kernel
 from ..algorithm.crba import crba_kernel
 from ..algorithm.forward import NO_ARMATURE
-from ..algorithm.kinematics import frame_pose_kernel, jacobian_kernel
+from ..algorithm.kinematics import jacobian_kernel
+from ..multibody.data import frame_pose_field
+from ..multibody.layout import body_count
 from ..algorithm.rnea import rnea_kernel
 
 # the slots of a scene's effects tuple, in the order the step runs them; a slot holds the
@@ -164,31 +166,31 @@ def wrench_at(p, n, t, F):
 
 
 @njit(**JIT)
-def wrench_effect(wrenches, ibuf, fbuf, t, q, tau):
+def wrench_effect(wrenches, ibuf, fbuf, work, t, q, tau):
     """tau += sum over the wrenches of J_b(frame)^T F_frame. wrenches = (rows (k, 4) int64,
     params), or None; row (offset into params, samples n, body, world); params at offset:
     T_body_frame (16,), then the table of n samples (wrench_at). world = 1: F is given in
-    world-aligned axes at the frame's origin, F_frame = (R^T m, R^T f)."""
+    world-aligned axes at the frame's origin, F_frame = (R^T m, R^T f), with R from the pose
+    T_sf that the Jacobian's kinematics leave in `work` (one pass of kinematics a wrench)."""
     if wrenches is None:
         return
     rows, params = wrenches
     nv = tau.shape[0]
     F = np.empty(6)
     F_s = np.empty(6)
-    T_sf = np.empty((4, 4))
     J_b = np.empty((6, nv))
+    T_sf = frame_pose_field(work, body_count(ibuf), nv)
     for w in range(rows.shape[0]):
         offset, n, body, world = rows[w, 0], rows[w, 1], rows[w, 2], rows[w, 3]
         p = params[offset:]
         T_bf = p[:16].reshape((4, 4))
         wrench_at(p[16:], n, t, F)
+        jacobian_kernel(ibuf, fbuf, work, q, (body, T_bf), True, J_b)
         if world == 1:
-            frame_pose_kernel(ibuf, fbuf, q, body, T_bf, T_sf)
             copy_into(F, F_s)
             for r in range(3):
                 F[r] = T_sf[0, r] * F_s[0] + T_sf[1, r] * F_s[1] + T_sf[2, r] * F_s[2]
                 F[3 + r] = T_sf[0, r] * F_s[3] + T_sf[1, r] * F_s[4] + T_sf[2, r] * F_s[5]
-        jacobian_kernel(ibuf, fbuf, q, body, T_bf, True, J_b)
         for j in range(nv):
             s = 0.0
             for r in range(6):
@@ -197,22 +199,19 @@ def wrench_effect(wrenches, ibuf, fbuf, t, q, tau):
 
 
 @njit(**JIT)
-def contact_effect(p, ibuf, fbuf, q, qd, tau, K, D, jac, power):
+def contact_effect(p, ibuf, fbuf, work, q, qd, tau, linear, power):
     """tau += sum_p J_p^T f_p, the ground's forces on the contact spheres; power[1] += their
     spring's share sum_p k delta_p delta_dot_p (with qd . tau it makes the contacts'
-    non-conservative power); with jac, K, D (nv, nv) += their linearisation
-    (opendyn.algorithm.contact). p = (bodies (P,) int64, params), or None."""
+    non-conservative power); with linear = (K, D, jac) and jac, K, D (nv, nv) += their
+    linearisation (opendyn.algorithm.contact). p = (bodies (P,) int64, params), or None.
+    Works in `work`, the step's Data buffer."""
     if p is None:
         return
-    bodies, params = p
-    n = bodies.shape[0]
-    x_c = np.empty((n, 3))
-    f_c = np.empty((n, 3))
-    delta = np.empty(n)
+    K, D, jac = linear
+    n = p[0].shape[0]
+    record = (np.empty((n, 3)), np.empty((n, 3)), np.empty(n))
     # np.bool_(jac): a run-time flag, so that the kernel compiles once for both values
-    power[1] += contact_kernel(
-        ibuf, fbuf, bodies, params, q, qd, tau, K, D, np.bool_(jac), x_c, f_c, delta
-    )
+    power[1] += contact_kernel(ibuf, fbuf, work, p, q, qd, tau, (K, D, np.bool_(jac)), record)
 
 
 @njit(**JIT)
@@ -242,14 +241,14 @@ def pd_effect(p, q, qd, tau, K, D, jac):
 
 
 @njit(**JIT)
-def base_reaction(ibuf, fbuf, q, tau_c):
+def base_reaction(ibuf, fbuf, work, q, tau_c):
     """A floating base is unactuated: given tau_c (nv,) = RNEA(q, qd, (0, qdd_c)) = M_{:,j} qdd_c
     + h, the base accelerates with a_b = -M_bb^-1 tau_c[:6] (its rows of M a + h vanish), and
     the joints need tau_j = tau_c[j] + M_jb a_b. tau_c <- (0, tau_j). Returns a Status
     (SINGULAR when the whole body has no inertia)."""
     nv = tau_c.shape[0]
     M = np.empty((nv, nv))
-    crba_kernel(ibuf, fbuf, q, M)
+    crba_kernel(ibuf, fbuf, work, q, M)
     M_bb = np.empty((6, 6))
     minus_h_b = np.empty(6)
     for r in range(6):
@@ -269,7 +268,7 @@ def base_reaction(ibuf, fbuf, q, tau_c):
 
 
 @njit(**JIT)
-def computed_torque_effect(p, ibuf, fbuf, t, q, qd, dV_0, armature, tau):
+def computed_torque_effect(p, ibuf, fbuf, work, t, q, qd, dV_0, armature, tau):
     """tau += the joint torques that give the joints the acceleration
     qdd_c = qdd_r + kp (q_r - q) + kd (qd_r - qd), q_r = offset + amplitude sin(w t + phase),
     w = 2 pi frequency (joint k's position q[iq_k], velocity qd[iv_k]):
@@ -299,11 +298,11 @@ def computed_torque_effect(p, ibuf, fbuf, t, q, qd, dV_0, armature, tau):
     loads = np.empty((1, 6))
     copy_into(dV_0, loads[0])
     tau_c = np.empty(qd.shape[0])
-    status = rnea_kernel(ibuf, fbuf, q, qd, qdd_c, loads, tau_c)
+    status = rnea_kernel(ibuf, fbuf, work, q, qd, qdd_c, loads, tau_c)
     if status:
         return status
     if base is not None:
-        status = base_reaction(ibuf, fbuf, q, tau_c)
+        status = base_reaction(ibuf, fbuf, work, q, tau_c)
         if status:
             return status
     for k in range(n):

@@ -265,19 +265,20 @@ def velocity_solve(ibuf, fbuf, con, q, qd, M, rhs, qdd):
 @njit(**JIT)
 def implicit_velocity_step(scene, t, dt, q, qd, w, q1, qd1, w1, tau_ctrl):
     """One linearly implicit Euler step (module docstring). Returns a Status."""
-    ibuf, fbuf, _, armature, _, con, (forces, loads, KD) = scene
+    ibuf, fbuf, work = scene.ibuf, scene.fbuf, scene.work
+    armature, con, loads = scene.armature, scene.constraints, scene.loads
     nv = qd.shape[0]
-    tau, K, D = forces[0], KD[0], KD[1]
+    tau, K, D = scene.forces[0], scene.KD[0], scene.KD[1]
     power = np.empty(2)
     status = generalized_forces(scene, t, q, qd, tau, tau_ctrl, power, K, D, True)
     if status:
         return status
     h = np.empty(nv)
-    status = rnea_kernel(ibuf, fbuf, q, qd, np.zeros(nv), loads, h)
+    status = rnea_kernel(ibuf, fbuf, work, q, qd, np.zeros(nv), loads, h)
     if status:
         return status
     M = np.empty((nv, nv))
-    crba_kernel(ibuf, fbuf, q, M)
+    crba_kernel(ibuf, fbuf, work, q, M)
     rhs = np.empty(nv)
     for j in range(nv):
         rhs[j] = tau[j] - h[j]
@@ -301,9 +302,10 @@ def implicit_velocity_step(scene, t, dt, q, qd, w, q1, qd1, w1, tau_ctrl):
 @njit(**JIT)
 def symplectic_euler_step(scene, t, dt, q, qd, w, q1, qd1, w1, tau_ctrl):
     """One step of symplectic Euler in momentum form (module docstring). Returns a Status."""
-    ibuf, fbuf, _, armature, _, _, (forces, loads, KD) = scene
+    ibuf, fbuf, work = scene.ibuf, scene.fbuf, scene.work
+    armature, loads, KD = scene.armature, scene.loads, scene.KD
     nv = qd.shape[0]
-    tau = forces[0]
+    tau = scene.forces[0]
     power = np.empty(2)
     status = generalized_forces(scene, t, q, qd, tau, tau_ctrl, power, KD[0], KD[1], False)
     if status:
@@ -311,12 +313,12 @@ def symplectic_euler_step(scene, t, dt, q, qd, w, q1, qd1, w1, tau_ctrl):
     # g(q): RNEA at qd = qdd = 0 under the base acceleration
     zero = np.zeros(nv)
     g = np.empty(nv)
-    status = rnea_kernel(ibuf, fbuf, q, zero, zero, loads, g)
+    status = rnea_kernel(ibuf, fbuf, work, q, zero, zero, loads, g)
     if status:
         return status
     # p = (M(q) + diag(armature)) qd
     M = np.empty((nv, nv))
-    crba_kernel(ibuf, fbuf, q, M)
+    crba_kernel(ibuf, fbuf, work, q, M)
     p = np.zeros(nv)
     for r in range(nv):
         if armature.shape[0]:
@@ -352,7 +354,7 @@ def symplectic_euler_step(scene, t, dt, q, qd, w, q1, qd1, w1, tau_ctrl):
         return Status.NO_CONVERGENCE.value
     # q' = q (+) v dt, qd' = (M(q') + diag(armature))^-1 p'
     integrate_kernel(ibuf, q, v, dt, q1)
-    crba_kernel(ibuf, fbuf, q1, M)
+    crba_kernel(ibuf, fbuf, work, q1, M)
     if armature.shape[0]:
         for r in range(nv):
             M[r, r] += armature[r]

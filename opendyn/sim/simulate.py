@@ -166,11 +166,11 @@ def _load_kernels(scene, integ, table, q, qd, w, out, counters):
     nv = model.nv
     data = step.scene_data(model, table)
     first = (np.zeros((2, nv)), np.zeros(2), np.zeros(nv))
-    ibuf, fbuf, _, armature, method, con, (_, loads, KD) = data
+    KD = data.KD
     tau, qdd = np.zeros(nv), np.empty(nv)
     state = (q[None].copy(), qd[None].copy())
     pieces = [
-        lambda: step.dynamics(ibuf, fbuf, armature, method, con, loads, q, qd, tau, qdd),
+        lambda: step.dynamics(data, q, qd, tau, qdd),
         lambda: step.generalized_forces(
             data, 0.0, q, qd, np.empty(nv), np.empty(nv), np.empty(2), KD[0], KD[1], False
         ),
@@ -464,8 +464,8 @@ def _contact_record(model, table, q, qd):
     shape = (len(q), len(bodies))
     points, forces, depth = np.empty(shape + (3,)), np.empty(shape + (3,)), np.empty(shape)
     run_rows(
-        contact_record_kernel, len(q), model._ibuf, model._fbuf, bodies, params, q, qd,
-        points, forces, depth,
+        contact_record_kernel, len(q), model._ibuf, model._fbuf, (bodies, params), (q, qd),
+        (points, forces, depth),
     )
     return points, forces, depth
 
@@ -748,17 +748,17 @@ def _contact_rates(scene, table, q):
     q = np.array(q, dtype=np.float64)  # writable, as in the run: no new specialisation
     bodies, params = table.effects[effects.CONTACT]
     J = np.empty((len(bodies), 3, model.nv))
-    contact_jacobians_kernel(model._ibuf, model._fbuf, bodies, params, q, J)
-    method = method_switches(model, table.method)
-    at_rest, no_loads, qdd = np.zeros(model.nv), np.zeros((1, 6)), np.empty(model.nv)
+    contact_jacobians_kernel(model._ibuf, model._fbuf, (bodies, params), q, J)
+    # the scene's forward dynamics without constraints, without gravity
+    unconstrained = step.scene_data(model, table)._replace(
+        constraints=None, method=method_switches(model, table.method), loads=np.zeros((1, 6))
+    )
+    at_rest, qdd = np.zeros(model.nv), np.empty(model.nv)
     inverse_mass = np.empty((len(bodies), 3))
     for p in range(len(bodies)):
         for r in range(3):
             tau = np.ascontiguousarray(J[p, r])
-            status = step.dynamics(
-                model._ibuf, model._fbuf, table.armature, method, None, no_loads, q, at_rest,
-                tau, qdd,
-            )
+            status = step.dynamics(unconstrained, q, at_rest, tau, qdd)
             if status:
                 return []
             inverse_mass[p, r] = tau @ qdd

@@ -24,6 +24,8 @@ multiplication by zero remains).
 
 from __future__ import annotations
 
+from collections import namedtuple
+
 import numpy as np
 from numba import njit
 
@@ -58,17 +60,19 @@ from .effects import (
 
 
 @njit(**INLINE)
-def run_slot(
-    slot, effects, ibuf, fbuf, armature, t, q, qd, dV_0, tau_ctrl, tau_app, tau_pas, power, K, D,
-    jac,
-):
-    """One effect of the scene's effects tuple: adds its generalized force to tau_ctrl
-    (control), tau_app (applied wrenches) or tau_pas (passive effects and contact), or sets
-    dV_0 (gravity); contact adds its springs' share of the power to power[1].
+def run_slot(slot, scene, t, q, qd, dV_0, forces, power, linear):
+    """One effect of the scene's effects tuple (scene: a SceneData): adds its generalized
+    force to one of forces = (tau_ctrl (control), tau_app (applied wrenches), tau_pas (passive
+    effects and contact)), or sets dV_0 (gravity); contact adds its springs' share of the
+    power to power[1]; with linear = (K, D, jac) and jac True, K and D get the effect's
+    stiffness and damping.
     An empty slot (None) compiles to nothing: its effect function compiles to a bare return
     and the test `is not None` on a None-typed slot is a constant, so the call is dropped
     (a call left in, with its array arguments, cost about 60 ns per empty slot and evaluation).
     Returns a Status."""
+    effects, ibuf, fbuf, work = scene.effects, scene.ibuf, scene.fbuf, scene.work
+    tau_ctrl, tau_app, tau_pas = forces
+    K, D, jac = linear
     if slot == GRAVITY and effects[GRAVITY] is not None:
         gravity_effect(effects[GRAVITY], dV_0)
     elif slot == DAMPING and effects[DAMPING] is not None:
@@ -78,16 +82,16 @@ def run_slot(
     elif slot == LIMITS and effects[LIMITS] is not None:
         limits_effect(effects[LIMITS], q, qd, tau_pas, K, D, jac)
     elif slot == WRENCH and effects[WRENCH] is not None:
-        wrench_effect(effects[WRENCH], ibuf, fbuf, t, q, tau_app)
+        wrench_effect(effects[WRENCH], ibuf, fbuf, work, t, q, tau_app)
     elif slot == CONTACT and effects[CONTACT] is not None:
-        contact_effect(effects[CONTACT], ibuf, fbuf, q, qd, tau_pas, K, D, jac, power)
+        contact_effect(effects[CONTACT], ibuf, fbuf, work, q, qd, tau_pas, linear, power)
     elif slot == CONSTANT and effects[CONSTANT] is not None:
         constant_effect(effects[CONSTANT], tau_ctrl)
     elif slot == PD and effects[PD] is not None:
         pd_effect(effects[PD], q, qd, tau_ctrl, K, D, jac)
     elif slot == COMPUTED_TORQUE and effects[COMPUTED_TORQUE] is not None:
         return computed_torque_effect(
-            effects[COMPUTED_TORQUE], ibuf, fbuf, t, q, qd, dV_0, armature, tau_ctrl
+            effects[COMPUTED_TORQUE], ibuf, fbuf, work, t, q, qd, dV_0, scene.armature, tau_ctrl
         )
     elif slot == CLIP and effects[CLIP] is not None:
         clip_effect(effects[CLIP], tau_ctrl)
@@ -102,8 +106,7 @@ def generalized_forces(scene, t, q, qd, tau, tau_ctrl, power, K, D, jac):
     passive one less the work of the contacts' springs. With jac, K and D (nv, nv) <- the
     stiffness -d tau/dq and damping -d tau/dqd of the effects; without, K and D are not
     touched. Returns a Status."""
-    ibuf, fbuf, effects, armature, _, _, (forces, loads, _) = scene
-    tau_app, tau_pas, dV_0 = forces[1], forces[2], loads[0]
+    tau_app, tau_pas, dV_0 = scene.forces[1], scene.forces[2], scene.loads[0]
     fill(tau_app, 0.0)
     fill(tau_pas, 0.0)
     fill(tau_ctrl, 0.0)
@@ -114,8 +117,7 @@ def generalized_forces(scene, t, q, qd, tau, tau_ctrl, power, K, D, jac):
         zero_matrix(D)
     for slot in range(len(SLOT_NAMES)):
         status = run_slot(
-            slot, effects, ibuf, fbuf, armature, t, q, qd, dV_0, tau_ctrl, tau_app,
-            tau_pas, power, K, D, jac,
+            slot, scene, t, q, qd, dV_0, (tau_ctrl, tau_app, tau_pas), power, (K, D, jac)
         )
         if status:
             return status
@@ -131,42 +133,61 @@ def generalized_forces(scene, t, q, qd, tau, tau_ctrl, power, K, D, jac):
 
 
 @njit(**JIT)
-def dynamics(ibuf, fbuf, armature, method, con, loads, q, qd, tau, qdd):
-    """qdd (nv,) <- forward dynamics under tau (nv,) and the base acceleration loads[0]: the
-    method's without constraints (con None), the constrained solve with them (the method's
-    switches, (aba, crba, newton_euler) as dynamics.forward.method_switches gives them, are
-    then all None). numba tests con and the switches against None when it compiles, so only
-    the branch a scene selects is compiled. Returns a Status."""
+def dynamics(scene, q, qd, tau, qdd):
+    """qdd (nv,) <- forward dynamics under tau (nv,) and the base acceleration scene.loads[0]:
+    the method's without constraints, the constrained solve with them (solve_with). Returns a
+    Status."""
+    return solve_with(scene.constraints, scene, q, qd, tau, qdd)
+
+
+@njit(**JIT)
+def solve_with(con, scene, q, qd, tau, qdd):
+    """dynamics: the method's forward dynamics when con is None, the constrained solve with
+    con = (rows, params, gains) (the method's switches, (aba, crba, newton_euler) as
+    algorithm.forward.method_switches gives them, are then all None). numba tests con against
+    None when it compiles, so only the branch a scene selects is compiled. Returns a Status."""
     if con is None:
-        aba, crba, newton_euler = method
         return forward_kernel(
-            ibuf, fbuf, q, qd, tau, loads, qdd, armature, aba, crba, newton_euler
+            scene.ibuf, scene.fbuf, scene.work, q, qd, tau, scene.loads, qdd, scene.armature,
+            scene.method,
         )
     rows, cparams, gains = con
     lam = np.empty(rows[:, 2].sum())
     return constrained_forward_kernel(
-        ibuf, fbuf, rows, cparams, gains, q, qd, tau, loads, armature, qdd, lam
+        scene.ibuf, scene.fbuf, rows, cparams, gains, q, qd, tau, scene.loads, scene.armature,
+        qdd, lam,
     )
 
 
+# The scene as the compiled step takes it (scene_data): the model's buffers ibuf, fbuf; the
+# stage table's effects tuple, armature and constraints (or None); the forward-dynamics method
+# as the compile-time switches of algorithm.forward.forward_kernel (none with constraints);
+# and the step's own scratch: forces (3, nv) (tau, tau_applied, tau_passive), loads (1, 6)
+# with dV_0, KD (2, nv, nv) the stiffness K and damping D of the effects for the implicit
+# integrator, and work, the buffer of a Data of the model that the kernels work in.
+SceneData = namedtuple(
+    "SceneData",
+    (
+        "ibuf", "fbuf", "effects", "armature", "method", "constraints", "forces", "loads",
+        "KD", "work",
+    ),
+)
+
+
 def scene_data(model, table):
-    """The scene as the compiled step takes it: one tuple (ibuf, fbuf, effects, armature,
-    method, con, (forces, loads, KD)) of the model's buffers, the stage table
-    (effects.StageTable: its effects tuple, armature, the forward-dynamics method as the
-    compile-time switches of dynamics.forward.forward_kernel, none with constraints, and its
-    constraints or None), and the step's own scratch: forces (3, nv)
-    (tau, tau_applied, tau_passive), loads (1, 6) with dV_0, KD (2, nv, nv) the stiffness K and
-    damping D of the effects for the implicit integrator."""
+    """The SceneData of a model and its stage table (effects.StageTable)."""
     method = method_switches(model, None if table.constraints else table.method)
-    scratch = (np.empty((3, model.nv)), np.zeros((1, 6)), np.empty((2, model.nv, model.nv)))
-    return (
+    return SceneData(
         model._ibuf,
         model._fbuf,
         table.effects,
         table.armature,
         method,
         table.constraints,
-        scratch,
+        np.empty((3, model.nv)),
+        np.zeros((1, 6)),
+        np.empty((2, model.nv, model.nv)),
+        model.data()._work,
     )
 
 
@@ -175,12 +196,11 @@ def evaluate(scene, t, q, qd, qdd, tau_ctrl, power):
     """qdd (nv,) <- the scene's forward dynamics at (t, q, qd); tau_ctrl (nv,) <- the control
     torque; power (2,) <- (applied, passive) power. scene: scene_data(model, table).
     Compiled once and called by every loop. Returns a Status."""
-    ibuf, fbuf, _, armature, method, con, (forces, loads, KD) = scene
-    tau = forces[0]
+    tau, KD = scene.forces[0], scene.KD
     status = generalized_forces(scene, t, q, qd, tau, tau_ctrl, power, KD[0], KD[1], False)
     if status:
         return status
-    return dynamics(ibuf, fbuf, armature, method, con, loads, q, qd, tau, qdd)
+    return dynamics(scene, q, qd, tau, qdd)
 
 
 @njit(**JIT)
@@ -195,8 +215,7 @@ def stage_cost_kernel(scene, which, t, q, qd):
     tau_pas = np.empty(nv)
     qdd = np.empty(nv)
     power = np.empty(2)
-    ibuf, fbuf, effects, armature, method, con, (_, loads, KD) = scene
-    K, D = KD[0], KD[1]
+    effects, loads, K, D = scene.effects, scene.loads, scene.KD[0], scene.KD[1]
     fill(loads[0], 0.0)
     gravity_effect(effects[GRAVITY], loads[0])
     total = 0.0
@@ -206,14 +225,14 @@ def stage_cost_kernel(scene, which, t, q, qd):
             fill(tau_app, 0.0)
             fill(tau_pas, 0.0)
             run_slot(
-                which, effects, ibuf, fbuf, armature, t[n], q[n], qd[n], loads[0],
-                tau_ctrl, tau_app, tau_pas, power, K, D, False,
+                which, scene, t[n], q[n], qd[n], loads[0], (tau_ctrl, tau_app, tau_pas), power,
+                (K, D, False),
             )
             for j in range(nv):
                 total += tau_ctrl[j] + tau_app[j] + tau_pas[j]
         elif which == -1:
             fill(tau_ctrl, 0.0)
-            dynamics(ibuf, fbuf, armature, method, con, loads, q[n], qd[n], tau_ctrl, qdd)
+            dynamics(scene, q[n], qd[n], tau_ctrl, qdd)
             total += qdd.sum()
         else:
             evaluate(scene, t[n], q[n], qd[n], qdd, tau_ctrl, power)

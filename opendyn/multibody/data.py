@@ -1,0 +1,306 @@
+"""Data: the work arrays of one model's evaluations (Pinocchio's Data, MuJoCo's mjData).
+
+A Model is what the robot is and never changes; a Data is where the algorithms work on it. Every
+public dynamics function takes an optional ``data=``: with it, the call allocates nothing, works
+in the Data's arrays and returns an array the Data holds (overwritten by the next call that
+computes the same quantity); without it, the call returns a fresh array as it always did.
+
+All of a Data's numbers live in one flat float64 buffer, laid out once by WORK_FIELDS; the
+compiled kernels receive that buffer as one argument and take named views of it (`joint_poses`,
+`body_motion`, ...), and the fields below are numpy views of the same memory. nb is the number
+of moving bodies, nv the number of velocity coordinates; {i} is body i's frame, {s} the world.
+
+Per body, as the last evaluation that computes them left them:
+  R, p          (nb, 3, 3), (nb, 3)  T_{lambda(i), i} = (R[i], p[i]): body i's pose in its parent
+                                     (metres), after the joint's motion
+  R_s, p_s      (nb, 3, 3), (nb, 3)  T_{s,i}: body i's pose in the world (kinematics, Jacobians)
+  V             (nb, 6)   body twists V_i = (omega, v) in {i} (rad/s, m/s)
+  dV            (nb, 6)   body accelerations in {i}, with gravity as the base's acceleration
+                          (0, -g) (rad/s^2, m/s^2)
+  F             (nb, 6)   wrench (m, f) that joint i transmits to body i, in {i} (N m, N) (RNEA)
+  a_vp          (nb, 6)   velocity-product acceleration c_i = ad_{V_i} S_i qd_i in {i} (ABA)
+  pA            (nb, 6)   articulated-body bias wrenches in {i} (N m, N) (ABA)
+  IA            (nb, 6, 6) articulated-body inertias in {i} (kg, kg m, kg m^2) (ABA)
+  U, L          (nb, 6, 6) ABA's U_i = IA_i S_i (rows) and D_i = S_i^T U_i or its Cholesky factor
+  u             (nb, 6)   ABA's u_i = tau_i - S_i^T pA_i (first nv_i entries)
+  mass_c, h_c, I_c (nb,), (nb, 3), (nb, 3, 3) composite rigid-body inertia of the subtree of
+                          body i, in {i}: mass (kg), first moment m c (kg m), rotational inertia
+                          about {i}'s origin (kg m^2) (CRBA)
+Joint space, the results (the function that returns each):
+  tau           (nv,)     inverse_dynamics
+  g             (nv,)     gravity_forces
+  c             (nv,)     coriolis_forces
+  h             (nv,)     bias_forces; forward dynamics by CRBA leaves in it the right-hand
+                          side tau - h - J^T F_tip
+  qdd           (nv,)     forward_dynamics
+  M             (nv, nv)  mass_matrix; forward dynamics by CRBA leaves in its lower triangle
+                          the Cholesky factor L of M = L L^T
+  J             (6, nv)   jacobian
+  T_sf          (4, 4)    frame_pose (jacobian leaves the frame's pose in it too)
+(N m or N for forces, rad/s^2 or m/s^2 for accelerations, as the functions' docstrings say.)
+"""
+
+from __future__ import annotations
+
+from collections import namedtuple
+
+import numpy as np
+from numba import njit
+
+from .._runtime.kernel_cache import INLINE
+
+# Where a field starts and how many numbers it holds: start = nb * per_nb + nv * per_nv +
+# nv^2 * per_nv2 + fixed, and likewise its size. A namedtuple of ints, which numba freezes as a
+# compile-time constant.
+Extent = namedtuple("Extent", ("per_nb", "per_nv", "per_nv2", "fixed"))
+
+# (field, shape per unit, unit): unit "nb" for per-body fields, "nv" and "nv2" for joint-space
+# ones, "fixed" for a fixed shape. Scratch rows used inside one kernel come last.
+WORK_FIELDS = (
+    ("R", (3, 3), "nb"),
+    ("p", (3,), "nb"),
+    ("R_s", (3, 3), "nb"),
+    ("p_s", (3,), "nb"),
+    ("V", (6,), "nb"),
+    ("dV", (6,), "nb"),
+    ("F", (6,), "nb"),
+    ("a_vp", (6,), "nb"),
+    ("pA", (6,), "nb"),
+    ("u", (6,), "nb"),
+    ("IA", (6, 6), "nb"),
+    ("U", (6, 6), "nb"),
+    ("L", (6, 6), "nb"),
+    ("mass_c", (), "nb"),
+    ("h_c", (3,), "nb"),
+    ("I_c", (3, 3), "nb"),
+    ("body_flag", (), "nb"),
+    ("tau", (), "nv"),
+    ("g", (), "nv"),
+    ("c", (), "nv"),
+    ("h", (), "nv"),
+    ("qdd", (), "nv"),
+    ("zero_v", (), "nv"),
+    ("e_k", (), "nv"),
+    ("J", (6,), "nv"),
+    ("M", (), "nv2"),
+    ("T_sf", (4, 4), "fixed"),
+    ("no_loads", (1, 6), "fixed"),
+    ("scratch", (9, 6), "fixed"),
+    ("temp", (3, 6), "fixed"),
+)
+# the fields a user reads (the rest is the kernels' scratch)
+PUBLIC_FIELDS = tuple(
+    name for name, _, _ in WORK_FIELDS if name not in ("body_flag", "zero_v", "e_k", "no_loads", "scratch", "temp")
+)
+_UNITS = ("nb", "nv", "nv2", "fixed")
+
+
+def _extents(fields):
+    """{field: (start Extent, size Extent)}: fields of each unit in turn, in table order."""
+    out, start = {}, [0, 0, 0, 0]
+    for unit_index, unit in enumerate(_UNITS):
+        for name, shape, field_unit in fields:
+            if field_unit != unit:
+                continue
+            size = [0, 0, 0, 0]
+            size[unit_index] = int(np.prod(shape))
+            out[name] = (Extent(*start), Extent(*size))
+            start[unit_index] += size[unit_index]
+    return out, Extent(*start)
+
+
+WORK_AT, WORK_SIZE = _extents(WORK_FIELDS)
+
+
+def _count(extent, nb, nv):
+    return extent.per_nb * nb + extent.per_nv * nv + extent.per_nv2 * nv * nv + extent.fixed
+
+
+def work_size(nb: int, nv: int) -> int:
+    """Numbers in the work buffer of a model with nb bodies and nv velocity coordinates."""
+    return _count(WORK_SIZE, nb, nv)
+
+
+def _shape(name, shape, unit, nb, nv):
+    if unit == "nb":
+        return (nb, *shape)
+    if unit == "nv":
+        return (*shape, nv)
+    return (nv, nv) if unit == "nv2" else shape
+
+
+class Data:
+    """The work arrays of one Model (see the module docstring for every field: its shape, frame
+    and unit). Make one with ``od.Data(model)`` or ``model.data()``, and pass it as ``data=`` to
+    the dynamics functions: they then allocate nothing and return arrays this Data holds, which
+    the next call computing the same quantity overwrites (copy what you keep).
+
+    A Data belongs to the model it was made for: passing it with another model is a ValueError.
+    It is not shared between threads: give each thread its own.
+    """
+
+    def __init__(self, model):
+        from .model import Model  # here: model.py imports this module's work_size
+
+        if not isinstance(model, Model):
+            raise TypeError(
+                f"Data: model must be an opendyn Model (from od.load_urdf), got "
+                f"{type(model).__name__}"
+            )
+        self.model = model
+        nb, nv = model.nb, model.nv
+        self._work = np.zeros(work_size(nb, nv))
+        for name, shape, unit in WORK_FIELDS:
+            start, size = WORK_AT[name]
+            a = _count(start, nb, nv)
+            view = self._work[a : a + _count(size, nb, nv)].reshape(_shape(name, shape, unit, nb, nv))
+            setattr(self, name, view)
+
+    def __repr__(self) -> str:
+        return f"Data({self.model.name!r}, nb={self.model.nb}, nv={self.model.nv})"
+
+
+def _where(name):
+    """(start, size) Extents of a field: compile-time constants in a kernel."""
+    return WORK_AT[name]
+
+
+_R, _P, _R_S, _P_S = (_where(n) for n in ("R", "p", "R_s", "p_s"))
+_V, _DV, _F = (_where(n) for n in ("V", "dV", "F"))
+_A_VP, _PA, _U_VEC = (_where(n) for n in ("a_vp", "pA", "u"))
+_IA, _U, _L = (_where(n) for n in ("IA", "U", "L"))
+_MASS_C, _H_C, _I_C = (_where(n) for n in ("mass_c", "h_c", "I_c"))
+_BODY_FLAG, _ZERO_V, _E_K = (_where(n) for n in ("body_flag", "zero_v", "e_k"))
+_TAU, _G, _C, _H, _QDD = (_where(n) for n in ("tau", "g", "c", "h", "qdd"))
+_J, _M, _T_SF = (_where(n) for n in ("J", "M", "T_sf"))
+_NO_LOADS, _SCRATCH, _TEMP = _where("no_loads"), _where("scratch"), _where("temp")
+
+
+@njit(**INLINE)
+def work_field(work, nb, nv, where):
+    """The flat slice of one field of a work buffer (where: its start and size Extents)."""
+    start, size = where
+    a = start.per_nb * nb + start.per_nv * nv + start.per_nv2 * nv * nv + start.fixed
+    n = size.per_nb * nb + size.per_nv * nv + size.per_nv2 * nv * nv + size.fixed
+    return work[a : a + n]
+
+
+@njit(**INLINE)
+def body_field(work, nb, where):
+    """The flat slice of one per-body field of a work buffer: per-body fields come first, so
+    where each starts and ends depends on nb alone."""
+    return work_field(work, nb, 0, where)
+
+
+@njit(**INLINE)
+def joint_poses(work, nb):
+    """R (nb, 3, 3), p (nb, 3): T_{lambda(i), i} of every body."""
+    return (
+        body_field(work, nb, _R).reshape((nb, 3, 3)),
+        body_field(work, nb, _P).reshape((nb, 3)),
+    )
+
+
+@njit(**INLINE)
+def world_poses(work, nb):
+    """R_s (nb, 3, 3), p_s (nb, 3): T_{s,i} of every body."""
+    return (
+        body_field(work, nb, _R_S).reshape((nb, 3, 3)),
+        body_field(work, nb, _P_S).reshape((nb, 3)),
+    )
+
+
+@njit(**INLINE)
+def body_motion(work, nb):
+    """V, dV, F (nb, 6): body twists, accelerations and transmitted wrenches, each in {i}."""
+    return (
+        body_field(work, nb, _V).reshape((nb, 6)),
+        body_field(work, nb, _DV).reshape((nb, 6)),
+        body_field(work, nb, _F).reshape((nb, 6)),
+    )
+
+
+@njit(**INLINE)
+def articulated_inertias(work, nb):
+    """IA, U, L (nb, 6, 6): ABA's articulated inertias and per-joint U_i, D_i (or its factor)."""
+    return (
+        body_field(work, nb, _IA).reshape((nb, 6, 6)),
+        body_field(work, nb, _U).reshape((nb, 6, 6)),
+        body_field(work, nb, _L).reshape((nb, 6, 6)),
+    )
+
+
+@njit(**INLINE)
+def articulated_biases(work, nb):
+    """a_vp, pA, u (nb, 6): ABA's velocity-product accelerations, bias wrenches and u_i."""
+    return (
+        body_field(work, nb, _A_VP).reshape((nb, 6)),
+        body_field(work, nb, _PA).reshape((nb, 6)),
+        body_field(work, nb, _U_VEC).reshape((nb, 6)),
+    )
+
+
+@njit(**INLINE)
+def composite_inertias(work, nb):
+    """mass_c (nb,), h_c (nb, 3), I_c (nb, 3, 3): CRBA's composite inertias in rigid-body form."""
+    return (
+        body_field(work, nb, _MASS_C),
+        body_field(work, nb, _H_C).reshape((nb, 3)),
+        body_field(work, nb, _I_C).reshape((nb, 3, 3)),
+    )
+
+
+@njit(**INLINE)
+def body_flags(work, nb):
+    """(nb,) one number per body for a kernel's own marks (0.0 or 1.0)."""
+    return body_field(work, nb, _BODY_FLAG)
+
+
+@njit(**INLINE)
+def scratch_rows(work, nb, nv):
+    """(9, 6) scratch for one kernel's small temporaries."""
+    return work_field(work, nb, nv, _SCRATCH).reshape((9, 6))
+
+
+@njit(**INLINE)
+def temp_vectors(work, nb, nv):
+    """(3, 6) three 6-vectors of scratch, one row each, for one kernel's temporaries."""
+    return work_field(work, nb, nv, _TEMP).reshape((3, 6))
+
+
+@njit(**INLINE)
+def joint_vectors(work, nb, nv):
+    """h (nv,), zero_v (nv,) (kept zero), e_k (nv,) (kept zero between uses): a kernel's
+    joint-space vectors."""
+    return (
+        work_field(work, nb, nv, _H),
+        work_field(work, nb, nv, _ZERO_V),
+        work_field(work, nb, nv, _E_K),
+    )
+
+
+@njit(**INLINE)
+def no_loads(work, nb, nv):
+    """(1, 6) external loads of zero (kept zero): no gravity, no wrenches."""
+    return work_field(work, nb, nv, _NO_LOADS).reshape((1, 6))
+
+
+@njit(**INLINE)
+def new_work(nb, nv):
+    """A fresh, zeroed work buffer: each thread of a batch kernel works in its own."""
+    return np.zeros(
+        WORK_SIZE.per_nb * nb + WORK_SIZE.per_nv * nv + WORK_SIZE.per_nv2 * nv * nv
+        + WORK_SIZE.fixed
+    )
+
+
+@njit(**INLINE)
+def frame_pose_field(work, nb, nv):
+    """T_sf (4, 4): a frame's pose in the world."""
+    return work_field(work, nb, nv, _T_SF).reshape((4, 4))
+
+
+@njit(**INLINE)
+def mass_matrix_field(work, nb, nv):
+    """M (nv, nv)."""
+    return work_field(work, nb, nv, _M).reshape((nv, nv))
