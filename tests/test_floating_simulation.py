@@ -27,7 +27,8 @@ T_HANDLE = str(od.io.urdf.shipped_robots_dir() / "t_handle.urdf")
 
 
 def _scene(data):
-    return od.scene_from_dict(data, source="floating.toml", base_dir=od.io.urdf.shipped_robots_dir())
+    base_dir = od.io.urdf.shipped_robots_dir()
+    return od.scene_from_dict(data, source="floating.toml", base_dir=base_dir)
 
 
 def _handle_scene(**initial):

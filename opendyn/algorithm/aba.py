@@ -27,13 +27,6 @@ from numba import njit
 from .._runtime.arrays import all_finite, copy_into, fill
 from .._runtime.kernel_cache import JIT
 from .._runtime.status import Status
-from ..multibody.joints import (
-    free_joints_only,
-    joint_motion,
-    joint_transform,
-    prepare_joint_transforms,
-    state_status,
-)
 from ..multibody.data import (
     articulated_biases,
     articulated_inertias,
@@ -41,6 +34,13 @@ from ..multibody.data import (
     joint_poses,
     scratch_rows,
     temp_vectors,
+)
+from ..multibody.joints import (
+    free_joints_only,
+    joint_motion,
+    joint_transform,
+    prepare_joint_transforms,
+    state_status,
 )
 from ..multibody.layout import body_count, dof_count, rigid_inertias, spatial_inertias, tree
 from ..spatial.compiled import (
@@ -55,7 +55,6 @@ from ..spatial.compiled import (
     twist_to_child,
 )
 from .cholesky import SINGULAR_PIVOT, cholesky_factor, cholesky_substitute
-
 
 # One body's ABA quantities, views of the Data's rows for body i: IA_i, pA_i, c_i (the
 # velocity-product acceleration), U_i, L_i (D_i's Cholesky factor) and u_i.

@@ -22,8 +22,8 @@ import numpy as np
 
 from .._runtime.status import NOT_FINITE_ARGUMENT, Status, decode
 from ..errors import NonFiniteResultError, SingularMassMatrixError
-from ..multibody.joints import FREE
 from ..multibody.data import Data
+from ..multibody.joints import FREE
 from ..multibody.model import Model
 from ..spatial.algebra import angular, linear
 

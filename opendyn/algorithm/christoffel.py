@@ -55,11 +55,11 @@ from .._runtime.arrays import all_finite, fill, result_status, zero_matrix
 from .._runtime.batch import run_rows
 from .._runtime.kernel_cache import BATCH, INLINE, JIT
 from .._runtime.status import Status
+from ..multibody.data import new_work, world_poses
 from ..multibody.joints import configuration_status
 from ..multibody.layout import body_count, dof_count, spatial_inertias, tree
 from ..spatial.compiled import ad_twist, add_inertia_to_parent, dot6, mat6_vec
 from . import checks
-from ..multibody.data import new_work, world_poses
 from .kinematics import forward_kinematics, space_axis
 
 

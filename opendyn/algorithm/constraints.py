@@ -58,13 +58,13 @@ from ..multibody.constraint_objects import (
     PointToPoint,
     PointToWorld,
 )
+from ..multibody.data import new_work
 from ..multibody.joints import quaternion_status, state_status
 from ..multibody.layout import body_count, tree
 from ..spatial.compiled import ad_twist, twist_to_child
 from . import checks
 from .cholesky import cholesky_solve
 from .configuration import difference_kernel
-from ..multibody.data import new_work
 from .crba import crba_kernel, mass_matrix
 from .kinematics import frame_pose, jacobian, space_axis
 from .rnea import forward_pass, rnea_kernel

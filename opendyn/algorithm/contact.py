@@ -37,9 +37,9 @@ import numpy as np
 from numba import njit
 
 from .._runtime.kernel_cache import BATCH, JIT
+from ..multibody.data import new_work, world_poses
 from ..multibody.layout import body_count, dof_count, tree
 from ..spatial.compiled import cross3
-from ..multibody.data import new_work, world_poses
 from .kinematics import forward_kinematics, space_axis
 
 # the contact parameters' layout: the shared values, then (c_b (3,), r) per point

@@ -18,7 +18,6 @@ from numba import njit
 from .._runtime.arrays import result_status, zero_matrix
 from .._runtime.batch import run_rows
 from .._runtime.kernel_cache import BATCH, JIT
-from ..multibody.joints import configuration_status, joint_transform, prepare_joint_transforms
 from ..multibody.data import (
     composite_inertias,
     joint_poses,
@@ -26,6 +25,7 @@ from ..multibody.data import (
     scratch_rows,
     temp_vectors,
 )
+from ..multibody.joints import configuration_status, joint_transform, prepare_joint_transforms
 from ..multibody.layout import body_count, dof_count, rigid_inertias, tree
 from ..spatial.compiled import (
     add_rigid_inertia_to_parent,

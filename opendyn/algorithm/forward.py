@@ -16,9 +16,9 @@ from .._runtime.arrays import all_finite, result_status
 from .._runtime.batch import run_rows
 from .._runtime.kernel_cache import BATCH, JIT
 from .._runtime.status import Status
-from . import checks
 from ..multibody.data import joint_vectors, mass_matrix_field, new_work, no_loads
 from ..multibody.layout import body_count, dof_count
+from . import checks
 from .aba import aba_kernel
 from .cholesky import cholesky_solve
 from .crba import crba_kernel

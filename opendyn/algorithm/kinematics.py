@@ -19,7 +19,6 @@ from numba import njit
 from .._runtime.arrays import copy_into, fill, result_status, zero_matrix
 from .._runtime.batch import run_rows
 from .._runtime.kernel_cache import BATCH, INLINE, JIT
-from ..multibody.joints import configuration_status, joint_transform, prepare_joint_transforms
 from ..multibody.data import (
     body_flags,
     frame_pose_field,
@@ -28,6 +27,7 @@ from ..multibody.data import (
     temp_vectors,
     world_poses,
 )
+from ..multibody.joints import configuration_status, joint_transform, prepare_joint_transforms
 from ..multibody.layout import body_count, dof_count, tree
 from ..spatial.compiled import twist_to_child
 from . import checks

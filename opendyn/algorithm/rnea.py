@@ -23,13 +23,13 @@ from .._runtime.arrays import all_finite, fill, result_status
 from .._runtime.batch import run_rows
 from .._runtime.kernel_cache import BATCH, INLINE, JIT
 from .._runtime.status import Status
+from ..multibody.data import body_motion, joint_poses, new_work, scratch_rows
 from ..multibody.joints import (
     add_joint_force,
     joint_transform,
     prepare_joint_transforms,
     state_status,
 )
-from ..multibody.data import body_motion, joint_poses, new_work, scratch_rows
 from ..multibody.layout import body_count, dof_count, rigid_inertias, tree
 from ..spatial.compiled import (
     ad_twist,

@@ -153,8 +153,8 @@ class Data:
         for name, shape, unit in WORK_FIELDS:
             start, size = WORK_AT[name]
             a = _count(start, nb, nv)
-            view = self._work[a : a + _count(size, nb, nv)].reshape(_shape(name, shape, unit, nb, nv))
-            setattr(self, name, view)
+            view = self._work[a : a + _count(size, nb, nv)]
+            setattr(self, name, view.reshape(_shape(name, shape, unit, nb, nv)))
 
     def __repr__(self) -> str:
         return f"Data({self.model.name!r}, nb={self.model.nb}, nv={self.model.nv})"

@@ -63,9 +63,9 @@ from ..algorithm.contact import contact_kernel
 from ..algorithm.crba import crba_kernel
 from ..algorithm.forward import NO_ARMATURE
 from ..algorithm.kinematics import jacobian_kernel
+from ..algorithm.rnea import rnea_kernel
 from ..multibody.data import frame_pose_field
 from ..multibody.layout import body_count
-from ..algorithm.rnea import rnea_kernel
 
 # the slots of a scene's effects tuple, in the order the step runs them; a slot holds the
 # effect's parameters, or None when the scene does not name it
