@@ -26,7 +26,7 @@ from opendyn.cli.main import main
 
 REPO = pathlib.Path(__file__).resolve().parents[1]
 # the module (the package's attribute `simulate` is the function)
-SIMULATE = importlib.import_module("opendyn.simulate")
+SIMULATE = importlib.import_module("opendyn.sim.simulate")
 SHORT = ["--duration", "0.1", "-q"]
 
 

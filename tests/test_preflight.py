@@ -14,7 +14,7 @@ from opendyn.cli.main import main
 from opendyn.io.scene import shipped_robots_dir, thaw
 from opendyn.sim import preflight
 
-simulate_module = importlib.import_module("opendyn.simulate")  # od.simulate is the function
+simulate_module = importlib.import_module("opendyn.sim.simulate")  # od.simulate is the function
 PENDULUM = {"robot": {"name": "double_pendulum"}, "effects": {"gravity": True}}
 
 
