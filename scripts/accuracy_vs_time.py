@@ -71,7 +71,7 @@ from tqdm import tqdm  # noqa: E402
 import opendyn as od  # noqa: E402
 from opendyn.algorithm.forward import METHODS, NO_ARMATURE  # noqa: E402
 from opendyn.sim import effects, step  # noqa: E402
-from opendyn.sim.simulate import stage_costs  # noqa: E402
+from opendyn.sim.profile import stage_costs  # noqa: E402
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tests"))

@@ -70,7 +70,8 @@ def _with_effects(scene, enable, disable):
 def _simulate(args) -> int:
     """opendyn simulate: check every output, load the scene, run it, report, write the outputs.
     Returns the exit status (see the module's docstring)."""
-    from ..sim.simulate import profile, simulate
+    from ..sim.profile import profile
+    from ..sim.simulate import simulate
 
     named = _named_outputs(args)
     _check_outputs(named)

@@ -1,0 +1,282 @@
+"""The public constraint functions: the rows A, their drift Adot qd and their error phi at a
+state; constrained forward and inverse dynamics; the projection P; the wrench a frame applies to
+the constraints:
+
+    tau = M(q) qdd + h(q, qd) + A^T lam,          A qdd + Adot qd = 0
+    P   = I - A^T (A M^-1 A^T)^-1 A M^-1,          P tau = P (M qdd + h)   (constrained ID)
+    J_b^T F_tip = A^T lam,  F_tip = J_b^-T A^T lam  where J_b is square and invertible
+
+For rank-deficient A, (A M^-1 A^T)^-1 is the pseudo-inverse (opendyn.algorithm.constraints.solve).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .. import checks
+from ..crba import mass_matrix
+from ..kinematics import jacobian
+from ..rnea import rnea_kernel
+from .arguments import _configuration, _matrix_A, _state, _vector_k
+from .solve import (
+    NO_STABILISATION,
+    RANK_RTOL,
+    constrained_forward_kernel,
+    constrained_solve_kernel,
+    symmetric_eigen,
+)
+from .table import _table
+from .terms import constraint_terms_kernel
+
+_TERMS = ("A", "Adot_qd", "phi")  # what constraint_terms_kernel computes, in its order
+
+
+def _term(model, q, qd, constraints, q_bound, what, term):
+    """One of the constraints' terms at (q, qd): "A", "Adot_qd" or "phi", checked finite."""
+    q = _configuration(model, q, "q", what)
+    qd = model._zero_v if qd is None else _state(model, qd, "qd", what)
+    # A and Adot qd do not depend on targets: those two bind None defaults at q
+    q0 = q if isinstance(q_bound, str) else q_bound
+    rows, params = _table(model, constraints, q0, "q_bound")
+    k = int(rows[:, 2].sum())
+    terms = np.empty((k, model.nv)), np.empty(k), np.empty(k)
+    status = constraint_terms_kernel(model._ibuf, model._fbuf, rows, params, q, qd, *terms)
+    arguments = {"q": q, "qd": qd, "q_bound": q0}
+    if status:
+        checks.raise_status(status, model, what, term, arguments)
+    return checks.check_result(terms[_TERMS.index(term)], what, term, arguments)
+
+
+def constraint_jacobian(model, q, constraints):
+    """A(q): (k, nv) the constraints' rows stacked in order, A qd = 0 on the motion.
+
+    q: (nq,) configuration; constraints: one constraint object or a sequence
+    (opendyn.multibody.constraint_objects). Row units and frames: a point's rows are its world
+    velocity per unit qd (world axes, m/s), a plane's the normal velocity, a FixedPose's the twist
+    of frame b relative to frame a in frame b's axes (angular first), a JointCoupling's its
+    matrix. On a floating base the first 6 columns are per unit base body twist (omega_b, v_b).
+    Targets do not enter A, so None targets are simply bound at q.
+    """
+    checks.check_model(model, "constraint_jacobian")
+    return _term(model, q, None, constraints, "q", "constraint_jacobian", "A")
+
+
+def constraint_drift(model, q, qd, constraints):
+    """Adot(q, qd) qd: (k,) the time derivative of A qd at qdd = 0, without gravity, so that
+    d/dt (A qd) = A qdd + Adot qd. For a point: its classical acceleration in world axes
+    (m/s^2); for a FixedPose: the rate of the relative twist (frame b axes, angular first);
+    0 for a JointCoupling.
+
+    q: (nq,) configuration, qd: (nv,) velocity (on a floating base qdd is the rate of the base
+    body twist); constraints: one constraint object or a sequence. Targets do not enter, so
+    None targets are bound at q.
+    """
+    checks.check_model(model, "constraint_drift")
+    return _term(model, q, qd, constraints, "q", "constraint_drift", "Adot_qd")
+
+
+def constraint_error(model, q, constraints, q_bound=None):
+    """phi(q): (k,) the constraints' position errors, d/dt phi = A qd (for a FixedPose where
+    phi = 0): p - target, n . p - offset, p_a - p_b (m, world axes), log(T_ab*^-1 T_ab) (rad, m;
+    frame b axes, angular first), C (q (-) q_ref) = C difference(model, q_ref, q).
+
+    q: (nq,) configuration; constraints: one constraint object or a sequence;
+    q_bound: (nq,) the configuration at which a None target / offset / T_ab / q_ref is bound.
+    A None default without q_bound raises ValueError naming the constraint and the field.
+    """
+    checks.check_model(model, "constraint_error")
+    return _term(model, q, None, constraints, q_bound, "constraint_error", "phi")
+
+
+def constrained_forward_dynamics(
+    model, q, qd, tau, constraints=None, *, A=None, Adot_qd=None, gravity=None, f_tip=None
+):
+    """(qdd, lam): forward dynamics under A(q) qd = 0,
+        M qdd + h + A^T lam = tau,   A qdd + Adot qd = 0,
+        lam = (A M^-1 A^T)^+ (A M^-1 (tau - h) + Adot qd),  qdd = M^-1 (tau - h - A^T lam).
+
+    Args:
+      q: (nq,) configuration; qd, tau: (nv,) single state (rad or m, rad/s or m/s, N m or N;
+        a floating base's body twist and the wrench on it in its frame, angular first).
+      constraints: constraint objects (opendyn.multibody.constraint_objects), OR
+      A, Adot_qd: a general (k, nv) constraint matrix and its (k,) drift Adot qd; exactly one of
+        `constraints` and `A` (with `Adot_qd`).
+      gravity: optional (3,) world-frame gravity (m/s^2); f_tip: optional {frame: (6,) wrench
+        (m, f) the frame applies to the environment, in its own coordinates}, as in
+        forward_dynamics.
+    Returns qdd (nv,) and lam (k,), the generalized constraint force the robot applies to the
+    constraints (for a point constraint: the force in N, world axes, that the point pushes with;
+    for a FixedPose: the wrench (m, f) frame b applies, in frame b's coordinates). For
+    rank-deficient A, lam is the minimum-norm solution (constraints.solve).
+    Raises SingularMassMatrixError when M is singular.
+    """
+    what = "constrained_forward_dynamics"
+    checks.check_model(model, what)
+    if (constraints is None) == (A is None):
+        raise ValueError(
+            f"{what}: give exactly one of `constraints` (constraint objects) and `A` (a (k, nv) "
+            f"matrix, with its Adot_qd), got {'both' if A is not None else 'neither'}"
+        )
+    if A is None and Adot_qd is not None:
+        raise ValueError(f"{what}: Adot_qd goes with A; with `constraints` it is computed")
+    if A is not None and Adot_qd is None:
+        raise ValueError(f"{what}: A needs its drift Adot_qd ((k,) = d/dt (A) qd)")
+    q = _configuration(model, q, "q", what)
+    qd = _state(model, qd, "qd", what)
+    tau = _state(model, tau, "tau", what)
+    loads = checks.loads(model, gravity, f_tip)
+    if constraints is not None:
+        rows, params = _table(model, constraints, q, "q")
+        k = int(rows[:, 2].sum())
+        qdd, lam = np.empty(model.nv), np.empty(k)
+        status = constrained_forward_kernel(
+            model._ibuf,
+            model._fbuf,
+            rows,
+            params,
+            NO_STABILISATION,
+            q,
+            qd,
+            tau,
+            loads,
+            np.zeros(0),
+            qdd,
+            lam,
+        )
+    else:
+        A = _matrix_A(model, A, what)
+        gamma = _vector_k(Adot_qd, A.shape[0], "Adot_qd", what)
+        rhs = np.empty(model.nv)
+        rnea_kernel(model._ibuf, model._fbuf, model._work, q, qd, model._zero_v, loads, rhs)
+        rhs = tau - rhs
+        M = mass_matrix(model, q)
+        qdd, lam = np.empty(model.nv), np.empty(A.shape[0])
+        status = constrained_solve_kernel(M, rhs, A, gamma, qdd, lam)
+    arguments = {
+        "q": q,
+        "qd": qd,
+        "tau": tau,
+        "A": A,
+        "Adot_qd": Adot_qd,
+        "gravity": gravity,
+        "f_tip": f_tip,
+    }
+    if status:
+        checks.raise_status(status, model, what, "qdd", arguments)
+    return (
+        checks.check_result(qdd, what, "qdd", arguments),
+        checks.check_result(lam, what, "lam", arguments),
+    )
+
+
+def _pseudo_inverse(G):
+    """G^+ of a symmetric positive semi-definite G, with the cutoff of pseudo_solve."""
+    k = G.shape[0]
+    E, e = np.empty((k, k)), np.empty(k)
+    symmetric_eigen(np.array(0.5 * (G + G.T), dtype=np.float64), E, e)
+    if k == 0 or not e.max() > 0.0:
+        return np.zeros((k, k))
+    keep = e > RANK_RTOL * e.max()
+    return (E[:, keep] / e[keep]) @ E[:, keep].T
+
+
+def _projection(model, q, A, what):
+    """P, G^+ and M^-1 for the checked (q, A)."""
+    M = mass_matrix(model, q)
+    try:
+        L = np.linalg.cholesky(M)
+    except np.linalg.LinAlgError:
+        raise checks.singular_mass_matrix(model, q, what) from None
+    M_inv = np.linalg.solve(L.T, np.linalg.solve(L, np.eye(model.nv)))
+    M_inv = 0.5 * (M_inv + M_inv.T)
+    G_pinv = _pseudo_inverse(A @ M_inv @ A.T)
+    P = np.eye(model.nv) - A.T @ G_pinv @ A @ M_inv
+    return P, G_pinv, M_inv
+
+
+def constraint_projection(model, q, A):
+    """P(q) = I - A^T (A M^-1 A^T)^+ A M^-1: (nv, nv), so that P tau = P (M qdd + h) on the
+    constrained motion (constrained inverse dynamics). P A^T = 0 (P removes the torques the
+    constraints absorb), P^2 = P, A M^-1 P = 0, and P M = M - A^T G^+ A is symmetric.
+
+    q: (nq,) configuration; A: (k, nv) constraint matrix (e.g. constraint_jacobian). For
+    rank-deficient A, (A M^-1 A^T)^+ is the pseudo-inverse (constraints.solve).
+    """
+    what = "constraint_projection"
+    checks.check_model(model, what)
+    q = _configuration(model, q, "q", what)
+    A = _matrix_A(model, A, what)
+    return checks.check_result(_projection(model, q, A, what)[0], what, "P", {"q": q, "A": A})
+
+
+def constrained_inverse_dynamics(model, q, qd, qdd, A, lam=None, gravity=None):
+    """tau (nv,): the joint torques that produce qdd under the constraints A qd = 0.
+
+    lam None: tau = P (M qdd + h), the torque with no part that the constraints absorb
+      (A M^-1 tau = 0); the constraints then carry lam_P = -(A M^-1 A^T)^+ A M^-1 (M qdd + h).
+    lam (k,) given: tau = P (M qdd + h) + A^T (lam - lam_P) = M qdd + h + A^T lam, the torque
+      that produces qdd while the constraints carry exactly lam.
+    Either way constrained_forward_dynamics(tau) gives back qdd (and lam_P or lam) when qdd is
+    consistent: A qdd + Adot qd = 0.
+
+    q: (nq,) configuration; qd, qdd: (nv,); A: (k, nv); lam: (k,) constraint force as returned by
+    constrained_forward_dynamics; gravity: optional (3,) world-frame gravity (m/s^2).
+    """
+    what = "constrained_inverse_dynamics"
+    checks.check_model(model, what)
+    q = _configuration(model, q, "q", what)
+    qd = _state(model, qd, "qd", what)
+    qdd = _state(model, qdd, "qdd", what)
+    A = _matrix_A(model, A, what)
+    if lam is not None:
+        lam = _vector_k(lam, A.shape[0], "lam", what)
+    arguments = {"q": q, "qd": qd, "qdd": qdd, "A": A, "lam": lam, "gravity": gravity}
+    tau_free = np.empty(model.nv)
+    status = rnea_kernel(
+        model._ibuf,
+        model._fbuf,
+        model._work,
+        q,
+        qd,
+        qdd,
+        checks.loads(model, gravity, None),
+        tau_free,
+    )
+    if status:
+        checks.raise_status(status, model, what, "tau", arguments)
+    P, G_pinv, M_inv = _projection(model, q, A, what)
+    tau = P @ tau_free
+    if lam is not None:
+        lam_P = -G_pinv @ (A @ (M_inv @ tau_free))
+        tau = tau + A.T @ (lam - lam_P)
+    return checks.check_result(tau, what, "tau", arguments)
+
+
+def constraint_wrench(model, q, frame, A, lam):
+    """F_tip = J_b^-T A^T lam: (6,) the wrench (m, f) the frame applies to the constraint, in
+    the frame's coordinates (N m, N), so that J_b^T F_tip = A^T lam (the seed's J^T F_tip =
+    A^T lam); J_b is the frame's body Jacobian.
+
+    q: (nq,) configuration; frame: a frame name; A: (k, nv); lam: (k,) (as from
+    constrained_forward_dynamics). Raises ValueError when J_b is not square (nv != 6) or not
+    invertible at q (a singular configuration), saying so.
+    """
+    what = "constraint_wrench"
+    checks.check_model(model, what)
+    q = _configuration(model, q, "q", what)
+    A = _matrix_A(model, A, what)
+    lam = _vector_k(lam, A.shape[0], "lam", what)
+    J_b = jacobian(model, q, frame, expressed_in="body")
+    if model.nv != 6:
+        raise ValueError(
+            f"{what}: J_b of frame {frame!r} is 6 x {model.nv}, not square: F_tip = J_b^-T A^T "
+            f"lam needs exactly 6 velocity coordinates (model {model.name!r} has nv={model.nv})"
+        )
+    sv = np.linalg.svd(J_b, compute_uv=False)
+    if not sv[-1] > 1e-10 * sv[0]:
+        raise ValueError(
+            f"{what}: J_b of frame {frame!r} is not invertible at this q (singular values "
+            f"{sv}): the frame cannot move in every direction, so F_tip is not determined"
+        )
+    F_tip = np.linalg.solve(J_b.T, A.T @ lam)
+    return checks.check_result(F_tip, what, "F_tip", {"q": q, "A": A, "lam": lam})

@@ -1,0 +1,196 @@
+"""Where the constraint points and frames are and how they move, compiled for the constraint
+rows (opendyn.algorithm.constraints.terms): world poses from the parent-relative ones, a body
+point's position, classical acceleration and Jacobian, a frame's pose and twist, the relative
+pose of two frames, the twist Jacobian in another frame's axes, and the SE(3) logarithm.
+
+Twists are (w, v), angular first; R_s, p_s are the bodies' world poses T_{s,i}; a body index of
+-1 is the fixed world.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from ..._runtime.kernel_cache import INLINE
+from ...spatial.compiled import twist_to_child
+from ..kinematics import space_axis
+
+_LOG_SERIES = 1e-2
+
+
+@njit(**INLINE)
+def world_poses(parent, R, p, R_s, p_s):
+    """R_s[i], p_s[i] <- T_{s,i} from the parent-relative poses (R[i], p[i]) = T_{lambda,i}."""
+    for i in range(parent.shape[0]):
+        lam = parent[i]
+        if lam < 0:
+            R_s[i] = R[i]
+            p_s[i] = p[i]
+            continue
+        for r in range(3):
+            for c in range(3):
+                R_s[i, r, c] = (
+                    R_s[lam, r, 0] * R[i, 0, c]
+                    + R_s[lam, r, 1] * R[i, 1, c]
+                    + R_s[lam, r, 2] * R[i, 2, c]
+                )
+            p_s[i, r] = (
+                p_s[lam, r]
+                + R_s[lam, r, 0] * p[i, 0]
+                + R_s[lam, r, 1] * p[i, 1]
+                + R_s[lam, r, 2] * p[i, 2]
+            )
+
+
+@njit(**INLINE)
+def point_motion(R_s, p_s, V, dV, body, r, p_w, a_w):
+    """p_w <- the world position of the point r (body coordinates) of `body`, and a_w <- its
+    classical acceleration in world axes from the body twist V = (w, v) and its rate dV:
+        a = R (dv + dw x r + w x (v + w x r));   body -1: r is a world point at rest."""
+    if body < 0:
+        for k in range(3):
+            p_w[k] = r[k]
+            a_w[k] = 0.0
+        return
+    w0, w1, w2 = V[body, 0], V[body, 1], V[body, 2]
+    u0 = V[body, 3] + w1 * r[2] - w2 * r[1]
+    u1 = V[body, 4] + w2 * r[0] - w0 * r[2]
+    u2 = V[body, 5] + w0 * r[1] - w1 * r[0]
+    b0 = dV[body, 3] + dV[body, 1] * r[2] - dV[body, 2] * r[1] + w1 * u2 - w2 * u1
+    b1 = dV[body, 4] + dV[body, 2] * r[0] - dV[body, 0] * r[2] + w2 * u0 - w0 * u2
+    b2 = dV[body, 5] + dV[body, 0] * r[1] - dV[body, 1] * r[0] + w0 * u1 - w1 * u0
+    for k in range(3):
+        R = R_s[body, k]
+        p_w[k] = p_s[body, k] + R[0] * r[0] + R[1] * r[1] + R[2] * r[2]
+        a_w[k] = R[0] * b0 + R[1] * b1 + R[2] * b2
+
+
+@njit(**INLINE)
+def add_point_jacobian(parent, nv_j, iv, mult, axes, R_s, p_s, body, p_w, sign, J, S):
+    """J (3, nv) += sign * d(world velocity of the world point p_w fixed to `body`)/d v:
+    column iv[i] + k gets mult[i] (v_i + w_i x p_w) with (w_i, v_i) = Ad_{T_{s,i}} axes[i, k]
+    (row k of S_i), for every body i from `body` to the root. S is (6,) scratch."""
+    i = body
+    while i >= 0:
+        f = sign * mult[i]
+        for k in range(nv_j[i]):
+            space_axis(R_s[i], p_s[i], axes[i, k], S)
+            c = iv[i] + k
+            J[0, c] += f * (S[3] + S[1] * p_w[2] - S[2] * p_w[1])
+            J[1, c] += f * (S[4] + S[2] * p_w[0] - S[0] * p_w[2])
+            J[2, c] += f * (S[5] + S[0] * p_w[1] - S[1] * p_w[0])
+        i = parent[i]
+
+
+@njit(**INLINE)
+def relative_pose(R_s1, p_s1, R_s2, p_s2, R_12, p_12):
+    """(R_12, p_12) <- T_12 = T_s1^-1 T_s2 = (R_s1^T R_s2, R_s1^T (p_s2 - p_s1))."""
+    for i in range(3):
+        for j in range(3):
+            R_12[i, j] = R_s1[0, i] * R_s2[0, j] + R_s1[1, i] * R_s2[1, j] + R_s1[2, i] * R_s2[2, j]
+        p_12[i] = (
+            R_s1[0, i] * (p_s2[0] - p_s1[0])
+            + R_s1[1, i] * (p_s2[1] - p_s1[1])
+            + R_s1[2, i] * (p_s2[2] - p_s1[2])
+        )
+
+
+@njit(**INLINE)
+def frame_in_world(R_s, p_s, body, R_bf, p_bf, R_sf, p_sf):
+    """(R_sf, p_sf) <- T_{s,body} T_{body,frame}; body -1: T_{body,frame} is already T_sf."""
+    for r in range(3):
+        if body < 0:
+            for c in range(3):
+                R_sf[r, c] = R_bf[r, c]
+            p_sf[r] = p_bf[r]
+            continue
+        for c in range(3):
+            R_sf[r, c] = (
+                R_s[body, r, 0] * R_bf[0, c]
+                + R_s[body, r, 1] * R_bf[1, c]
+                + R_s[body, r, 2] * R_bf[2, c]
+            )
+        p_sf[r] = (
+            p_s[body, r]
+            + R_s[body, r, 0] * p_bf[0]
+            + R_s[body, r, 1] * p_bf[1]
+            + R_s[body, r, 2] * p_bf[2]
+        )
+
+
+@njit(**INLINE)
+def frame_twist(V, body, R_bf, p_bf, out):
+    """out <- Ad_{T_{frame,body}} V[body], a frame's body twist (or its rate); 0 in the world."""
+    if body < 0:
+        for k in range(6):
+            out[k] = 0.0
+        return
+    twist_to_child(R_bf, p_bf, V[body], out)
+
+
+@njit(**INLINE)
+def add_relative_twist_jacobian(
+    parent, nv_j, iv, mult, axes, R_s, p_s, body, R_sb, p_sb, sign, J, S, c6
+):
+    """J (6, nv) += sign * Ad_{T_{b,s}} J_s(body): the space twist of `body` per unit v, in the
+    axes of frame b at (R_sb, p_sb). S, c6: (6,) scratch."""
+    i = body
+    while i >= 0:
+        f = sign * mult[i]
+        for k in range(nv_j[i]):
+            space_axis(R_s[i], p_s[i], axes[i, k], S)
+            twist_to_child(R_sb, p_sb, S, c6)
+            c = iv[i] + k
+            for r in range(6):
+                J[r, c] += f * c6[r]
+        i = parent[i]
+
+
+@njit(**INLINE)
+def log_se3(R, p, out):
+    """out (6,) <- log(T), T = (R, p): (w, (I - [w]/2 + ((1 - (t/2) cot(t/2)) / t^2) [w]^2) p),
+    w = log(R), t = |w| in [0, pi] (MR eqs. 3.91-3.92; opendyn.spatial.log_se3)."""
+    d0 = R[2, 1] - R[1, 2]
+    d1 = R[0, 2] - R[2, 0]
+    d2 = R[1, 0] - R[0, 1]
+    cos_t = 0.5 * (R[0, 0] + R[1, 1] + R[2, 2] - 1.0)
+    t = np.arctan2(0.5 * np.sqrt(d0 * d0 + d1 * d1 + d2 * d2), cos_t)
+    if cos_t >= 0.0:
+        # [w] = (t / (2 sin t)) (R - R^T)
+        ratio = 0.5 if t == 0.0 else 0.5 * t / np.sin(t)
+        w0, w1, w2 = ratio * d0, ratio * d1, ratio * d2
+    else:
+        # axis from the column of a a^T = ((R + R^T)/2 - cos t I) / (1 - cos t) with the
+        # largest diagonal entry, its sign from R - R^T
+        k = 0
+        best = -1.0
+        for j in range(3):
+            if R[j, j] > best:
+                best = R[j, j]
+                k = j
+        col = np.empty(3)
+        for j in range(3):
+            col[j] = (0.5 * (R[j, k] + R[k, j]) - (cos_t if j == k else 0.0)) / (1.0 - cos_t)
+        norm = np.sqrt(col[0] * col[0] + col[1] * col[1] + col[2] * col[2])
+        s = t / norm
+        if col[0] * d0 + col[1] * d1 + col[2] * d2 < 0.0:
+            s = -s
+        w0, w1, w2 = s * col[0], s * col[1], s * col[2]
+    if t < _LOG_SERIES:
+        t2 = t * t
+        coef = 1.0 / 12.0 + t2 / 720.0 + t2 * t2 / 30240.0 + t2 * t2 * t2 / 1209600.0
+    else:
+        half = 0.5 * t
+        coef = (1.0 - half * np.cos(half) / np.sin(half)) / (t * t)
+    # [w] p = w x p,  [w]^2 p = w x (w x p)
+    x0 = w1 * p[2] - w2 * p[1]
+    x1 = w2 * p[0] - w0 * p[2]
+    x2 = w0 * p[1] - w1 * p[0]
+    y0 = w1 * x2 - w2 * x1
+    y1 = w2 * x0 - w0 * x2
+    y2 = w0 * x1 - w1 * x0
+    out[0], out[1], out[2] = w0, w1, w2
+    out[3] = p[0] - 0.5 * x0 + coef * y0
+    out[4] = p[1] - 0.5 * x1 + coef * y1
+    out[5] = p[2] - 0.5 * x2 + coef * y2

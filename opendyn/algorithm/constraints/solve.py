@@ -1,0 +1,243 @@
+"""The constrained solve: M qdd + A^T lam = rhs with A qdd = -gamma, for qdd and lam, compiled
+for the simulation step:
+
+    lam = (A M^-1 A^T)^-1 (A M^-1 (tau - h) + Adot qd),   qdd = M^-1 (tau - h - A^T lam)
+
+Rank-deficient A (a 3-row point closure on a planar mechanism, whose out-of-plane row is
+identically zero; a duplicated constraint) leaves G = A M^-1 A^T singular. Everywhere in
+opendyn.algorithm.constraints (G)^-1 is the pseudo-inverse G^+ from the symmetric
+eigendecomposition G = V diag(e) V^T (cyclic Jacobi), keeping the eigenvalues
+e_i > RANK_RTOL * max(e) (RANK_RTOL = 1e-12): lam is the minimum-norm least-squares solution of
+G lam = A M^-1 (tau - h) + Adot qd, and qdd, A^T lam and P are unique when the constraints are
+consistent (the right-hand side lies in the range of G); the numerical rank is the number of
+eigenvalues kept.
+
+Compiled interface:
+  constrained_solve_kernel(M, rhs, A, gamma, qdd, lam) -> Status.OK.value, or SINGULAR + k (pivot k)
+  constrained_solve_rank_kernel(M, rhs, A, gamma, qdd, lam, rank) -> the same, rank[0] = rank
+  constrained_solve_at(ibuf, fbuf, rows, params, gains, q, qd, M, rhs, qdd, lam) -> status
+  constrained_forward_kernel(ibuf, fbuf, rows, params, gains, q, qd, tau, loads, armature,
+                             qdd, lam) -> status
+with gains = (alpha, beta), the Baumgarte stabilisation A qdd + Adot qd + 2 alpha A qd +
+beta^2 phi = 0 of a simulation ((0, 0): none).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from ..._runtime.arrays import all_finite, fill, zero_matrix
+from ..._runtime.kernel_cache import JIT
+from ..._runtime.status import Status
+from ...multibody.data import new_work
+from ...multibody.layout import body_count
+from ..cholesky import cholesky_solve
+from ..crba import crba_kernel
+from ..rnea import rnea_kernel
+from .terms import constraint_terms_kernel
+
+RANK_RTOL = 1e-12  # eigenvalues of A M^-1 A^T below this times the largest count as zero
+JACOBI_MAX_SWEEPS = 60
+NO_STABILISATION = np.zeros(2)  # Baumgarte gains (alpha, beta) = 0: A qdd + Adot qd = 0
+
+
+@njit(**JIT)
+def symmetric_eigen(G, E, e):
+    """G = E diag(e) E^T for a symmetric (k, k) G, by cyclic Jacobi rotations (Golub & Van Loan,
+    Matrix Computations, Section 8.5): G is overwritten, E (k, k) <- orthonormal eigenvectors
+    (columns), e (k,) <- eigenvalues. A fixed cap of sweeps: no exception, no NaN from finite G."""
+    k = G.shape[0]
+    zero_matrix(E)
+    for i in range(k):
+        E[i, i] = 1.0
+    total = 0.0
+    for i in range(k):
+        for j in range(k):
+            total += G[i, j] * G[i, j]
+    for sweep in range(JACOBI_MAX_SWEEPS):
+        off = 0.0
+        for i in range(k):
+            for j in range(i + 1, k):
+                off += G[i, j] * G[i, j]
+        if not off > 1e-32 * total:
+            break
+        for a in range(k - 1):
+            for b in range(a + 1, k):
+                g_ab = G[a, b]
+                if g_ab == 0.0:
+                    continue
+                theta = (G[b, b] - G[a, a]) / (2.0 * g_ab)
+                if abs(theta) > 1e150:
+                    t = 0.5 / theta
+                else:
+                    t = 1.0 / (abs(theta) + np.sqrt(theta * theta + 1.0))
+                    if theta < 0.0:
+                        t = -t
+                c = 1.0 / np.sqrt(t * t + 1.0)
+                s = t * c
+                # G <- J^T G J with J = [[c, s], [-s, c]] in the (a, b) plane; E <- E J
+                for i in range(k):
+                    g_ia, g_ib = G[i, a], G[i, b]
+                    G[i, a] = c * g_ia - s * g_ib
+                    G[i, b] = s * g_ia + c * g_ib
+                for i in range(k):
+                    g_ai, g_bi = G[a, i], G[b, i]
+                    G[a, i] = c * g_ai - s * g_bi
+                    G[b, i] = s * g_ai + c * g_bi
+                G[a, b] = 0.0
+                G[b, a] = 0.0
+                for i in range(k):
+                    e_ia, e_ib = E[i, a], E[i, b]
+                    E[i, a] = c * e_ia - s * e_ib
+                    E[i, b] = s * e_ia + c * e_ib
+    for i in range(k):
+        e[i] = G[i, i]
+
+
+@njit(**JIT)
+def pseudo_solve(G, b, x):
+    """x <- G^+ b for a symmetric positive semi-definite (k, k) G (overwritten): the
+    minimum-norm least-squares solution, eigenvalues e_i <= RANK_RTOL * max(e) treated as 0.
+    Returns the numerical rank."""
+    k = G.shape[0]
+    E = np.empty((k, k))
+    e = np.empty(k)
+    symmetric_eigen(G, E, e)
+    e_max = 0.0
+    for i in range(k):
+        e_max = max(e_max, e[i])
+    fill(x, 0.0)
+    rank = 0
+    for i in range(k):
+        if not e[i] > RANK_RTOL * e_max or not e_max > 0.0:
+            continue
+        rank += 1
+        s = 0.0
+        for j in range(k):
+            s += E[j, i] * b[j]
+        s /= e[i]
+        for j in range(k):
+            x[j] += s * E[j, i]
+    return rank
+
+
+@njit(**JIT)
+def constrained_solve_rank_kernel(M, rhs, A, gamma, qdd, lam, rank):
+    """As constrained_solve_kernel, and rank[0] <- the numerical rank of A M^-1 A^T (the number of
+    independent constraint rows); rank (1,) int64."""
+    nv = M.shape[0]
+    k = A.shape[0]
+    qdd_free = np.empty(nv)
+    # M = L L^T (L in M's lower triangle), qdd_free = M^-1 rhs
+    status = cholesky_solve(M, rhs, qdd_free)
+    if status:
+        rank[0] = 0
+        return status
+    # Y = L^-1 A^T (nv, k), G = Y^T Y = A M^-1 A^T
+    Y = np.empty((nv, k))
+    for j in range(k):
+        for r in range(nv):
+            s = A[j, r]
+            for c in range(r):
+                s -= M[r, c] * Y[c, j]
+            Y[r, j] = s / M[r, r]
+    G = np.empty((k, k))
+    for i in range(k):
+        for j in range(i, k):
+            s = 0.0
+            for r in range(nv):
+                s += Y[r, i] * Y[r, j]
+            G[i, j] = s
+            G[j, i] = s
+    # lam = G^+ (A M^-1 rhs + gamma)
+    b = np.empty(k)
+    for i in range(k):
+        s = gamma[i]
+        for c in range(nv):
+            s += A[i, c] * qdd_free[c]
+        b[i] = s
+    rank[0] = pseudo_solve(G, b, lam)
+    # qdd = M^-1 (rhs - A^T lam) = qdd_free - L^-T (Y lam)
+    z = np.empty(nv)
+    for r in range(nv):
+        s = 0.0
+        for j in range(k):
+            s += Y[r, j] * lam[j]
+        z[r] = s
+    for r in range(nv - 1, -1, -1):
+        s = z[r]
+        for c in range(r + 1, nv):
+            s -= M[c, r] * z[c]
+        z[r] = s / M[r, r]
+    for r in range(nv):
+        qdd[r] = qdd_free[r] - z[r]
+    return Status.OK.value
+
+
+@njit(**JIT)
+def constrained_solve_kernel(M, rhs, A, gamma, qdd, lam):
+    """Solve M qdd + A^T lam = rhs, A qdd = -gamma for qdd (nv,) and lam (k,):
+        lam = (A M^-1 A^T)^+ (A M^-1 rhs + gamma),   qdd = M^-1 (rhs - A^T lam)
+    M (nv, nv) symmetric positive definite (overwritten by its Cholesky factor; add armature to
+    its diagonal first), rhs = tau - h (nv,), A (k, nv), gamma = Adot qd (+ stabilisation) (k,).
+    Rank-deficient A: lam minimum-norm (pseudo-inverse, RANK_RTOL), never NaN from finite input
+    (non-finite rhs, A or gamma propagate to qdd; nothing raises, nothing loops forever).
+    Returns Status.OK.value, or SINGULAR + k for the first non-positive pivot of M (singular at
+    k)."""
+    rank = np.zeros(1, dtype=np.int64)
+    return constrained_solve_rank_kernel(M, rhs, A, gamma, qdd, lam, rank)
+
+
+@njit(**JIT)
+def constrained_solve_at(ibuf, fbuf, rows, params, gains, q, qd, M, rhs, qdd, lam):
+    """qdd (nv,), lam (k,) <- the solution of M qdd + A^T lam = rhs with the constraint rows at
+    (q (nq,), qd (nv,)) held to second order, with Baumgarte stabilisation gains =
+    (alpha, beta) (1/s):
+        A qdd + Adot qd + 2 alpha A qd + beta^2 phi = 0
+    ((0, 0): A qdd + Adot qd = 0, the drift of phi left alone). M (nv, nv) is overwritten.
+    Returns a Status: OK, Q/QD_NOT_FINITE, Q_NOT_UNIT_QUATERNION, or SINGULAR + j when M is
+    singular at coordinate j."""
+    nv = qd.shape[0]
+    k = lam.shape[0]
+    A = np.empty((k, nv))
+    gamma = np.empty(k)
+    phi = np.empty(k)
+    status = constraint_terms_kernel(ibuf, fbuf, rows, params, q, qd, A, gamma, phi)
+    if status:
+        return status
+    alpha, beta = gains[0], gains[1]
+    if alpha != 0.0 or beta != 0.0:
+        for r in range(k):
+            rate = 0.0
+            for j in range(nv):
+                rate += A[r, j] * qd[j]
+            gamma[r] += 2.0 * alpha * rate + beta * beta * phi[r]
+    return constrained_solve_kernel(M, rhs, A, gamma, qdd, lam)
+
+
+@njit(**JIT)
+def constrained_forward_kernel(
+    ibuf, fbuf, rows, params, gains, q, qd, tau, loads, armature, qdd, lam
+):
+    """qdd (nv,), lam (k,) <- constrained forward dynamics at one state (q (nq,); qd, tau
+    (nv,)): M by CRBA (+ diag(armature), (nv,) or empty), h (and the f_tip wrenches in loads,
+    as in rnea_kernel) by RNEA, then constrained_solve_at with the Baumgarte gains
+    (alpha, beta) (zeros: none). Returns a Status: OK, Q/QD/TAU_NOT_FINITE,
+    Q_NOT_UNIT_QUATERNION, RESULT_NOT_FINITE (h overflowed), or SINGULAR + j when M is singular
+    at coordinate j."""
+    if not all_finite(tau):
+        return Status.TAU_NOT_FINITE.value
+    nv = qd.shape[0]
+    work = new_work(body_count(ibuf), nv)
+    rhs = np.empty(nv)
+    status = rnea_kernel(ibuf, fbuf, work, q, qd, np.zeros(nv), loads, rhs)
+    if status:
+        return status
+    for i in range(nv):
+        rhs[i] = tau[i] - rhs[i]
+    M = np.empty((nv, nv))
+    crba_kernel(ibuf, fbuf, work, q, M)
+    for i in range(armature.shape[0]):
+        M[i, i] += armature[i]
+    return constrained_solve_at(ibuf, fbuf, rows, params, gains, q, qd, M, rhs, qdd, lam)

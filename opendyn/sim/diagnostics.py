@@ -1,0 +1,271 @@
+"""Why a run failed, in words: what failed, at which time and step, and the likely cause: an
+effect too stiff for the step (its rate times dt past the method's stability limit), the implicit
+step's matrix M + dt D + dt^2 K singular while M alone is regular, a singular mass matrix, a
+momentum update that does not converge, an adaptive step that underflows, or the forces at the
+initial state. Before a run, check_contact_step refuses a fixed explicit step that a contact
+makes unstable.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .._runtime.status import Status, decode
+from ..algorithm.checks import mass_matrix_with_armature, singular_coordinates
+from ..errors import SceneError
+from . import effects, integrators, step
+
+
+def failure_message(scene, table, status, t, steps, q, qd):
+    """Why a run stopped at time t after `steps` steps, from the kernel's status and the last
+    good state: what failed, and the likely cause. table: the scene's effects.StageTable."""
+    model = scene.model
+    run = scene.run
+    where = f"at t = {t:.6g} s (step {steps})"
+    status, _ = decode(status)
+    implicit = integrators.INTEGRATORS[run.integrator].kind == integrators.IMPLICIT
+    if status == Status.SINGULAR and implicit and _regular_mass_matrix(scene, q):
+        stiff = _stiff_effects(_effect_rates(scene, table, q), run.dt, 0.0)[:1]
+        return (
+            f"the implicit step's matrix M + dt D + dt^2 K became singular {where}, while the "
+            "mass matrix M alone is regular: the effects' stiffness and damping swamp M in "
+            "float64"
+            + (f"; the stiffest: {_describe(stiff, run.dt, lead=False)}" if stiff else "")
+            + ". Lower the stiffness, or the step."
+        )
+    if status == Status.SINGULAR:
+        return f"singular mass matrix {where}: {singular_coordinates(model, q, scene.armature)[2]}"
+    if status == Status.NO_CONVERGENCE:
+        return (
+            f"semi-implicit Euler's momentum update did not converge {where}: the step is too "
+            f"large for the velocities here (|qd| up to {np.abs(qd).max():.3g}); use a smaller "
+            "step"
+        )
+    if status == Status.STEP_UNDERFLOW:
+        # below 1e-14 s even DOPRI5's stability interval (about 3.3 / rate) is left behind
+        stiff = _stiff_effects(_effect_rates(scene, table, q), 1e-14, 3.3)
+        cause = (
+            f"a step that small is still too large for {_describe(stiff, 1e-14)}, above 3.3. "
+            "Lower the stiffness, or use integrator implicit_euler"
+            if stiff
+            else "The dynamics are likely discontinuous or singular here"
+        )
+        return (
+            f"adaptive step underflow {where}: no step down to 1e-14 s met the tolerances. "
+            f"Likely cause: {cause}."
+        )
+    what = {
+        Status.Q_NOT_FINITE: "the positions q became non-finite",
+        Status.QD_NOT_FINITE: "the velocities qd became non-finite",
+        Status.TAU_NOT_FINITE: "a generalized force became non-finite",
+        Status.RESULT_NOT_FINITE: "the dynamics overflowed float64 (a force or an acceleration "
+        "became inf or NaN at a finite state)",
+        Status.DIVERGED: f"a joint velocity exceeded max_speed = {run.max_speed:g}",
+    }.get(status, f"the dynamics failed ({status.name})")
+    fastest = int(np.argmax(np.abs(qd))) if model.nv else 0
+    state = (
+        f"the last good state has |qd| up to {np.abs(qd).max():.3g} on coordinate "
+        f"{model.v_names[fastest]!r}"
+        if model.nv
+        else ""
+    )
+    stiff = [] if implicit else _stiff_effects(_effect_rates(scene, table, q), run.dt, 2.0)
+    if stiff:
+        cause = _step_too_large(stiff, run.dt, 2.0)
+    elif steps == 0:
+        cause = _start_cause(scene, table, q, qd)
+    elif run.integrator == "euler":
+        cause = (
+            "explicit Euler adds energy on every oscillation and diverges; "
+            "use semi_implicit_euler, rk4 or a smaller step"
+        )
+    elif integrators.INTEGRATORS[run.integrator].adaptive:
+        cause = "the motion became too fast to follow; check the scene's forces"
+    else:
+        cause = (
+            f"the integrator is unstable at dt = {run.dt:g} s for this motion; "
+            "use a smaller step or dopri5"
+        )
+    return f"simulation stopped {where}: {what}; {state}.\nLikely cause: {cause}."
+
+
+def _start_cause(scene, table, q, qd):
+    """Why the very first step failed, when no effect is too stiff for it: the accelerations
+    at the initial state, which one step of dt turns into velocities."""
+    model, run = scene.model, scene.run
+    qdd, tau = np.empty(model.nv), np.empty(model.nv)
+    status = step.evaluate(step.scene_data(model, table), 0.0, q, qd, qdd, tau, np.empty(2))
+    if status or not np.all(np.isfinite(qdd)):
+        return (
+            "the dynamics are not finite at the initial state: the forces there (gravity, "
+            "wrenches, control) overflow float64; check the scene's parameters"
+        )
+    j = int(np.argmax(np.abs(qdd)))
+    reach = abs(qdd[j]) * (run.dt if not integrators.INTEGRATORS[run.integrator].adaptive else 1.0)
+    return (
+        f"the forces at the initial state: they accelerate {model.v_names[j]!r} at "
+        f"{qdd[j]:.3g} (rad or m)/s^2, "
+        + (
+            f"so one step of {run.dt:g} s already reaches {reach:.3g}, beyond run.max_speed = "
+            f"{run.max_speed:g}"
+            if reach > run.max_speed
+            else "and the first step does not survive them"
+        )
+        + "; check the scene's forces (gravity, wrenches, control gains) and initial state"
+    )
+
+
+def _scene_mass_matrix(scene, q):
+    """M(q) with the scene's armature, or None where it cannot be computed."""
+    try:
+        return mass_matrix_with_armature(scene.model, q, scene.armature)
+    except ValueError:
+        return None
+
+
+def _regular_mass_matrix(scene, q):
+    """Whether M(q) (with the scene's armature) is positive definite to float64."""
+    M = _scene_mass_matrix(scene, q)
+    if M is None:
+        return False
+    try:
+        np.linalg.cholesky(M)
+    except np.linalg.LinAlgError:
+        return False
+    return True
+
+
+def _effect_rates(scene, table, q):
+    """[(name, rates, where)]: the effects' rates at q. For each joint, the natural frequency
+    w = sqrt(k / M_jj) of its springs (limits, PD) and the rate d / M_jj of its dampers; for each
+    contact point, those of the contact's spring and damper over the point's apparent mass
+    m_p = 1 / (e_z^T J_p M^-1 J_p^T e_z), and of friction near zero slip, mu f_n / (v_s m_p)
+    with f_n the point's share of the robot's weight. Explicit methods need dt x rate below
+    about 2 (Euler) to 2.8 (RK4). Empty where M(q) cannot be computed."""
+    model = scene.model
+    M = _scene_mass_matrix(scene, q) if model.nv else None
+    if M is None:
+        return []
+    m = np.diag(M)[model.v_index]  # the joints' entries
+    joints = [f"joint {name!r}" for name in model.joint_names]
+    candidates = []
+    if scene.limits is not None:
+        lim = scene.limits
+        candidates += [
+            ("joint-limit stiffness", np.sqrt(lim.stiffness / m), joints),
+            ("joint-limit damping", lim.damping / m, joints),
+        ]
+    if scene.damping is not None:
+        candidates.append(("viscous damping", scene.damping / m, joints))
+    if scene.friction is not None:
+        candidates.append(
+            ("friction smoothing", scene.friction.coulomb / scene.friction.smoothing / m, joints)
+        )
+    control = scene.control
+    if control is not None and control.kind == "pd":
+        candidates += [
+            ("PD stiffness", np.sqrt(control.kp / m), joints),
+            ("PD damping", control.kd / m, joints),
+        ]
+    if scene.contact is not None:
+        candidates += _contact_rates(scene, table, q)
+    return candidates
+
+
+def _stiff_effects(candidates, dt, limit):
+    """[(rate, name, where)] of the candidates (name, rates, where) whose largest rate has
+    dt x rate >= limit (and is not zero), the stiffest first."""
+    stiff = []
+    for name, rate, where in candidates:
+        j = int(np.argmax(rate))
+        if rate[j] > 0 and rate[j] * dt >= limit:
+            stiff.append((float(rate[j]), name, where[j]))
+    return sorted(stiff, reverse=True)
+
+
+def _step_too_large(stiff, dt, limit):
+    """The sentence for an explicit step past the stability `limit` of dt x rate of the stiff
+    effects (_stiff_effects), with the step that suits them all."""
+    return (
+        f"the step is too large for {_describe(stiff, dt)}, above {limit:g}. Use dt below "
+        f"{limit / stiff[0][0]:.2g} s, or integrator implicit_euler"
+    )
+
+
+def _describe(stiff, dt, lead=True):
+    """The stiff effects of _stiff_effects as a phrase naming each, with its rate and dt x rate;
+    lead: open with "a stiff effect: " or "stiff effects: "."""
+    named = "; ".join(
+        f"{name} on {where} has rate {rate:.3g} 1/s (dt x rate = {rate * dt:.3g})"
+        for rate, name, where in stiff
+    )
+    if not lead:
+        return named
+    return ("a stiff effect: " if len(stiff) == 1 else "stiff effects: ") + named
+
+
+def check_contact_step(scene, table):
+    """Refuse a fixed-step explicit run whose step the contact makes unstable: at q0, the
+    contact's rates (_contact_rates) times dt must stay inside the method's stability interval
+    on the real and imaginary axes (RK4 about 2.8, Euler and semi-implicit Euler 2). Beyond it
+    a contact does not always blow up (the clamp f_n >= 0 and friction's saturation bound it):
+    the feet chatter and the run returns nonsense, so it is refused before it starts.
+    table: the scene's effects.StageTable. Raises SceneError naming the contact point, the
+    rate and the step that suits it."""
+    run = scene.run
+    integ = integrators.INTEGRATORS[run.integrator]
+    if scene.contact is None or integ.adaptive or integ.kind == integrators.IMPLICIT:
+        return
+    limit = 2.8 if integ.order == 4 else 2.0
+    stiff = _stiff_effects(_contact_rates(scene, table, scene.q0), run.dt, limit)
+    if stiff:
+        raise SceneError(
+            f"{scene.source}: run.dt: {run.integrator} at dt = {run.dt:g} s is unstable for "
+            f"the contact at the initial state: {_step_too_large(stiff, run.dt, limit)}"
+        )
+
+
+def _contact_rates(scene, table, q):
+    """[(name, rates (P,), where (P,))] of the contact's spring, damper and friction at each
+    point, over its apparent mass m_p = 1 / (e_r^T J_p M^-1 J_p^T e_r) (see _effect_rates).
+    M^-1 J_p^T e_r is the scene's own forward dynamics at rest without gravity, so that the check
+    compiles nothing the run does not. table: the scene's effects.StageTable."""
+    from ..algorithm.contact import contact_jacobians_kernel
+    from ..algorithm.forward import method_switches
+
+    contact, model = scene.contact, scene.model
+    q = np.array(q, dtype=np.float64)  # writable, as in the run: no new specialisation
+    bodies, params = table.effects[effects.CONTACT]
+    J = np.empty((len(bodies), 3, model.nv))
+    contact_jacobians_kernel(model._ibuf, model._fbuf, (bodies, params), q, J)
+    # the scene's forward dynamics without constraints, without gravity
+    unconstrained = step.scene_data(model, table)._replace(
+        constraints=None, method=method_switches(model, table.method), loads=np.zeros((1, 6))
+    )
+    at_rest, qdd = np.zeros(model.nv), np.empty(model.nv)
+    inverse_mass = np.empty((len(bodies), 3))
+    for p in range(len(bodies)):
+        for r in range(3):
+            tau = np.ascontiguousarray(J[p, r])
+            status = step.dynamics(unconstrained, q, at_rest, tau, qdd)
+            if status:
+                return []
+            inverse_mass[p, r] = tau @ qdd
+    normal = 1.0 / np.maximum(inverse_mass[:, 2], 1e-300)
+    tangential = 1.0 / np.maximum(inverse_mass[:, :2].max(axis=1), 1e-300)
+    where = [f"contact point {p.name!r}" for p in contact.points]
+    rates = [
+        ("contact stiffness", np.sqrt(contact.stiffness / normal), where),
+        ("contact damping", contact.damping / normal, where),
+    ]
+    if scene.gravity is not None and contact.friction > 0:
+        weight = float(np.linalg.norm(scene.gravity)) * float(np.sum(model.mass))
+        f_n = weight / len(contact.points)
+        rates.append(
+            (
+                "contact friction near zero slip",
+                contact.friction * f_n / contact.slip_velocity / tangential,
+                where,
+            )
+        )
+    return rates
