@@ -23,7 +23,8 @@ from .._runtime.batch import run_rows
 from .._runtime.kernel_cache import BATCH, INLINE, JIT
 from .._runtime.status import Status
 from ..multibody.joints import joint_motion, joint_transform, prepare_joint_transforms, state_status
-from ..multibody.layout import rigid_inertias, tree
+from ..multibody.data import body_motion, joint_poses, new_work, temp_vectors, world_poses
+from ..multibody.layout import body_count, rigid_inertias, tree
 from ..spatial.compiled import (
     add_neg_ad_transpose,
     add_wrench_to_parent,
@@ -79,9 +80,10 @@ def kinetic_gradient_kernel(ibuf, fbuf, q, qd, dK_dq):
 
 
 @njit(**JIT)
-def energy_kernel(ibuf, fbuf, q, qd, gravity, out):
-    """out (2,) <- (K(q, qd), U(q)) under the world-frame gravity (3,), in one pass from the
-    base to the tips:
+def energy_kernel(ibuf, fbuf, work, q, qd, gravity, out):
+    """out (2,) <- (K(q, qd), U(q)) under the world-frame gravity (3,), in `work` (a Data's
+    buffer: R, p, R_s, p_s and V are left as this state's), in one pass from the base to the
+    tips:
         T_{s,i} = T_{s,lambda} T_{lambda,i},   V_i = Ad_{T_{i,lambda}} V_lambda + S_i qd_i,
         K = sum_i 1/2 V_i^T G_i V_i,           U = -sum_i g . (R_si h_i + m_i p_si).
     Returns a Status: OK, Q/QD_NOT_FINITE or Q_NOT_UNIT_QUATERNION."""
@@ -95,12 +97,12 @@ def energy_kernel(ibuf, fbuf, q, qd, gravity, out):
     p_home = body_tree.p_home
     mass, h, I_o = rigid_inertias(ibuf, fbuf)
     nb = parent.shape[0]
-    R, p = np.empty((nb, 3, 3)), np.empty((nb, 3))
+    R, p = joint_poses(work, nb)
     prepare_joint_transforms(body_tree, q, R, p)
-    R_s, p_s = np.empty((nb, 3, 3)), np.empty((nb, 3))
-    V = np.empty((nb, 6))
-    s = np.empty(6)
-    V_J = np.empty(6)
+    R_s, p_s = world_poses(work, nb)
+    V, _, _ = body_motion(work, nb)
+    temp = temp_vectors(work, nb, qd.shape[0])
+    s, V_J = temp[0], temp[1]
     K = 0.0
     U = 0.0
     for i in range(nb):
@@ -133,25 +135,34 @@ def energy_kernel(ibuf, fbuf, q, qd, gravity, out):
 
 @njit(**BATCH)
 def energy_batch_kernel(ibuf, fbuf, q, qd, gravity, out, status, start, stop):
-    """(K, U) over rows [start, stop) of a batch -> out (N, 2)."""
+    """(K, U) over rows [start, stop) of a batch -> out (N, 2), in a work buffer of their own."""
+    work = new_work(body_count(ibuf), qd.shape[1])
     for n in range(start, stop):
-        status[n] = energy_kernel(ibuf, fbuf, q[n], qd[n], gravity, out[n])
+        status[n] = energy_kernel(ibuf, fbuf, work, q[n], qd[n], gravity, out[n])
 
 
-def energies(model, q, qd, gravity=None, what="energies"):
+def energies(model, q, qd, gravity=None, what="energies", data=None):
     """(K, U): kinetic energy 1/2 qd^T M qd and potential energy -sum_i m_i g . c_i (J), each a
     float, or (N,) arrays for batches (N, nq), (N, nv), by one compiled kernel. gravity:
-    optional (3,) world-frame vector (m/s^2); what: the function named in error messages.
+    optional (3,) world-frame vector (m/s^2); what: the function named in error messages;
+    data: optional Data of this model (single states), which the kernel works in.
     An energy that overflows float64 is returned as it is (inf): a simulation records the
     energies of its states with this; kinetic_energy and potential_energy refuse it."""
+    work = checks.work_of(model, data, what)
+    if data is not None and gravity is None and checks.is_single(model, q, qd):
+        status = energy_kernel(model._ibuf, model._fbuf, work, q, qd, model._gravity, data.energy)
+        if status:
+            checks.raise_status(status, model, what)
+        return float(data.energy[0]), float(data.energy[1])
     (q, qd), batch = checks.as_states(model, q, ("qd", qd))
     g = checks.as_gravity(model, gravity)
     if not batch:
-        out = np.empty(2)
-        status = energy_kernel(model._ibuf, model._fbuf, q, qd, g, out)
+        out = np.empty(2) if data is None else data.energy
+        status = energy_kernel(model._ibuf, model._fbuf, work, q, qd, g, out)
         if status:
             checks.raise_status(status, model, what)
         return float(out[0]), float(out[1])
+    checks.single_state_only(data, what)
     out = np.empty((q.shape[0], 2))
     status = np.zeros(q.shape[0], dtype=np.int64)
     run_rows(energy_batch_kernel, q.shape[0], model._ibuf, model._fbuf, q, qd, g, out, status)
@@ -159,20 +170,28 @@ def energies(model, q, qd, gravity=None, what="energies"):
     return out[:, 0], out[:, 1]
 
 
-def kinetic_energy(model, q, qd):
-    """K = 1/2 qd^T M(q) qd (J): float, or (N,) for a batch of states (q (N, nq), qd (N, nv))."""
+def kinetic_energy(model, q, qd, data=None):
+    """K = 1/2 qd^T M(q) qd (J): float, or (N,) for a batch of states (q (N, nq), qd (N, nv)).
+
+    data: optional Data of this model (single states): the call works in it and allocates no
+    array (data.energy holds (K, U), data.V the body twists)."""
     checks.check_model(model, "kinetic_energy")
-    K = energies(model, q, qd, what="kinetic_energy")[0]
+    K = energies(model, q, qd, what="kinetic_energy", data=data)[0]
     return checks.check_result(K, "kinetic_energy", "K", {"q": q, "qd": qd})
 
 
-def potential_energy(model, q, gravity=None):
+def potential_energy(model, q, gravity=None, data=None):
     """U(q) = -sum_i m_i g . c_i(q) (J), zero at the world origin: float, or (N,) for (N, nq).
 
     gravity: optional (3,) world-frame vector (m/s^2), default model.gravity; dU/dq = g(q).
+    data: optional Data of this model (single configurations): the call works in it and
+    allocates no array (data.energy holds (0, U), data.R_s, data.p_s the body poses).
     """
     checks.check_model(model, "potential_energy")
-    q = checks.as_q(model, q)
-    zero = np.zeros(q.shape[:-1] + (model.nv,))
-    U = energies(model, q, zero, gravity, "potential_energy")[1]
+    if data is not None and checks.is_single(model, q):
+        zero = data.zero_v
+    else:
+        q = checks.as_q(model, q)
+        zero = np.zeros(q.shape[:-1] + (model.nv,))
+    U = energies(model, q, zero, gravity, "potential_energy", data)[1]
     return checks.check_result(U, "potential_energy", "U", {"q": q, "gravity": gravity})

@@ -37,6 +37,8 @@ Joint space, the results (the function that returns each):
                           the Cholesky factor L of M = L L^T
   J             (6, nv)   jacobian
   T_sf          (4, 4)    frame_pose (jacobian leaves the frame's pose in it too)
+  energy        (2,)      (K, U) (J): kinetic_energy and potential_energy leave both (with
+                          qd = 0 for potential_energy)
 (N m or N for forces, rad/s^2 or m/s^2 for accelerations, as the functions' docstrings say.)
 """
 
@@ -84,6 +86,7 @@ WORK_FIELDS = (
     ("J", (6,), "nv"),
     ("M", (), "nv2"),
     ("T_sf", (4, 4), "fixed"),
+    ("energy", (2,), "fixed"),
     ("no_loads", (1, 6), "fixed"),
     ("scratch", (9, 6), "fixed"),
     ("temp", (3, 6), "fixed"),
