@@ -58,7 +58,7 @@ def no_run(monkeypatch):
     def refuse(*args, **kwargs):
         raise AssertionError("the scene was loaded or run before the outputs were checked")
 
-    monkeypatch.setattr("opendyn.cli.scene_for", refuse)
+    monkeypatch.setattr("opendyn.cli.main.scene_for", refuse)
     monkeypatch.setattr(SIMULATE, "simulate", refuse)
 
 

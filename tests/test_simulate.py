@@ -180,7 +180,7 @@ def test_disabled_effect_never_runs(effect):
 _COMPILED_FOR_DEFAULT_SCENE = r"""
 import json
 import opendyn as od
-from opendyn import effects
+from opendyn.sim import effects
 from opendyn.algorithm import aba, contact, crba, forward, rnea
 od.simulate(od.load_scene("double_pendulum_swing").replace_run(duration=0.01))
 functions = {name: getattr(effects, name) for name in dir(effects) if name.endswith("_effect")}
