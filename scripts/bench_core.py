@@ -5,7 +5,8 @@
 Prints, for UR5, Panda and talos_full_v2 with a fixed base and for solo12, anymal and
 talos_full_v2 with a floating base (Pinocchio with a JointModelFreeFlyer root), microseconds
 per call and the ratio opendyn / Pinocchio for inverse dynamics, the mass matrix, forward
-dynamics (each method), the Coriolis matrix and a frame Jacobian; then batched inverse dynamics
+dynamics (each method), the Coriolis matrix and a frame Jacobian, each without and with a Data
+(data=); then batched inverse dynamics
 over N = 10,000 states against a Python loop over pin.rnea and against pin.rneaInParallel; then
 numba's first-call compile time and the start-up time with the on-disk cache, measured in
 fresh processes. States are converted to Pinocchio's conventions by opendyn.verify's adapter.
@@ -47,16 +48,16 @@ def per_call_us(fn, budget_s):
     return min(timeit.repeat(fn, number=n, repeat=5)) / n * 1e6
 
 
-def paired_us(ours, theirs, budget_s, rounds=25):
-    """Microseconds per call of two functions timed in alternation, best of `rounds` each, so
-    that a slow spell of the machine hits both sides alike."""
+def paired_us(*functions, budget_s, rounds=25):
+    """Microseconds per call of functions timed in alternation, best of `rounds` each, so
+    that a slow spell of the machine hits every side alike."""
     sizes = []
-    for fn in (ours, theirs):
+    for fn in functions:
         n = max(1, int(timeit.Timer(fn).autorange()[0]))
         sizes.append(max(1, int(n * budget_s / rounds / max(timeit.timeit(fn, number=n), 1e-9))))
-    best = [np.inf, np.inf]
+    best = [np.inf] * len(functions)
     for _ in range(rounds):
-        for k, fn in enumerate((ours, theirs)):
+        for k, fn in enumerate(functions):
             best[k] = min(best[k], timeit.timeit(fn, number=sizes[k]) / sizes[k] * 1e6)
     return best
 
@@ -85,6 +86,8 @@ def single_state_rows(name, floating_base, budget):
     frame = model.frame_names[-1]
     fid = pmodel.getFrameId(frame)
 
+    data = model.data()
+
     def pin_crba_solve():
         M = pin.crba(pmodel, pdata, qp)
         h = pin.nonLinearEffects(pmodel, pdata, qp, vp)
@@ -94,51 +97,61 @@ def single_state_rows(name, floating_base, budget):
         (
             "inverse_dynamics",
             lambda: od.inverse_dynamics(model, q, qd, qdd),
+            lambda: od.inverse_dynamics(model, q, qd, qdd, data=data),
             "rnea",
             lambda: pin.rnea(pmodel, pdata, qp, vp, ap),
         ),
         (
             "mass_matrix",
             lambda: od.mass_matrix(model, q),
+            lambda: od.mass_matrix(model, q, data=data),
             "crba",
             lambda: pin.crba(pmodel, pdata, qp),
         ),
         (
             "forward_dynamics aba",
             lambda: od.forward_dynamics(model, q, qd, qdd),
+            lambda: od.forward_dynamics(model, q, qd, qdd, data=data),
             "aba",
             lambda: pin.aba(pmodel, pdata, qp, vp, ap),
         ),
         (
             "forward_dynamics crba",
             lambda: od.forward_dynamics(model, q, qd, qdd, method="crba"),
+            lambda: od.forward_dynamics(model, q, qd, qdd, method="crba", data=data),
             "crba+nle+np.solve",
             pin_crba_solve,
         ),
         (
             "forward_dynamics newton_euler",
             lambda: od.forward_dynamics(model, q, qd, qdd, method="newton_euler"),
+            lambda: od.forward_dynamics(model, q, qd, qdd, method="newton_euler", data=data),
             "aba",
             lambda: pin.aba(pmodel, pdata, qp, vp, ap),
         ),
         (
             "coriolis_matrix",
             lambda: od.coriolis_matrix(model, q, qd),
+            None,
             "computeCoriolisMatrix",
             lambda: pin.computeCoriolisMatrix(pmodel, pdata, qp, vp),
         ),
         (
             "jacobian (body)",
             lambda: od.jacobian(model, q, frame, "body"),
+            lambda: od.jacobian(model, q, frame, "body", data=data),
             "computeFrameJacobian",
             lambda: pin.computeFrameJacobian(pmodel, pdata, qp, fid, pin.LOCAL),
         ),
     ]
     rows = []
-    for ours_name, ours, pin_name, theirs in cases:
-        ours(), theirs()
-        t_ours, t_pin = paired_us(ours, theirs, budget)
-        rows.append((label, model.nv, ours_name, t_ours, pin_name, t_pin))
+    for ours_name, ours, ours_with_data, pin_name, theirs in cases:
+        functions = (ours, theirs) if ours_with_data is None else (ours, theirs, ours_with_data)
+        for fn in functions:
+            fn()
+        times = paired_us(*functions, budget_s=budget)
+        t_data = times[2] if ours_with_data is not None else None
+        rows.append((label, model.nv, ours_name, times[0], t_data, pin_name, times[1]))
     return rows
 
 
@@ -204,14 +217,18 @@ def main():
         f"opendyn {od.__version__}, Pinocchio {pin.__version__}, numpy {np.__version__}, "
         f"{os.cpu_count()} cores\n"
     )
-    print("| robot | nv | opendyn | us | Pinocchio | us | ratio |")
-    print("|---|---:|---|---:|---|---:|---:|")
+    print(
+        "| robot | nv | opendyn | us | us with data= | Pinocchio | us | ratio "
+        "| ratio with data= |"
+    )
+    print("|---|---:|---|---:|---:|---|---:|---:|---:|")
     for name, floating_base in ROBOTS:
         rows = single_state_rows(name, floating_base, budget)
-        for robot, nv, ours_name, t_ours, pin_name, t_pin in rows:
+        for robot, nv, ours_name, t_ours, t_data, pin_name, t_pin in rows:
+            with_data = ("", "") if t_data is None else (f"{t_data:.2f}", f"{t_data / t_pin:.2f}")
             print(
-                f"| {robot} | {nv} | {ours_name} | {t_ours:.2f} | {pin_name} | {t_pin:.2f} "
-                f"| {t_ours / t_pin:.2f} |"
+                f"| {robot} | {nv} | {ours_name} | {t_ours:.2f} | {with_data[0]} | {pin_name} "
+                f"| {t_pin:.2f} | {t_ours / t_pin:.2f} | {with_data[1]} |"
             )
 
     n = 10_000

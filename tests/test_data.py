@@ -46,6 +46,16 @@ CALLS = (
             m, q, qd, qdd, method="newton_euler", **kw
         ),
     ),
+    (
+        "coriolis_matrix",
+        "C",
+        lambda m, q, qd, qdd, f, **kw: od.coriolis_matrix(m, q, qd, **kw),
+    ),
+    (
+        "christoffel_symbols",
+        "Gamma",
+        lambda m, q, qd, qdd, f, **kw: od.christoffel_symbols(m, q, **kw),
+    ),
     ("frame_pose", "T_sf", lambda m, q, qd, qdd, f, **kw: od.frame_pose(m, q, f, **kw)),
     ("jacobian space", "J", lambda m, q, qd, qdd, f, **kw: od.jacobian(m, q, f, **kw)),
     (
@@ -179,7 +189,7 @@ import numpy as np
 from numba import njit
 from numba.core.runtime import rtsys
 import opendyn as od
-from opendyn.algorithm import crba, energy, forward, kinematics, rnea
+from opendyn.algorithm import christoffel, crba, energy, forward, kinematics, rnea
 
 model = od.load_urdf(sys.argv[1], floating_base=sys.argv[2] == "1", check_inertia=False)
 rng = np.random.default_rng(0)
@@ -208,6 +218,14 @@ for method in forward.METHODS:
         (*buffers, q, qd, qdd, model._loads, data.qdd, forward.NO_ARMATURE,
          forward.method_switches(model, method)),
     )
+calls["coriolis_matrix"] = (
+    lambda **kw: od.coriolis_matrix(model, q, qd, **kw),
+    christoffel.coriolis_matrix_kernel, (*buffers, q, qd, data.C),
+)
+calls["christoffel_symbols"] = (
+    lambda **kw: od.christoffel_symbols(model, q, **kw),
+    christoffel.christoffel_kernel, (*buffers, q, data._C_e, data.Gamma),
+)
 calls["kinetic_energy"] = (  # a float: nothing for numpy to keep either way
     lambda **kw: od.kinetic_energy(model, q, qd, **kw),
     energy.energy_kernel, (*buffers, q, qd, model._gravity, data.energy),
@@ -273,7 +291,7 @@ def test_a_call_with_data_allocates_nothing(name, floating):
     )
     assert proc.returncode == 0, proc.stderr
     counts = json.loads(proc.stdout.strip().splitlines()[-1])
-    assert len(counts) == 9
+    assert len(counts) == 11
     for call, count in counts.items():
         assert count["kernel"] == 0 and count["numpy with data"] == 0, (call, count)
         if call != "kinetic_energy":

@@ -102,3 +102,42 @@ def test_the_readme_scenes_load_and_the_full_example_runs():
     del four_bar["constraints"], four_bar["baumgarte"]  # the fragment's, on the same state
     closed = od.scene_from_dict({**four_bar, **constraints}, base_dir=shipped_robots_dir())
     assert len(closed.constraints) == 1 and closed.baumgarte == (20.0, 20.0)
+
+
+def layout_modules():
+    """The Python files the README's Layout section lists under opendyn/: its tree block, two
+    spaces of indent a level, a folder ending in '/'; a line indented deeper than the level
+    it could open continues the description above it."""
+    section = README.split("## Layout", 1)[1]
+    tree = re.search(r"^```\n(opendyn/\n.*?)^```", section, re.M | re.S).group(1)
+    listed, folders = set(), []
+    for line in tree.splitlines():
+        if not line.strip():
+            continue
+        depth = (len(line) - len(line.lstrip())) // 2
+        if depth > len(folders):
+            continue  # a description's second line
+        name = line.split()[0]
+        if depth == 0 and name != "opendyn/":
+            break  # past the package: robots/, tests/, ...
+        del folders[depth:]
+        if name.endswith("/"):
+            folders.append(name.rstrip("/"))
+        elif name.endswith(".py"):
+            listed.add("/".join(folders + [name]))
+    return listed
+
+
+def test_the_layout_section_lists_every_module_of_the_package_and_no_other():
+    """One line per module: the README's Layout is the package's tree."""
+    package = ROOT / "opendyn"
+    modules = {
+        p.relative_to(ROOT).as_posix()
+        for p in package.rglob("*.py")
+        if "__pycache__" not in p.parts
+    }
+    listed = layout_modules()
+    assert listed == modules, (
+        f"in the package, not in the README: {sorted(modules - listed)}; "
+        f"in the README, not in the package: {sorted(listed - modules)}"
+    )

@@ -55,7 +55,15 @@ from .._runtime.arrays import all_finite, fill, result_status, zero_matrix
 from .._runtime.batch import run_rows
 from .._runtime.kernel_cache import BATCH, INLINE, JIT
 from .._runtime.status import Status
-from ..multibody.data import new_work, world_poses
+from ..multibody.data import (
+    coriolis_terms,
+    joint_vectors,
+    new_work,
+    scratch_rows,
+    skew_scratch,
+    temp_vectors,
+    world_poses,
+)
 from ..multibody.joints import configuration_status
 from ..multibody.layout import body_count, dof_count, spatial_inertias, tree
 from ..spatial.compiled import ad_twist, add_inertia_to_parent, dot6, mat6_vec
@@ -64,21 +72,22 @@ from .kinematics import forward_kinematics, space_axis
 
 
 @njit(**JIT)
-def space_axes_and_inertias(ibuf, fbuf, q, S_s, G_s, Gc):
-    """At q, for every body i: S_s[i, k] = mult_i Ad_{T_si} S_i[k] for its joint's rows
-    k < nv_i; G_s[i] = Ad_{T_is}^T G_i Ad_{T_is}; Gc[i] = the sum of G_s over the subtree of i
-    (all in the world frame)."""
+def space_axes_and_inertias(ibuf, fbuf, work, q):
+    """At q, for every body i, in the work buffer's CoriolisTerms: S_s[i, k] = mult_i Ad_{T_si}
+    S_i[k] for its joint's rows k < nv_i; G_s[i] = Ad_{T_is}^T G_i Ad_{T_is}; Gc[i] = the sum
+    of G_s over the subtree of i (all in the world frame)."""
     body_tree = tree(ibuf, fbuf)
     parent, nv_j, mult = body_tree.parent, body_tree.nv_j, body_tree.mult
     S = body_tree.S
     G = spatial_inertias(ibuf, fbuf)
     nb = parent.shape[0]
-    work = new_work(nb, dof_count(ibuf))  # the world poses R_s, p_s
+    terms = coriolis_terms(work, nb)
+    S_s, G_s, Gc = terms.S_s, terms.G_s, terms.Gc
     # every body: last = -1, typed int64 as the other callers' body index (a literal -1
     # would compile forward_kinematics a second time)
     forward_kinematics(body_tree, work, q, np.int64(-1))
     R_s, p_s = world_poses(work, nb)
-    scratch = np.empty((9, 6))
+    scratch = scratch_rows(work, nb, dof_count(ibuf))
     for i in range(nb):
         for k in range(nv_j[i]):
             space_axis(R_s[i], p_s[i], S[i, k], S_s[i, k])
@@ -107,8 +116,9 @@ def cross_matrix(x, y, z, out):
 
 
 @njit(**JIT)
-def velocity_terms(ibuf, fbuf, v, S_s, G_s, V_s, dS, Bc, idle):
-    """At velocity v, for every body i (world frame): V_s[i] = V_s[lambda] + sum_k S_s[i, k]
+def velocity_terms(ibuf, fbuf, work, v):
+    """At velocity v, for every body i (world frame), in the work buffer's CoriolisTerms (with
+    S_s and G_s from space_axes_and_inertias): V_s[i] = V_s[lambda] + sum_k S_s[i, k]
     v[iv_i + k]; dS[i, k] = ad_{V_s[i]} S_s[i, k], the rate of the axis S_s[i, k]; Bc[i] (6, 3)
     = the angular columns of the sum over the subtree of i of Bs = -1/2 (G ad_V + ad_V^T G)
     - 1/2 X(G V) at (G_s, V_s) (its linear columns are 0: module docstring).
@@ -119,12 +129,14 @@ def velocity_terms(ibuf, fbuf, v, S_s, G_s, V_s, dS, Bc, idle):
     body_tree = tree(ibuf, fbuf)
     parent, nv_j, iv = body_tree.parent, body_tree.nv_j, body_tree.iv
     nb = parent.shape[0]
-    P = np.empty(6)
+    terms = coriolis_terms(work, nb)
+    S_s, G_s, V_s, dS = terms.S_s, terms.G_s, terms.V_s, terms.dS
+    Bc, idle, still = terms.Bc, terms.idle, terms.still
+    P = temp_vectors(work, nb, v.shape[0])[0]
     # [w], [u], [h], [p_ang] of the body at hand
-    sk = np.empty((4, 3, 3))
+    sk = skew_scratch(work, nb, v.shape[0])
     W, U, H, P_ang = sk[0], sk[1], sk[2], sk[3]
-    # forward: idle[i] <- V_s = 0 from the root to i; still[i] <- V_s[i] = 0
-    still = np.empty(nb, dtype=np.bool_)
+    # forward: idle[i] <- V_s = 0 from the root to i; still[i] <- V_s[i] = 0 (flags 1.0, 0.0)
     for i in range(nb):
         lam = parent[i]
         for r in range(6):
@@ -132,11 +144,12 @@ def velocity_terms(ibuf, fbuf, v, S_s, G_s, V_s, dS, Bc, idle):
         for k in range(nv_j[i]):
             for r in range(6):
                 V_s[i, r] += S_s[i, k, r] * v[iv[i] + k]
-        still[i] = True
+        still[i] = 1.0
         for r in range(6):
-            still[i] = still[i] and V_s[i, r] == 0.0
-        idle[i] = still[i] and (lam < 0 or idle[lam])
-        if still[i]:  # dS[i] = 0 and Bs_i = 0
+            if V_s[i, r] != 0.0:
+                still[i] = 0.0
+        idle[i] = 1.0 if still[i] == 1.0 and (lam < 0 or idle[lam] == 1.0) else 0.0
+        if still[i] == 1.0:  # dS[i] = 0 and Bs_i = 0
             for k in range(nv_j[i]):
                 fill(dS[i, k], 0.0)
             for r in range(6):
@@ -164,27 +177,30 @@ def velocity_terms(ibuf, fbuf, v, S_s, G_s, V_s, dS, Bc, idle):
     # (still[i] <- the whole subtree of i is still)
     for i in range(nb - 1, 0, -1):
         lam = parent[i]
-        if lam >= 0 and not still[i]:
-            still[lam] = False
-            idle[lam] = False
+        if lam >= 0 and still[i] == 0.0:
+            still[lam] = 0.0
+            idle[lam] = 0.0
             for r in range(6):
                 for c in range(3):
                     Bc[lam, r, c] += Bc[i, r, c]
 
 
 @njit(**JIT)
-def assemble(ibuf, fbuf, S_s, Gc, dS, Bc, idle, C):
+def assemble(ibuf, fbuf, work, C):
     """C (nv, nv) <- C[a, b] = S_a^T (Gc_b dS_b + Bc_b S_b) for a on the path from the root to b,
     C[b, a] = S_b^T (Gc_b dS_a + Bc_b S_a) for a strictly above b (the module docstring);
-    idle bodies (velocity_terms) add nothing and are skipped."""
+    idle bodies (velocity_terms) add nothing and are skipped. S_s, Gc, dS, Bc and idle are
+    the work buffer's CoriolisTerms."""
     body_tree = tree(ibuf, fbuf)
     parent, nv_j, iv = body_tree.parent, body_tree.nv_j, body_tree.iv
+    terms = coriolis_terms(work, parent.shape[0])
+    S_s, Gc, dS, Bc, idle = terms.S_s, terms.Gc, terms.dS, terms.Bc, terms.idle
     zero_matrix(C)
-    F = np.empty(6)
-    GcS = np.empty(6)
-    BcS = np.zeros(6)  # Bc^T S: its linear half is 0
+    temp = temp_vectors(work, parent.shape[0], C.shape[0])
+    F, GcS, BcS = temp[0], temp[1], temp[2]
+    fill(BcS, 0.0)  # Bc^T S: its linear half is 0
     for b in range(parent.shape[0]):
-        if idle[b]:
+        if idle[b] == 1.0:
             continue
         for k in range(nv_j[b]):
             col_b = iv[b] + k
@@ -210,56 +226,38 @@ def assemble(ibuf, fbuf, S_s, Gc, dS, Bc, idle, C):
                 a = parent[a]
 
 
-@njit(**INLINE)
-def workspace(nb):
-    """The per-body arrays of the kernels below: S_s, G_s, Gc, dS (nb, 6, 6), Bc (nb, 6, 3),
-    V_s (nb, 6) and the idle flags (nb,)."""
-    work = np.empty((4, nb, 6, 6))
-    return (
-        work[0],
-        work[1],
-        work[2],
-        work[3],
-        np.empty((nb, 6, 3)),
-        np.empty((nb, 6)),
-        np.empty(nb, dtype=np.bool_),
-    )
-
-
 @njit(**JIT)
-def coriolis_matrix_kernel(ibuf, fbuf, q, v, C):
-    """C (nv, nv) <- C(q, v) in O(n d). Returns a Status: OK, Q_NOT_FINITE,
-    Q_NOT_UNIT_QUATERNION, QD_NOT_FINITE or RESULT_NOT_FINITE."""
+def coriolis_matrix_kernel(ibuf, fbuf, work, q, v, C):
+    """C (nv, nv) <- C(q, v) in O(n d), in `work` (a Data's buffer: its CoriolisTerms are left
+    as this state's). Returns a Status: OK, Q_NOT_FINITE, Q_NOT_UNIT_QUATERNION, QD_NOT_FINITE
+    or RESULT_NOT_FINITE."""
     status = configuration_status(ibuf, q)
     if status:
         return status
     if not all_finite(v):
         return Status.QD_NOT_FINITE.value
-    nb = body_count(ibuf)
-    S_s, G_s, Gc, dS, Bc, V_s, idle = workspace(nb)
-    space_axes_and_inertias(ibuf, fbuf, q, S_s, G_s, Gc)
-    velocity_terms(ibuf, fbuf, v, S_s, G_s, V_s, dS, Bc, idle)
-    assemble(ibuf, fbuf, S_s, Gc, dS, Bc, idle, C)
+    space_axes_and_inertias(ibuf, fbuf, work, q)
+    velocity_terms(ibuf, fbuf, work, v)
+    assemble(ibuf, fbuf, work, C)
     return result_status(C)
 
 
 @njit(**JIT)
-def christoffel_kernel(ibuf, fbuf, q, Gamma):
-    """Gamma (nv, nv, nv) <- Gamma[:, j, k] = 1/2 (C(e_k)[:, j] + C(e_j)[:, k]) at q.
+def christoffel_kernel(ibuf, fbuf, work, q, C_e, Gamma):
+    """Gamma (nv, nv, nv) <- Gamma[:, j, k] = 1/2 (C(e_k)[:, j] + C(e_j)[:, k]) at q, in
+    `work` (a Data's buffer), with C_e (nv, nv, nv) the scratch for C(e_k).
     Returns a Status: OK, Q_NOT_FINITE, Q_NOT_UNIT_QUATERNION or RESULT_NOT_FINITE."""
     status = configuration_status(ibuf, q)
     if status:
         return status
     nb, nv = body_count(ibuf), Gamma.shape[0]
-    S_s, G_s, Gc, dS, Bc, V_s, idle = workspace(nb)
-    space_axes_and_inertias(ibuf, fbuf, q, S_s, G_s, Gc)
+    space_axes_and_inertias(ibuf, fbuf, work, q)
     # C_e[k] = C(e_k), then Gamma[i, j, k] = 1/2 (C_e[k, i, j] + C_e[j, i, k])
-    e_k = np.zeros(nv)
-    C_e = np.empty((nv, nv, nv))
+    _, _, e_k = joint_vectors(work, nb, nv)
     for k in range(nv):
         e_k[k] = 1.0
-        velocity_terms(ibuf, fbuf, e_k, S_s, G_s, V_s, dS, Bc, idle)
-        assemble(ibuf, fbuf, S_s, Gc, dS, Bc, idle, C_e[k])
+        velocity_terms(ibuf, fbuf, work, e_k)
+        assemble(ibuf, fbuf, work, C_e[k])
         e_k[k] = 0.0
     for i in range(nv):
         for j in range(nv):
@@ -272,16 +270,21 @@ def christoffel_kernel(ibuf, fbuf, q, Gamma):
 def christoffel_batch_kernel(ibuf, fbuf, q, v, out, status, matrix, symbols, start, stop):
     """Coriolis matrices (q, v) or Christoffel symbols (q; v unused) over rows [start, stop), as
     the compile-time switches (matrix, symbols) say: the one that is not None (only it is
-    compiled)."""
+    compiled). The rows work in a buffer of their own."""
+    nv = out.shape[1]
+    work = new_work(body_count(ibuf), nv)
+    C_e = np.empty((nv, nv, nv) if symbols is not None else (0, 0, 0))
     for n in range(start, stop):
         if matrix is not None:
-            status[n] = coriolis_matrix_kernel(ibuf, fbuf, q[n], v[n], out[n])
+            status[n] = coriolis_matrix_kernel(ibuf, fbuf, work, q[n], v[n], out[n])
         if symbols is not None:
-            status[n] = christoffel_kernel(ibuf, fbuf, q[n], out[n])
+            status[n] = christoffel_kernel(ibuf, fbuf, work, q[n], C_e, out[n])
 
 
-def _run(model, q, v, what):
-    """C(q, v), or Gamma(q) when v is None, for a single state or a batch."""
+def _run(model, q, v, what, data):
+    """C(q, v), or Gamma(q) when v is None, for a single state or a batch; with data (single
+    states), the Data's C or Gamma."""
+    work = checks.work_of(model, data, what)
     matrix = v is not None
     if matrix:
         (q, v), batch = checks.as_states(model, q, ("qd", v))
@@ -291,15 +294,17 @@ def _run(model, q, v, what):
     result, arguments = ("C", {"q": q, "qd": v}) if matrix else ("Gamma", {"q": q})
     nv = model.nv
     if not batch:
-        out = np.empty((nv, nv) if matrix else (nv, nv, nv))
-        status = (
-            coriolis_matrix_kernel(model._ibuf, model._fbuf, q, v, out)
-            if matrix
-            else christoffel_kernel(model._ibuf, model._fbuf, q, out)
-        )
+        if matrix:
+            out = np.empty((nv, nv)) if data is None else data.C
+            status = coriolis_matrix_kernel(model._ibuf, model._fbuf, work, q, v, out)
+        else:
+            out = np.empty((nv, nv, nv)) if data is None else data.Gamma
+            C_e = np.empty((nv, nv, nv)) if data is None else data._C_e
+            status = christoffel_kernel(model._ibuf, model._fbuf, work, q, C_e, out)
         if status:
             checks.raise_status(status, model, what, result, arguments)
         return out
+    checks.single_state_only(data, what)
     n = q.shape[0]
     # C-contiguous rows out[n]: a strided view would make numba compile the kernel again
     out = np.empty((n, nv, nv) if matrix else (n, nv, nv, nv))
@@ -319,7 +324,7 @@ def _run(model, q, v, what):
     return out
 
 
-def christoffel_symbols(model, q):
+def christoffel_symbols(model, q, data=None):
     """Gamma(q): (nv, nv, nv), Gamma[i, j, k] = 1/2 d^2 c_i / dv_j dv_k, the symmetric
     quadratic form of the Coriolis forces: symmetric in j, k, with c_i(q, v) = sum_jk
     Gamma[i, j, k] v_j v_k (N m or N per (rad/s or m/s)^2).
@@ -331,12 +336,14 @@ def christoffel_symbols(model, q):
     coriolis_matrix (it is not even Mdot - 2C skew-compatible; see the module docstring: for
     one free rigid body the contraction C_Gamma(V) W = -1/2 (ad_V^T G W + ad_W^T G V) has
     W^T C_Gamma W = -1/2 (ad_V W)^T G W != 0 while Mdot = 0).
+    data: optional Data of this model (single configurations): returns data.Gamma, allocating
+    nothing.
     """
     checks.check_model(model, "christoffel_symbols")
-    return _run(model, q, None, "christoffel_symbols")
+    return _run(model, q, None, "christoffel_symbols", data)
 
 
-def coriolis_matrix(model, q, qd):
+def coriolis_matrix(model, q, qd, data=None):
     """C(q, qd): (nv, nv) Coriolis matrix with C qd = c(q, qd) (coriolis_forces) and
     Mdot - 2C skew-symmetric; Pinocchio's computeCoriolisMatrix, any base.
 
@@ -346,6 +353,8 @@ def coriolis_matrix(model, q, qd):
     Floating base: C is linear in qd and Gamma[i, j, k] = 1/2 (dC_ij/dqd_k + dC_ik/dqd_j), but
     C != sum_k Gamma[:, :, k] qd_k (module docstring: no C with Mdot - 2C skew is such a
     contraction for a free body).
+    data: optional Data of this model (single states): returns data.C, allocating nothing;
+    data.S_s, data.V_s, ... hold the terms it is made of.
     """
     checks.check_model(model, "coriolis_matrix")
-    return _run(model, q, qd, "coriolis_matrix")
+    return _run(model, q, qd, "coriolis_matrix", data)

@@ -26,6 +26,13 @@ Per body, as the last evaluation that computes them left them:
   mass_c, h_c, I_c (nb,), (nb, 3), (nb, 3, 3) composite rigid-body inertia of the subtree of
                           body i, in {i}: mass (kg), first moment m c (kg m), rotational inertia
                           about {i}'s origin (kg m^2) (CRBA)
+  S_s           (nb, 6, 6) rows k < nv_i: joint i's motion axes mult_i Ad_{T_si} S_i[k] in {s}
+                          (Coriolis matrix, Christoffel symbols)
+  G_s, Gc       (nb, 6, 6) body i's spatial inertia in {s}, and the sum over its subtree
+  dS            (nb, 6, 6) rows k < nv_i: the axes' rates ad_{V_s[i]} S_s[i, k] in {s}
+  Bc            (nb, 6, 3) the angular columns of the subtree's sum of
+                          Bs = -1/2 (G ad_V + ad_V^T G) - 1/2 X(G V), in {s}
+  V_s           (nb, 6)   body twists in {s} (the spatial velocities)
 Joint space, the results (the function that returns each):
   tau           (nv,)     inverse_dynamics
   g             (nv,)     gravity_forces
@@ -35,6 +42,8 @@ Joint space, the results (the function that returns each):
   qdd           (nv,)     forward_dynamics
   M             (nv, nv)  mass_matrix; forward dynamics by CRBA leaves in its lower triangle
                           the Cholesky factor L of M = L L^T
+  C             (nv, nv)  coriolis_matrix
+  Gamma         (nv, nv, nv) christoffel_symbols (an array of its own beside the buffer)
   J             (6, nv)   jacobian
   T_sf          (4, 4)    frame_pose (jacobian leaves the frame's pose in it too)
   energy        (2,)      (K, U) (J): kinetic_energy and potential_energy leave both (with
@@ -76,6 +85,14 @@ WORK_FIELDS = (
     ("h_c", (3,), "nb"),
     ("I_c", (3, 3), "nb"),
     ("body_flag", (), "nb"),
+    ("S_s", (6, 6), "nb"),
+    ("G_s", (6, 6), "nb"),
+    ("Gc", (6, 6), "nb"),
+    ("dS", (6, 6), "nb"),
+    ("Bc", (6, 3), "nb"),
+    ("V_s", (6,), "nb"),
+    ("idle", (), "nb"),
+    ("still", (), "nb"),
     ("tau", (), "nv"),
     ("g", (), "nv"),
     ("c", (), "nv"),
@@ -85,6 +102,7 @@ WORK_FIELDS = (
     ("e_k", (), "nv"),
     ("J", (6,), "nv"),
     ("M", (), "nv2"),
+    ("C", (), "nv2"),
     ("T_sf", (4, 4), "fixed"),
     ("energy", (2,), "fixed"),
     ("no_loads", (1, 6), "fixed"),
@@ -93,7 +111,7 @@ WORK_FIELDS = (
 )
 # the fields a user reads (the rest is the kernels' scratch)
 PUBLIC_FIELDS = tuple(
-    name for name, _, _ in WORK_FIELDS if name not in ("body_flag", "zero_v", "e_k", "no_loads", "scratch", "temp")
+    name for name, _, _ in WORK_FIELDS if name not in ("body_flag", "idle", "still", "zero_v", "e_k", "no_loads", "scratch", "temp")
 )
 _UNITS = ("nb", "nv", "nv2", "fixed")
 
@@ -158,6 +176,9 @@ class Data:
             a = _count(start, nb, nv)
             view = self._work[a : a + _count(size, nb, nv)]
             setattr(self, name, view.reshape(_shape(name, shape, unit, nb, nv)))
+        # nv^3 numbers each: beside the buffer, which every Model keeps one of
+        self.Gamma = np.zeros((nv, nv, nv))
+        self._C_e = np.zeros((nv, nv, nv))
 
     def __repr__(self) -> str:
         return f"Data({self.model.name!r}, nb={self.model.nb}, nv={self.model.nv})"
@@ -175,7 +196,9 @@ _IA, _U, _L = (_where(n) for n in ("IA", "U", "L"))
 _MASS_C, _H_C, _I_C = (_where(n) for n in ("mass_c", "h_c", "I_c"))
 _BODY_FLAG, _ZERO_V, _E_K = (_where(n) for n in ("body_flag", "zero_v", "e_k"))
 _TAU, _G, _C, _H, _QDD = (_where(n) for n in ("tau", "g", "c", "h", "qdd"))
-_J, _M, _T_SF = (_where(n) for n in ("J", "M", "T_sf"))
+_J, _M, _C_MATRIX, _T_SF = (_where(n) for n in ("J", "M", "C", "T_sf"))
+_S_S, _G_S, _GC, _DS = (_where(n) for n in ("S_s", "G_s", "Gc", "dS"))
+_BC, _V_S, _IDLE, _STILL = (_where(n) for n in ("Bc", "V_s", "idle", "still"))
 _NO_LOADS, _SCRATCH, _TEMP = _where("no_loads"), _where("scratch"), _where("temp")
 
 
@@ -253,6 +276,28 @@ def composite_inertias(work, nb):
     )
 
 
+# The Coriolis terms' per-body arrays (opendyn.algorithm.christoffel), views of a work buffer:
+# S_s, G_s, Gc, dS (nb, 6, 6), Bc (nb, 6, 3), V_s (nb, 6), idle and still (nb,) flags (0 or 1).
+CoriolisTerms = namedtuple(
+    "CoriolisTerms", ("S_s", "G_s", "Gc", "dS", "Bc", "V_s", "idle", "still")
+)
+
+
+@njit(**INLINE)
+def coriolis_terms(work, nb):
+    """The CoriolisTerms views of a work buffer."""
+    return CoriolisTerms(
+        body_field(work, nb, _S_S).reshape((nb, 6, 6)),
+        body_field(work, nb, _G_S).reshape((nb, 6, 6)),
+        body_field(work, nb, _GC).reshape((nb, 6, 6)),
+        body_field(work, nb, _DS).reshape((nb, 6, 6)),
+        body_field(work, nb, _BC).reshape((nb, 6, 3)),
+        body_field(work, nb, _V_S).reshape((nb, 6)),
+        body_field(work, nb, _IDLE),
+        body_field(work, nb, _STILL),
+    )
+
+
 @njit(**INLINE)
 def body_flags(work, nb):
     """(nb,) one number per body for a kernel's own marks (0.0 or 1.0)."""
@@ -269,6 +314,12 @@ def scratch_rows(work, nb, nv):
 def temp_vectors(work, nb, nv):
     """(3, 6) three 6-vectors of scratch, one row each, for one kernel's temporaries."""
     return work_field(work, nb, nv, _TEMP).reshape((3, 6))
+
+
+@njit(**INLINE)
+def skew_scratch(work, nb, nv):
+    """(4, 3, 3): four 3 x 3 matrices of scratch (the first 36 numbers of the scratch rows)."""
+    return work_field(work, nb, nv, _SCRATCH)[:36].reshape((4, 3, 3))
 
 
 @njit(**INLINE)
@@ -301,6 +352,12 @@ def new_work(nb, nv):
 def frame_pose_field(work, nb, nv):
     """T_sf (4, 4): a frame's pose in the world."""
     return work_field(work, nb, nv, _T_SF).reshape((4, 4))
+
+
+@njit(**INLINE)
+def coriolis_matrix_field(work, nb, nv):
+    """C (nv, nv)."""
+    return work_field(work, nb, nv, _C_MATRIX).reshape((nv, nv))
 
 
 @njit(**INLINE)
