@@ -20,6 +20,7 @@ import os
 
 import numpy as np
 
+from .._runtime.batch import run_rows
 from .._runtime.status import NOT_FINITE_ARGUMENT, Status, decode
 from ..errors import NonFiniteResultError, SingularMassMatrixError
 from ..multibody.data import Data
@@ -269,6 +270,16 @@ def quaternion_problem(model, name="q"):
         f"the quaternion {slices} (x, y, z, w) must have unit norm (within "
         f"{QUATERNION_TOLERANCE:g}); od.normalize(model, {name}) normalises it"
     )
+
+
+def run_batch(model, batch_kernel, inputs, out, what, result=None, arguments=None):
+    """out (N, ...) <- batch_kernel(ibuf, fbuf, *inputs, out, status, start, stop) over the
+    rows of a batch, one slice per core (opendyn._runtime.batch.run_rows); the first failing
+    row raises as raise_batch_status. The one path of every public function's batches."""
+    status = np.zeros(out.shape[0], dtype=np.int64)
+    run_rows(batch_kernel, out.shape[0], model._ibuf, model._fbuf, *inputs, out, status)
+    raise_batch_status(status, model, what, result, arguments)
+    return out
 
 
 def raise_batch_status(statuses, model, what, result=None, arguments=None):

@@ -52,7 +52,6 @@ import numpy as np
 from numba import njit
 
 from .._runtime.arrays import all_finite, fill, result_status, zero_matrix
-from .._runtime.batch import run_rows
 from .._runtime.kernel_cache import BATCH, INLINE, JIT
 from .._runtime.status import Status
 from ..multibody.data import (
@@ -267,7 +266,7 @@ def christoffel_kernel(ibuf, fbuf, work, q, C_e, Gamma):
 
 
 @njit(**BATCH)
-def christoffel_batch_kernel(ibuf, fbuf, q, v, out, status, matrix, symbols, start, stop):
+def christoffel_batch_kernel(ibuf, fbuf, q, v, matrix, symbols, out, status, start, stop):
     """Coriolis matrices (q, v) or Christoffel symbols (q; v unused) over rows [start, stop), as
     the compile-time switches (matrix, symbols) say: the one that is not None (only it is
     compiled). The rows work in a buffer of their own."""
@@ -308,20 +307,8 @@ def _run(model, q, v, what, data):
     n = q.shape[0]
     # C-contiguous rows out[n]: a strided view would make numba compile the kernel again
     out = np.empty((n, nv, nv) if matrix else (n, nv, nv, nv))
-    status = np.zeros(n, dtype=np.int64)
-    run_rows(
-        christoffel_batch_kernel,
-        n,
-        model._ibuf,
-        model._fbuf,
-        q,
-        v if matrix else q,
-        out,
-        status,
-        *((True, None) if matrix else (None, True)),
-    )
-    checks.raise_batch_status(status, model, what, result, arguments)
-    return out
+    inputs = (q, v if matrix else q, *((True, None) if matrix else (None, True)))
+    return checks.run_batch(model, christoffel_batch_kernel, inputs, out, what, result, arguments)
 
 
 def christoffel_symbols(model, q, data=None):

@@ -16,7 +16,6 @@ import numpy as np
 from numba import njit
 
 from .._runtime.arrays import result_status, zero_matrix
-from .._runtime.batch import run_rows
 from .._runtime.kernel_cache import BATCH, JIT
 from ..multibody.data import (
     composite_inertias,
@@ -140,7 +139,4 @@ def mass_matrix(model, q, data=None):
         return mass_matrix(model, q, data)
     checks.single_state_only(data, "mass_matrix")
     M = np.empty((q.shape[0], model.nv, model.nv))
-    status = np.zeros(q.shape[0], dtype=np.int64)
-    run_rows(crba_batch_kernel, q.shape[0], model._ibuf, model._fbuf, q, M, status)
-    checks.raise_batch_status(status, model, "mass_matrix", "M", {"q": q})
-    return M
+    return checks.run_batch(model, crba_batch_kernel, (q,), M, "mass_matrix", "M", {"q": q})

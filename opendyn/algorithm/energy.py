@@ -19,11 +19,10 @@ import numpy as np
 from numba import njit
 
 from .._runtime.arrays import fill
-from .._runtime.batch import run_rows
 from .._runtime.kernel_cache import BATCH, INLINE, JIT
 from .._runtime.status import Status
-from ..multibody.joints import joint_motion, joint_transform, prepare_joint_transforms, state_status
 from ..multibody.data import body_motion, joint_poses, new_work, temp_vectors, world_poses
+from ..multibody.joints import joint_motion, joint_transform, prepare_joint_transforms, state_status
 from ..multibody.layout import body_count, rigid_inertias, tree
 from ..spatial.compiled import (
     add_neg_ad_transpose,
@@ -163,10 +162,7 @@ def energies(model, q, qd, gravity=None, what="energies", data=None):
             checks.raise_status(status, model, what)
         return float(out[0]), float(out[1])
     checks.single_state_only(data, what)
-    out = np.empty((q.shape[0], 2))
-    status = np.zeros(q.shape[0], dtype=np.int64)
-    run_rows(energy_batch_kernel, q.shape[0], model._ibuf, model._fbuf, q, qd, g, out, status)
-    checks.raise_batch_status(status, model, what)
+    out = checks.run_batch(model, energy_batch_kernel, (q, qd, g), np.empty((q.shape[0], 2)), what)
     return out[:, 0], out[:, 1]
 
 

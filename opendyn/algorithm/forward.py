@@ -13,7 +13,6 @@ import numpy as np
 from numba import njit
 
 from .._runtime.arrays import all_finite, result_status
-from .._runtime.batch import run_rows
 from .._runtime.kernel_cache import BATCH, JIT
 from .._runtime.status import Status
 from ..multibody.data import joint_vectors, mass_matrix_field, new_work, no_loads
@@ -101,7 +100,7 @@ def forward_kernel(ibuf, fbuf, work, q, qd, tau, loads, qdd, armature, method):
 
 
 @njit(**BATCH)
-def forward_batch_kernel(ibuf, fbuf, states, loads, qdd, armature, method, status, start, stop):
+def forward_batch_kernel(ibuf, fbuf, states, loads, armature, method, qdd, status, start, stop):
     """Forward dynamics over rows [start, stop) of a batch, states = (q (N, nq), qd (N, nv),
     tau (N, nv)); loads (1 or N, rows, 6); armature as in forward_kernel, an argument (a
     global array would be a read-only constant to numba, and the kernel would compile again
@@ -190,20 +189,9 @@ def forward_dynamics(model, q, qd, tau, f_tip=None, gravity=None, method="aba", 
         return forward_dynamics(model, q, qd, tau, f_tip, gravity, method, data)
     checks.single_state_only(data, "forward_dynamics")
     n = q.shape[0]
-    qdd = np.empty((n, model.nv))
-    status = np.zeros(n, dtype=np.int64)
-    run_rows(
-        forward_batch_kernel,
-        n,
-        model._ibuf,
-        model._fbuf,
-        (q, qd, tau),
-        checks.loads(model, gravity, f_tip, n),
-        qdd,
-        NO_ARMATURE,
-        switches,
-        status,
-    )
+    inputs = ((q, qd, tau), checks.loads(model, gravity, f_tip, n), NO_ARMATURE, switches)
     arguments = {"q": q, "qd": qd, "tau": tau, "gravity": gravity, "f_tip": f_tip}
-    checks.raise_batch_status(status, model, "forward_dynamics", "qdd", arguments)
-    return qdd
+    qdd = np.empty((n, model.nv))
+    return checks.run_batch(
+        model, forward_batch_kernel, inputs, qdd, "forward_dynamics", "qdd", arguments
+    )

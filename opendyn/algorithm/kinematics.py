@@ -17,7 +17,6 @@ import numpy as np
 from numba import njit
 
 from .._runtime.arrays import copy_into, fill, result_status, zero_matrix
-from .._runtime.batch import run_rows
 from .._runtime.kernel_cache import BATCH, INLINE, JIT
 from ..multibody.data import (
     body_flags,
@@ -214,12 +213,8 @@ def frame_pose(model, q, frame, data=None):
         return T
     checks.single_state_only(data, "frame_pose")
     T = np.empty((q.shape[0], 4, 4))
-    status = np.zeros(q.shape[0], dtype=np.int64)
-    run_rows(
-        frame_pose_batch_kernel, q.shape[0], model._ibuf, model._fbuf, q, body, T_bf, T, status
-    )
-    checks.raise_batch_status(status, model, "frame_pose", "T_sf", {"q": q})
-    return T
+    kernel, inputs = frame_pose_batch_kernel, (q, body, T_bf)
+    return checks.run_batch(model, kernel, inputs, T, "frame_pose", "T_sf", {"q": q})
 
 
 def jacobian(model, q, frame, expressed_in="space", data=None):
@@ -249,17 +244,5 @@ def jacobian(model, q, frame, expressed_in="space", data=None):
         return J
     checks.single_state_only(data, "jacobian")
     J = np.empty((q.shape[0], 6, model.nv))
-    status = np.zeros(q.shape[0], dtype=np.int64)
-    run_rows(
-        jacobian_batch_kernel,
-        q.shape[0],
-        model._ibuf,
-        model._fbuf,
-        q,
-        frame,
-        body_frame,
-        J,
-        status,
-    )
-    checks.raise_batch_status(status, model, "jacobian", "J", {"q": q})
-    return J
+    inputs = (q, frame, body_frame)
+    return checks.run_batch(model, jacobian_batch_kernel, inputs, J, "jacobian", "J", {"q": q})

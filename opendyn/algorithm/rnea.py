@@ -20,7 +20,6 @@ import numpy as np
 from numba import njit
 
 from .._runtime.arrays import all_finite, fill, result_status
-from .._runtime.batch import run_rows
 from .._runtime.kernel_cache import BATCH, INLINE, JIT
 from .._runtime.status import Status
 from ..multibody.data import body_motion, joint_poses, new_work, scratch_rows
@@ -157,22 +156,10 @@ def run_rnea(model, q, qd, qdd, f_tip, gravity, what, result, data=None):
         return tau
     checks.single_state_only(data, what)
     n = q.shape[0]
-    tau = np.empty((n, model.nv))
-    status = np.zeros(n, dtype=np.int64)
-    run_rows(
-        rnea_batch_kernel,
-        n,
-        model._ibuf,
-        model._fbuf,
-        q,
-        qd,
-        qdd,
-        checks.loads(model, gravity, f_tip, n),
-        tau,
-        status,
+    inputs = (q, qd, qdd, checks.loads(model, gravity, f_tip, n))
+    return checks.run_batch(
+        model, rnea_batch_kernel, inputs, np.empty((n, model.nv)), what, result, arguments
     )
-    checks.raise_batch_status(status, model, what, result, arguments)
-    return tau
 
 
 def inverse_dynamics(model, q, qd, qdd, f_tip=None, gravity=None, data=None):
