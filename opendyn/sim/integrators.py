@@ -252,14 +252,13 @@ def rk_combine(ibuf, weights, dt, q, qd, w, work, q1, qd1, w1):
 
 @njit(**JIT)
 def velocity_solve(ibuf, fbuf, con, q, qd, M, rhs, qdd):
-    """qdd <- M^-1 rhs, or with constraints con (not None) the constrained solve of
-    M qdd + A^T lambda = rhs (M overwritten). A function of its own so that the test on None is
-    decided when it compiles. Returns a Status (SINGULAR + k: M singular at joint k)."""
+    """qdd <- M^-1 rhs, or with constraints con (a ConstraintTable, not None) the constrained
+    solve of M qdd + A^T lambda = rhs (M overwritten). A function of its own so that the test on
+    None is decided when it compiles. Returns a Status (SINGULAR + k: M singular at joint k)."""
     if con is None:
         return cholesky_solve(M, rhs, qdd)
-    c_rows, c_params, gains = con
-    lam = np.empty(c_rows[:, 2].sum())
-    return constrained_solve_at(ibuf, fbuf, c_rows, c_params, gains, q, qd, M, rhs, qdd, lam)
+    lam = np.empty(con.rows[:, 2].sum())
+    return constrained_solve_at(ibuf, fbuf, con, q, qd, M, rhs, qdd, lam)
 
 
 @njit(**JIT)
