@@ -1159,13 +1159,16 @@ def test_floating_compiled_interface_takes_nq_sized_q(solo):
         gamma = drift + 2 * gains[0] * A @ v + gains[1] ** 2 * phi
         qdd_ref, lam_ref = _kkt(solo, q, v, tau, A, gamma)
         qdd, lam = np.empty(solo.nv), np.empty(k)
-        status = dc.constrained_solve_at(*args, gains, q, v, M.copy(), tau - h, qdd, lam)
+        con = dc.ConstraintTable(rows, params, gains)
+        status = dc.constrained_solve_at(
+            solo._ibuf, solo._fbuf, con, q, v, M.copy(), tau - h, qdd, lam
+        )
         assert status == Status.OK
         assert_close(qdd, qdd_ref, f"constrained_solve_at qdd, gains {gains}")
         assert_close(lam, lam_ref, f"constrained_solve_at lam, gains {gains}")
         qdd, lam = np.empty(solo.nv), np.empty(k)
         status = dc.constrained_forward_kernel(
-            *args, gains, q, v, tau, solo._loads, np.zeros(0), qdd, lam
+            solo._ibuf, solo._fbuf, con, q, v, tau, solo._loads, np.zeros(0), qdd, lam
         )
         assert status == Status.OK
         assert_close(qdd, qdd_ref, f"constrained_forward_kernel qdd, gains {gains}")

@@ -160,11 +160,9 @@ def test_disabled_effect_never_runs(effect):
         0,
         500,
         1,
-        q,
-        qd,
-        w,
+        integrators.State(q, qd, w),
         _Samples(501, full.model.nq, full.model.nv),
-        np.zeros(3, dtype=np.int64),
+        integrators.new_counters(),
     )
     assert status == 0 and steps == 500
     traj_off = od.simulate(off)

@@ -58,7 +58,7 @@ from .._runtime.arrays import copy_into
 from .._runtime.kernel_cache import JIT
 from .._runtime.status import Status
 from ..algorithm.cholesky import cholesky_solve
-from ..algorithm.constraints import constraint_table
+from ..algorithm.constraints import ConstraintTable, constraint_table
 from ..algorithm.contact import contact_kernel
 from ..algorithm.crba import crba_kernel
 from ..algorithm.forward import NO_ARMATURE
@@ -448,7 +448,7 @@ def stage_table(scene) -> StageTable:
     if scene.constraints:
         c_rows, c_params = constraint_table(model, scene.constraints, scene.q0)
         gains = np.array(scene.baumgarte if scene.baumgarte is not None else (0.0, 0.0))
-        constraints = (c_rows, c_params, gains)
+        constraints = ConstraintTable(c_rows, c_params, gains)
     present = tuple(k for k, slot in enumerate(slots) if slot is not None)
     return StageTable(
         effects=tuple(slots),

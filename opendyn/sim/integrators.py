@@ -43,11 +43,14 @@ k_i = dexp^-1(V_i) = V_i + 1/2 [Theta_i, V_i] + 1/12 [Theta_i, [Theta_i, V_i]]
 - 1/720 ad_Theta_i^4 V_i (the body-frame dexp, truncated past the method's order): without it
 the stages' body twists, taken at different orientations, are summed as if they commuted, and
 RK4 falls to order 2 in the base pose (the momentum of a tumbling tree drifted as dt^2).
-All loops are compiled: a simulation pays no Python overhead per step.
+All loops are compiled: a simulation pays no Python overhead per step. They take and fill named
+records (State, Record, Counters, ...; below), and the two Euler steps that solve with the mass
+matrix (implicit and semi-implicit Euler) are in opendyn.sim.euler_steps.
 """
 
 from __future__ import annotations
 
+from collections import namedtuple
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -56,23 +59,51 @@ from numba import njit
 from .._runtime.arrays import copy_into
 from .._runtime.kernel_cache import JIT
 from .._runtime.status import Status
-from ..algorithm.cholesky import (
-    cholesky_factor,
-    cholesky_solve,
-    cholesky_substitute,
-    largest_diagonal,
-)
 from ..algorithm.configuration import integrate_kernel
-from ..algorithm.constraints import constrained_solve_at
-from ..algorithm.crba import crba_kernel
-from ..algorithm.energy import kinetic_gradient_kernel
-from ..algorithm.rnea import rnea_kernel
 from ..spatial.compiled import ad_twist
-from .step import evaluate, generalized_forces
+from .euler_steps import implicit_velocity_step, symplectic_euler_step
+from .step import evaluate
 
-FIXED_POINT_RTOL = 1e-14  # the momentum update's iteration stops when v changes less than this
-FIXED_POINT_MAX = 50
 EXPLICIT_RK, SEMI_IMPLICIT, IMPLICIT = 0, 1, 2  # fixed-step loop kinds
+
+# The records the compiled loops take and fill, read by name (defined here, at module level, so
+# that numba caches the loops that take them). Arrays are float64 unless said otherwise.
+# An explicit Runge-Kutta method: Butcher tableau A (s, s), b (s,), c (s,) and e = b - b^ (s,),
+# the weights of an embedded pair's error estimate (zeros: none).
+Tableau = namedtuple("Tableau", ("A", "b", "c", "e"))
+# run_fixed's compile-time switches, one of them not None (Integrator.switches): the Tableau of
+# an explicit Runge-Kutta method, or True for implicit or semi-implicit Euler.
+Switches = namedtuple("Switches", ("tableau", "implicit", "symplectic"))
+# The state x: q (nq,), qd (nv,) (rad or m, rad/s or m/s) and the work w (2,) (applied,
+# passive; J) done on the robot so far.
+State = namedtuple("State", ("q", "qd", "w"))
+# A step's scratch (rk_work): the stages' rates kq, kv (s, nv) and power kw (s, 2), the stage's
+# state qs (nq,), qds (nv,), the increment v (nv,) and control torque stage_tau (nv,); and
+# tau (nv,) <- the control torque that the step reports (at its start; adaptive: at its end).
+StepWork = namedtuple("StepWork", ("kq", "kv", "kw", "qs", "qds", "v", "stage_tau", "tau"))
+# run_adaptive's FSAL stage at the current state: k (2, nv) = (qd, qdd), power (2,) (applied,
+# passive; W) and tau (nv,) the control torque.
+Stage = namedtuple("Stage", ("k", "power", "tau"))
+# The recorded rows: t (K,), q (K, nq), qd (K, nv), tau (K, nv) the control torque, w (K, 2).
+Record = namedtuple("Record", ("t", "q", "qd", "tau", "w"))
+# (1,) int64 each: dynamics evaluations, accepted and rejected steps (the last two adaptive).
+Counters = namedtuple("Counters", ("evaluations", "accepted", "rejected"))
+# run_fixed's settings: t0 (s) the time of global step 0, the step dt (s), every (the record
+# takes every `every`-th step), max_speed (rad/s or m/s; a faster |qd| stops the run).
+FixedSettings = namedtuple("FixedSettings", ("t0", "dt", "every", "max_speed"))
+# run_adaptive's settings: t_end (s) the end of the run, rtol, atol, output_dt (s), max_speed
+# and size_index (nv,) int64, the q index whose magnitude scales each v coordinate's position
+# error (-1: 1 rad).
+AdaptiveSettings = namedtuple(
+    "AdaptiveSettings", ("t_end", "rtol", "atol", "output_dt", "max_speed", "size_index")
+)
+# Where run_adaptive stands: the time t (s), the next trial step h (s), the next output row.
+Progress = namedtuple("Progress", ("t", "h", "row"))
+
+
+def new_counters():
+    """Counters at zero."""
+    return Counters(*(np.zeros(1, dtype=np.int64) for _ in Counters._fields))
 
 
 @dataclass(frozen=True)
@@ -91,12 +122,16 @@ class Integrator:
     c: np.ndarray = field(default_factory=lambda: np.zeros(1))
     e: np.ndarray = field(default_factory=lambda: np.zeros(1))
 
+    def tableau(self):
+        """The Tableau (A, b, c, e) of an explicit Runge-Kutta method."""
+        return Tableau(self.A, self.b, self.c, self.e)
+
     def switches(self):
-        """(tableau, implicit, symplectic): the compile-time switches of run_fixed, one of
-        them not None, so that only this integrator's step is compiled: the tableau (A, b, c)
-        of an explicit Runge-Kutta method, or True for implicit or semi-implicit Euler."""
-        return (
-            (self.A, self.b, self.c) if self.kind == EXPLICIT_RK else None,
+        """The Switches (tableau, implicit, symplectic) of run_fixed, one of them not None, so
+        that only this integrator's step is compiled: the Tableau of an explicit Runge-Kutta
+        method, or True for implicit or semi-implicit Euler."""
+        return Switches(
+            self.tableau() if self.kind == EXPLICIT_RK else None,
             True if self.kind == IMPLICIT else None,
             True if self.kind == SEMI_IMPLICIT else None,
         )
@@ -160,13 +195,13 @@ def state_ok(q, qd, max_speed):
 
 @njit(**JIT)
 def rk_work(s, nq, nv):
-    """Scratch of an s-stage Runge-Kutta step: (kq (s, nv), kv (s, nv), kw (s, 2), qs (nq,),
-    qds (nv,), v (nv,), stage_tau (nv,)) for rk_stages and rk_combine."""
-    return (
+    """The StepWork of an s-stage Runge-Kutta step (1 stage for the other methods)."""
+    return StepWork(
         np.empty((s, nv)),
         np.empty((s, nv)),
         np.empty((s, 2)),
         np.empty(nq),
+        np.empty(nv),
         np.empty(nv),
         np.empty(nv),
         np.empty(nv),
@@ -195,17 +230,17 @@ def dexp_inverse(free, theta, k):
 
 
 @njit(**JIT)
-def rk_stages(scene, A, c, t, dt, q, qd, work, first, tau_stage, tau, free):
-    """Stages first..s-1 of an explicit Runge-Kutta step from (t, q, qd): stage i at
-    q_i = q (+) dt sum_l A_il kq_l, qd_i = qd + dt sum_l A_il kv_l, kq_i = qd_i (a floating
-    base's rows through dexp_inverse: the Munthe-Kaas stage),
-    kv_i = qdd(t + c_i dt, q_i, qd_i), kw_i = power there, with work = rk_work(...) =
-    (kq, kv, kw, qs, qds, v, stage_tau). first = 1 when stage 0 is already in kq, kv, kw (FSAL).
-    free: None (a fixed base: the correction is not compiled) or the first v index of each free
-    joint (int64). tau <- the control torque at stage tau_stage. Returns (status, evaluations)."""
-    kq, kv, kw, qs, qds, v, stage_tau = work
-    ibuf = scene[0]
-    nv = qd.shape[0]
+def rk_stages(scene, tableau, t, dt, x, work, first, tau_stage, free):
+    """Stages first..s-1 of an explicit Runge-Kutta step (tableau: a Tableau) from x = (q, qd, w)
+    at t: stage i at q_i = q (+) dt sum_l A_il kq_l, qd_i = qd + dt sum_l A_il kv_l, kq_i = qd_i
+    (a floating base's rows through dexp_inverse: the Munthe-Kaas stage),
+    kv_i = qdd(t + c_i dt, q_i, qd_i), kw_i = power there, in work (a StepWork). first = 1 when
+    stage 0 is already in kq, kv, kw (FSAL). free: None (a fixed base: the correction is not
+    compiled) or the first v index of each free joint (int64). work.tau <- the control torque at
+    stage tau_stage. Returns (status, evaluations)."""
+    A, c = tableau.A, tableau.c
+    kq, kv, v = work.kq, work.kv, work.v
+    nv = x.qd.shape[0]
     for i in range(first, A.shape[0]):
         for j in range(nv):
             dv = 0.0
@@ -214,26 +249,30 @@ def rk_stages(scene, A, c, t, dt, q, qd, work, first, tau_stage, tau, free):
                 dq += A[i, m] * kq[m, j]
                 dv += A[i, m] * kv[m, j]
             v[j] = dq
-            qds[j] = qd[j] + dt * dv
-        integrate_kernel(ibuf, q, v, dt, qs)
-        copy_into(qds, kq[i])
+            work.qds[j] = x.qd[j] + dt * dv
+        integrate_kernel(scene.ibuf, x.q, v, dt, work.qs)
+        copy_into(work.qds, kq[i])
         if free is not None and i > 0:
             for j in range(nv):
                 v[j] *= dt  # Theta_i
             dexp_inverse(free, v, kq[i])
-        status = evaluate(scene, t + c[i] * dt, qs, qds, kv[i], stage_tau, kw[i])
+        status = evaluate(
+            scene, t + c[i] * dt, work.qs, work.qds, kv[i], work.stage_tau, work.kw[i]
+        )
         if i == tau_stage:
-            copy_into(stage_tau, tau)
+            copy_into(work.stage_tau, work.tau)
         if status:
             return status, i - first + 1
     return Status.OK.value, A.shape[0] - first
 
 
 @njit(**JIT)
-def rk_combine(ibuf, weights, dt, q, qd, w, work, q1, qd1, w1):
-    """x1 = x (+) dt sum_i weights_i k_i for q (through integrate), qd and the work W."""
-    kq, kv, kw, _, _, v, _ = work
-    nv = qd.shape[0]
+def rk_combine(ibuf, weights, dt, x, work, x1):
+    """x1 = x (+) dt sum_i weights_i k_i for q (through integrate), qd and the work w, with the
+    stages' rates in work (a StepWork)."""
+    kq, kv, kw = work.kq, work.kv, work.kw
+    v = work.v
+    nv = x.qd.shape[0]
     for j in range(nv):
         dq = 0.0
         dv = 0.0
@@ -241,289 +280,129 @@ def rk_combine(ibuf, weights, dt, q, qd, w, work, q1, qd1, w1):
             dq += weights[i] * kq[i, j]
             dv += weights[i] * kv[i, j]
         v[j] = dq
-        qd1[j] = qd[j] + dt * dv
-    integrate_kernel(ibuf, q, v, dt, q1)
+        x1.qd[j] = x.qd[j] + dt * dv
+    integrate_kernel(ibuf, x.q, v, dt, x1.q)
     for k in range(2):
         dw = 0.0
         for i in range(weights.shape[0]):
             dw += weights[i] * kw[i, k]
-        w1[k] = w[k] + dt * dw
+        x1.w[k] = x.w[k] + dt * dw
 
 
 @njit(**JIT)
-def velocity_solve(ibuf, fbuf, con, q, qd, M, rhs, qdd):
-    """qdd <- M^-1 rhs, or with constraints con (not None) the constrained solve of
-    M qdd + A^T lambda = rhs (M overwritten). A function of its own so that the test on None is
-    decided when it compiles. Returns a Status (SINGULAR + k: M singular at joint k)."""
-    if con is None:
-        return cholesky_solve(M, rhs, qdd)
-    c_rows, c_params, gains = con
-    lam = np.empty(c_rows[:, 2].sum())
-    return constrained_solve_at(ibuf, fbuf, c_rows, c_params, gains, q, qd, M, rhs, qdd, lam)
-
-
-@njit(**JIT)
-def implicit_velocity_step(scene, t, dt, q, qd, w, q1, qd1, w1, tau_ctrl):
-    """One linearly implicit Euler step (module docstring). Returns a Status."""
-    ibuf, fbuf, work = scene.ibuf, scene.fbuf, scene.work
-    armature, con, loads = scene.armature, scene.constraints, scene.loads
-    nv = qd.shape[0]
-    tau, K, D = scene.forces[0], scene.KD[0], scene.KD[1]
-    power = np.empty(2)
-    status = generalized_forces(scene, t, q, qd, tau, tau_ctrl, power, K, D, True)
-    if status:
-        return status
-    h = np.empty(nv)
-    status = rnea_kernel(ibuf, fbuf, work, q, qd, np.zeros(nv), loads, h)
-    if status:
-        return status
-    M = np.empty((nv, nv))
-    crba_kernel(ibuf, fbuf, work, q, M)
-    rhs = np.empty(nv)
-    for j in range(nv):
-        rhs[j] = tau[j] - h[j]
-        for k in range(nv):
-            M[j, k] += dt * D[j, k] + dt * dt * K[j, k]
-            rhs[j] -= dt * K[j, k] * qd[k]
-        if armature.shape[0]:
-            M[j, j] += armature[j]
-    qdd = np.empty(nv)
-    status = velocity_solve(ibuf, fbuf, con, q, qd, M, rhs, qdd)
-    if status:
-        return status
-    for j in range(nv):
-        qd1[j] = qd[j] + dt * qdd[j]
-    integrate_kernel(ibuf, q, qd1, dt, q1)
-    w1[0] = w[0] + dt * power[0]
-    w1[1] = w[1] + dt * power[1]
-    return Status.OK.value
-
-
-@njit(**JIT)
-def symplectic_euler_step(scene, t, dt, q, qd, w, q1, qd1, w1, tau_ctrl):
-    """One step of symplectic Euler in momentum form (module docstring). Returns a Status."""
-    ibuf, fbuf, work = scene.ibuf, scene.fbuf, scene.work
-    armature, loads, KD = scene.armature, scene.loads, scene.KD
-    nv = qd.shape[0]
-    tau = scene.forces[0]
-    power = np.empty(2)
-    status = generalized_forces(scene, t, q, qd, tau, tau_ctrl, power, KD[0], KD[1], False)
-    if status:
-        return status
-    # g(q): RNEA at qd = qdd = 0 under the base acceleration
-    zero = np.zeros(nv)
-    g = np.empty(nv)
-    status = rnea_kernel(ibuf, fbuf, work, q, zero, zero, loads, g)
-    if status:
-        return status
-    # p = (M(q) + diag(armature)) qd
-    M = np.empty((nv, nv))
-    crba_kernel(ibuf, fbuf, work, q, M)
-    p = np.zeros(nv)
-    for r in range(nv):
-        if armature.shape[0]:
-            M[r, r] += armature[r]
-        for c in range(nv):
-            p[r] += M[r, c] * qd[c]
-    status = cholesky_factor(M, nv, largest_diagonal(M))
-    if status:
-        return status
-    # p' = p + dt (dK/dq(q, v) - g + tau), v = M^-1 p': fixed-point iteration from v = qd
-    v = qd.copy()
-    v_next = np.empty(nv)
-    dK_dq = np.empty(nv)
-    p1 = np.empty(nv)
-    converged = False
-    for _ in range(FIXED_POINT_MAX):
-        status = kinetic_gradient_kernel(ibuf, fbuf, q, v, dK_dq)
-        if status:
-            return status
-        for j in range(nv):
-            p1[j] = p[j] + dt * (dK_dq[j] - g[j] + tau[j])
-        cholesky_substitute(M, nv, p1, v_next)
-        change = 0.0
-        size = 0.0
-        for j in range(nv):
-            change = max(change, abs(v_next[j] - v[j]))
-            size = max(size, abs(v_next[j]))
-            v[j] = v_next[j]
-        if change <= FIXED_POINT_RTOL * (1.0 + size):
-            converged = True
-            break
-    if not converged:
-        return Status.NO_CONVERGENCE.value
-    # q' = q (+) v dt, qd' = (M(q') + diag(armature))^-1 p'
-    integrate_kernel(ibuf, q, v, dt, q1)
-    crba_kernel(ibuf, fbuf, work, q1, M)
-    if armature.shape[0]:
-        for r in range(nv):
-            M[r, r] += armature[r]
-    status = cholesky_solve(M, p1, qd1)
-    if status:
-        return status
-    w1[0] = w[0] + dt * power[0]
-    w1[1] = w[1] + dt * power[1]
-    return Status.OK.value
-
-
-@njit(**JIT)
-def record(out, r, t, q, qd, tau, w):
-    """Row r of the record out = (t, q, qd, tau, w) <- the state, control torque and work."""
-    out_t, out_q, out_qd, out_tau, out_w = out
-    out_t[r] = t
-    copy_into(q, out_q[r])
-    copy_into(qd, out_qd[r])
-    copy_into(tau, out_tau[r])
-    copy_into(w, out_w[r])
+def record(out, r, t, x, tau):
+    """Row r of the Record out <- the time t, the State x and the control torque tau there."""
+    out.t[r] = t
+    copy_into(x.q, out.q[r])
+    copy_into(x.qd, out.qd[r])
+    copy_into(tau, out.tau[r])
+    copy_into(x.w, out.w[r])
 
 
 @njit(**JIT)
 def rk_stage_count(tableau):
-    """Stages of the tableau (A, b, c), 1 for None (a step that is no Runge-Kutta method)."""
+    """Stages of the Tableau, 1 for None (a step that is no Runge-Kutta method)."""
     if tableau is None:
         return 1
-    return tableau[0].shape[0]
+    return tableau.A.shape[0]
 
 
 @njit(**JIT)
-def fixed_step(
-    tableau, implicit, symplectic, scene, t, dt, q, qd, w, work, q1, qd1, w1, tau, free
-):
-    """One fixed step of dt from (t, q, qd, w) to (q1, qd1, w1), tau <- the control torque at
-    its start, by the integrator the compile-time switches (tableau, implicit, symplectic)
-    name (Integrator.switches): numba drops the code behind the None ones when it compiles.
-    free: as in rk_stages. Returns (status, dynamics evaluations)."""
+def fixed_step(tableau, implicit, symplectic, scene, t, dt, x, x1, work, free):
+    """One fixed step of dt from the State x at t to x1, work.tau <- the control torque at its
+    start (work: a StepWork), by the integrator the compile-time switches (tableau, implicit,
+    symplectic) name (Integrator.switches): numba drops the code behind the None ones when it
+    compiles. free: as in rk_stages. Returns (status, dynamics evaluations)."""
     if tableau is not None:
-        A, b, c = tableau
-        status, evaluations = rk_stages(scene, A, c, t, dt, q, qd, work, 0, 0, tau, free)
+        status, evaluations = rk_stages(scene, tableau, t, dt, x, work, 0, 0, free)
         if status == Status.OK.value:
-            rk_combine(scene[0], b, dt, q, qd, w, work, q1, qd1, w1)
+            rk_combine(scene.ibuf, tableau.b, dt, x, work, x1)
         return status, evaluations
     if implicit is not None:
-        return implicit_velocity_step(scene, t, dt, q, qd, w, q1, qd1, w1, tau), 1
+        return implicit_velocity_step(scene, t, dt, x, x1, work.tau), 1
     if symplectic is not None:
-        return symplectic_euler_step(scene, t, dt, q, qd, w, q1, qd1, w1, tau), 1
+        return symplectic_euler_step(scene, t, dt, x, x1, work.tau), 1
     return Status.OK.value, 0
 
 
 @njit(**JIT)
-def run_fixed(
-    switches,
-    scene,
-    t0,
-    dt,
-    step0,
-    nsteps,
-    every,
-    max_speed,
-    q,
-    qd,
-    w,
-    out,
-    counters,
-    free,
-):
-    """Advance (q, qd, w) in place by up to nsteps fixed steps of dt from global step step0,
-    at time t0 + step0 dt (t0: the time of global step 0), by the integrator the compile-time
-    switches name (fixed_step). The state at the start of every step
-    whose global index is a multiple of `every` is recorded in row index // every, with the
-    control torque there. Stops at the first step whose result is not finite, faster than
-    max_speed, or whose dynamics fail; the state stays the last good one, the start of the
-    failed step. scene: step.scene_data(model, table); out: the record (t, q, qd, tau, w).
-    free: None, or the free joints' first v indices (rk_stages).
-    Returns (status, steps done); counters[0] += dynamics evaluations."""
-    nv = qd.shape[0]
-    tableau, implicit, symplectic = switches
-    work = rk_work(rk_stage_count(tableau), q.shape[0], nv)
-    q1, qd1, w1 = np.empty(q.shape[0]), np.empty(nv), np.empty(2)
-    tau = np.empty(nv)
+def run_fixed(switches, scene, settings, step0, nsteps, x, out, counters, free):
+    """Advance the State x in place by up to nsteps fixed steps of settings.dt from global step
+    step0, at time t0 + step0 dt (settings: a FixedSettings), by the integrator the Switches
+    name (fixed_step). The state at the start of every step whose global index is a multiple of
+    settings.every is recorded in row index // every of the Record out, with the control torque
+    there. Stops at the first step whose result is not finite, faster than settings.max_speed,
+    or whose dynamics fail; x stays the last good state, the start of the failed step.
+    scene: step.scene_data(model, table); free: None, or the free joints' first v indices
+    (rk_stages). Returns (status, steps done); counters.evaluations += dynamics evaluations."""
+    nq, nv = x.q.shape[0], x.qd.shape[0]
+    tableau = switches.tableau
+    work = rk_work(rk_stage_count(tableau), nq, nv)
+    x1 = State(np.empty(nq), np.empty(nv), np.empty(2))
+    dt, every = settings.dt, settings.every
     for n in range(nsteps):
         g = step0 + n
-        t = t0 + g * dt
+        t = settings.t0 + g * dt
         status, evaluations = fixed_step(
-            tableau, implicit, symplectic, scene, t, dt, q, qd, w, work, q1, qd1, w1, tau, free
+            tableau, switches.implicit, switches.symplectic, scene, t, dt, x, x1, work, free
         )
-        counters[0] += evaluations
+        counters.evaluations[0] += evaluations
         if status == Status.OK.value:
-            status = state_ok(q1, qd1, max_speed)
+            status = state_ok(x1.q, x1.qd, settings.max_speed)
         if status:
             return status, n
         if g % every == 0:
-            record(out, g // every, t, q, qd, tau, w)
-        copy_into(q1, q)
-        copy_into(qd1, qd)
-        copy_into(w1, w)
+            record(out, g // every, t, x, work.tau)
+        copy_into(x1.q, x.q)
+        copy_into(x1.qd, x.qd)
+        copy_into(x1.w, x.w)
     return Status.OK.value, nsteps
 
 
 @njit(**JIT)
-def run_adaptive(
-    A,
-    b,
-    c,
-    e,
-    scene,
-    t,
-    t_stop,
-    t_end,
-    h,
-    rtol,
-    atol,
-    size_index,
-    output_dt,
-    row,
-    max_speed,
-    q,
-    qd,
-    w,
-    k_first,
-    power_first,
-    tau_first,
-    out,
-    counters,
-    free,
-):
-    """Advance (q, qd, w) in place from t to t_stop with an embedded explicit Runge-Kutta pair
-    (FSAL: the last stage is the first of the next step), recording row r at
-    t = min(r output_dt, t_end).
+def run_adaptive(tableau, scene, settings, at, t_stop, x, first, out, counters, free):
+    """Advance the State x in place from at.t to t_stop with an embedded explicit Runge-Kutta
+    pair (tableau: a Tableau; FSAL: the last stage is the first of the next step), first trial
+    step at.h, recording row r of the Record out, from r = at.row on, at
+    t = min(r output_dt, t_end) (settings: an AdaptiveSettings).
 
-    Steps are cut so that they land on the output times. size_index (nv,): the q index whose
-    magnitude scales the position error of each v coordinate (the coordinate itself for a joint,
-    a floating base's position for its translation), -1 for a rotation (scaled by 1 rad).
-    k_first (2, nv) holds (qd, qdd),
-    power_first (2,) the power and tau_first (nv,) the control torque of the first stage, at the
-    current state (the FSAL stage). scene: step.scene_data(model, table); out: the record
-    (t, q, qd, tau, w); free: None, or the free joints' first v indices (rk_stages).
-    Returns (status, t, h, row); counters += (evaluations, accepted, rejected)."""
-    nv = qd.shape[0]
+    Steps are cut so that they land on the output times. The error of each v coordinate's
+    position is scaled by the magnitude of q[settings.size_index[j]] (the coordinate itself for
+    a joint, a floating base's position for its translation), by 1 rad where that is -1 (a
+    rotation). first: the Stage at the current state (the FSAL stage), kept up to date.
+    scene: step.scene_data(model, table); free: None, or the free joints' first v indices
+    (rk_stages). Returns (status, Progress(t, h, row)); counters += (evaluations, accepted,
+    rejected)."""
+    A, b, e = tableau.A, tableau.b, tableau.e
+    rtol, atol, size_index = settings.rtol, settings.atol, settings.size_index
+    q, qd, nv = x.q, x.qd, x.qd.shape[0]
     s = A.shape[0]
     work = rk_work(s, q.shape[0], nv)
-    kq, kv, kw = work[0], work[1], work[2]
-    q1, qd1, w1 = np.empty(q.shape[0]), np.empty(nv), np.empty(2)
-    stage_tau = np.empty(nv)
+    kq, kv, kw = work.kq, work.kv, work.kw
+    x1 = State(np.empty(q.shape[0]), np.empty(nv), np.empty(2))
+    t, h, row = at.t, at.h, at.row
     while t < t_stop:
-        t_out = min(row * output_dt, t_end)
+        t_out = min(row * settings.output_dt, settings.t_end)
         # land on the output time when the step reaches it or would leave a sliver before it
         last_before_output = h >= 0.99 * (t_out - t)
         dt = t_out - t if last_before_output else h
         if dt <= 1e-14 * max(1.0, abs(t)):
-            return Status.STEP_UNDERFLOW.value, t, h, row
+            return Status.STEP_UNDERFLOW.value, Progress(t, h, row)
         # stage 0 is the FSAL stage, evaluated at the end of the previous step
-        copy_into(k_first[0], kq[0])
-        copy_into(k_first[1], kv[0])
-        copy_into(power_first, kw[0])
-        status, evaluations = rk_stages(
-            scene, A, c, t, dt, q, qd, work, 1, s - 1, stage_tau, free
-        )
-        counters[0] += evaluations
+        copy_into(first.k[0], kq[0])
+        copy_into(first.k[1], kv[0])
+        copy_into(first.power, kw[0])
+        status, evaluations = rk_stages(scene, tableau, t, dt, x, work, 1, s - 1, free)
+        counters.evaluations[0] += evaluations
         if status == 0:
-            rk_combine(scene[0], b, dt, q, qd, w, work, q1, qd1, w1)
-            status = state_ok(q1, qd1, max_speed)
+            rk_combine(scene.ibuf, b, dt, x, work, x1)
+            status = state_ok(x1.q, x1.qd, settings.max_speed)
         if status >= Status.SINGULAR.value:
-            return status, t, h, row  # singular mass matrix: a smaller step will not help
+            # singular mass matrix: a smaller step will not help
+            return status, Progress(t, h, row)
         if status:
             # a failed trial is a rejected step: retry smaller, give up when the step underflows
-            counters[2] += 1
+            counters.rejected[0] += 1
             h = 0.25 * dt
             continue
         # RMS of the error estimate dt sum_i e_i k_i relative to atol + rtol |x|, over v-space
@@ -535,29 +414,29 @@ def run_adaptive(
                 eq += e[i] * kq[i, j]
                 ev += e[i] * kv[i, j]
             k = size_index[j]
-            sq = atol + rtol * (max(abs(q[k]), abs(q1[k])) if k >= 0 else 1.0)
-            sv = atol + rtol * max(abs(qd[j]), abs(qd1[j]))
+            sq = atol + rtol * (max(abs(q[k]), abs(x1.q[k])) if k >= 0 else 1.0)
+            sv = atol + rtol * max(abs(qd[j]), abs(x1.qd[j]))
             err += (dt * eq / sq) ** 2 + (dt * ev / sv) ** 2
         err = np.sqrt(err / max(1, 2 * nv))
         if err > 1.0:
-            counters[2] += 1
+            counters.rejected[0] += 1
             h = dt * max(0.2, 0.9 * err**-0.2)
             continue
-        counters[1] += 1
+        counters.accepted[0] += 1
         t = t_out if last_before_output else t + dt
-        copy_into(q1, q)
-        copy_into(qd1, qd)
-        copy_into(w1, w)
+        copy_into(x1.q, q)
+        copy_into(x1.qd, qd)
+        copy_into(x1.w, x.w)
         # FSAL: the last stage was evaluated at the new state (c = 1, A's last row = b); its
         # velocity without the Munthe-Kaas correction (Theta = 0 at the next step's start)
-        copy_into(qd1, k_first[0])
-        copy_into(kv[s - 1], k_first[1])
-        copy_into(kw[s - 1], power_first)
-        copy_into(stage_tau, tau_first)
+        copy_into(x1.qd, first.k[0])
+        copy_into(kv[s - 1], first.k[1])
+        copy_into(kw[s - 1], first.power)
+        copy_into(work.tau, first.tau)
         if last_before_output:
-            record(out, row, t, q, qd, tau_first, w)
+            record(out, row, t, x, first.tau)
             row += 1
         h = dt * min(5.0, 0.9 * err**-0.2) if err > 0 else 5.0 * dt
         if last_before_output and h < dt:
             h = dt
-    return Status.OK.value, t, h, row
+    return Status.OK.value, Progress(t, h, row)

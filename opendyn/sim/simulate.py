@@ -107,42 +107,40 @@ def simulate(scene, *, progress=False, raise_on_failure=True):
     table = effects.stage_table(scene)
     check_contact_step(scene, table)
     out = _Samples(rows, model.nq, model.nv)
-    q = np.array(scene.q0, dtype=np.float64)
-    qd = np.array(scene.qd0, dtype=np.float64)
-    w = np.zeros(2)
-    counters = np.zeros(3, dtype=np.int64)  # evaluations, accepted, rejected (adaptive)
+    x = integrators.State(
+        np.array(scene.q0, dtype=np.float64), np.array(scene.qd0, dtype=np.float64), np.zeros(2)
+    )
+    counters = integrators.new_counters()
     start = time.perf_counter()
     compiled_before = compile_seconds()
-    _load_kernels(scene, integ, table, q, qd, w, out, counters)
+    _load_kernels(scene, integ, table, x, out, counters)
     compile_s = compile_seconds() - compiled_before
     load = time.perf_counter() - start - compile_s
     bar = _progress_bar(run.duration) if progress else None
     start = time.perf_counter()
     with _Interrupt() as stop:
         if integ.adaptive:
-            status, t = _run_adaptive(scene, integ, table, q, qd, w, out, counters, bar, stop)
+            status, t = _run_adaptive(scene, integ, table, x, out, counters, bar, stop)
         else:
-            status, t = _run_fixed(
-                scene, integ, table, nsteps, every, q, qd, w, out, counters, bar, stop
-            )
+            status, t = _run_fixed(scene, integ, table, nsteps, every, x, out, counters, bar, stop)
     wall = time.perf_counter() - start
     if bar is not None:
         bar.close()
-    steps = int(counters[1]) if integ.adaptive else int(round(t / run.dt))
+    steps = int(counters.accepted[0]) if integ.adaptive else int(round(t / run.dt))
     message = ""
     if status == Status.INTERRUPTED:
         message = f"interrupted ({signal_name(stop.signum)}) at t = {t:.6g} s (step {steps})"
     elif status:
-        message = failure_message(scene, table, status, t, steps, q, qd)
+        message = failure_message(scene, table, status, t, steps, x.q, x.qd)
     if status:
         # the last good state ends the partial record, unless it is already its last row
         if not out.filled or out.t[out.filled - 1] < t:
-            _record_state(scene, table, t, q, qd, w, out)
+            _record_state(scene, table, t, x, out)
     stats = {
         "integrator": integ.name,
         "steps": steps,
-        "rejected_steps": int(counters[2]),
-        "evaluations": int(counters[0]),
+        "rejected_steps": int(counters.rejected[0]),
+        "evaluations": int(counters.evaluations[0]),
         "wall_s": wall,
         "compile_s": compile_s,
         "load_s": load,
@@ -158,7 +156,7 @@ def simulate(scene, *, progress=False, raise_on_failure=True):
     return traj
 
 
-def _load_kernels(scene, integ, table, q, qd, w, out, counters):
+def _load_kernels(scene, integ, table, x, out, counters):
     """Get the run's compiled pieces ready before the clock starts, one by one: forward
     dynamics, the effects, one evaluation, the loop (called for zero steps) and the energies of
     the record. numba loads each from its on-disk cache or, the first time on a machine,
@@ -166,8 +164,10 @@ def _load_kernels(scene, integ, table, q, qd, w, out, counters):
     model = scene.model
     nv = model.nv
     data = step.scene_data(model, table)
-    first = (np.zeros((2, nv)), np.zeros(2), np.zeros(nv))
+    first = integrators.Stage(np.zeros((2, nv)), np.zeros(2), np.zeros(nv))
+    at_start = integrators.Progress(0.0, scene.run.dt, 1)
     KD = data.KD
+    q, qd = x.q, x.qd
     tau, qdd = np.zeros(nv), np.empty(nv)
     state = (q[None].copy(), qd[None].copy())
     pieces = [
@@ -175,12 +175,10 @@ def _load_kernels(scene, integ, table, q, qd, w, out, counters):
         lambda: step.generalized_forces(
             data, 0.0, q, qd, np.empty(nv), np.empty(nv), np.empty(2), KD[0], KD[1], False
         ),
-        lambda: _first_stage(scene, table, 0.0, q, qd, *first),
-        lambda: _adaptive_chunk(
-            scene, integ, table, 0.0, 0.0, scene.run.dt, 1, q, qd, w, first, out, counters
-        )
+        lambda: _first_stage(scene, table, 0.0, q, qd, first.k, first.power, first.tau),
+        lambda: _adaptive_chunk(scene, integ, table, at_start, 0.0, x, first, out, counters)
         if integ.adaptive
-        else _fixed_chunk(scene, integ, table, 0, 0, 1, q, qd, w, out, counters),
+        else _fixed_chunk(scene, integ, table, 0, 0, 1, x, out, counters),
         lambda: energies(model, *state, _gravity(scene)),
     ]
     if scene.constraints:
@@ -199,25 +197,15 @@ def _gravity(scene):
     return np.zeros(3) if scene.gravity is None else np.asarray(scene.gravity, float)
 
 
-def _fixed_chunk(scene, integ, table, step0, nsteps, every, q, qd, w, out, counters):
-    """integrators.run_fixed on the run's arrays: up to nsteps steps from global step step0,
-    recording every `every`-th. Returns (status, steps done)."""
+def _fixed_chunk(scene, integ, table, step0, nsteps, every, x, out, counters):
+    """integrators.run_fixed on the run's State x, record and Counters: up to nsteps steps from
+    global step step0, recording every `every`-th. Returns (status, steps done)."""
     run = scene.run
+    settings = integrators.FixedSettings(t0=0.0, dt=run.dt, every=every, max_speed=run.max_speed)
+    data = step.scene_data(scene.model, table)
+    free = free_joints(scene.model)
     return integrators.run_fixed(
-        integ.switches(),
-        step.scene_data(scene.model, table),
-        0.0,
-        run.dt,
-        step0,
-        nsteps,
-        every,
-        run.max_speed,
-        q,
-        qd,
-        w,
-        out.arrays(),
-        counters,
-        free_joints(scene.model),
+        integ.switches(), data, settings, step0, nsteps, x, out.arrays(), counters, free
     )
 
 
@@ -229,34 +217,23 @@ def free_joints(model):
     return np.array([model.iv[i] for i in range(model.nb) if model.jtype[i] == FREE], np.int64)
 
 
-def _adaptive_chunk(scene, integ, table, t, t_stop, h, row, q, qd, w, first, out, counters):
-    """integrators.run_adaptive on the run's arrays from t to t_stop, first step h, next
-    output row `row`; first = (k_first, power_first, tau_first), the FSAL stage.
-    Returns (status, t, h, row)."""
+def _adaptive_chunk(scene, integ, table, at, t_stop, x, first, out, counters):
+    """integrators.run_adaptive on the run's State x, record and Counters from the Progress
+    `at` (time, first trial step, next output row) to t_stop; first: the FSAL Stage.
+    Returns (status, Progress reached)."""
     run = scene.run
+    settings = integrators.AdaptiveSettings(
+        t_end=run.duration,
+        rtol=run.rtol,
+        atol=run.atol,
+        output_dt=run.output_dt,
+        max_speed=run.max_speed,
+        size_index=error_size_index(scene.model),
+    )
+    data = step.scene_data(scene.model, table)
+    free = free_joints(scene.model)
     return integrators.run_adaptive(
-        integ.A,
-        integ.b,
-        integ.c,
-        integ.e,
-        step.scene_data(scene.model, table),
-        t,
-        t_stop,
-        run.duration,
-        h,
-        run.rtol,
-        run.atol,
-        error_size_index(scene.model),
-        run.output_dt,
-        row,
-        run.max_speed,
-        q,
-        qd,
-        w,
-        *first,
-        out.arrays(),
-        counters,
-        free_joints(scene.model),
+        integ.tableau(), data, settings, at, t_stop, x, first, out.arrays(), counters, free
     )
 
 
@@ -283,8 +260,14 @@ class _Samples:
         self.filled = 0
 
     def arrays(self):
-        """(t, q, qd, tau, w): the record as the compiled loops write it."""
-        return self.t, self.q, self.qd, self.tau, self.w
+        """The integrators.Record (t, q, qd, tau, w) that the compiled loops write."""
+        return integrators.Record(self.t, self.q, self.qd, self.tau, self.w)
+
+    def put(self, r, t, x, tau):
+        """Row r <- the time t, the State x and the control torque tau there."""
+        self.t[r] = t
+        self.q[r], self.qd[r], self.w[r] = x.q, x.qd, x.w
+        self.tau[r] = tau
 
 
 def _progress_bar(duration):
@@ -309,14 +292,14 @@ def _chunk_steps(steps, seconds, current):
     return int(min(current * 8, max(16, steps / seconds * _CHUNK_SECONDS)))
 
 
-def _run_fixed(scene, integ, table, nsteps, every, q, qd, w, out, counters, bar, stop):
+def _run_fixed(scene, integ, table, nsteps, every, x, out, counters, bar, stop):
     """Fixed steps in compiled chunks. Returns (status, time reached)."""
     run = scene.run
     done, chunk = 0, _FIRST_CHUNK
     while done < nsteps:
         n = min(chunk, nsteps - done)
         tic = time.perf_counter()
-        status, steps = _fixed_chunk(scene, integ, table, done, n, every, q, qd, w, out, counters)
+        status, steps = _fixed_chunk(scene, integ, table, done, n, every, x, out, counters)
         done += steps
         out.filled = (done - 1) // every + 1 if done else 0
         if bar is not None:
@@ -328,44 +311,41 @@ def _run_fixed(scene, integ, table, nsteps, every, q, qd, w, out, counters, bar,
         chunk = _chunk_steps(steps, time.perf_counter() - tic, chunk)
     t_end = nsteps * run.dt
     if out.filled < len(out.t):
-        _record_state(scene, table, t_end, q, qd, w, out)
+        _record_state(scene, table, t_end, x, out)
     return 0, t_end
 
 
-def _run_adaptive(scene, integ, table, q, qd, w, out, counters, bar, stop):
+def _run_adaptive(scene, integ, table, x, out, counters, bar, stop):
     """Adaptive steps in compiled chunks of simulated time. Returns (status, time reached)."""
     run = scene.run
-    model = scene.model
-    nv = model.nv
-    first = (np.empty((2, nv)), np.empty(2), np.empty(nv))  # the FSAL stage: k, power, tau
-    status = _first_stage(scene, table, 0.0, q, qd, *first)
-    counters[0] += 1
+    nv = scene.model.nv
+    first = integrators.Stage(np.empty((2, nv)), np.empty(2), np.empty(nv))  # the FSAL stage
+    status = _first_stage(scene, table, 0.0, x.q, x.qd, first.k, first.power, first.tau)
+    counters.evaluations[0] += 1
     if status:
         return status, 0.0
-    out.t[0], out.q[0], out.qd[0], out.tau[0], out.w[0] = 0.0, q, qd, first[2], w
+    out.put(0, 0.0, x, first.tau)
     out.filled = 1
-    t, h, row = 0.0, run.dt, 1
+    at = integrators.Progress(0.0, run.dt, 1)
     span = max(run.output_dt, run.duration / 1000)
-    while t < run.duration:
-        t_stop = min(run.duration, t + span)
+    while at.t < run.duration:
+        t_stop = min(run.duration, at.t + span)
         tic = time.perf_counter()
-        t_before = t
-        status, t, h, row = _adaptive_chunk(
-            scene, integ, table, t, t_stop, h, row, q, qd, w, first, out, counters
-        )
-        out.filled = row
+        t_before = at.t
+        status, at = _adaptive_chunk(scene, integ, table, at, t_stop, x, first, out, counters)
+        out.filled = at.row
         if bar is not None:
-            bar.update(t - t_before)
+            bar.update(at.t - t_before)
         if status:
-            return status, t
-        if stop.requested and t < run.duration:
-            return Status.INTERRUPTED, t
+            return status, at.t
+        if stop.requested and at.t < run.duration:
+            return Status.INTERRUPTED, at.t
         elapsed = time.perf_counter() - tic
         if elapsed > 0:
             span = min(
                 run.duration, max(span * 0.5, min(span * 4, span * _CHUNK_SECONDS / elapsed))
             )
-    return 0, t
+    return 0, at.t
 
 
 def _first_stage(scene, table, t, q, qd, k_first, power, tau):
@@ -375,18 +355,18 @@ def _first_stage(scene, table, t, q, qd, k_first, power, tau):
     return step.evaluate(step.scene_data(scene.model, table), t, q, qd, k_first[1], tau, power)
 
 
-def _record_state(scene, table, t, q, qd, w, out):
-    """Append (t, q, qd, w) with the control torque there (NaN when the dynamics fail there)."""
+def _record_state(scene, table, t, x, out):
+    """Append (t, x) with the control torque there (NaN when the dynamics fail there)."""
     k = np.empty((2, scene.model.nv))
     tau = np.empty(scene.model.nv)
-    if _first_stage(scene, table, t, q, qd, k, np.empty(2), tau):
+    if _first_stage(scene, table, t, x.q, x.qd, k, np.empty(2), tau):
         tau[:] = np.nan
     r = out.filled
     if r == len(out.t):
         for name in ("t", "q", "qd", "tau", "w"):
             arr = getattr(out, name)
             setattr(out, name, np.concatenate([arr, np.full_like(arr[:1], np.nan)]))
-    out.t[r], out.q[r], out.qd[r], out.tau[r], out.w[r] = t, q, qd, tau, w
+    out.put(r, t, x, tau)
     out.filled = r + 1
 
 
@@ -445,7 +425,7 @@ def _trajectory(scene, table, out, complete, message, stats):
 def _violation(model, table, q, qd):
     """(max_i |phi_i|, max_i |(A qd)_i|) at each sample (K,): how far the samples are off the
     constraints, in position (m or rad) and velocity (m/s or rad/s)."""
-    rows, params, _ = table.constraints
+    rows, params = table.constraints.rows, table.constraints.params
     k = int(rows[:, 2].sum())
     A, Adot_qd, phi = np.empty((k, model.nv)), np.empty(k), np.empty(k)
     position, velocity = np.empty(len(q)), np.empty(len(q))

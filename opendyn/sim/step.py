@@ -151,11 +151,9 @@ def solve_with(con, scene, q, qd, tau, qdd):
             scene.ibuf, scene.fbuf, scene.work, q, qd, tau, scene.loads, qdd, scene.armature,
             scene.method,
         )
-    rows, cparams, gains = con
-    lam = np.empty(rows[:, 2].sum())
+    lam = np.empty(con.rows[:, 2].sum())
     return constrained_forward_kernel(
-        scene.ibuf, scene.fbuf, rows, cparams, gains, q, qd, tau, scene.loads, scene.armature,
-        qdd, lam,
+        scene.ibuf, scene.fbuf, con, q, qd, tau, scene.loads, scene.armature, qdd, lam
     )
 
 

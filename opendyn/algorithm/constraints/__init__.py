@@ -45,10 +45,11 @@ from .solve import (
     constrained_solve_kernel,
     constrained_solve_rank_kernel,
 )
-from .table import constraint_table
+from .table import ConstraintTable, constraint_table
 from .terms import constraint_terms_kernel
 
 __all__ = [
+    "ConstraintTable",
     "FIXED_POSE",
     "JOINT_COUPLING",
     "NO_STABILISATION",

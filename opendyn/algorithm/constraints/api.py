@@ -25,7 +25,7 @@ from .solve import (
     constrained_solve_kernel,
     symmetric_eigen,
 )
-from .table import _table
+from .table import ConstraintTable, _table
 from .terms import constraint_terms_kernel
 
 _TERMS = ("A", "Adot_qd", "phi")  # what constraint_terms_kernel computes, in its order
@@ -132,9 +132,7 @@ def constrained_forward_dynamics(
         status = constrained_forward_kernel(
             model._ibuf,
             model._fbuf,
-            rows,
-            params,
-            NO_STABILISATION,
+            ConstraintTable(rows, params, NO_STABILISATION),
             q,
             qd,
             tau,

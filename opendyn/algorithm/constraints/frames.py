@@ -67,20 +67,21 @@ def point_motion(R_s, p_s, V, dV, body, r, p_w, a_w):
 
 
 @njit(**INLINE)
-def add_point_jacobian(parent, nv_j, iv, mult, axes, R_s, p_s, body, p_w, sign, J, S):
+def add_point_jacobian(body_tree, R_s, p_s, body, p_w, sign, J, S_s):
     """J (3, nv) += sign * d(world velocity of the world point p_w fixed to `body`)/d v:
-    column iv[i] + k gets mult[i] (v_i + w_i x p_w) with (w_i, v_i) = Ad_{T_{s,i}} axes[i, k]
-    (row k of S_i), for every body i from `body` to the root. S is (6,) scratch."""
+    column iv[i] + k gets mult[i] (v_i + w_i x p_w) with (w_i, v_i) = Ad_{T_{s,i}} S[i, k]
+    (row k of S_i), for every body i from `body` to the root (body_tree: the model's BodyTree).
+    S_s is (6,) scratch."""
     i = body
     while i >= 0:
-        f = sign * mult[i]
-        for k in range(nv_j[i]):
-            space_axis(R_s[i], p_s[i], axes[i, k], S)
-            c = iv[i] + k
-            J[0, c] += f * (S[3] + S[1] * p_w[2] - S[2] * p_w[1])
-            J[1, c] += f * (S[4] + S[2] * p_w[0] - S[0] * p_w[2])
-            J[2, c] += f * (S[5] + S[0] * p_w[1] - S[1] * p_w[0])
-        i = parent[i]
+        f = sign * body_tree.mult[i]
+        for k in range(body_tree.nv_j[i]):
+            space_axis(R_s[i], p_s[i], body_tree.S[i, k], S_s)
+            c = body_tree.iv[i] + k
+            J[0, c] += f * (S_s[3] + S_s[1] * p_w[2] - S_s[2] * p_w[1])
+            J[1, c] += f * (S_s[4] + S_s[2] * p_w[0] - S_s[0] * p_w[2])
+            J[2, c] += f * (S_s[5] + S_s[0] * p_w[1] - S_s[1] * p_w[0])
+        i = body_tree.parent[i]
 
 
 @njit(**INLINE)
@@ -130,21 +131,19 @@ def frame_twist(V, body, R_bf, p_bf, out):
 
 
 @njit(**INLINE)
-def add_relative_twist_jacobian(
-    parent, nv_j, iv, mult, axes, R_s, p_s, body, R_sb, p_sb, sign, J, S, c6
-):
+def add_relative_twist_jacobian(body_tree, R_s, p_s, body, R_sb, p_sb, sign, J, S_s, S_b):
     """J (6, nv) += sign * Ad_{T_{b,s}} J_s(body): the space twist of `body` per unit v, in the
-    axes of frame b at (R_sb, p_sb). S, c6: (6,) scratch."""
+    axes of frame b at (R_sb, p_sb) (body_tree: the model's BodyTree). S_s, S_b: (6,) scratch."""
     i = body
     while i >= 0:
-        f = sign * mult[i]
-        for k in range(nv_j[i]):
-            space_axis(R_s[i], p_s[i], axes[i, k], S)
-            twist_to_child(R_sb, p_sb, S, c6)
-            c = iv[i] + k
+        f = sign * body_tree.mult[i]
+        for k in range(body_tree.nv_j[i]):
+            space_axis(R_s[i], p_s[i], body_tree.S[i, k], S_s)
+            twist_to_child(R_sb, p_sb, S_s, S_b)
+            c = body_tree.iv[i] + k
             for r in range(6):
-                J[r, c] += f * c6[r]
-        i = parent[i]
+                J[r, c] += f * S_b[r]
+        i = body_tree.parent[i]
 
 
 @njit(**INLINE)

@@ -15,11 +15,11 @@ eigenvalues kept.
 Compiled interface:
   constrained_solve_kernel(M, rhs, A, gamma, qdd, lam) -> Status.OK.value, or SINGULAR + k (pivot k)
   constrained_solve_rank_kernel(M, rhs, A, gamma, qdd, lam, rank) -> the same, rank[0] = rank
-  constrained_solve_at(ibuf, fbuf, rows, params, gains, q, qd, M, rhs, qdd, lam) -> status
-  constrained_forward_kernel(ibuf, fbuf, rows, params, gains, q, qd, tau, loads, armature,
-                             qdd, lam) -> status
-with gains = (alpha, beta), the Baumgarte stabilisation A qdd + Adot qd + 2 alpha A qd +
-beta^2 phi = 0 of a simulation ((0, 0): none).
+  constrained_solve_at(ibuf, fbuf, con, q, qd, M, rhs, qdd, lam) -> status
+  constrained_forward_kernel(ibuf, fbuf, con, q, qd, tau, loads, armature, qdd, lam) -> status
+with con a ConstraintTable (rows, params, gains): the table (opendyn.algorithm.constraints.table)
+and gains = (alpha, beta), the Baumgarte stabilisation A qdd + Adot qd + 2 alpha A qd +
+beta^2 phi = 0 of a simulation ((0, 0), NO_STABILISATION: none).
 """
 
 from __future__ import annotations
@@ -190,10 +190,10 @@ def constrained_solve_kernel(M, rhs, A, gamma, qdd, lam):
 
 
 @njit(**JIT)
-def constrained_solve_at(ibuf, fbuf, rows, params, gains, q, qd, M, rhs, qdd, lam):
-    """qdd (nv,), lam (k,) <- the solution of M qdd + A^T lam = rhs with the constraint rows at
-    (q (nq,), qd (nv,)) held to second order, with Baumgarte stabilisation gains =
-    (alpha, beta) (1/s):
+def constrained_solve_at(ibuf, fbuf, con, q, qd, M, rhs, qdd, lam):
+    """qdd (nv,), lam (k,) <- the solution of M qdd + A^T lam = rhs with the rows of the
+    constraints con (a ConstraintTable) at (q (nq,), qd (nv,)) held to second order, with its
+    Baumgarte stabilisation gains (alpha, beta) (1/s):
         A qdd + Adot qd + 2 alpha A qd + beta^2 phi = 0
     ((0, 0): A qdd + Adot qd = 0, the drift of phi left alone). M (nv, nv) is overwritten.
     Returns a Status: OK, Q/QD_NOT_FINITE, Q_NOT_UNIT_QUATERNION, or SINGULAR + j when M is
@@ -203,10 +203,10 @@ def constrained_solve_at(ibuf, fbuf, rows, params, gains, q, qd, M, rhs, qdd, la
     A = np.empty((k, nv))
     gamma = np.empty(k)
     phi = np.empty(k)
-    status = constraint_terms_kernel(ibuf, fbuf, rows, params, q, qd, A, gamma, phi)
+    status = constraint_terms_kernel(ibuf, fbuf, con.rows, con.params, q, qd, A, gamma, phi)
     if status:
         return status
-    alpha, beta = gains[0], gains[1]
+    alpha, beta = con.gains[0], con.gains[1]
     if alpha != 0.0 or beta != 0.0:
         for r in range(k):
             rate = 0.0
@@ -217,13 +217,11 @@ def constrained_solve_at(ibuf, fbuf, rows, params, gains, q, qd, M, rhs, qdd, la
 
 
 @njit(**JIT)
-def constrained_forward_kernel(
-    ibuf, fbuf, rows, params, gains, q, qd, tau, loads, armature, qdd, lam
-):
+def constrained_forward_kernel(ibuf, fbuf, con, q, qd, tau, loads, armature, qdd, lam):
     """qdd (nv,), lam (k,) <- constrained forward dynamics at one state (q (nq,); qd, tau
     (nv,)): M by CRBA (+ diag(armature), (nv,) or empty), h (and the f_tip wrenches in loads,
-    as in rnea_kernel) by RNEA, then constrained_solve_at with the Baumgarte gains
-    (alpha, beta) (zeros: none). Returns a Status: OK, Q/QD/TAU_NOT_FINITE,
+    as in rnea_kernel) by RNEA, then constrained_solve_at with the constraints con (a
+    ConstraintTable; gains zeros: no stabilisation). Returns a Status: OK, Q/QD/TAU_NOT_FINITE,
     Q_NOT_UNIT_QUATERNION, RESULT_NOT_FINITE (h overflowed), or SINGULAR + j when M is singular
     at coordinate j."""
     if not all_finite(tau):
@@ -240,4 +238,4 @@ def constrained_forward_kernel(
     crba_kernel(ibuf, fbuf, work, q, M)
     for i in range(armature.shape[0]):
         M[i, i] += armature[i]
-    return constrained_solve_at(ibuf, fbuf, rows, params, gains, q, qd, M, rhs, qdd, lam)
+    return constrained_solve_at(ibuf, fbuf, con, q, qd, M, rhs, qdd, lam)

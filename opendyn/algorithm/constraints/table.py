@@ -4,9 +4,14 @@ configuration, as the flat arrays the compiled kernels read.
 Compiled interface:
   constraint_table(model, constraints, q0 (nq,)) -> rows (n_c, 5) int64, params (p,) float64
       row: (kind, offset into params, m rows of A, body_a, body_b), body -1 = the fixed world
+  ConstraintTable(rows, params, gains): what the constrained solve takes, the table and the
+      Baumgarte gains (alpha, beta) (2,) 1/s of A qdd + Adot qd + 2 alpha A qd + beta^2 phi = 0
+      (NO_STABILISATION, zeros: none)
 """
 
 from __future__ import annotations
+
+from collections import namedtuple
 
 import numpy as np
 
@@ -22,6 +27,9 @@ from ..kinematics import frame_pose
 from .arguments import _configuration
 
 ROW_FIELDS = ("kind", "offset", "rows", "body_a", "body_b")  # columns of the table's rows
+# The constraints as the compiled solve reads them: rows (n_c, 5) int64 and params (p,) float64
+# of constraint_table, and the Baumgarte gains (alpha, beta) (2,) float64, 1/s.
+ConstraintTable = namedtuple("ConstraintTable", ("rows", "params", "gains"))
 
 
 def _as_list(constraints):

@@ -56,8 +56,7 @@ def constraint_terms_kernel(ibuf, fbuf, rows, params, q, qd, A, Adot_qd, phi):
     if status:
         return status
     body_tree = tree(ibuf, fbuf)
-    parent, nv_j, iv = body_tree.parent, body_tree.nv_j, body_tree.iv
-    mult, axes = body_tree.mult, body_tree.S
+    parent = body_tree.parent
     nb = parent.shape[0]
     nv = qd.shape[0]
     poses = np.empty((2, nb, 3, 3))
@@ -87,18 +86,14 @@ def constraint_terms_kernel(ibuf, fbuf, rows, params, q, qd, A, Adot_qd, phi):
         if kind == POINT_TO_WORLD or kind == POINT_TO_POINT:
             # world velocity of point a (minus that of point b): 3 rows
             point_motion(R_s, p_s, V, dV, body_a, params[o : o + 3], p_a, a_a)
-            add_point_jacobian(
-                parent, nv_j, iv, mult, axes, R_s, p_s, body_a, p_a, 1.0, A[r0 : r0 + 3], S
-            )
+            add_point_jacobian(body_tree, R_s, p_s, body_a, p_a, 1.0, A[r0 : r0 + 3], S)
             if kind == POINT_TO_WORLD:
                 for k in range(3):
                     p_b[k] = params[o + 3 + k]  # the target
                     a_b[k] = 0.0
             else:
                 point_motion(R_s, p_s, V, dV, body_b, params[o + 3 : o + 6], p_b, a_b)
-                add_point_jacobian(
-                    parent, nv_j, iv, mult, axes, R_s, p_s, body_b, p_b, -1.0, A[r0 : r0 + 3], S
-                )
+                add_point_jacobian(body_tree, R_s, p_s, body_b, p_b, -1.0, A[r0 : r0 + 3], S)
             for k in range(3):
                 Adot_qd[r0 + k] = a_a[k] - a_b[k]
                 phi[r0 + k] = p_a[k] - p_b[k]
@@ -106,7 +101,7 @@ def constraint_terms_kernel(ibuf, fbuf, rows, params, q, qd, A, Adot_qd, phi):
             # n . (world velocity of the point): 1 row
             point_motion(R_s, p_s, V, dV, body_a, params[o : o + 3], p_a, a_a)
             zero_matrix(J3)
-            add_point_jacobian(parent, nv_j, iv, mult, axes, R_s, p_s, body_a, p_a, 1.0, J3, S)
+            add_point_jacobian(body_tree, R_s, p_s, body_a, p_a, 1.0, J3, S)
             nrm = params[o + 3 : o + 6]
             for c in range(nv):
                 A[r0, c] = nrm[0] * J3[0, c] + nrm[1] * J3[1, c] + nrm[2] * J3[2, c]
@@ -124,10 +119,10 @@ def constraint_terms_kernel(ibuf, fbuf, rows, params, q, qd, A, Adot_qd, phi):
             frame_in_world(R_s, p_s, body_b, R_bf, p_bf, R_sb, p_sb)
             Arows = A[r0 : r0 + 6]
             add_relative_twist_jacobian(
-                parent, nv_j, iv, mult, axes, R_s, p_s, body_b, R_sb, p_sb, 1.0, Arows, S, c6
+                body_tree, R_s, p_s, body_b, R_sb, p_sb, 1.0, Arows, S, c6
             )
             add_relative_twist_jacobian(
-                parent, nv_j, iv, mult, axes, R_s, p_s, body_a, R_sb, p_sb, -1.0, Arows, S, c6
+                body_tree, R_s, p_s, body_a, R_sb, p_sb, -1.0, Arows, S, c6
             )
             # T_ba = T_bs T_sa: R_ab holds R_ba here, p_ab holds p_ba
             relative_pose(R_sb, p_sb, R_sa, p_sa, R_ab, p_ab)

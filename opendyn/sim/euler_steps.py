@@ -1,0 +1,157 @@
+"""The two Euler steps that solve with the mass matrix, for the fixed-step loop of
+opendyn.sim.integrators (whose docstring derives them), each from a State x = (q, qd, w) at t to
+x1 over dt:
+
+  implicit_euler       linearly implicit in velocity, with the effects' stiffness K = -dtau/dq
+                       and damping D = -dtau/dqd (nv, nv) at the end of the step:
+                         (M + diag(armature) + dt D + dt^2 K) (qd' - qd) = dt (tau - h - dt K qd),
+                         q' = q (+) qd' dt
+  semi_implicit_euler  symplectic Euler in momentum form, p = (M(q) + diag(armature)) qd:
+                         p' = p + dt (dK/dq(q, v) - g(q) + tau(t, q, qd)),  v = (M(q) + ..)^-1 p',
+                         q' = q (+) v dt,   qd' = (M(q') + diag(armature))^-1 p'
+                       (v by fixed-point iteration at fixed q, to FIXED_POINT_RTOL)
+
+The work w (2,) (applied, passive; J) advances by dt times the power at the start.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from .._runtime.kernel_cache import JIT
+from .._runtime.status import Status
+from ..algorithm.cholesky import (
+    cholesky_factor,
+    cholesky_solve,
+    cholesky_substitute,
+    largest_diagonal,
+)
+from ..algorithm.configuration import integrate_kernel
+from ..algorithm.constraints import constrained_solve_at
+from ..algorithm.crba import crba_kernel
+from ..algorithm.energy import kinetic_gradient_kernel
+from ..algorithm.rnea import rnea_kernel
+from .step import generalized_forces
+
+FIXED_POINT_RTOL = 1e-14  # the momentum update's iteration stops when v changes less than this
+FIXED_POINT_MAX = 50
+
+
+@njit(**JIT)
+def velocity_solve(ibuf, fbuf, con, q, qd, M, rhs, qdd):
+    """qdd <- M^-1 rhs, or with constraints con (a ConstraintTable, not None) the constrained
+    solve of M qdd + A^T lambda = rhs (M overwritten). A function of its own so that the test on
+    None is decided when it compiles. Returns a Status (SINGULAR + k: M singular at joint k)."""
+    if con is None:
+        return cholesky_solve(M, rhs, qdd)
+    lam = np.empty(con.rows[:, 2].sum())
+    return constrained_solve_at(ibuf, fbuf, con, q, qd, M, rhs, qdd, lam)
+
+
+@njit(**JIT)
+def implicit_velocity_step(scene, t, dt, x, x1, tau_ctrl):
+    """One linearly implicit Euler step (module docstring) from the State x at t to x1;
+    tau_ctrl (nv,) <- the control torque at its start. Returns a Status."""
+    ibuf, fbuf, work = scene.ibuf, scene.fbuf, scene.work
+    armature, loads = scene.armature, scene.loads
+    q, qd = x.q, x.qd
+    nv = qd.shape[0]
+    tau, K, D = scene.forces[0], scene.KD[0], scene.KD[1]
+    power = np.empty(2)
+    status = generalized_forces(scene, t, q, qd, tau, tau_ctrl, power, K, D, True)
+    if status:
+        return status
+    h = np.empty(nv)
+    status = rnea_kernel(ibuf, fbuf, work, q, qd, np.zeros(nv), loads, h)
+    if status:
+        return status
+    M = np.empty((nv, nv))
+    crba_kernel(ibuf, fbuf, work, q, M)
+    rhs = np.empty(nv)
+    for j in range(nv):
+        rhs[j] = tau[j] - h[j]
+        for k in range(nv):
+            M[j, k] += dt * D[j, k] + dt * dt * K[j, k]
+            rhs[j] -= dt * K[j, k] * qd[k]
+        if armature.shape[0]:
+            M[j, j] += armature[j]
+    qdd = np.empty(nv)
+    status = velocity_solve(ibuf, fbuf, scene.constraints, q, qd, M, rhs, qdd)
+    if status:
+        return status
+    for j in range(nv):
+        x1.qd[j] = qd[j] + dt * qdd[j]
+    integrate_kernel(ibuf, q, x1.qd, dt, x1.q)
+    x1.w[0] = x.w[0] + dt * power[0]
+    x1.w[1] = x.w[1] + dt * power[1]
+    return Status.OK.value
+
+
+@njit(**JIT)
+def symplectic_euler_step(scene, t, dt, x, x1, tau_ctrl):
+    """One step of symplectic Euler in momentum form (module docstring) from the State x at t to
+    x1; tau_ctrl (nv,) <- the control torque at its start. Returns a Status."""
+    ibuf, fbuf, work = scene.ibuf, scene.fbuf, scene.work
+    armature, loads, KD = scene.armature, scene.loads, scene.KD
+    q, qd = x.q, x.qd
+    nv = qd.shape[0]
+    tau = scene.forces[0]
+    power = np.empty(2)
+    status = generalized_forces(scene, t, q, qd, tau, tau_ctrl, power, KD[0], KD[1], False)
+    if status:
+        return status
+    # g(q): RNEA at qd = qdd = 0 under the base acceleration
+    zero = np.zeros(nv)
+    g = np.empty(nv)
+    status = rnea_kernel(ibuf, fbuf, work, q, zero, zero, loads, g)
+    if status:
+        return status
+    # p = (M(q) + diag(armature)) qd
+    M = np.empty((nv, nv))
+    crba_kernel(ibuf, fbuf, work, q, M)
+    p = np.zeros(nv)
+    for r in range(nv):
+        if armature.shape[0]:
+            M[r, r] += armature[r]
+        for c in range(nv):
+            p[r] += M[r, c] * qd[c]
+    status = cholesky_factor(M, nv, largest_diagonal(M))
+    if status:
+        return status
+    # p' = p + dt (dK/dq(q, v) - g + tau), v = M^-1 p': fixed-point iteration from v = qd
+    v = qd.copy()
+    v_next = np.empty(nv)
+    dK_dq = np.empty(nv)
+    p1 = np.empty(nv)
+    converged = False
+    for _ in range(FIXED_POINT_MAX):
+        status = kinetic_gradient_kernel(ibuf, fbuf, q, v, dK_dq)
+        if status:
+            return status
+        for j in range(nv):
+            p1[j] = p[j] + dt * (dK_dq[j] - g[j] + tau[j])
+        cholesky_substitute(M, nv, p1, v_next)
+        change = 0.0
+        size = 0.0
+        for j in range(nv):
+            change = max(change, abs(v_next[j] - v[j]))
+            size = max(size, abs(v_next[j]))
+            v[j] = v_next[j]
+        if change <= FIXED_POINT_RTOL * (1.0 + size):
+            converged = True
+            break
+    if not converged:
+        return Status.NO_CONVERGENCE.value
+    # q' = q (+) v dt, qd' = (M(q') + diag(armature))^-1 p'
+    integrate_kernel(ibuf, q, v, dt, x1.q)
+    crba_kernel(ibuf, fbuf, work, x1.q, M)
+    if armature.shape[0]:
+        for r in range(nv):
+            M[r, r] += armature[r]
+    status = cholesky_solve(M, p1, x1.qd)
+    if status:
+        return status
+    x1.w[0] = x.w[0] + dt * power[0]
+    x1.w[1] = x.w[1] + dt * power[1]
+    return Status.OK.value
