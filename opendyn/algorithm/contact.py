@@ -36,37 +36,16 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from .._runtime.arrays import zero_matrix
 from .._runtime.kernel_cache import BATCH, JIT
 from ..multibody.data import new_work, world_poses
 from ..multibody.layout import body_count, dof_count, tree
-from ..spatial.compiled import cross3
-from .kinematics import forward_kinematics, space_axis
+from .kinematics import add_point_jacobian, forward_kinematics
 
 # the contact parameters' layout: the shared values, then (c_b (3,), r) per point
 GROUND, STIFFNESS, DAMPING, FRICTION, SLIP = range(5)
 SHARED = 5
 PER_POINT = 4
-
-
-@njit(**JIT)
-def point_jacobian(body_tree, R_s, p_s, body, x_s, J_p):
-    """J_p (3, nv) <- the linear velocity Jacobian of the point x_s (3,) fixed to `body`, in
-    {s}: column k = mult (v_k + w_k x x_s) over the joints on the path from the root to the
-    body, (w_k, v_k) = Ad_{T_{s,i}} s_k their space-frame axes (R_s, p_s from
-    forward_kinematics)."""
-    parent, nv_j, iv = body_tree.parent, body_tree.nv_j, body_tree.iv
-    mult, S_rows = body_tree.mult, body_tree.S
-    S = np.empty(6)
-    w_x = np.empty(3)
-    J_p[:, :] = 0.0
-    i = body
-    while i >= 0:
-        for k in range(nv_j[i]):
-            space_axis(R_s[i], p_s[i], S_rows[i, k], S)
-            cross3(S[:3], x_s, w_x)
-            for r in range(3):
-                J_p[r, iv[i] + k] += mult[i] * (S[3 + r] + w_x[r])
-        i = parent[i]
 
 
 @njit(**JIT)
@@ -124,6 +103,7 @@ def contact_kernel(ibuf, fbuf, work, contacts, q, qd, tau, linear, record):
     h, k, d = params[GROUND], params[STIFFNESS], params[DAMPING]
     mu, v_s = params[FRICTION], params[SLIP]
     J_p = np.empty((3, nv))
+    S = np.empty(6)  # a joint axis in {s}
     v_p = np.empty(3)
     C = np.zeros((3, 3))
     spring = 0.0
@@ -135,7 +115,8 @@ def contact_kernel(ibuf, fbuf, work, contacts, q, qd, tau, linear, record):
         if delta[p] == 0.0:
             continue
         # v_p = J_p v
-        point_jacobian(body_tree, R_s, p_s, b, x_c[p], J_p)
+        zero_matrix(J_p)
+        add_point_jacobian(body_tree, R_s, p_s, b, x_c[p], 1.0, J_p, S)
         for r in range(3):
             v_p[r] = 0.0
             for j in range(nv):
@@ -197,6 +178,8 @@ def contact_jacobians_kernel(ibuf, fbuf, contacts, q, J):
     forward_kinematics(body_tree, work, q, np.int64(-1))
     R_s, p_s = world_poses(work, nb)
     x_s = np.empty(3)
+    S = np.empty(6)  # a joint axis in {s}
     for p in range(bodies.shape[0]):
         b = lowest_point(R_s, p_s, bodies, params, p, x_s)
-        point_jacobian(body_tree, R_s, p_s, b, x_s, J[p])
+        zero_matrix(J[p])
+        add_point_jacobian(body_tree, R_s, p_s, b, x_s, 1.0, J[p], S)

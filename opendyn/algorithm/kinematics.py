@@ -93,6 +93,24 @@ def space_axis(R_s, p_s, A_i, S):
     S[5] += p_s[0] * S[1] - p_s[1] * S[0]
 
 
+@njit(**INLINE)
+def add_point_jacobian(body_tree, R_s, p_s, body, p_w, sign, J, S_s):
+    """J (3, nv) += sign * d(world velocity of the world point p_w fixed to `body`)/d v:
+    column iv[i] + k gets mult[i] (v_i + w_i x p_w) with (w_i, v_i) = Ad_{T_{s,i}} S[i, k]
+    (row k of S_i), for every body i from `body` to the root (body_tree: the model's BodyTree).
+    S_s is (6,) scratch."""
+    i = body
+    while i >= 0:
+        f = sign * body_tree.mult[i]
+        for k in range(body_tree.nv_j[i]):
+            space_axis(R_s[i], p_s[i], body_tree.S[i, k], S_s)
+            c = body_tree.iv[i] + k
+            J[0, c] += f * (S_s[3] + S_s[1] * p_w[2] - S_s[2] * p_w[1])
+            J[1, c] += f * (S_s[4] + S_s[2] * p_w[0] - S_s[0] * p_w[2])
+            J[2, c] += f * (S_s[5] + S_s[0] * p_w[1] - S_s[1] * p_w[0])
+        i = body_tree.parent[i]
+
+
 @njit(**JIT)
 def compose_frame(R_s, p_s, body, T_bf, T_sf):
     """T_sf (4, 4) <- T_{s,body} T_{body,frame}; body -1 is the world."""

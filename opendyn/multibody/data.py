@@ -109,10 +109,9 @@ WORK_FIELDS = (
     ("scratch", (9, 6), "fixed"),
     ("temp", (3, 6), "fixed"),
 )
-# the fields a user reads (the rest is the kernels' scratch)
-PUBLIC_FIELDS = tuple(
-    name for name, _, _ in WORK_FIELDS if name not in ("body_flag", "idle", "still", "zero_v", "e_k", "no_loads", "scratch", "temp")
-)
+# the kernels' scratch; every other field is one a user reads
+SCRATCH_FIELDS = ("body_flag", "idle", "still", "zero_v", "e_k", "no_loads", "scratch", "temp")
+PUBLIC_FIELDS = tuple(name for name, _, _ in WORK_FIELDS if name not in SCRATCH_FIELDS)
 _UNITS = ("nb", "nv", "nv2", "fixed")
 
 

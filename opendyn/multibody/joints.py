@@ -30,6 +30,7 @@ from numba.np.numpy_support import from_dtype
 from .._runtime.arrays import all_finite
 from .._runtime.kernel_cache import INLINE, JIT
 from .._runtime.status import Status
+from ..spatial.compiled import se3_log_translation
 from .layout import _IQ, _JTYPE, FREE_JOINTS_INT, body_count, field
 
 # joint types, and each type's numbers of configuration and velocity coordinates
@@ -302,9 +303,9 @@ def free_difference(q0, q1, iq, iv, v):
     unit time (the inverse of free_integrate with dt = 1):
 
       quat_rel = conj(quat_0) quat_1 = (u, w) with w >= 0, theta = 2 atan2(|u|, w),
-      phi = theta u / |u|,  rho = (I - [phi]/2 + d [phi]^2) R_0^T (p_1 - p_0),
-      d = 1/theta^2 - cot(theta/2) / (2 theta)   (Lynch & Park, Algorithm 3.2; series for
-      small theta)."""
+      phi = theta u / |u|,  rho = V^-1 R_0^T (p_1 - p_0)
+    with V^-1 the SE(3) logarithm's translation map (spatial.compiled.se3_log_translation;
+    Lynch & Park, Algorithm 3.2)."""
     a = np.empty(4)
     b = np.empty(4)
     for k in range(4):
@@ -322,7 +323,6 @@ def free_difference(q0, q1, iq, iv, v):
     s = np.sqrt(rel[0] ** 2 + rel[1] ** 2 + rel[2] ** 2)
     w = rel[3]
     theta = 2.0 * np.arctan2(s, w)
-    t2 = theta * theta
     if s < 1e-3 * w:
         x2 = (s / w) ** 2
         scale = 2.0 / w * (1.0 - x2 / 3.0 + x2 * x2 / 5.0)  # theta / s
@@ -331,28 +331,17 @@ def free_difference(q0, q1, iq, iv, v):
     phi = np.empty(3)
     for k in range(3):
         phi[k] = scale * rel[k]
-    if theta < 1e-2:
-        d = 1.0 / 12.0 + t2 / 720.0 + t2 * t2 / 30240.0
-    else:
-        d = 1.0 / t2 - w / (2.0 * theta * s)
-    R0 = np.empty((3, 3))
-    quaternion_rotation(q0[iq + 3], q0[iq + 4], q0[iq + 5], q0[iq + 6], R0)
+    R0 = quaternion_rows(q0[iq + 3], q0[iq + 4], q0[iq + 5], q0[iq + 6])
     dp = np.empty(3)
     for c in range(3):
         dp[c] = (
-            R0[0, c] * (q1[iq] - q0[iq])
-            + R0[1, c] * (q1[iq + 1] - q0[iq + 1])
-            + R0[2, c] * (q1[iq + 2] - q0[iq + 2])
+            R0[0][c] * (q1[iq] - q0[iq])
+            + R0[1][c] * (q1[iq + 1] - q0[iq + 1])
+            + R0[2][c] * (q1[iq + 2] - q0[iq + 2])
         )
-    x1 = np.empty(3)
-    x1[0] = phi[1] * dp[2] - phi[2] * dp[1]
-    x1[1] = phi[2] * dp[0] - phi[0] * dp[2]
-    x1[2] = phi[0] * dp[1] - phi[1] * dp[0]
     for k in range(3):
         v[iv + k] = phi[k]
-    v[iv + 3] = dp[0] - 0.5 * x1[0] + d * (phi[1] * x1[2] - phi[2] * x1[1])
-    v[iv + 4] = dp[1] - 0.5 * x1[1] + d * (phi[2] * x1[0] - phi[0] * x1[2])
-    v[iv + 5] = dp[2] - 0.5 * x1[2] + d * (phi[0] * x1[1] - phi[1] * x1[0])
+    se3_log_translation(phi[0], phi[1], phi[2], theta, dp, v[iv + 3 : iv + 6])
 
 
 integrate_free_joint = free_joints_only(free_integrate)

@@ -10,17 +10,10 @@ Small helpers are inlined by numba, so the kernels read like the algorithm boxes
 
 from __future__ import annotations
 
+import numpy as np
 from numba import njit
 
 from .._runtime.kernel_cache import INLINE, JIT
-
-
-@njit(**INLINE)
-def cross3(a, b, out):
-    """out = a x b (out must not alias a or b)."""
-    out[0] = a[1] * b[2] - a[2] * b[1]
-    out[1] = a[2] * b[0] - a[0] * b[2]
-    out[2] = a[0] * b[1] - a[1] * b[0]
 
 
 @njit(**INLINE)
@@ -204,3 +197,62 @@ def wrench_to_parent(R, p, F):
     m1 = R[1, 0] * F[0] + R[1, 1] * F[1] + R[1, 2] * F[2] + p[2] * f0 - p[0] * f2
     m2 = R[2, 0] * F[0] + R[2, 1] * F[1] + R[2, 2] * F[2] + p[0] * f1 - p[1] * f0
     F[0], F[1], F[2], F[3], F[4], F[5] = m0, m1, m2, f0, f1, f2
+
+
+# below this angle (rad), the coefficient of [w]^2 in V^-1 is its Taylor series
+LOG_SERIES = 1e-2
+
+
+@njit(**INLINE)
+def se3_log_translation(w0, w1, w2, t, p, out):
+    """out (3,) <- V^-1 p = (I - [w]/2 + ((1 - (t/2) cot(t/2)) / t^2) [w]^2) p: the translation
+    part of log(T) for T = (exp([w]), p), t = |w| (MR eq. 3.92), the coefficient by its series
+    1/12 + t^2/720 + t^4/30240 + t^6/1209600 below LOG_SERIES. out may not alias p."""
+    if t < LOG_SERIES:
+        t2 = t * t
+        coef = 1.0 / 12.0 + t2 / 720.0 + t2 * t2 / 30240.0 + t2 * t2 * t2 / 1209600.0
+    else:
+        half = 0.5 * t
+        coef = (1.0 - half * np.cos(half) / np.sin(half)) / (t * t)
+    # [w] p = w x p,  [w]^2 p = w x (w x p)
+    x0 = w1 * p[2] - w2 * p[1]
+    x1 = w2 * p[0] - w0 * p[2]
+    x2 = w0 * p[1] - w1 * p[0]
+    out[0] = p[0] - 0.5 * x0 + coef * (w1 * x2 - w2 * x1)
+    out[1] = p[1] - 0.5 * x1 + coef * (w2 * x0 - w0 * x2)
+    out[2] = p[2] - 0.5 * x2 + coef * (w0 * x1 - w1 * x0)
+
+
+@njit(**INLINE)
+def log_se3(R, p, out):
+    """out (6,) <- log(T), T = (R, p): (w, V^-1 p) with w = log(R), t = |w| in [0, pi] (MR eqs.
+    3.91-3.92; opendyn.spatial.algebra.log_se3, the numpy reference) and V^-1 p as
+    se3_log_translation gives it."""
+    d0 = R[2, 1] - R[1, 2]
+    d1 = R[0, 2] - R[2, 0]
+    d2 = R[1, 0] - R[0, 1]
+    cos_t = 0.5 * (R[0, 0] + R[1, 1] + R[2, 2] - 1.0)
+    t = np.arctan2(0.5 * np.sqrt(d0 * d0 + d1 * d1 + d2 * d2), cos_t)
+    if cos_t >= 0.0:
+        # [w] = (t / (2 sin t)) (R - R^T)
+        ratio = 0.5 if t == 0.0 else 0.5 * t / np.sin(t)
+        w0, w1, w2 = ratio * d0, ratio * d1, ratio * d2
+    else:
+        # axis from the column of a a^T = ((R + R^T)/2 - cos t I) / (1 - cos t) with the
+        # largest diagonal entry, its sign from R - R^T
+        k = 0
+        best = -1.0
+        for j in range(3):
+            if R[j, j] > best:
+                best = R[j, j]
+                k = j
+        col = out[3:6]  # scratch until the translation is written
+        for j in range(3):
+            col[j] = (0.5 * (R[j, k] + R[k, j]) - (cos_t if j == k else 0.0)) / (1.0 - cos_t)
+        norm = np.sqrt(col[0] * col[0] + col[1] * col[1] + col[2] * col[2])
+        s = t / norm
+        if col[0] * d0 + col[1] * d1 + col[2] * d2 < 0.0:
+            s = -s
+        w0, w1, w2 = s * col[0], s * col[1], s * col[2]
+    out[0], out[1], out[2] = w0, w1, w2
+    se3_log_translation(w0, w1, w2, t, p, out[3:6])

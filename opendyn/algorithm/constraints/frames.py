@@ -9,14 +9,11 @@ Twists are (w, v), angular first; R_s, p_s are the bodies' world poses T_{s,i}; 
 
 from __future__ import annotations
 
-import numpy as np
 from numba import njit
 
 from ..._runtime.kernel_cache import INLINE
 from ...spatial.compiled import twist_to_child
 from ..kinematics import space_axis
-
-_LOG_SERIES = 1e-2
 
 
 @njit(**INLINE)
@@ -64,24 +61,6 @@ def point_motion(R_s, p_s, V, dV, body, r, p_w, a_w):
         R = R_s[body, k]
         p_w[k] = p_s[body, k] + R[0] * r[0] + R[1] * r[1] + R[2] * r[2]
         a_w[k] = R[0] * b0 + R[1] * b1 + R[2] * b2
-
-
-@njit(**INLINE)
-def add_point_jacobian(body_tree, R_s, p_s, body, p_w, sign, J, S_s):
-    """J (3, nv) += sign * d(world velocity of the world point p_w fixed to `body`)/d v:
-    column iv[i] + k gets mult[i] (v_i + w_i x p_w) with (w_i, v_i) = Ad_{T_{s,i}} S[i, k]
-    (row k of S_i), for every body i from `body` to the root (body_tree: the model's BodyTree).
-    S_s is (6,) scratch."""
-    i = body
-    while i >= 0:
-        f = sign * body_tree.mult[i]
-        for k in range(body_tree.nv_j[i]):
-            space_axis(R_s[i], p_s[i], body_tree.S[i, k], S_s)
-            c = body_tree.iv[i] + k
-            J[0, c] += f * (S_s[3] + S_s[1] * p_w[2] - S_s[2] * p_w[1])
-            J[1, c] += f * (S_s[4] + S_s[2] * p_w[0] - S_s[0] * p_w[2])
-            J[2, c] += f * (S_s[5] + S_s[0] * p_w[1] - S_s[1] * p_w[0])
-        i = body_tree.parent[i]
 
 
 @njit(**INLINE)
@@ -144,52 +123,3 @@ def add_relative_twist_jacobian(body_tree, R_s, p_s, body, R_sb, p_sb, sign, J, 
             for r in range(6):
                 J[r, c] += f * S_b[r]
         i = body_tree.parent[i]
-
-
-@njit(**INLINE)
-def log_se3(R, p, out):
-    """out (6,) <- log(T), T = (R, p): (w, (I - [w]/2 + ((1 - (t/2) cot(t/2)) / t^2) [w]^2) p),
-    w = log(R), t = |w| in [0, pi] (MR eqs. 3.91-3.92; opendyn.spatial.log_se3)."""
-    d0 = R[2, 1] - R[1, 2]
-    d1 = R[0, 2] - R[2, 0]
-    d2 = R[1, 0] - R[0, 1]
-    cos_t = 0.5 * (R[0, 0] + R[1, 1] + R[2, 2] - 1.0)
-    t = np.arctan2(0.5 * np.sqrt(d0 * d0 + d1 * d1 + d2 * d2), cos_t)
-    if cos_t >= 0.0:
-        # [w] = (t / (2 sin t)) (R - R^T)
-        ratio = 0.5 if t == 0.0 else 0.5 * t / np.sin(t)
-        w0, w1, w2 = ratio * d0, ratio * d1, ratio * d2
-    else:
-        # axis from the column of a a^T = ((R + R^T)/2 - cos t I) / (1 - cos t) with the
-        # largest diagonal entry, its sign from R - R^T
-        k = 0
-        best = -1.0
-        for j in range(3):
-            if R[j, j] > best:
-                best = R[j, j]
-                k = j
-        col = np.empty(3)
-        for j in range(3):
-            col[j] = (0.5 * (R[j, k] + R[k, j]) - (cos_t if j == k else 0.0)) / (1.0 - cos_t)
-        norm = np.sqrt(col[0] * col[0] + col[1] * col[1] + col[2] * col[2])
-        s = t / norm
-        if col[0] * d0 + col[1] * d1 + col[2] * d2 < 0.0:
-            s = -s
-        w0, w1, w2 = s * col[0], s * col[1], s * col[2]
-    if t < _LOG_SERIES:
-        t2 = t * t
-        coef = 1.0 / 12.0 + t2 / 720.0 + t2 * t2 / 30240.0 + t2 * t2 * t2 / 1209600.0
-    else:
-        half = 0.5 * t
-        coef = (1.0 - half * np.cos(half) / np.sin(half)) / (t * t)
-    # [w] p = w x p,  [w]^2 p = w x (w x p)
-    x0 = w1 * p[2] - w2 * p[1]
-    x1 = w2 * p[0] - w0 * p[2]
-    x2 = w0 * p[1] - w1 * p[0]
-    y0 = w1 * x2 - w2 * x1
-    y1 = w2 * x0 - w0 * x2
-    y2 = w0 * x1 - w1 * x0
-    out[0], out[1], out[2] = w0, w1, w2
-    out[3] = p[0] - 0.5 * x0 + coef * y0
-    out[4] = p[1] - 0.5 * x1 + coef * y1
-    out[5] = p[2] - 0.5 * x2 + coef * y2

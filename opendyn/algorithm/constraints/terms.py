@@ -29,16 +29,14 @@ from ...multibody.constraint_objects import (
 )
 from ...multibody.joints import state_status
 from ...multibody.layout import tree
-from ...spatial.compiled import ad_twist
+from ...spatial.compiled import ad_twist, log_se3
 from ..configuration import difference_kernel
-from ..kinematics import space_axis
+from ..kinematics import add_point_jacobian, space_axis
 from ..rnea import forward_pass
 from .frames import (
-    add_point_jacobian,
     add_relative_twist_jacobian,
     frame_in_world,
     frame_twist,
-    log_se3,
     point_motion,
     relative_pose,
     world_poses,
