@@ -3,7 +3,7 @@ source.
 
 numba caches each compiled kernel on disk keyed on the kernel's own source file only, while the
 kernels inline or call helpers from other files (spatial/compiled.py, algorithm/rnea.py,
-sim/effects.py, ...); after such a helper changes, or a file moves, a kernel would be loaded stale.
+sim/effects/, ...); after such a helper changes, or a file moves, a kernel would be loaded stale.
 The hash therefore covers every Python source of the package, found by pattern (`SOURCES`), with
 its path relative to the package: a new, changed, renamed or moved file names a new folder. Every
 module that defines kernels is imported inside `kernel_cache()`, which points numba at that folder

@@ -26,8 +26,8 @@ import warnings
 from .._runtime.signals import SigtermAsInterrupt, signal_name
 from ..errors import SceneError, SceneWarning, URDFError
 from ..io.scene.files import DEFAULT_SCENE, shipped_scenes
-from ..io.scene.schema import EFFECTS
 from ..io.scene.sections_run import INTEGRATORS
+from ..sim.effects import registry
 from .cache import _compile_ahead
 from .interrupts import _Interrupted
 from .robot import DEFAULT_ROBOT, _demo, _info, _verify
@@ -67,7 +67,7 @@ def main(argv=None) -> int:
         "--disable",
         action="append",
         default=[],
-        choices=EFFECTS,
+        choices=registry.names(),
         help="switch off an effect the scene names (repeatable)",
     )
     save = sim.add_mutually_exclusive_group()

@@ -21,6 +21,7 @@ from ..io.scene.files import (
     shipped_scenes,
 )
 from ..io.scene.schema import thaw
+from ..sim.effects import registry
 from ..sim.trajectory import saved_paths
 from .interrupts import _doing
 from .outputs import (
@@ -33,8 +34,9 @@ from .outputs import (
     _write_outputs,
 )
 
-# effects that `--enable` can switch on for any robot: their parameters come from the URDF
-ENABLE_FROM_URDF = {"gravity": True, "damping": {}, "friction": {}}
+# effects that `--enable` can switch on for any robot, and the settings it gives them: their
+# parameters come from the URDF (each effect's module declares its ENABLE)
+ENABLE_FROM_URDF = registry.enable_settings()
 WRITE_FAILED = 3  # exit status: an output could not be written after the run
 
 

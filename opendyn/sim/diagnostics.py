@@ -14,6 +14,8 @@ from .._runtime.status import Status, decode
 from ..algorithm.checks import mass_matrix_with_armature, singular_coordinates
 from ..errors import SceneError
 from . import effects, integrators, step
+from .effects import registry
+from .effects.interface import RatesAt
 
 
 def failure_message(scene, table, status, t, steps, q, qd):
@@ -136,40 +138,43 @@ def _regular_mass_matrix(scene, q):
 
 
 def _effect_rates(scene, table, q):
-    """[(name, rates, where)]: the effects' rates at q. For each joint, the natural frequency
-    w = sqrt(k / M_jj) of its springs (limits, PD) and the rate d / M_jj of its dampers; for each
-    contact point, those of the contact's spring and damper over the point's apparent mass
-    m_p = 1 / (e_z^T J_p M^-1 J_p^T e_z), and of friction near zero slip, mu f_n / (v_s m_p)
-    with f_n the point's share of the robot's weight. Explicit methods need dt x rate below
-    about 2 (Euler) to 2.8 (RK4). Empty where M(q) cannot be computed."""
+    """[(name, rates, where)]: the rates at q of the effects the scene names (each effect
+    module's `rates`): for each joint, the natural frequency w = sqrt(k / M_jj) of its springs
+    (limits, PD) and the rate d / M_jj of its dampers; for each contact point, those of the
+    contact's spring and damper over the point's apparent mass, and of friction near zero slip.
+    Explicit methods need dt x rate below about 2 (Euler) to 2.8 (RK4). Empty where M(q) cannot
+    be computed."""
     model = scene.model
     M = _scene_mass_matrix(scene, q) if model.nv else None
     if M is None:
         return []
-    m = np.diag(M)[model.v_index]  # the joints' entries
-    joints = [f"joint {name!r}" for name in model.joint_names]
+    at = _rates_at(scene, table, q, np.diag(M)[model.v_index])  # the joints' entries
     candidates = []
-    if scene.limits is not None:
-        lim = scene.limits
-        candidates += [
-            ("joint-limit stiffness", np.sqrt(lim.stiffness / m), joints),
-            ("joint-limit damping", lim.damping / m, joints),
-        ]
-    if scene.damping is not None:
-        candidates.append(("viscous damping", scene.damping / m, joints))
-    if scene.friction is not None:
-        candidates.append(
-            ("friction smoothing", scene.friction.coulomb / scene.friction.smoothing / m, joints)
-        )
-    control = scene.control
-    if control is not None and control.kind == "pd":
-        candidates += [
-            ("PD stiffness", np.sqrt(control.kp / m), joints),
-            ("PD damping", control.kd / m, joints),
-        ]
-    if scene.contact is not None:
-        candidates += _contact_rates(scene, table, q)
+    for effect in registry.stages():
+        record = effect.record(scene)
+        if effect.rates is not None and record is not None:
+            candidates += effect.rates(record, at)
     return candidates
+
+
+def _rates_at(scene, table, q, joint_mass):
+    """The RatesAt of the scene at q: solve(tau) = M^-1 tau is the scene's own forward dynamics
+    at rest, without gravity and constraints, so that the rates compile nothing the run does
+    not. table: the scene's effects.StageTable."""
+    from ..algorithm.forward import method_switches
+
+    model = scene.model
+    q = np.array(q, dtype=np.float64)  # writable, as in the run: no new specialisation
+    unconstrained = step.scene_data(model, table)._replace(
+        constraints=None, method=method_switches(model, table.method), loads=np.zeros((1, 6))
+    )
+    at_rest, qdd = np.zeros(model.nv), np.empty(model.nv)
+
+    def solve(tau):
+        status = step.dynamics(unconstrained, q, at_rest, tau, qdd)
+        return None if status else qdd.copy()
+
+    return RatesAt(scene, q, joint_mass, solve)
 
 
 def _stiff_effects(candidates, dt, limit):
@@ -206,10 +211,11 @@ def _describe(stiff, dt, lead=True):
 
 def check_contact_step(scene, table):
     """Refuse a fixed-step explicit run whose step the contact makes unstable: at q0, the
-    contact's rates (_contact_rates) times dt must stay inside the method's stability interval
-    on the real and imaginary axes (RK4 about 2.8, Euler and semi-implicit Euler 2). Beyond it
-    a contact does not always blow up (the clamp f_n >= 0 and friction's saturation bound it):
-    the feet chatter and the run returns nonsense, so it is refused before it starts.
+    contact's rates (effects.contact.rates) times dt must stay inside the method's stability
+    interval on the real and imaginary axes (RK4 about 2.8, Euler and semi-implicit Euler 2).
+    Beyond it a contact does not always blow up (the clamp f_n >= 0 and friction's saturation
+    bound it): the feet chatter and the run returns nonsense, so it is refused before it
+    starts.
     table: the scene's effects.StageTable. Raises SceneError naming the contact point, the
     rate and the step that suits it."""
     run = scene.run
@@ -217,55 +223,10 @@ def check_contact_step(scene, table):
     if scene.contact is None or integ.adaptive or integ.kind == integrators.IMPLICIT:
         return
     limit = 2.8 if integ.order == 4 else 2.0
-    stiff = _stiff_effects(_contact_rates(scene, table, scene.q0), run.dt, limit)
+    rates = effects.contact.rates(scene.contact, _rates_at(scene, table, scene.q0, None))
+    stiff = _stiff_effects(rates, run.dt, limit)
     if stiff:
         raise SceneError(
             f"{scene.source}: run.dt: {run.integrator} at dt = {run.dt:g} s is unstable for "
             f"the contact at the initial state: {_step_too_large(stiff, run.dt, limit)}"
         )
-
-
-def _contact_rates(scene, table, q):
-    """[(name, rates (P,), where (P,))] of the contact's spring, damper and friction at each
-    point, over its apparent mass m_p = 1 / (e_r^T J_p M^-1 J_p^T e_r) (see _effect_rates).
-    M^-1 J_p^T e_r is the scene's own forward dynamics at rest without gravity, so that the check
-    compiles nothing the run does not. table: the scene's effects.StageTable."""
-    from ..algorithm.contact import contact_jacobians_kernel
-    from ..algorithm.forward import method_switches
-
-    contact, model = scene.contact, scene.model
-    q = np.array(q, dtype=np.float64)  # writable, as in the run: no new specialisation
-    bodies, params = table.effects[effects.CONTACT]
-    J = np.empty((len(bodies), 3, model.nv))
-    contact_jacobians_kernel(model._ibuf, model._fbuf, (bodies, params), q, J)
-    # the scene's forward dynamics without constraints, without gravity
-    unconstrained = step.scene_data(model, table)._replace(
-        constraints=None, method=method_switches(model, table.method), loads=np.zeros((1, 6))
-    )
-    at_rest, qdd = np.zeros(model.nv), np.empty(model.nv)
-    inverse_mass = np.empty((len(bodies), 3))
-    for p in range(len(bodies)):
-        for r in range(3):
-            tau = np.ascontiguousarray(J[p, r])
-            status = step.dynamics(unconstrained, q, at_rest, tau, qdd)
-            if status:
-                return []
-            inverse_mass[p, r] = tau @ qdd
-    normal = 1.0 / np.maximum(inverse_mass[:, 2], 1e-300)
-    tangential = 1.0 / np.maximum(inverse_mass[:, :2].max(axis=1), 1e-300)
-    where = [f"contact point {p.name!r}" for p in contact.points]
-    rates = [
-        ("contact stiffness", np.sqrt(contact.stiffness / normal), where),
-        ("contact damping", contact.damping / normal, where),
-    ]
-    if scene.gravity is not None and contact.friction > 0:
-        weight = float(np.linalg.norm(scene.gravity)) * float(np.sum(model.mass))
-        f_n = weight / len(contact.points)
-        rates.append(
-            (
-                "contact friction near zero slip",
-                contact.friction * f_n / contact.slip_velocity / tangential,
-                where,
-            )
-        )
-    return rates

@@ -441,7 +441,7 @@ def _violation(model, table, q, qd):
 def _contact_record(model, table, q, qd):
     """(points (K, P, 3) m, forces (K, P, 3) N, penetrations (K, P) m) of the scene's contact
     spheres at the samples (q (K, nq), qd (K, nv)), world frame (opendyn.algorithm.contact)."""
-    bodies, params = table.effects[effects.CONTACT]
+    bodies, params = table.params(effects.contact)
     shape = (len(q), len(bodies))
     points, forces, depth = np.empty(shape + (3,)), np.empty(shape + (3,)), np.empty(shape)
     run_rows(

@@ -16,10 +16,12 @@ where E = T + U_gravity:
   passive = damping, friction, joint-limit spring-dampers and the contacts' dampers and friction
             (work taken out, mostly); the contacts' springs are conservative (their energy is
             in E, see opendyn.algorithm.contact).
+Each effect's module declares its class (ENERGY, opendyn.sim.effects.interface) and adds its
+force to that vector.
 
 Only the effects the scene names are compiled and run: an effect it does not name has None in
 its slot of the effects tuple, and numba drops its call when it compiles the step (not even a
-multiplication by zero remains).
+multiplication by zero remains; opendyn.sim.effects.dispatch).
 """
 
 from __future__ import annotations
@@ -34,78 +36,19 @@ from .._runtime.kernel_cache import INLINE, JIT
 from .._runtime.status import Status
 from ..algorithm.constraints import constrained_forward_kernel
 from ..algorithm.forward import forward_kernel, method_switches
-from .effects import (
-    CLIP,
-    COMPUTED_TORQUE,
-    CONSTANT,
-    CONTACT,
-    DAMPING,
-    FRICTION,
-    GRAVITY,
-    LIMITS,
-    PD,
-    SLOT_NAMES,
-    WRENCH,
-    clip_effect,
-    computed_torque_effect,
-    constant_effect,
-    contact_effect,
-    damping_effect,
-    friction_effect,
-    gravity_effect,
-    limits_effect,
-    pd_effect,
-    wrench_effect,
-)
-
-
-@njit(**INLINE)
-def run_slot(slot, scene, t, q, qd, dV_0, forces, power, linear):
-    """One effect of the scene's effects tuple (scene: a SceneData): adds its generalized
-    force to one of forces = (tau_ctrl (control), tau_app (applied wrenches), tau_pas (passive
-    effects and contact)), or sets dV_0 (gravity); contact adds its springs' share of the
-    power to power[1]; with linear = (K, D, jac) and jac True, K and D get the effect's
-    stiffness and damping.
-    An empty slot (None) compiles to nothing: its effect function compiles to a bare return
-    and the test `is not None` on a None-typed slot is a constant, so the call is dropped
-    (a call left in, with its array arguments, cost about 60 ns per empty slot and evaluation).
-    Returns a Status."""
-    effects, ibuf, fbuf, work = scene.effects, scene.ibuf, scene.fbuf, scene.work
-    tau_ctrl, tau_app, tau_pas = forces
-    K, D, jac = linear
-    if slot == GRAVITY and effects[GRAVITY] is not None:
-        gravity_effect(effects[GRAVITY], dV_0)
-    elif slot == DAMPING and effects[DAMPING] is not None:
-        damping_effect(effects[DAMPING], qd, tau_pas, D, jac)
-    elif slot == FRICTION and effects[FRICTION] is not None:
-        friction_effect(effects[FRICTION], qd, tau_pas, D, jac)
-    elif slot == LIMITS and effects[LIMITS] is not None:
-        limits_effect(effects[LIMITS], q, qd, tau_pas, K, D, jac)
-    elif slot == WRENCH and effects[WRENCH] is not None:
-        wrench_effect(effects[WRENCH], ibuf, fbuf, work, t, q, tau_app)
-    elif slot == CONTACT and effects[CONTACT] is not None:
-        contact_effect(effects[CONTACT], ibuf, fbuf, work, q, qd, tau_pas, linear, power)
-    elif slot == CONSTANT and effects[CONSTANT] is not None:
-        constant_effect(effects[CONSTANT], tau_ctrl)
-    elif slot == PD and effects[PD] is not None:
-        pd_effect(effects[PD], q, qd, tau_ctrl, K, D, jac)
-    elif slot == COMPUTED_TORQUE and effects[COMPUTED_TORQUE] is not None:
-        return computed_torque_effect(
-            effects[COMPUTED_TORQUE], ibuf, fbuf, work, t, q, qd, dV_0, scene.armature, tau_ctrl
-        )
-    elif slot == CLIP and effects[CLIP] is not None:
-        clip_effect(effects[CLIP], tau_ctrl)
-    return Status.OK.value
+from .effects import GRAVITY
+from .effects.dispatch import EVERY, run_stages
+from .effects.interface import Context, Out
 
 
 @njit(**INLINE)
 def generalized_forces(scene, t, q, qd, tau, tau_ctrl, power, K, D, jac):
-    """Run every effect the scene names: tau (nv,) <- their total generalized force, tau_ctrl
-    (nv,) <- the control's share, the scene's base acceleration dV_0 (6,) <- (0, -g) or 0,
-    power (2,) <- (applied, passive) power qd . tau_applied and qd . tau_passive (W), the
-    passive one less the work of the contacts' springs. With jac, K and D (nv, nv) <- the
-    stiffness -d tau/dq and damping -d tau/dqd of the effects; without, K and D are not
-    touched. Returns a Status."""
+    """Run every effect the scene names (scene: a SceneData): tau (nv,) <- their total
+    generalized force, tau_ctrl (nv,) <- the control's share, the scene's base acceleration
+    dV_0 (6,) <- (0, -g) or 0, power (2,) <- (applied, passive) power qd . tau_applied and
+    qd . tau_passive (W), the passive one less the work of the contacts' springs. With jac, K
+    and D (nv, nv) <- the stiffness -d tau/dq and damping -d tau/dqd of the effects; without,
+    K and D are not touched. Returns a Status."""
     tau_app, tau_pas, dV_0 = scene.forces[1], scene.forces[2], scene.loads[0]
     fill(tau_app, 0.0)
     fill(tau_pas, 0.0)
@@ -115,12 +58,12 @@ def generalized_forces(scene, t, q, qd, tau, tau_ctrl, power, K, D, jac):
     if jac:
         zero_matrix(K)
         zero_matrix(D)
-    for slot in range(len(SLOT_NAMES)):
-        status = run_slot(
-            slot, scene, t, q, qd, dV_0, (tau_ctrl, tau_app, tau_pas), power, (K, D, jac)
-        )
-        if status:
-            return status
+    ctx = Context(scene.ibuf, scene.fbuf, scene.work, t, q, qd, dV_0, scene.armature)
+    # np.bool_(jac): a run-time flag, so that the effects compile once for both values
+    out = Out(tau_ctrl, tau_app, tau_pas, power, K, D, np.bool_(jac))
+    status = run_stages(EVERY, scene.effects, ctx, out)
+    if status:
+        return status
     applied = 0.0
     passive = power[1]  # the contact springs' share, if any
     for j in range(qd.shape[0]):
@@ -213,19 +156,21 @@ def stage_cost_kernel(scene, which, t, q, qd):
     tau_pas = np.empty(nv)
     qdd = np.empty(nv)
     power = np.empty(2)
-    effects, loads, K, D = scene.effects, scene.loads, scene.KD[0], scene.KD[1]
-    fill(loads[0], 0.0)
-    gravity_effect(effects[GRAVITY], loads[0])
+    dV_0 = scene.loads[0]
+    out = Out(tau_ctrl, tau_app, tau_pas, power, scene.KD[0], scene.KD[1], np.bool_(False))
+    fill(dV_0, 0.0)
+    ctx = Context(scene.ibuf, scene.fbuf, scene.work, t[0], q[0], qd[0], dV_0, scene.armature)
+    run_stages(GRAVITY, scene.effects, ctx, out)
     total = 0.0
     for n in range(q.shape[0]):
         if which >= 0:
             fill(tau_ctrl, 0.0)
             fill(tau_app, 0.0)
             fill(tau_pas, 0.0)
-            run_slot(
-                which, scene, t[n], q[n], qd[n], loads[0], (tau_ctrl, tau_app, tau_pas), power,
-                (K, D, False),
+            ctx = Context(
+                scene.ibuf, scene.fbuf, scene.work, t[n], q[n], qd[n], dV_0, scene.armature
             )
+            run_stages(which, scene.effects, ctx, out)
             for j in range(nv):
                 total += tau_ctrl[j] + tau_app[j] + tau_pas[j]
         elif which == -1:

@@ -130,10 +130,11 @@ actuated directly.
 
 from __future__ import annotations
 
+from ...sim.effects.registry import scene_fields
 from .schema import Scene
 from .sections_constraints import ConstraintsSection
 from .sections_control import ControlSection
-from .sections_effects import _EFFECT_KEYS, EffectsSection
+from .sections_effects import EffectsSection
 from .sections_robot import RobotSection
 from .sections_run import RunSection
 
@@ -165,22 +166,15 @@ def _build(data, source, base_dir, default_name=None, model=None) -> Scene:
         r.string(data["description"], "description")
     q0, qd0 = r.initial(data.get("initial", {}))
     run = r.run(data.get("run", {}))
-    effects = r.table(data.get("effects", {}), "effects")
-    r.keys(effects, "effects", _EFFECT_KEYS)
+    records = r.effects(data.get("effects", {}))
+    records["control"] = r.control(data.get("control"), q0[model.q_index])
     return Scene(
         name=name,
         model=model,
         q0=q0,
         qd0=qd0,
         run=run,
-        gravity=r.gravity(effects.get("gravity")),
-        damping=r.damping(effects.get("damping")),
-        friction=r.friction(effects.get("friction")),
-        armature=r.armature(effects.get("armature")),
-        limits=r.limits(effects.get("limits")),
-        wrenches=r.wrenches(effects.get("wrench")),
-        contact=r.contact(effects.get("contact")),
-        control=r.control(data.get("control"), q0[model.q_index]),
+        **scene_fields(records),
         source=source,
         settings=data,
         constraints=r.constraints(data.get("constraints"), q0, qd0),

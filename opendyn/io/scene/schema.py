@@ -1,7 +1,8 @@
 """What a scene is: the frozen ``Scene`` (a robot, its initial state, the run settings, the
-physical effects that exist and the control), the records of its effects and control, and
-``thaw``, which turns its read-only settings back into a plain dict. An effect that a scene does
-not name is off: the simulator never computes it.
+physical effects that exist and the control), the records of its effects and control (each
+defined by its effect's module in opendyn.sim.effects, and importable from here), and ``thaw``,
+which turns its read-only settings back into a plain dict. An effect that a scene does not name
+is off: the simulator never computes it.
 
 Conventions (as in the rest of opendyn): SI units (rad or m, N m or N, s); twists (omega, v) and
 wrenches (m, f), moment first; per-joint arrays are ordered as ``model.joint_names``
@@ -38,112 +39,21 @@ import numpy as np
 
 from ...errors import SceneError
 from ...multibody.model import Model
+from ...sim.effects import registry
+from ...sim.effects.contact import Contact, ContactPoint
+from ...sim.effects.control import Control
+from ...sim.effects.friction import Friction
+from ...sim.effects.limits import Limits
+from ...sim.effects.wrench import Wrench
 from .sections_run import _RUN_KEYS, Run, RunSection
 from .values import _suggest
 
-EFFECTS = (
-    "gravity", "damping", "friction", "armature", "limits", "wrench", "contact", "control"
-)
+__all__ = [
+    "EFFECTS", "Contact", "ContactPoint", "Control", "Friction", "Limits", "Scene", "Wrench", "thaw"
+]
 
-
-@dataclass(frozen=True, eq=False)
-class Friction:
-    """Smoothed Coulomb friction: generalized force -coulomb * tanh(qd / smoothing).
-
-    coulomb: (n,) per joint, N m or N, >= 0. smoothing: rad/s or m/s, > 0.
-    """
-
-    coulomb: np.ndarray
-    smoothing: float = 0.01
-
-
-@dataclass(frozen=True, eq=False)
-class Limits:
-    """Joint-limit spring-dampers, acting only beyond a limit:
-    -stiffness (q - upper) - damping qd where q > upper, -stiffness (q - lower) - damping qd
-    where q < lower.
-
-    stiffness: (n,) per joint, N m/rad or N/m, >= 0; damping: (n,) N m s/rad or N s/m, >= 0;
-    both 0 where the joint has no finite limit. lower, upper: (n,) rad or m, the model's limits.
-    """
-
-    stiffness: np.ndarray
-    damping: np.ndarray
-    lower: np.ndarray
-    upper: np.ndarray
-
-
-@dataclass(frozen=True, eq=False)
-class Wrench:
-    """A wrench the environment applies TO THE ROBOT at a frame's origin.
-
-    frame: a frame name of the model (a joint name finds its child link's frame).
-    expressed_in: "frame" (the frame's own axes) or "world" (world-aligned axes at the frame's
-    origin). times: (K,) s, strictly increasing. values: (K, 6) (m in N m, f in N); piecewise
-    linear in t between the samples, held constant before the first and after the last.
-    """
-
-    frame: str
-    expressed_in: str
-    times: np.ndarray
-    values: np.ndarray
-
-    def at(self, t: float) -> np.ndarray:
-        """(6,) the wrench (m, f) at time t (s), in the axes of ``expressed_in``."""
-        if len(self.times) == 1:
-            return self.values[0].copy()
-        return np.array([np.interp(t, self.times, self.values[:, k]) for k in range(6)])
-
-
-@dataclass(frozen=True, eq=False)
-class ContactPoint:
-    """A contact sphere welded to a frame: centre `position` (3,) m in the frame's coordinates,
-    `radius` m (0: a point). `name` labels it in the trajectory (the frame's name, with [k] for
-    the k-th sphere of a frame that has several); `source` says where it came from."""
-
-    frame: str
-    position: np.ndarray
-    radius: float
-    name: str
-    source: str = "scene"
-
-
-@dataclass(frozen=True, eq=False)
-class Contact:
-    """Compliant contact of spheres with the ground plane z = ground_height (world frame,
-    normal +z; opendyn.algorithm.contact). ground_height m; stiffness k N/m > 0; damping d
-    N s/m >= 0; friction mu >= 0; slip_velocity v_s m/s > 0; points: the spheres."""
-
-    ground_height: float
-    stiffness: float
-    damping: float
-    friction: float
-    slip_velocity: float
-    points: tuple[ContactPoint, ...]
-
-
-@dataclass(frozen=True, eq=False)
-class Control:
-    """A joint-space controller; fields that its kind does not use are None.
-
-    kind: "constant", "pd" or "computed_torque"; every array has one entry per joint (n,), in
-    model.joint_names order. tau: N m or N (constant). kp, kd: gains (pd, computed_torque).
-    setpoint: rad or m (pd: tau = kp (setpoint - q) - kd qd).
-    offset, amplitude: rad or m; frequency: Hz; phase: rad (computed_torque
-    reference q_r(t) = offset + amplitude sin(2 pi frequency t + phase)). clip: clip the torque
-    to +-model.effort_limit.
-    """
-
-    kind: str
-    tau: np.ndarray | None = None
-    kp: np.ndarray | None = None
-    kd: np.ndarray | None = None
-    setpoint: np.ndarray | None = None
-    offset: np.ndarray | None = None
-    amplitude: np.ndarray | None = None
-    frequency: np.ndarray | None = None
-    phase: np.ndarray | None = None
-    clip: bool = False
+# the effects' names, in the order of opendyn.sim.effects.registry, which defines them
+EFFECTS = registry.names()
 
 
 @dataclass(frozen=True, eq=False)
@@ -165,6 +75,8 @@ class Scene:
     constraints: Pfaffian constraints A(q) qd = 0 (opendyn.multibody.constraint_objects objects),
     () for none; baumgarte: (alpha, beta) 1/s, the stabilisation A qdd + Adot qd + 2 alpha A qd +
     beta^2 phi = 0 of their drift, or None (A qdd + Adot qd = 0: the drift is left alone).
+    other_effects: {name: record} of the effects whose module in opendyn.sim.effects keeps its
+    record in no field above (FIELD = None); empty for the effects opendyn ships.
     """
 
     name: str
@@ -184,43 +96,40 @@ class Scene:
     constraints: tuple = ()
     baumgarte: tuple[float, float] | None = None
     contact: Contact | None = None
+    other_effects: Mapping = dataclasses.field(default_factory=dict)
 
     def __post_init__(self):
         object.__setattr__(self, "settings", _freeze(thaw(self.settings)))
+        object.__setattr__(self, "other_effects", MappingProxyType(dict(self.other_effects)))
 
     @property
     def effects(self) -> tuple[str, ...]:
         """The names from EFFECTS that are on, in EFFECTS order."""
-        on = {
-            "gravity": self.gravity is not None,
-            "damping": self.damping is not None,
-            "friction": self.friction is not None,
-            "armature": self.armature is not None,
-            "limits": self.limits is not None,
-            "wrench": len(self.wrenches) > 0,
-            "contact": self.contact is not None,
-            "control": self.control is not None,
-        }
-        return tuple(name for name in EFFECTS if on[name])
+        return tuple(name for name in registry.names() if registry.is_on(self, name))
 
     def without(self, *effects: str) -> Scene:
         """The same scene with these effects (names from EFFECTS) off; ``settings`` follows."""
+        known = registry.names()
         for name in effects:
-            if name not in EFFECTS:
+            if name not in known:
                 raise SceneError(
                     f"{self.source}: Scene.without: unknown effect {name!r}"
-                    f"{_suggest(name, EFFECTS)}; effects: {', '.join(EFFECTS)}"
+                    f"{_suggest(name, known)}; effects: {', '.join(known)}"
                 )
         changes, settings = {}, thaw(self.settings)
         table = settings.get("effects") if isinstance(settings.get("effects"), dict) else {}
+        others = dict(self.other_effects)
         for name in effects:
-            if name == "control":
-                changes["control"] = None
-                settings.pop("control", None)
-                continue
-            changes[{"wrench": "wrenches"}.get(name, name)] = () if name == "wrench" else None
-            table.pop(name, None)
-        return dataclasses.replace(self, settings=settings, **changes)
+            for effect in registry.named(name):
+                if effect.FIELD is None:
+                    others.pop(name, None)
+                else:
+                    changes[effect.FIELD] = effect.OFF
+                if effect.SECTION == "control":
+                    settings.pop("control", None)
+                else:
+                    table.pop(name, None)
+        return dataclasses.replace(self, settings=settings, other_effects=others, **changes)
 
     def replace_run(self, **changes) -> Scene:
         """The same scene with new Run fields (duration, integrator, dt, output_dt, rtol, atol,

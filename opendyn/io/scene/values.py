@@ -116,6 +116,30 @@ class ValueReader:
             f"found {_found(value)}",
         )
 
+    def coefficients(self, table, key, field, urdf_values, element) -> np.ndarray:
+        """(n,) per-joint coefficients >= 0 from ``table[field]``: "urdf" (the default) takes
+        ``urdf_values``, the URDF's <dynamics ELEMENT>, refused when all are 0; otherwise a
+        number, a list or a table {joint = number}, as per_joint."""
+        value = table.get(field, "urdf")
+        full = f"{key}.{field}"
+        if isinstance(value, str):
+            if value != "urdf":
+                self.fail(
+                    full,
+                    f'expected "urdf", a number, a list of {len(self.model.joint_names)} '
+                    f"numbers or a table {{joint = number}}, found {_found(value)}",
+                )
+            if not np.any(urdf_values > 0):
+                self.fail(
+                    full,
+                    f'"urdf" asks for the URDF\'s <dynamics {element}>, but '
+                    f"{self.model.source or self.model.name} gives none (all joints 0); give "
+                    f"the coefficients: a number, a list of {len(self.model.joint_names)} or a "
+                    f"table {{joint = number}}",
+                )
+            return immutable(urdf_values)
+        return self.per_joint(value, full, np.zeros(len(self.model.joint_names)), minimum=0.0)
+
     def moving_frame(self, value, key, why) -> str:
         """A frame (`frame`) that moves: one welded to the fixed world is refused, saying `why`
         and listing the frames that move."""

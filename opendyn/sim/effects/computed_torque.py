@@ -1,0 +1,148 @@
+"""Computed-torque control: the joint torques that give the joints a reference's acceleration
+plus PD feedback, from the scene's own model (rigid bodies, gravity and armature).
+
+    qdd_c = qdd_r + kp (q_r - q) + kd (qd_r - qd),
+    q_r(t) = offset + amplitude sin(w t + phase),  w = 2 pi frequency
+
+      fixed base      tau = M(q) qdd_c + h(q, qd) + armature qdd_c          (RNEA)
+      floating base   tau_j = M_jb a_b + M_jj qdd_c + h_j + armature qdd_c,
+                      a_b = -M_bb^-1 (M_bj qdd_c + h_b): the acceleration of the unactuated
+                      base under those torques (base_reaction)
+
+(joint k's position q[iq_k], velocity qd[iv_k]; kp, kd (n,); offset, amplitude rad or m,
+frequency Hz, phase rad). Control: its work is put in, and it is the record's control torque.
+"""
+
+from __future__ import annotations
+
+from collections import namedtuple
+
+import numpy as np
+from numba import njit
+
+from ..._runtime.arrays import copy_into
+from ..._runtime.kernel_cache import JIT
+from ...algorithm.cholesky import cholesky_solve
+from ...algorithm.crba import crba_kernel
+from ...algorithm.rnea import rnea_kernel
+from .control import Control, of_kind, optional, required
+from .interface import CONTROL, OK, floats, q_indices, v_indices
+
+NAME = "control"
+SECTION = "control"
+CONTROL_TYPE = "computed_torque"
+KEYS = ("kp", "kd", "offset", "amplitude", "frequency", "phase")
+FIELD = "control"
+OFF = None
+DOC = "computed torque M (qdd_r + kd e' + kp e) + h by RNEA (on the joints)"
+ENABLE = None
+STAGE = "control (computed torque)"
+ENERGY = CONTROL
+DERIVATIVES = ()
+rates = None
+
+# each (n,): the gains kp, kd and the reference's offset, amplitude, frequency, phase; iq, iv
+# int64 the joints' indices; floating None for a fixed base, True for a floating one (a
+# compile-time switch: a fixed-base scene does not compile base_reaction's body)
+Params = namedtuple(
+    "Params",
+    ("kp", "kd", "offset", "amplitude", "frequency", "phase", "iq", "iv", "floating"),
+)
+
+
+def record(scene) -> Control | None:
+    return of_kind(scene, CONTROL_TYPE)
+
+
+def read(r, table, q0) -> Control:
+    """[control] type = "computed_torque": kp, kd (required, >= 0); offset (default q0),
+    amplitude (0), frequency (0.5 Hz, >= 0), phase (0)."""
+    zeros = np.zeros(len(r.model.joint_names))
+    kp = required(r, table, CONTROL_TYPE, "kp", 0.0)
+    kd = required(r, table, CONTROL_TYPE, "kd", 0.0)
+    return Control(
+        kind=CONTROL_TYPE,
+        kp=kp,
+        kd=kd,
+        offset=optional(r, table, "offset", q0),
+        amplitude=optional(r, table, "amplitude", zeros),
+        frequency=optional(r, table, "frequency", np.full(len(zeros), 0.5), 0.0),
+        phase=optional(r, table, "phase", zeros),
+    )
+
+
+def pack(control, model) -> Params:
+    return Params(
+        floats(control.kp),
+        floats(control.kd),
+        floats(control.offset),
+        floats(control.amplitude),
+        floats(control.frequency),
+        floats(control.phase),
+        q_indices(model),
+        v_indices(model),
+        True if model.floating_base else None,
+    )
+
+
+@njit(**JIT)
+def base_reaction(floating, ctx, tau_c):
+    """A floating base is unactuated: given tau_c (nv,) = RNEA(q, qd, (0, qdd_c)) = M_{:,j} qdd_c
+    + h, the base accelerates with a_b = -M_bb^-1 tau_c[:6] (its rows of M a + h vanish), and
+    the joints need tau_j = tau_c[j] + M_jb a_b. tau_c <- (0, tau_j). floating None (a fixed
+    base): nothing. Returns a Status (SINGULAR when the whole body has no inertia)."""
+    if floating is None:
+        return OK
+    nv = tau_c.shape[0]
+    M = np.empty((nv, nv))
+    crba_kernel(ctx.ibuf, ctx.fbuf, ctx.work, ctx.q, M)
+    M_bb = np.empty((6, 6))
+    minus_h_b = np.empty(6)
+    for r in range(6):
+        minus_h_b[r] = -tau_c[r]
+        for c in range(6):
+            M_bb[r, c] = M[r, c]
+    a_b = np.empty(6)
+    status = cholesky_solve(M_bb, minus_h_b, a_b)
+    if status:
+        return status
+    for r in range(6):
+        tau_c[r] = 0.0
+    for j in range(6, nv):
+        for c in range(6):
+            tau_c[j] += M[j, c] * a_b[c]
+    return OK
+
+
+@njit(**JIT)
+def apply(p, ctx, out):
+    """out.control += the computed torques (module docstring) at each joint's velocity. p:
+    Params, or None. Returns a Status."""
+    if p is None:
+        return OK
+    q, qd, t = ctx.q, ctx.qd, ctx.t
+    qdd_c = np.zeros(qd.shape[0])  # the base's rows stay 0 in the RNEA call
+    for k in range(p.iv.shape[0]):
+        i, j = p.iq[k], p.iv[k]
+        w = 2.0 * np.pi * p.frequency[k]
+        a, phase = p.amplitude[k], p.phase[k]
+        s, c = np.sin(w * t + phase), np.cos(w * t + phase)
+        q_r = p.offset[k] + a * s
+        qd_r = a * w * c
+        qdd_r = -a * w * w * s
+        qdd_c[j] = qdd_r + p.kp[k] * (q_r - q[i]) + p.kd[k] * (qd_r - qd[j])
+    loads = np.empty((1, 6))
+    copy_into(ctx.dV_0, loads[0])
+    tau_c = np.empty(qd.shape[0])
+    status = rnea_kernel(ctx.ibuf, ctx.fbuf, ctx.work, q, qd, qdd_c, loads, tau_c)
+    if status:
+        return status
+    status = base_reaction(p.floating, ctx, tau_c)
+    if status:
+        return status
+    for k in range(p.iv.shape[0]):
+        j = p.iv[k]
+        out.control[j] += tau_c[j]
+        if ctx.armature.shape[0]:
+            out.control[j] += ctx.armature[j] * qdd_c[j]
+    return OK

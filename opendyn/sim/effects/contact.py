@@ -1,0 +1,231 @@
+"""Ground contact: compliant spheres welded to frames, on the plane z = ground_height.
+
+    tau = sum_p J_p^T f_p
+
+with, at each sphere's lowest point, a spring-damper normal force f_n = max(0, k delta + d
+delta_dot) and regularised Coulomb friction f_t = -mu f_n v_t / sqrt(|v_t|^2 + v_s^2)
+(opendyn.algorithm.contact, which computes it and its linearisation J_p^T K_p J_p, J_p^T D_p
+J_p). Passive, with a conservative share: the springs' energy 1/2 k delta^2 is in E, so their
+power sum_p k delta_p delta_dot_p is added to out.power[1], the passive power, to take it out.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numba import njit
+
+from ..._runtime.arrays import immutable
+from ..._runtime.kernel_cache import JIT
+from ...algorithm.contact import contact_jacobians_kernel, contact_kernel
+from ...io.scene.values import _found
+from .interface import OK, PASSIVE, floats
+
+NAME = "contact"
+SECTION = "effects"
+KEYS = ("ground_height", "stiffness", "damping", "friction", "slip_velocity", "points")
+POINT_KEYS = ("frame", "position", "radius")  # of each [[effects.contact.points]]
+FIELD = "contact"
+OFF = None
+DOC = (
+    "sum_p J_p^T f_p: spring-damper normal force and regularised Coulomb friction at spheres "
+    "on the ground"
+)
+ENABLE = None
+STAGE = "contact"
+ENERGY = PASSIVE
+DERIVATIVES = ("K", "D")
+Params = None  # opendyn.algorithm.contact's (bodies, params): see contact_table
+
+
+@dataclass(frozen=True, eq=False)
+class ContactPoint:
+    """A contact sphere welded to a frame: centre `position` (3,) m in the frame's coordinates,
+    `radius` m (0: a point). `name` labels it in the trajectory (the frame's name, with [k] for
+    the k-th sphere of a frame that has several); `source` says where it came from."""
+
+    frame: str
+    position: np.ndarray
+    radius: float
+    name: str
+    source: str = "scene"
+
+
+@dataclass(frozen=True, eq=False)
+class Contact:
+    """Compliant contact of spheres with the ground plane z = ground_height (world frame,
+    normal +z; opendyn.algorithm.contact). ground_height m; stiffness k N/m > 0; damping d
+    N s/m >= 0; friction mu >= 0; slip_velocity v_s m/s > 0; points: the spheres."""
+
+    ground_height: float
+    stiffness: float
+    damping: float
+    friction: float
+    slip_velocity: float
+    points: tuple[ContactPoint, ...]
+
+
+def record(scene) -> Contact | None:
+    return scene.contact
+
+
+def read(r, table) -> Contact | None:
+    """[effects.contact]: stiffness, friction and points required."""
+    if table is None:
+        return None
+    key = "effects.contact"
+    r.keys(table, key, KEYS)
+    for field in ("stiffness", "friction", "points"):
+        if field not in table:
+            r.fail(
+                f"{key}.{field}",
+                'missing: [effects.contact] needs stiffness (N/m), friction (mu) and points '
+                '("urdf" or [[effects.contact.points]] tables)',
+            )
+    return Contact(
+        ground_height=r.number(table.get("ground_height", 0.0), f"{key}.ground_height"),
+        stiffness=r.number(table["stiffness"], f"{key}.stiffness", positive=True),
+        damping=r.number(table.get("damping", 0.0), f"{key}.damping", minimum=0.0),
+        friction=r.number(table["friction"], f"{key}.friction", minimum=0.0),
+        slip_velocity=r.number(
+            table.get("slip_velocity", 1e-3), f"{key}.slip_velocity", positive=True
+        ),
+        points=read_points(r, table["points"], f"{key}.points"),
+    )
+
+
+def read_points(r, value, key) -> tuple[ContactPoint, ...]:
+    """"urdf" (the model's collision spheres on moving frames) or a list of tables."""
+    m = r.model
+    if value == "urdf":
+        spheres = [s for s in m.collision_spheres if m.frames[m.frame_index(s.link)].body >= 0]
+        if not spheres:
+            held = " (those there are belong to the fixed world)" if m.collision_spheres else ""
+            r.fail(
+                key,
+                f'"urdf": {m.source or m.name} has no <collision> sphere or box on a moving '
+                f"link{held}; give [[effects.contact.points]] tables (frame, position, "
+                "radius)",
+            )
+        found = [(s.link, s.position, s.radius, s.geometry) for s in spheres]
+    else:
+        if isinstance(value, dict):
+            value = [value]
+        if not isinstance(value, list) or not value:
+            r.fail(
+                key,
+                f'expected "urdf" or tables [[effects.contact.points]] (frame, position, '
+                f"radius), found {_found(value)}",
+            )
+        found = []
+        for i, point in enumerate(value):
+            where = f"{key}[{i}]"
+            r.keys(point, where, POINT_KEYS)
+            if "frame" not in point:
+                r.fail(f"{where}.frame", f"missing; frames: {', '.join(m.frame_names)}")
+            frame = r.frame(point["frame"], f"{where}.frame")
+            if m.frames[m.frame_index(frame)].body < 0:
+                r.fail(
+                    f"{where}.frame",
+                    f"{frame!r} is welded to the fixed world: a contact sphere there never "
+                    "moves and can push nothing; name a frame of a moving link",
+                )
+            position = r.vector(point.get("position", [0.0] * 3), f"{where}.position", 3)
+            radius = r.number(point.get("radius", 0.0), f"{where}.radius", minimum=0.0)
+            found.append((frame, position, radius, "scene"))
+    per_frame = {}
+    for frame, *_ in found:
+        per_frame[frame] = per_frame.get(frame, 0) + 1
+    points, seen = [], {}
+    for frame, position, radius, source in found:
+        k = seen.get(frame, 0)
+        seen[frame] = k + 1
+        name = frame if per_frame[frame] == 1 else f"{frame}[{k}]"
+        points.append(ContactPoint(frame, immutable(position), float(radius), name, source))
+    return tuple(points)
+
+
+def contact_table(model, contact):
+    """(bodies (P,) int64, params) of opendyn.algorithm.contact for a scene's contact
+    (Contact): the shared values (ground height, k, d, mu, v_s), then each point's sphere
+    centre c_b = T_body_frame (position, 1) in its body's frame (m) and radius (m)."""
+    bodies, chunks = [], []
+    for point in contact.points:
+        frame = model.frames[model.frame_index(point.frame)]
+        bodies.append(frame.body)
+        chunks += [(frame.T_body_frame @ np.append(point.position, 1.0))[:3], point.radius]
+    shared = (
+        contact.ground_height,
+        contact.stiffness,
+        contact.damping,
+        contact.friction,
+        contact.slip_velocity,
+    )
+    return np.array(bodies, dtype=np.int64), floats(shared, *chunks)
+
+
+def pack(contact, model):
+    return contact_table(model, contact)
+
+
+def label(contact, model) -> str:
+    return f"contact ({len(contact.points)} points)"
+
+
+@njit(**JIT)
+def apply(p, ctx, out):
+    """out.passive += sum_p J_p^T f_p, the ground's forces on the contact spheres;
+    out.power[1] += their springs' share sum_p k delta_p delta_dot_p (with qd . tau it makes
+    the contacts' non-conservative power); with out.jac, out.K, out.D (nv, nv) += their
+    linearisation (opendyn.algorithm.contact). p = (bodies (P,) int64, params), or None.
+    Works in ctx.work, the step's Data buffer. Returns a Status."""
+    if p is None:
+        return OK
+    n = p[0].shape[0]
+    record = (np.empty((n, 3)), np.empty((n, 3)), np.empty(n))
+    # np.bool_(jac): a run-time flag, so that the kernel compiles once for both values
+    linear = (out.K, out.D, np.bool_(out.jac))
+    out.power[1] += contact_kernel(
+        ctx.ibuf, ctx.fbuf, ctx.work, p, ctx.q, ctx.qd, out.passive, linear, record
+    )
+    return OK
+
+
+def rates(contact, at):
+    """[(name, rates (P,), where (P,))] of the contact's spring, damper and friction at each
+    point, over its apparent mass m_p = 1 / (e_r^T J_p M^-1 J_p^T e_r): the natural frequency
+    sqrt(k / m_p), the damping rate d / m_p and, near zero slip, friction's mu f_n / (v_s m_p)
+    with f_n the point's share of the robot's weight. M^-1 J_p^T e_r is at.solve, the scene's
+    own forward dynamics, so that the check compiles nothing the run does not."""
+    model = at.scene.model
+    bodies, params = contact_table(model, contact)
+    J = np.empty((len(bodies), 3, model.nv))
+    contact_jacobians_kernel(model._ibuf, model._fbuf, (bodies, params), at.q, J)
+    inverse_mass = np.empty((len(bodies), 3))
+    for p in range(len(bodies)):
+        for r in range(3):
+            tau = np.ascontiguousarray(J[p, r])
+            qdd = at.solve(tau)
+            if qdd is None:
+                return []
+            inverse_mass[p, r] = tau @ qdd
+    normal = 1.0 / np.maximum(inverse_mass[:, 2], 1e-300)
+    tangential = 1.0 / np.maximum(inverse_mass[:, :2].max(axis=1), 1e-300)
+    where = [f"contact point {p.name!r}" for p in contact.points]
+    found = [
+        ("contact stiffness", np.sqrt(contact.stiffness / normal), where),
+        ("contact damping", contact.damping / normal, where),
+    ]
+    gravity = at.scene.gravity
+    if gravity is not None and contact.friction > 0:
+        weight = float(np.linalg.norm(gravity)) * float(np.sum(model.mass))
+        f_n = weight / len(contact.points)
+        found.append(
+            (
+                "contact friction near zero slip",
+                contact.friction * f_n / contact.slip_velocity / tangential,
+                where,
+            )
+        )
+    return found

@@ -1,0 +1,206 @@
+"""The effect registry: every effect module declares every part of its effect, every list of
+effects derives from the registry, every effect is read from a scene, packed into fresh arrays,
+reached by the step's dispatch, and adds only to the force vector of its energy class and to
+the derivatives it declares.
+
+A new effect fails here until it is complete: give it settings in SCENES below (the module's
+own closed-form test is for its law; docs/developing.md)."""
+
+from __future__ import annotations
+
+import dataclasses
+import pathlib
+
+import numpy as np
+import pytest
+from numba import njit
+from numba.core.registry import CPUDispatcher
+
+import opendyn as od
+from opendyn.cli import simulate as cli_simulate
+from opendyn.io.scene.schema import EFFECTS, Scene
+from opendyn.io.urdf import shipped_robots_dir
+from opendyn.sim import effects
+from opendyn.sim.effects import registry
+from opendyn.sim.effects.dispatch import run_stages
+from opendyn.sim.effects.interface import ENERGY_CLASSES, Context, Out
+
+README = (pathlib.Path(__file__).resolve().parents[1] / "README.md").read_text(encoding="utf-8")
+SCENE_FIELDS = {field.name for field in dataclasses.fields(Scene)}
+
+# the double pendulum (limits +-3.14 rad, effort limits 50 and 20 N m); scenes that together
+# switch on every effect of the registry: a scene names one control law
+PENDULUM = {"urdf": str(shipped_robots_dir() / "double_pendulum.urdf")}
+EVERY_FORCE = {
+    "gravity": True,
+    "damping": {"coefficients": 0.3},
+    "friction": {"coefficients": 0.2, "smoothing": 0.05},
+    "armature": {"values": 0.01},
+    "limits": {"stiffness": 1e3, "damping": 5.0},
+    "wrench": [{"frame": "tip", "expressed_in": "world", "value": [0, 0, 0, 1, 0, 2]}],
+    "contact": {
+        "ground_height": 1.0,
+        "stiffness": 1e3,
+        "damping": 10.0,
+        "friction": 0.3,
+        "points": [{"frame": "tip", "radius": 0.05}],
+    },
+}
+SCENES = {
+    "pd": {"effects": EVERY_FORCE, "control": {"type": "pd", "kp": 5.0, "kd": 1.0}},
+    "constant, clip": {
+        "effects": {"gravity": True},
+        "control": {"type": "constant", "tau": [80.0, -30.0], "clip": True},
+    },
+    "computed torque": {
+        "effects": {"gravity": True, "armature": {"values": 0.01}},
+        "control": {"type": "computed_torque", "kp": 5.0, "kd": 1.0, "amplitude": 0.3},
+    },
+}
+
+
+def scene_named(key):
+    return od.scene_from_dict({"robot": PENDULUM, **SCENES[key]})
+
+
+def scenes_naming(effect):
+    """The scenes of SCENES that name `effect` (a module of the registry)."""
+    found = [scene_named(key) for key in SCENES]
+    return [scene for scene in found if effect.record(scene) is not None]
+
+
+def arrays_of(record):
+    """The arrays a scene's record holds (a record, a tuple of records, or an array)."""
+    if isinstance(record, np.ndarray):
+        return [record]
+    if isinstance(record, tuple):
+        return [array for item in record for array in arrays_of(item)]
+    if dataclasses.is_dataclass(record):
+        return [v for v in vars(record).values() if isinstance(v, np.ndarray)]
+    return []
+
+
+def ids(modules):
+    return [module.__name__.rsplit(".", 1)[1] for module in modules]
+
+
+@pytest.mark.parametrize("effect", registry.EFFECTS, ids=ids(registry.EFFECTS))
+def test_every_effect_declares_every_part(effect):
+    assert_declares_every_part(effect)
+
+
+def assert_declares_every_part(effect):
+    """Every part interface's docstring lists, of the right kind."""
+    assert isinstance(effect.NAME, str) and effect.NAME, "NAME: its name in a scene"
+    assert effect.SECTION in ("effects", "control"), "SECTION: where a scene file sets it"
+    if effect.SECTION == "control":
+        assert effect.CONTROL_TYPE is None or isinstance(effect.CONTROL_TYPE, str)
+    assert isinstance(effect.KEYS, tuple) and all(isinstance(k, str) for k in effect.KEYS)
+    assert effect.KEYS or effect.SECTION == "effects", "KEYS: a [control] effect sets keys"
+    assert effect.FIELD is None or effect.FIELD in SCENE_FIELDS, "FIELD: a Scene field"
+    assert effect.OFF in (None, ()), "OFF: its record when off"
+    assert callable(effect.read) and callable(effect.record) and callable(effect.pack)
+    assert isinstance(effect.DOC, str) and effect.DOC and "\n" not in effect.DOC, "DOC line"
+    assert effect.ENABLE is None or effect.ENABLE is True or isinstance(effect.ENABLE, dict)
+    assert effect.ENERGY in ENERGY_CLASSES, "ENERGY: how its power enters the energy balance"
+    assert set(effect.DERIVATIVES) <= {"K", "D"}
+    assert effect.Params is None or hasattr(effect.Params, "_fields"), "Params: a namedtuple"
+    if effect.Params is not None:
+        # numba's cache pickles the type by its name: it must be the module's attribute
+        assert effect.Params.__name__ == "Params" and effect.Params.__module__ == effect.__name__
+    if effect.STAGE is None:
+        assert effect.apply is None and not effect.DERIVATIVES
+    else:
+        assert isinstance(effect.STAGE, str) and isinstance(effect.apply, CPUDispatcher)
+    if effect.DERIVATIVES:
+        assert callable(effect.rates), "a stiff effect names itself: rates(record, at)"
+    else:
+        assert effect.rates is None or callable(effect.rates)
+
+
+def test_modules_of_one_name_agree_on_where_it_lives():
+    for name in registry.names():
+        modules = registry.named(name)
+        assert len({(m.SECTION, m.FIELD, m.OFF) for m in modules}) == 1, name
+    stages = [effect.STAGE for effect in registry.EFFECTS if effect.STAGE is not None]
+    assert len(set(stages)) == len(stages), "a stage's name is its own"
+
+
+def test_the_lists_of_effects_derive_from_the_registry():
+    assert EFFECTS == registry.names()
+    assert effects.SLOT_NAMES == tuple(effect.STAGE for effect in registry.stages())
+    assert registry.stages() == tuple(e for e in registry.EFFECTS if e.apply is not None)
+    for stage in registry.stages():
+        slot = registry.slot(stage)
+        assert effects.SLOT_NAMES[slot] == stage.STAGE
+        assert getattr(effects, stage.__name__.rsplit(".", 1)[1] + "_effect") is stage.apply
+    assert cli_simulate.ENABLE_FROM_URDF == registry.enable_settings()
+    assert set(registry.enable_settings()) == {"gravity", "damping", "friction"}
+
+
+def test_the_readme_effects_table_is_the_registry_s():
+    assert registry.effects_table() in README
+
+
+@pytest.mark.parametrize("effect", registry.EFFECTS, ids=ids(registry.EFFECTS))
+def test_every_effect_is_read_from_a_scene_and_packed_into_fresh_arrays(effect):
+    scenes = scenes_naming(effect)
+    assert scenes, f"no scene of SCENES names {effect.__name__}: give it settings there"
+    for scene in scenes:
+        assert effect.NAME in scene.effects
+        record = effect.record(scene)
+        params = effect.pack(record, scene.model)
+        if effect.Params is not None:
+            assert isinstance(params, effect.Params)
+        arrays = params if isinstance(params, tuple) else (params,)
+        if effect.Params is not None and "floating" in effect.Params._fields:
+            arrays = params[:-1]  # computed torque's compile-time switch (None or True)
+        for array in arrays:
+            assert isinstance(array, np.ndarray) and array.flags.writeable, effect.__name__
+            assert array.flags.c_contiguous and array.dtype in (np.float64, np.int64, np.bool_)
+            assert not any(np.shares_memory(array, value) for value in arrays_of(record))
+        table = effects.stage_table(scene)
+        if effect.STAGE is not None:
+            assert table.params(effect) is not None
+        off = scene.without(effect.NAME)
+        assert effect.record(off) is None and effect.NAME not in off.effects
+        if effect.STAGE is not None:
+            assert effects.stage_table(off).params(effect) is None
+
+
+@njit
+def one_stage(which, table_effects, ctx, out):
+    return run_stages(which, table_effects, ctx, out)
+
+
+@pytest.mark.parametrize("stage", registry.stages(), ids=ids(registry.stages()))
+def test_every_stage_is_reached_by_the_dispatch_and_adds_to_its_energy_class(stage):
+    """Through the step's dispatch at random states, after the stages before it (as the step
+    runs them): the stage changes something, only the force vector of its energy class (none
+    for a conservative one), and only the derivatives it declares."""
+    rng = np.random.default_rng(11)
+    slot = registry.slot(stage)
+    acted = False
+    for scene in scenes_naming(stage):
+        model = scene.model
+        table = effects.stage_table(scene)
+        for _ in range(12):
+            q = rng.uniform(-3.5, 3.5, model.nq)
+            qd = rng.normal(size=model.nv)
+            t = rng.uniform(0, 1)
+            dV_0 = np.zeros(6)
+            ctx = Context(
+                model._ibuf, model._fbuf, model.data()._work, t, q, qd, dV_0, table.armature
+            )
+            nv = model.nv
+            out = Out(*np.zeros((3, nv)), np.zeros(2), *np.zeros((2, nv, nv)), np.bool_(True))
+            for earlier in range(slot):
+                assert one_stage(earlier, table.effects, ctx, out) == 0
+            before = {name: np.copy(value) for name, value in out._asdict().items()}
+            base = dV_0.copy()
+            assert one_stage(slot, table.effects, ctx, out) == 0
+            changed = {name for name in before if np.any(getattr(out, name) != before[name])}
+            assert changed & {"control", "applied", "passive"} <= {stage.ENERGY}, stage.STAGE
+            assert changed & {"K", "D"} <= set(stage.DERIVATIVES), stage.STAGE
+            acted |= bool(changed) or np.any(dV_0 != base)
+    assert acted, f"{stage.STAGE} never acted through the dispatch"
