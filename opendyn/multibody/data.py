@@ -58,7 +58,7 @@ from collections import namedtuple
 import numpy as np
 from numba import njit
 
-from .._runtime.kernel_cache import INLINE
+from .._runtime.kernel_cache import INLINE, JIT
 
 # Where a field starts and how many numbers it holds: start = nb * per_nb + nv * per_nv +
 # nv^2 * per_nv2 + fixed, and likewise its size. A namedtuple of ints, which numba freezes as a
@@ -217,7 +217,7 @@ def body_field(work, nb, where):
     return work_field(work, nb, 0, where)
 
 
-@njit(**INLINE)
+@njit(**JIT)
 def joint_poses(work, nb):
     """R (nb, 3, 3), p (nb, 3): T_{lambda(i), i} of every body."""
     return (
@@ -226,7 +226,7 @@ def joint_poses(work, nb):
     )
 
 
-@njit(**INLINE)
+@njit(**JIT)
 def world_poses(work, nb):
     """R_s (nb, 3, 3), p_s (nb, 3): T_{s,i} of every body."""
     return (
@@ -235,7 +235,7 @@ def world_poses(work, nb):
     )
 
 
-@njit(**INLINE)
+@njit(**JIT)
 def body_motion(work, nb):
     """V, dV, F (nb, 6): body twists, accelerations and transmitted wrenches, each in {i}."""
     return (
@@ -245,7 +245,7 @@ def body_motion(work, nb):
     )
 
 
-@njit(**INLINE)
+@njit(**JIT)
 def articulated_inertias(work, nb):
     """IA, U, L (nb, 6, 6): ABA's articulated inertias and per-joint U_i, D_i (or its factor)."""
     return (
@@ -255,7 +255,7 @@ def articulated_inertias(work, nb):
     )
 
 
-@njit(**INLINE)
+@njit(**JIT)
 def articulated_biases(work, nb):
     """a_vp, pA, u (nb, 6): ABA's velocity-product accelerations, bias wrenches and u_i."""
     return (
@@ -265,7 +265,7 @@ def articulated_biases(work, nb):
     )
 
 
-@njit(**INLINE)
+@njit(**JIT)
 def composite_inertias(work, nb):
     """mass_c (nb,), h_c (nb, 3), I_c (nb, 3, 3): CRBA's composite inertias in rigid-body form."""
     return (
@@ -282,7 +282,7 @@ CoriolisTerms = namedtuple(
 )
 
 
-@njit(**INLINE)
+@njit(**JIT)
 def coriolis_terms(work, nb):
     """The CoriolisTerms views of a work buffer."""
     return CoriolisTerms(
@@ -297,31 +297,31 @@ def coriolis_terms(work, nb):
     )
 
 
-@njit(**INLINE)
+@njit(**JIT)
 def body_flags(work, nb):
     """(nb,) one number per body for a kernel's own marks (0.0 or 1.0)."""
     return body_field(work, nb, _BODY_FLAG)
 
 
-@njit(**INLINE)
+@njit(**JIT)
 def scratch_rows(work, nb, nv):
     """(9, 6) scratch for one kernel's small temporaries."""
     return work_field(work, nb, nv, _SCRATCH).reshape((9, 6))
 
 
-@njit(**INLINE)
+@njit(**JIT)
 def temp_vectors(work, nb, nv):
     """(3, 6) three 6-vectors of scratch, one row each, for one kernel's temporaries."""
     return work_field(work, nb, nv, _TEMP).reshape((3, 6))
 
 
-@njit(**INLINE)
+@njit(**JIT)
 def skew_scratch(work, nb, nv):
     """(4, 3, 3): four 3 x 3 matrices of scratch (the first 36 numbers of the scratch rows)."""
     return work_field(work, nb, nv, _SCRATCH)[:36].reshape((4, 3, 3))
 
 
-@njit(**INLINE)
+@njit(**JIT)
 def joint_vectors(work, nb, nv):
     """h (nv,), zero_v (nv,) (kept zero), e_k (nv,) (kept zero between uses): a kernel's
     joint-space vectors."""
@@ -332,13 +332,13 @@ def joint_vectors(work, nb, nv):
     )
 
 
-@njit(**INLINE)
+@njit(**JIT)
 def no_loads(work, nb, nv):
     """(1, 6) external loads of zero (kept zero): no gravity, no wrenches."""
     return work_field(work, nb, nv, _NO_LOADS).reshape((1, 6))
 
 
-@njit(**INLINE)
+@njit(**JIT)
 def new_work(nb, nv):
     """A fresh, zeroed work buffer: each thread of a batch kernel works in its own."""
     return np.zeros(
@@ -347,19 +347,19 @@ def new_work(nb, nv):
     )
 
 
-@njit(**INLINE)
+@njit(**JIT)
 def frame_pose_field(work, nb, nv):
     """T_sf (4, 4): a frame's pose in the world."""
     return work_field(work, nb, nv, _T_SF).reshape((4, 4))
 
 
-@njit(**INLINE)
+@njit(**JIT)
 def coriolis_matrix_field(work, nb, nv):
     """C (nv, nv)."""
     return work_field(work, nb, nv, _C_MATRIX).reshape((nv, nv))
 
 
-@njit(**INLINE)
+@njit(**JIT)
 def mass_matrix_field(work, nb, nv):
     """M (nv, nv)."""
     return work_field(work, nb, nv, _M).reshape((nv, nv))
