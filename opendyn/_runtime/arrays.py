@@ -1,10 +1,15 @@
-"""Array plumbing shared by every layer: immutable arrays, and the compiled loops that fill, copy
-and check 1-D and 2-D arrays without numba's slice-assignment error paths."""
+"""Array plumbing shared by every layer: immutable arrays, the compiled views of a flat buffer
+with a shape (`shaped`), and the compiled loops that fill, copy and check 1-D and 2-D arrays
+without numba's slice-assignment error paths."""
 
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from numba import njit, types
+from numba.core import cgutils
+from numba.core.imputils import impl_ret_borrowed
+from numba.extending import intrinsic
+from numba.np.arrayobj import make_array, populate_array
 
 from .kernel_cache import JIT
 from .status import Status
@@ -16,6 +21,42 @@ def immutable(x, dtype=np.float64) -> np.ndarray:
     read-only array that owns its memory, can be made writeable again)."""
     a = np.ascontiguousarray(x, dtype=dtype)
     return np.frombuffer(a.tobytes(), dtype=a.dtype).reshape(a.shape)
+
+
+@intrinsic
+def shaped(typingctx, flat, shape):
+    """shaped(flat, shape): a C-contiguous view of the 1-D C-contiguous array `flat` with the
+    given shape (a tuple of integers whose product is flat's length; not checked: the callers
+    slice `flat` from a layout table). What `flat.reshape(shape)` gives, without its call to
+    numba's run-time reshape helper (about 18 ns a view, opaque to LLVM): the kernels make
+    20-odd views of their buffers on every call. Any other argument type is a typing error."""
+    if not (isinstance(flat, types.Array) and flat.ndim == 1 and flat.layout == "C"):
+        return None
+    if not (isinstance(shape, types.UniTuple) and isinstance(shape.dtype, types.Integer)):
+        return None
+    ndim = shape.count
+    view_type = flat.copy(ndim=ndim, layout="C")
+
+    def codegen(context, builder, signature, args):
+        src = make_array(flat)(context, builder, args[0])
+        view = make_array(view_type)(context, builder)
+        dims = [
+            context.cast(builder, d, shape.dtype, types.intp)
+            for d in cgutils.unpack_tuple(builder, args[1], ndim)
+        ]
+        # C order: the last axis has stride itemsize, each axis before it the product after
+        strides = [None] * ndim
+        step = src.itemsize
+        for k in range(ndim - 1, -1, -1):
+            strides[k] = step
+            step = builder.mul(step, dims[k])
+        populate_array(
+            view, data=src.data, shape=dims, strides=strides, itemsize=src.itemsize,
+            meminfo=src.meminfo, parent=src.parent,
+        )
+        return impl_ret_borrowed(context, builder, view_type, view._getvalue())
+
+    return view_type(flat, shape), codegen
 
 
 

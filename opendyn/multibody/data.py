@@ -58,6 +58,7 @@ from collections import namedtuple
 import numpy as np
 from numba import njit
 
+from .._runtime.arrays import shaped
 from .._runtime.kernel_cache import INLINE, JIT
 
 # Where a field starts and how many numbers it holds: start = nb * per_nb + nv * per_nv +
@@ -221,8 +222,8 @@ def body_field(work, nb, where):
 def joint_poses(work, nb):
     """R (nb, 3, 3), p (nb, 3): T_{lambda(i), i} of every body."""
     return (
-        body_field(work, nb, _R).reshape((nb, 3, 3)),
-        body_field(work, nb, _P).reshape((nb, 3)),
+        shaped(body_field(work, nb, _R), (nb, 3, 3)),
+        shaped(body_field(work, nb, _P), (nb, 3)),
     )
 
 
@@ -230,8 +231,8 @@ def joint_poses(work, nb):
 def world_poses(work, nb):
     """R_s (nb, 3, 3), p_s (nb, 3): T_{s,i} of every body."""
     return (
-        body_field(work, nb, _R_S).reshape((nb, 3, 3)),
-        body_field(work, nb, _P_S).reshape((nb, 3)),
+        shaped(body_field(work, nb, _R_S), (nb, 3, 3)),
+        shaped(body_field(work, nb, _P_S), (nb, 3)),
     )
 
 
@@ -239,9 +240,9 @@ def world_poses(work, nb):
 def body_motion(work, nb):
     """V, dV, F (nb, 6): body twists, accelerations and transmitted wrenches, each in {i}."""
     return (
-        body_field(work, nb, _V).reshape((nb, 6)),
-        body_field(work, nb, _DV).reshape((nb, 6)),
-        body_field(work, nb, _F).reshape((nb, 6)),
+        shaped(body_field(work, nb, _V), (nb, 6)),
+        shaped(body_field(work, nb, _DV), (nb, 6)),
+        shaped(body_field(work, nb, _F), (nb, 6)),
     )
 
 
@@ -249,9 +250,9 @@ def body_motion(work, nb):
 def articulated_inertias(work, nb):
     """IA, U, L (nb, 6, 6): ABA's articulated inertias and per-joint U_i, D_i (or its factor)."""
     return (
-        body_field(work, nb, _IA).reshape((nb, 6, 6)),
-        body_field(work, nb, _U).reshape((nb, 6, 6)),
-        body_field(work, nb, _L).reshape((nb, 6, 6)),
+        shaped(body_field(work, nb, _IA), (nb, 6, 6)),
+        shaped(body_field(work, nb, _U), (nb, 6, 6)),
+        shaped(body_field(work, nb, _L), (nb, 6, 6)),
     )
 
 
@@ -259,9 +260,9 @@ def articulated_inertias(work, nb):
 def articulated_biases(work, nb):
     """a_vp, pA, u (nb, 6): ABA's velocity-product accelerations, bias wrenches and u_i."""
     return (
-        body_field(work, nb, _A_VP).reshape((nb, 6)),
-        body_field(work, nb, _PA).reshape((nb, 6)),
-        body_field(work, nb, _U_VEC).reshape((nb, 6)),
+        shaped(body_field(work, nb, _A_VP), (nb, 6)),
+        shaped(body_field(work, nb, _PA), (nb, 6)),
+        shaped(body_field(work, nb, _U_VEC), (nb, 6)),
     )
 
 
@@ -270,8 +271,8 @@ def composite_inertias(work, nb):
     """mass_c (nb,), h_c (nb, 3), I_c (nb, 3, 3): CRBA's composite inertias in rigid-body form."""
     return (
         body_field(work, nb, _MASS_C),
-        body_field(work, nb, _H_C).reshape((nb, 3)),
-        body_field(work, nb, _I_C).reshape((nb, 3, 3)),
+        shaped(body_field(work, nb, _H_C), (nb, 3)),
+        shaped(body_field(work, nb, _I_C), (nb, 3, 3)),
     )
 
 
@@ -286,12 +287,12 @@ CoriolisTerms = namedtuple(
 def coriolis_terms(work, nb):
     """The CoriolisTerms views of a work buffer."""
     return CoriolisTerms(
-        body_field(work, nb, _S_S).reshape((nb, 6, 6)),
-        body_field(work, nb, _G_S).reshape((nb, 6, 6)),
-        body_field(work, nb, _GC).reshape((nb, 6, 6)),
-        body_field(work, nb, _DS).reshape((nb, 6, 6)),
-        body_field(work, nb, _BC).reshape((nb, 6, 3)),
-        body_field(work, nb, _V_S).reshape((nb, 6)),
+        shaped(body_field(work, nb, _S_S), (nb, 6, 6)),
+        shaped(body_field(work, nb, _G_S), (nb, 6, 6)),
+        shaped(body_field(work, nb, _GC), (nb, 6, 6)),
+        shaped(body_field(work, nb, _DS), (nb, 6, 6)),
+        shaped(body_field(work, nb, _BC), (nb, 6, 3)),
+        shaped(body_field(work, nb, _V_S), (nb, 6)),
         body_field(work, nb, _IDLE),
         body_field(work, nb, _STILL),
     )
@@ -306,19 +307,19 @@ def body_flags(work, nb):
 @njit(**JIT)
 def scratch_rows(work, nb, nv):
     """(9, 6) scratch for one kernel's small temporaries."""
-    return work_field(work, nb, nv, _SCRATCH).reshape((9, 6))
+    return shaped(work_field(work, nb, nv, _SCRATCH), (9, 6))
 
 
 @njit(**JIT)
 def temp_vectors(work, nb, nv):
     """(3, 6) three 6-vectors of scratch, one row each, for one kernel's temporaries."""
-    return work_field(work, nb, nv, _TEMP).reshape((3, 6))
+    return shaped(work_field(work, nb, nv, _TEMP), (3, 6))
 
 
 @njit(**JIT)
 def skew_scratch(work, nb, nv):
     """(4, 3, 3): four 3 x 3 matrices of scratch (the first 36 numbers of the scratch rows)."""
-    return work_field(work, nb, nv, _SCRATCH)[:36].reshape((4, 3, 3))
+    return shaped(work_field(work, nb, nv, _SCRATCH)[:36], (4, 3, 3))
 
 
 @njit(**JIT)
@@ -335,7 +336,7 @@ def joint_vectors(work, nb, nv):
 @njit(**JIT)
 def no_loads(work, nb, nv):
     """(1, 6) external loads of zero (kept zero): no gravity, no wrenches."""
-    return work_field(work, nb, nv, _NO_LOADS).reshape((1, 6))
+    return shaped(work_field(work, nb, nv, _NO_LOADS), (1, 6))
 
 
 @njit(**JIT)
@@ -350,16 +351,16 @@ def new_work(nb, nv):
 @njit(**JIT)
 def frame_pose_field(work, nb, nv):
     """T_sf (4, 4): a frame's pose in the world."""
-    return work_field(work, nb, nv, _T_SF).reshape((4, 4))
+    return shaped(work_field(work, nb, nv, _T_SF), (4, 4))
 
 
 @njit(**JIT)
 def coriolis_matrix_field(work, nb, nv):
     """C (nv, nv)."""
-    return work_field(work, nb, nv, _C_MATRIX).reshape((nv, nv))
+    return shaped(work_field(work, nb, nv, _C_MATRIX), (nv, nv))
 
 
 @njit(**JIT)
 def mass_matrix_field(work, nb, nv):
     """M (nv, nv)."""
-    return work_field(work, nb, nv, _M).reshape((nv, nv))
+    return shaped(work_field(work, nb, nv, _M), (nv, nv))

@@ -13,7 +13,7 @@ from collections import namedtuple
 import numpy as np
 from numba import njit
 
-from .._runtime.arrays import immutable
+from .._runtime.arrays import immutable, shaped
 from .._runtime.kernel_cache import INLINE
 
 # The kernels' flat buffers, defined once: (field, shape per body). Field k of _fbuf starts at
@@ -142,9 +142,9 @@ def tree(ibuf, fbuf):
         field(ibuf, nb, _IV),
         field(fbuf, nb, _MULT),
         field(fbuf, nb, _OFFSET),
-        field(fbuf, nb, _S).reshape((nb, 6, 6)),
-        field(fbuf, nb, _R_HOME).reshape((nb, 3, 3)),
-        field(fbuf, nb, _P_HOME).reshape((nb, 3)),
+        shaped(field(fbuf, nb, _S), (nb, 6, 6)),
+        shaped(field(fbuf, nb, _R_HOME), (nb, 3, 3)),
+        shaped(field(fbuf, nb, _P_HOME), (nb, 3)),
     )
 
 
@@ -155,8 +155,8 @@ def rigid_inertias(ibuf, fbuf):
     nb = body_count(ibuf)
     return (
         field(fbuf, nb, _MASS),
-        field(fbuf, nb, _H).reshape((nb, 3)),
-        field(fbuf, nb, _I_O).reshape((nb, 3, 3)),
+        shaped(field(fbuf, nb, _H), (nb, 3)),
+        shaped(field(fbuf, nb, _I_O), (nb, 3, 3)),
     )
 
 
@@ -164,5 +164,5 @@ def rigid_inertias(ibuf, fbuf):
 def spatial_inertias(ibuf, fbuf):
     """View of the (nb, 6, 6) spatial inertias G_i."""
     nb = body_count(ibuf)
-    return field(fbuf, nb, _G).reshape((nb, 6, 6))
+    return shaped(field(fbuf, nb, _G), (nb, 6, 6))
 
