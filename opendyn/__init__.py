@@ -60,6 +60,7 @@ with kernel_cache():
     from .multibody.data import Data
     from .multibody.model import CollisionSphere, Frame, Model
     from .sim.simulate import simulate
+    from .sim.simulator import Simulator
     from .sim.trajectory import Trajectory
     from .sweep.engine import sweep
     from .sweep.plot import plot_sweep
@@ -79,6 +80,7 @@ __all__ = [
     "load_scene",
     "scene_from_dict",
     "simulate",
+    "Simulator",
     "sweep",
     "SweepError",
     "SweepInterrupted",

@@ -53,7 +53,7 @@ from opendyn.io.scene.files import tomllib
 from opendyn.io.urdf import shipped_robots_dir
 from opendyn.sim import effects
 from opendyn.sim.effects import registry
-from opendyn.sim.simulate import _first_stage
+from opendyn.sim.simulate import first_stage
 
 # the page's module, as opendyn/sim/effects/spring.py
 spec = importlib.util.spec_from_file_location("opendyn.sim.effects.spring", sys.argv[1])
@@ -90,7 +90,7 @@ rng = np.random.default_rng(5)
 for _ in range(5):
     q, qd, t = rng.uniform(-3, 3, 2), rng.normal(size=2), rng.uniform(0, 1)
     k, power, tau = np.empty((2, 2)), np.empty(2), np.empty(2)
-    assert _first_stage(scene, table, t, q, qd, k, power, tau) == 0
+    assert first_stage(scene, table, t, q, qd, k, power, tau) == 0
     spring_tau = -record.stiffness * (q - record.rest)
     h = od.bias_forces(model, q, qd, gravity=scene.gravity)
     expected = np.linalg.solve(od.mass_matrix(model, q), spring_tau - h)

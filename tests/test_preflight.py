@@ -30,7 +30,7 @@ def nothing_allocated(monkeypatch):
     def refuse(*args):
         raise AssertionError("the record was allocated before the scene was refused")
 
-    monkeypatch.setattr(simulate_module, "_Samples", refuse)
+    monkeypatch.setattr(simulate_module, "Samples", refuse)
 
 
 def test_a_record_too_large_for_memory_is_refused_before_allocating(nothing_allocated):

@@ -22,7 +22,7 @@ import pytest
 import opendyn as od
 from opendyn.errors import SimulationError
 from opendyn.sim import effects, integrators
-from opendyn.sim.simulate import _first_stage, _fixed_chunk, _Samples
+from opendyn.sim.simulate import first_stage, _fixed_chunk, Samples
 
 pin = pytest.importorskip("pinocchio")
 from pin_adapter import PinOracle  # noqa: E402
@@ -161,7 +161,7 @@ def test_disabled_effect_never_runs(effect):
         500,
         1,
         integrators.State(q, qd, w),
-        _Samples(501, full.model.nq, full.model.nv),
+        Samples(501, full.model.nq, full.model.nv),
         integrators.new_counters(),
     )
     assert status == 0 and steps == 500
@@ -229,7 +229,7 @@ def _evaluate(scene, t, q, qd):
     """(qdd, control torque, (applied, passive) power) of the scene's step at one state."""
     nv = scene.model.nv
     k, power, tau_ctrl = np.empty((2, nv)), np.empty(2), np.empty(nv)
-    assert _first_stage(scene, effects.stage_table(scene), t, q, qd, k, power, tau_ctrl) == 0
+    assert first_stage(scene, effects.stage_table(scene), t, q, qd, k, power, tau_ctrl) == 0
     return k[1], tau_ctrl, power
 
 

@@ -70,6 +70,18 @@ def main(argv=None) -> int:
         choices=registry.names(),
         help="switch off an effect the scene names (repeatable)",
     )
+    sim.add_argument(
+        "--controller",
+        metavar="FILE.py:FUNCTION",
+        help="a Python controller fn(t, q, qd) -> tau, called every control period with its "
+        "torque held in between (or MODULE:FUNCTION)",
+    )
+    sim.add_argument(
+        "--control-dt",
+        type=float,
+        metavar="DT",
+        help="the controller's period (s); default: the scene's control_dt, else its dt",
+    )
     save = sim.add_mutually_exclusive_group()
     save.add_argument(
         "-o",

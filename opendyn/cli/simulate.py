@@ -20,6 +20,7 @@ from ..io.scene.files import (
     scene_from_dict,
     shipped_scenes,
 )
+from ..errors import SceneError
 from ..io.scene.schema import thaw
 from ..sim.effects import registry
 from ..sim.trajectory import saved_paths
@@ -74,12 +75,18 @@ def _simulate(args) -> int:
     Returns the exit status (see the module's docstring)."""
     from ..sim.profile import profile
     from ..sim.simulate import simulate
+    from ..sim.simulator import load_controller
 
     named = _named_outputs(args)
     _check_outputs(named)
     _check_meshcat(args)
     with _doing("loading the scene and its robot; nothing was run"):
         scene = _scene_to_run(args)
+        controller = None
+        if args.controller is not None:
+            controller = load_controller(args.controller, "--controller")
+        elif args.control_dt is not None:
+            raise SceneError("--control-dt: give --controller FILE.py:FUNCTION with it")
     if args.output is None and not args.no_save:
         defaults = [_default_record(scene, complete) for complete in (True, False)]
         _check_outputs(
@@ -88,7 +95,13 @@ def _simulate(args) -> int:
     if not args.quiet:
         print(_scene_header(scene))
     with _doing("getting the compiled step ready; the run had not started"):
-        traj = simulate(scene, progress=not args.quiet, raise_on_failure=False)
+        traj = simulate(
+            scene,
+            progress=not args.quiet,
+            raise_on_failure=False,
+            controller=controller,
+            control_dt=args.control_dt,
+        )
     with _doing("writing the outputs"):
         with held_interrupt():  # from the end of the run until its record is saved
             if not args.quiet or not traj.complete:

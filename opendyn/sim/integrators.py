@@ -91,11 +91,14 @@ Counters = namedtuple("Counters", ("evaluations", "accepted", "rejected"))
 # run_fixed's settings: t0 (s) the time of global step 0, the step dt (s), every (the record
 # takes every `every`-th step), max_speed (rad/s or m/s; a faster |qd| stops the run).
 FixedSettings = namedtuple("FixedSettings", ("t0", "dt", "every", "max_speed"))
-# run_adaptive's settings: t_end (s) the end of the run, rtol, atol, output_dt (s), max_speed
+# run_adaptive's settings: t0 (s) the time of output row 0, t_end (s) the end of the run, rtol,
+# atol, output_dt (s), max_speed
 # and size_index (nv,) int64, the q index whose magnitude scales each v coordinate's position
-# error (-1: 1 rad).
+# error (-1: 1 rad); land: whether the steps land on t_stop (the end of a control period, where
+# the held torque changes) or merely stop once past it (a chunk of a run).
 AdaptiveSettings = namedtuple(
-    "AdaptiveSettings", ("t_end", "rtol", "atol", "output_dt", "max_speed", "size_index")
+    "AdaptiveSettings",
+    ("t0", "t_end", "rtol", "atol", "output_dt", "max_speed", "size_index", "land"),
 )
 # Where run_adaptive stands: the time t (s), the next trial step h (s), the next output row.
 Progress = namedtuple("Progress", ("t", "h", "row"))
@@ -364,9 +367,10 @@ def run_adaptive(tableau, scene, settings, at, t_stop, x, first, out, counters, 
     """Advance the State x in place from at.t to t_stop with an embedded explicit Runge-Kutta
     pair (tableau: a Tableau; FSAL: the last stage is the first of the next step), first trial
     step at.h, recording row r of the Record out, from r = at.row on, at
-    t = min(r output_dt, t_end) (settings: an AdaptiveSettings).
+    t = min(t0 + r output_dt, t_end) (settings: an AdaptiveSettings).
 
-    Steps are cut so that they land on the output times. The error of each v coordinate's
+    Steps are cut so that they land on the output times, and with settings.land on t_stop (no
+    row is recorded there unless it is an output time). The error of each v coordinate's
     position is scaled by the magnitude of q[settings.size_index[j]] (the coordinate itself for
     a joint, a floating base's position for its translation), by 1 rad where that is -1 (a
     rotation). first: the Stage at the current state (the FSAL stage), kept up to date.
@@ -382,10 +386,12 @@ def run_adaptive(tableau, scene, settings, at, t_stop, x, first, out, counters, 
     x1 = State(np.empty(q.shape[0]), np.empty(nv), np.empty(2))
     t, h, row = at.t, at.h, at.row
     while t < t_stop:
-        t_out = min(row * settings.output_dt, settings.t_end)
-        # land on the output time when the step reaches it or would leave a sliver before it
-        last_before_output = h >= 0.99 * (t_out - t)
-        dt = t_out - t if last_before_output else h
+        t_out = min(settings.t0 + row * settings.output_dt, settings.t_end)
+        t_land = min(t_out, t_stop) if settings.land else t_out
+        # land on the output time (or t_stop) when the step reaches it or would leave a sliver
+        # before it
+        last_before_output = h >= 0.99 * (t_land - t)
+        dt = t_land - t if last_before_output else h
         if dt <= 1e-14 * max(1.0, abs(t)):
             return Status.STEP_UNDERFLOW.value, Progress(t, h, row)
         # stage 0 is the FSAL stage, evaluated at the end of the previous step
@@ -423,7 +429,7 @@ def run_adaptive(tableau, scene, settings, at, t_stop, x, first, out, counters, 
             h = dt * max(0.2, 0.9 * err**-0.2)
             continue
         counters.accepted[0] += 1
-        t = t_out if last_before_output else t + dt
+        t = t_land if last_before_output else t + dt
         copy_into(x1.q, q)
         copy_into(x1.qd, qd)
         copy_into(x1.w, x.w)
@@ -433,7 +439,7 @@ def run_adaptive(tableau, scene, settings, at, t_stop, x, first, out, counters, 
         copy_into(kv[s - 1], first.k[1])
         copy_into(kw[s - 1], first.power)
         copy_into(work.tau, first.tau)
-        if last_before_output:
+        if last_before_output and t_land == t_out:
             record(out, row, t, x, first.tau)
             row += 1
         h = dt * min(5.0, 0.9 * err**-0.2) if err > 0 else 5.0 * dt

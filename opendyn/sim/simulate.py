@@ -41,6 +41,7 @@ from ..io.scene.schema import Scene, thaw
 from ..multibody.joints import FREE
 from ..multibody.model import Model
 from . import effects, integrators, step
+from .effects import python_control
 from .diagnostics import check_contact_step, failure_message
 from .preflight import preflight
 
@@ -58,7 +59,7 @@ _COMPILE_ESTIMATE = {
 }
 
 
-class _Interrupt:
+class Interrupt:
     """While a run is on (in the main thread), Ctrl-C sets `requested` instead of raising; the
     loops stop after the current chunk, so that the record stays consistent. `signum` is the
     signal that asked (SIGINT, or SIGTERM when the command line hands it over)."""
@@ -81,7 +82,7 @@ class _Interrupt:
             signal.signal(signal.SIGINT, self._previous)
 
 
-def simulate(scene, *, progress=False, raise_on_failure=True):
+def simulate(scene, *, progress=False, raise_on_failure=True, controller=None, control_dt=None):
     """Run `scene` and return its Trajectory.
 
     scene: a Scene (od.load_scene, od.default_scene, od.scene_from_dict), or a scene file or
@@ -89,36 +90,53 @@ def simulate(scene, *, progress=False, raise_on_failure=True):
     progress: show a progress bar (tqdm, on stderr) once the run has taken more than a second.
     raise_on_failure: on a failure or Ctrl-C raise SimulationError carrying the partial
       trajectory; with False, return it with complete=False and the message.
+    controller: a Python controller fn(t, q, qd) -> tau (nv,) (or, on a floating base, the
+      joints' (nv - 6,)), called every control_dt s (default: the scene's control_dt, else its
+      run.dt) with t (s), q (nq,), qd (nv,), its torque held until the next call (a zero-order
+      hold) and added to the scene's effects; a scene can name one too ([control] type =
+      "python"). Such a run is driven by opendyn.sim.simulator.Simulator; a controller that
+      raises or returns a wrong shape or non-finite values stops it (SimulationError naming
+      the controller, the time and what it returned).
     The trajectory is sampled every scene.run.output_dt seconds and at the end; its stats give
     steps, rejected steps, dynamics evaluations, the wall time (s) and, apart from it, the time
     taken to get the compiled step ready: compile_s compiling it (once per machine and opendyn
     version; 0 when the on-disk cache had it) and load_s loading it.
     """
-    scene = _as_scene(scene)
+    scene = as_scene(scene)
+    if controller is not None or python_control.record(scene) is not None:
+        from .simulator import run_controlled
+
+        return run_controlled(scene, controller, control_dt, progress, raise_on_failure)
     run = scene.run
     model = scene.model
-    integ = integrators.INTEGRATORS[run.integrator]
-    if scene.constraints and integ.kind == integrators.SEMI_IMPLICIT:
-        raise SceneError(
-            f"{scene.source}: run.integrator: semi_implicit_euler (symplectic, in momentum form) "
-            "does not support constraints; use rk4, dopri5, euler or implicit_euler"
-        )
+    integ = integrator_of(scene)
     nsteps, every, rows = preflight(scene, integ)
     table = effects.stage_table(scene)
     check_contact_step(scene, table)
-    out = _Samples(rows, model.nq, model.nv)
+    out = Samples(rows, model.nq, model.nv)
     x = integrators.State(
         np.array(scene.q0, dtype=np.float64), np.array(scene.qd0, dtype=np.float64), np.zeros(2)
     )
     counters = integrators.new_counters()
     start = time.perf_counter()
     compiled_before = compile_seconds()
-    _load_kernels(scene, integ, table, x, out, counters)
+    first = integrators.Stage(np.zeros((2, model.nv)), np.zeros(2), np.zeros(model.nv))
+    at_start = integrators.Progress(0.0, run.dt, 1)
+    load_kernels(
+        scene,
+        integ,
+        table,
+        step.scene_data(model, table),
+        x,
+        lambda: _adaptive_chunk(scene, integ, table, at_start, 0.0, x, first, out, counters)
+        if integ.adaptive
+        else _fixed_chunk(scene, integ, table, 0, 0, 1, x, out, counters),
+    )
     compile_s = compile_seconds() - compiled_before
     load = time.perf_counter() - start - compile_s
-    bar = _progress_bar(run.duration) if progress else None
+    bar = progress_bar(run.duration) if progress else None
     start = time.perf_counter()
-    with _Interrupt() as stop:
+    with Interrupt() as stop:
         if integ.adaptive:
             status, t = _run_adaptive(scene, integ, table, x, out, counters, bar, stop)
         else:
@@ -135,7 +153,7 @@ def simulate(scene, *, progress=False, raise_on_failure=True):
     if status:
         # the last good state ends the partial record, unless it is already its last row
         if not out.filled or out.t[out.filled - 1] < t:
-            _record_state(scene, table, t, x, out)
+            record_state(scene, table, t, x, out)
     stats = {
         "integrator": integ.name,
         "steps": steps,
@@ -150,22 +168,32 @@ def simulate(scene, *, progress=False, raise_on_failure=True):
         stats["quaternion_norm_error"] = float(
             quaternion_norm_error(model, out.q[: out.filled]).max(initial=0.0)
         )
-    traj = _trajectory(scene, table, out, status == 0, message, stats)
+    traj = trajectory_of(scene, table, out, status == 0, message, stats)
     if status and raise_on_failure:
         raise SimulationError(message, traj)
     return traj
 
 
-def _load_kernels(scene, integ, table, x, out, counters):
+def integrator_of(scene):
+    """The Integrator the scene's run names, checked against the scene (semi-implicit Euler
+    takes no constraints: SceneError)."""
+    integ = integrators.INTEGRATORS[scene.run.integrator]
+    if scene.constraints and integ.kind == integrators.SEMI_IMPLICIT:
+        raise SceneError(
+            f"{scene.source}: run.integrator: semi_implicit_euler (symplectic, in momentum form) "
+            "does not support constraints; use rk4, dopri5, euler or implicit_euler"
+        )
+    return integ
+
+
+def load_kernels(scene, integ, table, data, x, loop):
     """Get the run's compiled pieces ready before the clock starts, one by one: forward
-    dynamics, the effects, one evaluation, the loop (called for zero steps) and the energies of
-    the record. numba loads each from its on-disk cache or, the first time on a machine,
-    compiles it; then a notice and a bar over these pieces show on stderr."""
+    dynamics, the effects, one evaluation, the loop (loop(): the run's loop called for zero
+    steps) and the energies of the record. data: the run's step.SceneData; x: its State.
+    numba loads each from its on-disk cache or, the first time on a machine, compiles it; then
+    a notice and a bar over these pieces show on stderr."""
     model = scene.model
     nv = model.nv
-    data = step.scene_data(model, table)
-    first = integrators.Stage(np.zeros((2, nv)), np.zeros(2), np.zeros(nv))
-    at_start = integrators.Progress(0.0, scene.run.dt, 1)
     KD = data.KD
     q, qd = x.q, x.qd
     tau, qdd = np.zeros(nv), np.empty(nv)
@@ -175,11 +203,9 @@ def _load_kernels(scene, integ, table, x, out, counters):
         lambda: step.generalized_forces(
             data, 0.0, q, qd, np.empty(nv), np.empty(nv), np.empty(2), KD[0], KD[1], False
         ),
-        lambda: _first_stage(scene, table, 0.0, q, qd, first.k, first.power, first.tau),
-        lambda: _adaptive_chunk(scene, integ, table, at_start, 0.0, x, first, out, counters)
-        if integ.adaptive
-        else _fixed_chunk(scene, integ, table, 0, 0, 1, x, out, counters),
-        lambda: energies(model, *state, _gravity(scene)),
+        lambda: step.evaluate(data, 0.0, q, qd, qdd, tau, np.empty(2)),
+        loop,
+        lambda: energies(model, *state, gravity_of(scene)),
     ]
     if scene.constraints:
         pieces.append(lambda: _violation(model, table, *state))
@@ -192,7 +218,7 @@ def _load_kernels(scene, integ, table, x, out, counters):
             done()
 
 
-def _gravity(scene):
+def gravity_of(scene):
     """The scene's gravity (3,), or zeros when it names none (then U = 0)."""
     return np.zeros(3) if scene.gravity is None else np.asarray(scene.gravity, float)
 
@@ -223,12 +249,14 @@ def _adaptive_chunk(scene, integ, table, at, t_stop, x, first, out, counters):
     Returns (status, Progress reached)."""
     run = scene.run
     settings = integrators.AdaptiveSettings(
+        t0=0.0,
         t_end=run.duration,
         rtol=run.rtol,
         atol=run.atol,
         output_dt=run.output_dt,
         max_speed=run.max_speed,
         size_index=error_size_index(scene.model),
+        land=False,
     )
     data = step.scene_data(scene.model, table)
     free = free_joints(scene.model)
@@ -248,7 +276,7 @@ def error_size_index(model):
     return index
 
 
-class _Samples:
+class Samples:
     """The recorded rows: t, q, qd, tau and the work (applied, passive) of each sample."""
 
     def __init__(self, rows, nq, nv):
@@ -269,8 +297,27 @@ class _Samples:
         self.q[r], self.qd[r], self.w[r] = x.q, x.qd, x.w
         self.tau[r] = tau
 
+    def grow(self, rows):
+        """Room for at least `rows` rows, the new ones NaN (the arrays are replaced: take
+        arrays() again)."""
+        for name in ("t", "q", "qd", "tau", "w"):
+            old = getattr(self, name)
+            if len(old) < rows:
+                new = np.full((rows, *old.shape[1:]), np.nan)
+                new[: len(old)] = old
+                setattr(self, name, new)
 
-def _progress_bar(duration):
+    def copy(self):
+        """A copy of the filled rows."""
+        n = self.filled
+        out = Samples(n, self.q.shape[1], self.qd.shape[1])
+        for name in ("t", "q", "qd", "tau", "w"):
+            getattr(out, name)[:] = getattr(self, name)[:n]
+        out.filled = n
+        return out
+
+
+def progress_bar(duration):
     from tqdm import tqdm
 
     return tqdm(
@@ -311,7 +358,7 @@ def _run_fixed(scene, integ, table, nsteps, every, x, out, counters, bar, stop):
         chunk = _chunk_steps(steps, time.perf_counter() - tic, chunk)
     t_end = nsteps * run.dt
     if out.filled < len(out.t):
-        _record_state(scene, table, t_end, x, out)
+        record_state(scene, table, t_end, x, out)
     return 0, t_end
 
 
@@ -320,7 +367,7 @@ def _run_adaptive(scene, integ, table, x, out, counters, bar, stop):
     run = scene.run
     nv = scene.model.nv
     first = integrators.Stage(np.empty((2, nv)), np.empty(2), np.empty(nv))  # the FSAL stage
-    status = _first_stage(scene, table, 0.0, x.q, x.qd, first.k, first.power, first.tau)
+    status = first_stage(scene, table, 0.0, x.q, x.qd, first.k, first.power, first.tau)
     counters.evaluations[0] += 1
     if status:
         return status, 0.0
@@ -348,24 +395,21 @@ def _run_adaptive(scene, integ, table, x, out, counters, bar, stop):
     return 0, at.t
 
 
-def _first_stage(scene, table, t, q, qd, k_first, power, tau):
+def first_stage(scene, table, t, q, qd, k_first, power, tau):
     """k_first (2, nv) <- (qd, qdd), power (2,) <- (applied, passive) power and tau <- the
     control torque, at (t, q, qd). Returns the dynamics' status."""
     k_first[0] = qd
     return step.evaluate(step.scene_data(scene.model, table), t, q, qd, k_first[1], tau, power)
 
 
-def _record_state(scene, table, t, x, out):
+def record_state(scene, table, t, x, out):
     """Append (t, x) with the control torque there (NaN when the dynamics fail there)."""
     k = np.empty((2, scene.model.nv))
     tau = np.empty(scene.model.nv)
-    if _first_stage(scene, table, t, x.q, x.qd, k, np.empty(2), tau):
+    if first_stage(scene, table, t, x.q, x.qd, k, np.empty(2), tau):
         tau[:] = np.nan
     r = out.filled
-    if r == len(out.t):
-        for name in ("t", "q", "qd", "tau", "w"):
-            arr = getattr(out, name)
-            setattr(out, name, np.concatenate([arr, np.full_like(arr[:1], np.nan)]))
+    out.grow(r + 1)
     out.put(r, t, x, tau)
     out.filled = r + 1
 
@@ -379,13 +423,13 @@ def quaternion_norm_error(model, q):
     return error
 
 
-def _trajectory(scene, table, out, complete, message, stats):
+def trajectory_of(scene, table, out, complete, message, stats):
     from .trajectory import Trajectory
 
     model = scene.model
     n = out.filled
     t, q, qd, tau, w = out.t[:n], out.q[:n], out.qd[:n], out.tau[:n], out.w[:n]
-    kinetic, potential = energies(model, q, qd, _gravity(scene)) if n else (np.zeros(0),) * 2
+    kinetic, potential = energies(model, q, qd, gravity_of(scene)) if n else (np.zeros(0),) * 2
     if scene.armature is not None and n:
         kinetic = kinetic + 0.5 * (qd[:, model.v_index] ** 2) @ scene.armature
     violation = _violation(model, table, q, qd) if scene.constraints else (np.zeros(0),) * 2
@@ -490,7 +534,7 @@ def _provenance(scene, table):
     }
 
 
-def _as_scene(scene):
+def as_scene(scene):
     """scene itself, or the scene that a file or a shipped scene's name names."""
     if isinstance(scene, Scene):
         return scene

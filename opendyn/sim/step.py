@@ -1,6 +1,6 @@
 """One evaluation of the scene's dynamics: the stages it names, then forward dynamics.
 
-    tau = sum over the scene's effects of tau_e(t, q, qd)             (effects, control)
+    tau = sum over the scene's effects of tau_e(t, q, qd) + tau_held   (effects, control)
     qdd = (M(q) + diag(armature))^-1 (tau - c(q, qd) - g(q))         (forward dynamics, ABA)
 
 with g(q) present only when the scene names gravity (it sets dV_0 = (0, -g); without it the
@@ -9,7 +9,11 @@ base does not accelerate). With constraints A(q) qd = 0 the forward dynamics is 
     (M + diag(armature)) qdd + A^T lambda = tau - c - g,
     A qdd = -(Adot qd + 2 alpha A qd + beta^2 phi)                  (Baumgarte gains alpha, beta)
 
-(M by CRBA, the multipliers as in opendyn.algorithm.constraints). Alongside, the power of the
+(M by CRBA, the multipliers as in opendyn.algorithm.constraints). tau_held (nv,) is the
+generalized force a Python caller holds over a control period (opendyn.sim.simulator: the
+torque of `Simulator.step` and of a Python controller, a zero-order hold); it is control
+torque, so its work is applied work. A run without one has None there and compiles no trace of
+it. Alongside, the power of the
 non-conservative forces for the energy balance dE/dt = qd . tau_applied + qd . tau_passive,
 where E = T + U_gravity:
   applied = control torques and applied wrenches (work put in),
@@ -64,6 +68,7 @@ def generalized_forces(scene, t, q, qd, tau, tau_ctrl, power, K, D, jac):
     status = run_stages(EVERY, scene.effects, ctx, out)
     if status:
         return status
+    add_held(scene.held, tau_ctrl)
     applied = 0.0
     passive = power[1]  # the contact springs' share, if any
     for j in range(qd.shape[0]):
@@ -73,6 +78,16 @@ def generalized_forces(scene, t, q, qd, tau, tau_ctrl, power, K, D, jac):
     power[0] = applied
     power[1] = passive
     return Status.OK.value
+
+
+@njit(**JIT)
+def add_held(tau_held, tau_ctrl):
+    """tau_ctrl (nv,) += tau_held (nv,), the torque held over the control period; nothing when
+    tau_held is None (numba tests it against None when it compiles)."""
+    if tau_held is None:
+        return
+    for j in range(tau_ctrl.shape[0]):
+        tau_ctrl[j] += tau_held[j]
 
 
 @njit(**JIT)
@@ -105,18 +120,21 @@ def solve_with(con, scene, q, qd, tau, qdd):
 # as the compile-time switches of algorithm.forward.forward_kernel (none with constraints);
 # and the step's own scratch: forces (3, nv) (tau, tau_applied, tau_passive), loads (1, 6)
 # with dV_0, KD (2, nv, nv) the stiffness K and damping D of the effects for the implicit
-# integrator, and work, the buffer of a Data of the model that the kernels work in.
+# integrator, work, the buffer of a Data of the model that the kernels work in, and held, the
+# torque tau_held (nv,) held over a control period, or None.
 SceneData = namedtuple(
     "SceneData",
     (
         "ibuf", "fbuf", "effects", "armature", "method", "constraints", "forces", "loads",
-        "KD", "work",
+        "KD", "work", "held",
     ),
 )
 
 
-def scene_data(model, table):
-    """The SceneData of a model and its stage table (effects.StageTable)."""
+def scene_data(model, table, held=None):
+    """The SceneData of a model and its stage table (effects.StageTable); held: the (nv,)
+    float64 array of the held torque that the caller writes between control periods, or
+    None."""
     method = method_switches(model, None if table.constraints else table.method)
     return SceneData(
         model._ibuf,
@@ -129,6 +147,7 @@ def scene_data(model, table):
         np.zeros((1, 6)),
         np.empty((2, model.nv, model.nv)),
         model.data()._work,
+        held,
     )
 
 

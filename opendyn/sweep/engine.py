@@ -52,7 +52,7 @@ from ..errors import SceneError, SceneWarning, SweepError, SweepInterrupted
 from ..io.scene.reader import _build, _Reader
 from ..io.scene.schema import Scene, thaw
 from ..sim.metrics import METRICS, applicable, run_metrics
-from ..sim.simulate import _as_scene, simulate
+from ..sim.simulate import as_scene, simulate
 
 # more runs than this is a mistake in a spec (a grid of 1e3 points on each of 4 keys), not a sweep
 MAX_RUNS = 10_000_000
@@ -412,7 +412,7 @@ def sweep(
     check_installed()
     from .results import Results
 
-    scene = _as_scene(scene)
+    scene = as_scene(scene)
     if not isinstance(vary, dict) or not vary:
         raise SweepError("vary: expected a dict {dotted scene key: spec} with at least one key")
     axes = [parse_axis(key, spec) for key, spec in vary.items()]

@@ -153,6 +153,7 @@ _TOP_KEYS = (
 
 def _build(data, source, base_dir, default_name=None, model=None) -> Scene:
     r = _Reader(source)
+    r.base_dir = base_dir  # where paths in the file are relative to (None: the working folder)
     r.keys(data, "", _TOP_KEYS)
     if model is None:
         model = r.robot(data.get("robot"), base_dir)

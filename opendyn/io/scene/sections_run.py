@@ -13,7 +13,9 @@ from .values import ValueReader
 
 INTEGRATORS = ("euler", "semi_implicit_euler", "rk4", "dopri5", "implicit_euler")
 ADAPTIVE_INTEGRATORS = ("dopri5",)
-_RUN_KEYS = ("duration", "integrator", "dt", "output_dt", "rtol", "atol", "max_speed")
+_RUN_KEYS = (
+    "duration", "integrator", "dt", "output_dt", "rtol", "atol", "max_speed", "control_dt"
+)
 # a ratio of times counts as a whole number of steps within this relative tolerance
 _WHOLE_STEPS_RTOL = 1e-9
 # float64 counts steps exactly up to 2^53; a run of more steps could not say which step failed
@@ -28,6 +30,8 @@ class Run:
     the first trial step of "dopri5". rtol, atol: "dopri5"'s tolerances. output_dt: s, the
     sample interval of the recorded trajectory (a whole multiple of dt for fixed-step
     integrators). max_speed: rad/s or m/s; any |qd| above it stops the run as diverging.
+    control_dt: s or None, the period of a Python controller (opendyn.sim.simulator: the
+    default step of a Simulator and the tick of simulate's controller=); None: dt.
     """
 
     duration: float = 5.0
@@ -37,6 +41,7 @@ class Run:
     atol: float = 1e-9
     output_dt: float = 0.01
     max_speed: float = 1e4
+    control_dt: float | None = None
 
 
 class RunSection(ValueReader):
@@ -57,6 +62,9 @@ class RunSection(ValueReader):
             table.get("output_dt", max(0.01, dt)), "run.output_dt", positive=True
         )
         max_speed = self.number(table.get("max_speed", d.max_speed), "run.max_speed", positive=True)
+        control_dt = None
+        if "control_dt" in table:
+            control_dt = self.number(table["control_dt"], "run.control_dt", positive=True)
         if dt > duration:
             self.fail("run.dt", f"the step {dt:g} s is longer than run.duration = {duration:g} s")
         run = Run(
@@ -67,6 +75,7 @@ class RunSection(ValueReader):
             atol=atol,
             output_dt=output_dt,
             max_speed=max_speed,
+            control_dt=control_dt,
         )
         check_fixed_steps(run, self.source)
         return run

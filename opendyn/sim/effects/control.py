@@ -1,5 +1,5 @@
-"""The [control] section's record, which the control laws (constant, pd, computed_torque) and
-clip share, and the checks of a law's per-joint keys. A scene names one law, its `type`; the
+"""The [control] section's record, which the control laws (constant, pd, computed_torque,
+python) and clip share, and the checks of a law's per-joint keys. A scene names one law, its `type`; the
 laws and clip are effects of their own, all named "control" in a scene."""
 
 from __future__ import annotations
@@ -13,12 +13,14 @@ import numpy as np
 class Control:
     """A joint-space controller; fields that its kind does not use are None.
 
-    kind: "constant", "pd" or "computed_torque"; every array has one entry per joint (n,), in
+    kind: "constant", "pd", "computed_torque" or "python"; every array has one entry per joint (n,), in
     model.joint_names order. tau: N m or N (constant). kp, kd: gains (pd, computed_torque).
     setpoint: rad or m (pd: tau = kp (setpoint - q) - kd qd).
     offset, amplitude: rad or m; frequency: Hz; phase: rad (computed_torque
-    reference q_r(t) = offset + amplitude sin(2 pi frequency t + phase)). clip: clip the torque
-    to +-model.effort_limit.
+    reference q_r(t) = offset + amplitude sin(2 pi frequency t + phase)). function: "FILE.py:NAME"
+    (an absolute path) or "MODULE:NAME", and control_dt: s or None (python: a function
+    fn(t, q, qd) -> tau called every control_dt, its torque held in between). clip: clip the
+    torque to +-model.effort_limit.
     """
 
     kind: str
@@ -30,6 +32,8 @@ class Control:
     amplitude: np.ndarray | None = None
     frequency: np.ndarray | None = None
     phase: np.ndarray | None = None
+    function: str | None = None
+    control_dt: float | None = None
     clip: bool = False
 
 

@@ -22,6 +22,7 @@ from . import (
     gravity,
     limits,
     pd,
+    python_control,
     wrench,
 )
 
@@ -36,6 +37,7 @@ EFFECTS = (
     constant,
     pd,
     computed_torque,
+    python_control,
     clip,
 )
 
