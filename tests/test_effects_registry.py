@@ -52,6 +52,10 @@ SCENES = {
         "effects": {"gravity": True},
         "control": {"type": "constant", "tau": [80.0, -30.0], "clip": True},
     },
+    "python": {
+        "effects": {"gravity": True},
+        "control": {"type": "python", "function": "math:cos", "control_dt": 0.01},
+    },
     "computed torque": {
         "effects": {"gravity": True, "armature": {"values": 0.01}},
         "control": {"type": "computed_torque", "kp": 5.0, "kd": 1.0, "amplitude": 0.3},
