@@ -316,6 +316,82 @@ def best_of_alternating(runs, rounds):
     return best
 
 
+# a Python PD controller at 1 kHz (section 4): gains (N m/rad, N m s/rad) about Q0
+KP, KD = 100.0, 10.0
+
+
+def python_pd(t, q, qd):
+    """The controller every simulator here calls from Python: tau = KP (Q0 - q) - KD qd."""
+    return KP * (Q0 - q) - KD * qd
+
+
+def controller_runs(ours, mj_sim, n_steps):
+    """{name: zero-argument run}: the UR5 for DURATION under python_pd at 1 kHz (every 1 ms
+    step) in opendyn (simulate(controller=)) and in a MuJoCo mj_step loop setting
+    qfrc_applied, and the same PD as opendyn's scene controller (evaluated in compiled code)."""
+    base = ours.scene(Q0, np.zeros(len(Q0)))
+    built_in = od.scene_from_dict(
+        {
+            "robot": {"name": ROBOT},
+            "initial": {"q": [float(v) for v in Q0]},
+            "run": {"duration": DURATION, "dt": DT, "integrator": "rk4", "output_dt": DT},
+            "effects": {"gravity": True},
+            "control": {"type": "pd", "kp": KP, "kd": KD, "setpoint": [float(v) for v in Q0]},
+        }
+    )
+    m, d = mj_sim.model, mj_sim.data
+    iq, iv = mj_sim.idx_q, mj_sim.idx_v
+
+    def mj_loop():
+        mj_sim.set_state(Q0, np.zeros(len(Q0)))
+        qs = np.empty((n_steps + 1, m.nq))
+        qs[0] = d.qpos
+        for k in range(1, n_steps + 1):
+            d.qfrc_applied[iv] = python_pd(d.time, d.qpos[iq], d.qvel[iv])
+            mujoco.mj_step(m, d)
+            qs[k] = d.qpos
+        return qs
+
+    return {
+        "opendyn simulate(controller=python_pd)": lambda: od.simulate(
+            base, controller=python_pd, control_dt=DT
+        ),
+        "opendyn scene PD (compiled)": lambda: od.simulate(built_in),
+        "MuJoCo mj_step loop + python_pd": mj_loop,
+    }
+
+
+def controller_section(ours, mj_sim, n_steps, rounds):
+    """Section 4: what a Python controller at 1 kHz costs per control tick."""
+    runs = controller_runs(ours, mj_sim, n_steps)
+    for run in runs.values():
+        run()  # compile or load, once
+    best = best_of_alternating(runs, rounds)
+    q, qd = Q0.copy(), np.zeros(len(Q0))
+    calls = 20000
+    t0 = time.perf_counter()
+    for _ in range(calls):
+        python_pd(0.0, q, qd)
+    own = (time.perf_counter() - t0) / calls
+    print(
+        f"\nA Python PD controller at 1 kHz on {DURATION:g} s of {ROBOT} (RK4 at 1 ms, a tick "
+        f"every step; the controller alone takes {own * 1e6:.2f} us a call), best of {rounds}\n"
+    )
+    print("| run | wall s | us / tick |")
+    print("|---|---:|---:|")
+    for name, seconds in best.items():
+        print(f"| {name} | {seconds:.4f} | {seconds / n_steps * 1e6:.2f} |")
+    python = best["opendyn simulate(controller=python_pd)"]
+    compiled = best["opendyn scene PD (compiled)"]
+    round_trip = (python - compiled) / n_steps - own
+    print(
+        f"\nThe Python round trip beyond the controller's own time: {round_trip * 1e6:.2f} us "
+        f"per tick ({round_trip / DT * 100:.2f}% of real time at 1 kHz); opendyn with "
+        f"the Python controller / MuJoCo's mj_step loop with it = "
+        f"{python / best['MuJoCo mj_step loop + python_pd']:.2f}"
+    )
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="2 timing rounds instead of 5")
@@ -430,6 +506,9 @@ def main():
         )
     if ours is not None:
         print(f"\nopendyn's first simulate call (compile or cache load): {first_call:.1f} s")
+
+    if ours is not None:
+        controller_section(ours, mj_sim, n_steps, rounds)
 
     mj = best["MuJoCo mj_step loop"]
     pin_loop = best["Pinocchio RK4 loop"]

@@ -80,6 +80,9 @@ class Simulator:
         self._held = python_control.held_torque(self.model)
         self._data = step.scene_data(self.model, self._table, self._held)
         self._free = free_joints(self.model)
+        # the joints' velocity coordinates and the floating base's (which no torque drives)
+        self._joints = np.asarray(self.model.v_index, dtype=np.int64)
+        self._base = np.setdiff1d(np.arange(self.model.nv), self._joints)
         if self._integ.adaptive:
             self._tableau = self._integ.tableau()
         else:
@@ -88,8 +91,7 @@ class Simulator:
         self.reset()
         before = compile_seconds()
         tic = time.perf_counter()
-        load_kernels(scene, self._integ, self._table, self._data, self._x, lambda: None)
-        self._entries()
+        load_kernels(scene, self._integ, self._table, self._data, self._x, self._entries)
         self._compile_s = compile_seconds() - before
         self._load_s = time.perf_counter() - tic - self._compile_s
 
@@ -326,21 +328,19 @@ class Simulator:
     def _torque(self, tau, what):
         """tau as the held torque's (nv,) float64 values: (nv,), or on a floating base the
         joints' (nv - 6,); TypeError or ValueError naming `what` otherwise."""
-        model = self.model
+        model, joints, base = self.model, self._joints, self._base
         if tau is None:
             return 0.0
         a = checks.as_float_array(tau, what)
-        joints = np.asarray(model.v_index)
-        if model.floating_base and a.shape == (len(joints),):
+        if base.size and a.shape == joints.shape:
             full = np.zeros(model.nv)
             full[joints] = a
             a = full
         if a.shape != (model.nv,):
-            also = f" or the joints' ({len(joints)},)" if model.floating_base else ""
+            also = f" or the joints' ({len(joints)},)" if base.size else ""
             raise ValueError(f"{what}: expected shape ({model.nv},){also}, got {_shown(a)}")
-        if not np.all(np.isfinite(a)):
+        if not np.isfinite(a).all():
             raise ValueError(f"{what}: not finite: {_shown(a)}")
-        base = np.setdiff1d(np.arange(model.nv), joints)
         if base.size and np.any(a[base] != 0.0):
             raise ValueError(
                 f"{what}: the floating base is not actuated, so tau at its coordinates "

@@ -51,6 +51,8 @@ The file format (every key optional unless marked required):
     rtol = 1e-6                            # dopri5's tolerances
     atol = 1e-9
     max_speed = 1e4                        # rad/s or m/s: a faster joint stops the run
+    control_dt = 0.001                     # s: a Python controller's period (default dt); a
+                                           # whole number of steps dt for fixed steps
 
     [effects]
     gravity = true                         # true = the model's gravity; a vector [gx, gy, gz]
@@ -91,7 +93,8 @@ The file format (every key optional unless marked required):
     # values = [[...], [...], [...]]       # time: linear in between, held outside
 
     [control]
-    type = "pd"                            # "none" (default), "constant", "pd", "computed_torque"
+    type = "pd"                            # "none" (default), "constant", "pd", "computed_torque",
+                                           # "python"
     tau = 1.0                              # constant: tau (required)
     kp = 100.0                             # pd, computed_torque: gains (required)
     kd = 20.0
@@ -100,6 +103,9 @@ The file format (every key optional unless marked required):
     amplitude = 0.1                        #   sin(2 pi frequency t + phase); offset default q0,
     frequency = 0.5                        #   amplitude and phase 0, frequency 0.5 Hz;
     phase = 0.0                            #   the torque is M (qdd_r + kd ed + kp e) + h
+    function = "ctl.py:impedance"          # python: fn(t, q, qd) -> tau, a FILE.py (relative to
+                                           #   the scene file) or MODULE, then :FUNCTION
+    # control_dt = 0.001                   # python: its period (or [run] control_dt), held
     clip = false                           # clip the torque to +-effort_limit
 
     [[constraints]]                        # any number of these: A(q) qd = 0 (see below)
