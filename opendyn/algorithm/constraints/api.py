@@ -25,7 +25,7 @@ from .solve import (
     constrained_solve_kernel,
     symmetric_eigen,
 )
-from .table import ConstraintTable, _table
+from .table import ROW_COUNT, ConstraintTable, _table
 from .terms import constraint_terms_kernel
 
 _TERMS = ("A", "Adot_qd", "phi")  # what constraint_terms_kernel computes, in its order
@@ -38,7 +38,7 @@ def _term(model, q, qd, constraints, q_bound, what, term):
     # A and Adot qd do not depend on targets: those two bind None defaults at q
     q0 = q if isinstance(q_bound, str) else q_bound
     rows, params = _table(model, constraints, q0, "q_bound")
-    k = int(rows[:, 2].sum())
+    k = int(rows[:, ROW_COUNT].sum())
     terms = np.empty((k, model.nv)), np.empty(k), np.empty(k)
     status = constraint_terms_kernel(model._ibuf, model._fbuf, rows, params, q, qd, *terms)
     arguments = {"q": q, "qd": qd, "q_bound": q0}
@@ -127,7 +127,7 @@ def constrained_forward_dynamics(
     loads = checks.loads(model, gravity, f_tip)
     if constraints is not None:
         rows, params = _table(model, constraints, q, "q")
-        k = int(rows[:, 2].sum())
+        k = int(rows[:, ROW_COUNT].sum())
         qdd, lam = np.empty(model.nv), np.empty(k)
         status = constrained_forward_kernel(
             model._ibuf,
