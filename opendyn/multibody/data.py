@@ -3,7 +3,9 @@
 A Model is what the robot is and never changes; a Data is where the algorithms work on it. Every
 public dynamics function takes an optional ``data=``: with it, the call allocates nothing, works
 in the Data's arrays and returns an array the Data holds (overwritten by the next call that
-computes the same quantity); without it, the call returns a fresh array as it always did.
+computes the same quantity); without it, the call returns a fresh array as it always did. (The
+constraint functions return the Data's arrays but still allocate temporaries: their module,
+opendyn.algorithm.constraints.api, says which.)
 
 All of a Data's numbers live in one flat float64 buffer, laid out once by WORK_FIELDS; the
 compiled kernels receive that buffer as one argument and take named views of it (`joint_poses`,
