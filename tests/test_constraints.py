@@ -431,11 +431,11 @@ def test_table_resolves_defaults_at_q0_and_lays_out_rows(ur5):
     shoulder = ur5.frames[ur5.frame_index("shoulder_link")].body
     wrist3 = ur5.frames[ur5.frame_index("wrist_3_link")].body
     kinds = [dc.POINT_TO_WORLD, dc.POINT_ON_PLANE, dc.POINT_TO_POINT, dc.FIXED_POSE]
-    assert rows[:, 0].tolist() == kinds + [dc.JOINT_COUPLING]
-    assert rows[:, 1].tolist() == [0, 6, 13, 19, 55] and params.shape == (55 + 6 + 6,)
-    assert rows[:, 2].tolist() == [3, 1, 3, 6, 1]
-    assert rows[:, 3].tolist() == [tool, wrist3, tool, shoulder, -1]
-    assert rows[:, 4].tolist() == [-1, -1, -1, tool, -1]
+    assert rows[:, dc.KIND].tolist() == kinds + [dc.JOINT_COUPLING]
+    assert rows[:, dc.OFFSET].tolist() == [0, 6, 13, 19, 55] and params.shape == (55 + 6 + 6,)
+    assert rows[:, dc.ROW_COUNT].tolist() == [3, 1, 3, 6, 1]
+    assert rows[:, dc.BODY_A].tolist() == [tool, wrist3, tool, shoulder, -1]
+    assert rows[:, dc.BODY_B].tolist() == [-1, -1, -1, tool, -1]
     T = od.frame_pose(ur5, q0, "tool0")
     assert_close(params[3:6], T[:3, :3] @ [0.1, 0, 0] + T[:3, 3], "target bound at q0")
     assert_close(params[9:12], [0, 0, 1.0], "normal normalised")
@@ -446,7 +446,7 @@ def test_table_resolves_defaults_at_q0_and_lays_out_rows(ur5):
     assert_close(params[61:67], q0, "q_ref bound at q0")
     # the kernel fills A, Adot qd, phi as the public functions do, phi = 0 at q0
     qd = np.ones(6)
-    k = int(rows[:, 2].sum())
+    k = int(rows[:, dc.ROW_COUNT].sum())
     A, Adot_qd, phi = np.empty((k, 6)), np.empty(k), np.empty(k)
     status = dc.constraint_terms_kernel(ur5._ibuf, ur5._fbuf, rows, params, q0, qd, A, Adot_qd, phi)
     assert status == 0
@@ -1146,7 +1146,7 @@ def test_floating_compiled_interface_takes_nq_sized_q(solo):
     q, v, _, tau = _floating_state(solo, 270)
     q_bound = od.integrate(solo, q, v, 0.01)  # phi != 0 at q
     rows, params = dc.constraint_table(solo, feet, q_bound)
-    k = int(rows[:, 2].sum())
+    k = int(rows[:, dc.ROW_COUNT].sum())
     A, drift, phi = np.empty((k, solo.nv)), np.empty(k), np.empty(k)
     args = (solo._ibuf, solo._fbuf, rows, params)
     assert dc.constraint_terms_kernel(*args, q, v, A, drift, phi) == Status.OK

@@ -189,7 +189,7 @@ import numpy as np
 from numba import njit
 from numba.core.runtime import rtsys
 import opendyn as od
-from opendyn.algorithm import christoffel, crba, energy, forward, kinematics, rnea
+from opendyn.algorithm import christoffel, crba, energy, forward, kinematics, rnea, task_space
 
 model = od.load_urdf(sys.argv[1], floating_base=sys.argv[2] == "1", check_inertia=False)
 rng = np.random.default_rng(0)
@@ -237,6 +237,22 @@ calls["frame_pose"] = (
 calls["jacobian"] = (
     lambda **kw: od.jacobian(model, q, frame.name, expressed_in="body", **kw),
     kinematics.jacobian_kernel, (*buffers, q, (frame.body, frame.T_body_frame), True, data.J),
+)
+link = model.frames[model.frame_index(model.body_names[-1])]  # moves in six directions
+calls["task_space_mass_matrix"] = (
+    lambda **kw: od.task_space_mass_matrix(model, q, link.name, damping=0.01, **kw),
+    task_space.task_space_kernel,
+    (*buffers, q, (link.body, link.T_body_frame), 0.01, data.Lambda),
+)
+calls["task_space_bias"] = (
+    lambda **kw: od.task_space_bias(model, q, qd, link.name, **kw),
+    task_space.task_space_bias_kernel,
+    (*buffers, (q, qd), (link.body, link.T_body_frame), model._loads, data.eta),
+)
+calls["frame_acceleration"] = (
+    lambda **kw: od.frame_acceleration(model, q, qd, qdd, link.name, **kw),
+    task_space.frame_acceleration_kernel,
+    (*buffers, (q, qd, qdd), (link.body, link.T_body_frame), data.dV_f),
 )
 
 
@@ -291,7 +307,7 @@ def test_a_call_with_data_allocates_nothing(name, floating):
     )
     assert proc.returncode == 0, proc.stderr
     counts = json.loads(proc.stdout.strip().splitlines()[-1])
-    assert len(counts) == 11
+    assert len(counts) == 14
     for call, count in counts.items():
         assert count["kernel"] == 0 and count["numpy with data"] == 0, (call, count)
         if call != "kinetic_energy":

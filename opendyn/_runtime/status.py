@@ -27,6 +27,7 @@ class Status(IntEnum):
     INTERRUPTED = 8  # Ctrl-C: the run stopped after its current chunk
     Q_NOT_UNIT_QUATERNION = 9  # a free joint's quaternion in q is not of unit norm
     RESULT_NOT_FINITE = 10  # finite arguments, a result with inf or NaN: float64 overflowed
+    SINGULAR_TASK_SPACE = 11  # J_b M^-1 J_b^T of a frame is singular: it has no task-space inertia
     SINGULAR = 100  # + k: nothing with mass or inertia moves with coordinate k
 
 

@@ -40,19 +40,31 @@ def cholesky_factor(M, n, scale):
 
 
 @njit(**JIT)
-def cholesky_substitute(L, n, b, x):
-    """x[:n] = (L L^T)^-1 b[:n] for L from cholesky_factor: L y = b, then L^T x = y (x may be
-    b)."""
+def forward_substitute(L, n, b, y):
+    """y[:n] = L^-1 b[:n] for L from cholesky_factor: L y = b (y may be b)."""
     for r in range(n):
         s = b[r]
         for m in range(r):
-            s -= L[r, m] * x[m]
-        x[r] = s / L[r, r]
+            s -= L[r, m] * y[m]
+        y[r] = s / L[r, r]
+
+
+@njit(**JIT)
+def back_substitute(L, n, y, x):
+    """x[:n] = L^-T y[:n] for L from cholesky_factor: L^T x = y (x may be y)."""
     for r in range(n - 1, -1, -1):
-        s = x[r]
+        s = y[r]
         for m in range(r + 1, n):
             s -= L[m, r] * x[m]
         x[r] = s / L[r, r]
+
+
+@njit(**JIT)
+def cholesky_substitute(L, n, b, x):
+    """x[:n] = (L L^T)^-1 b[:n] for L from cholesky_factor: L y = b, then L^T x = y (x may be
+    b)."""
+    forward_substitute(L, n, b, x)
+    back_substitute(L, n, x, x)
 
 
 @njit(**JIT)

@@ -3,7 +3,9 @@
 A Model is what the robot is and never changes; a Data is where the algorithms work on it. Every
 public dynamics function takes an optional ``data=``: with it, the call allocates nothing, works
 in the Data's arrays and returns an array the Data holds (overwritten by the next call that
-computes the same quantity); without it, the call returns a fresh array as it always did.
+computes the same quantity); without it, the call returns a fresh array as it always did. (The
+constraint functions return the Data's arrays but still allocate temporaries: their module,
+opendyn.algorithm.constraints.api, says which.)
 
 All of a Data's numbers live in one flat float64 buffer, laid out once by WORK_FIELDS; the
 compiled kernels receive that buffer as one argument and take named views of it (`joint_poses`,
@@ -38,16 +40,34 @@ Joint space, the results (the function that returns each):
   g             (nv,)     gravity_forces
   c             (nv,)     coriolis_forces
   h             (nv,)     bias_forces; forward dynamics by CRBA leaves in it the right-hand
-                          side tau - h - J^T F_tip
+                          side tau - h - J^T F_tip, task_space_bias h(q, qd)
   qdd           (nv,)     forward_dynamics
-  M             (nv, nv)  mass_matrix; forward dynamics by CRBA leaves in its lower triangle
-                          the Cholesky factor L of M = L L^T
+  M             (nv, nv)  mass_matrix; forward dynamics by CRBA and the task-space functions
+                          leave in its lower triangle the Cholesky factor L of M = L L^T
   C             (nv, nv)  coriolis_matrix
   Gamma         (nv, nv, nv) christoffel_symbols (an array of its own beside the buffer)
-  J             (6, nv)   jacobian
-  T_sf          (4, 4)    frame_pose (jacobian leaves the frame's pose in it too)
+  J             (6, nv)   jacobian; the task-space functions leave the frame's J_b in it
+  T_sf          (4, 4)    frame_pose (jacobian and the task-space functions leave the frame's
+                          pose in it too)
   energy        (2,)      (K, U) (J): kinetic_energy and potential_energy leave both (with
                           qd = 0 for potential_energy)
+Task space, in the frame's coordinates {f}, angular first (opendyn.algorithm.task_space):
+  JMinv         (6, nv)   J_b M^-1 (task_space_mass_matrix, task_space_bias)
+  Lambda        (6, 6)    task_space_mass_matrix: (J_b M^-1 J_b^T + damping I)^-1 (kg m^2,
+                          kg m, kg); task_space_bias leaves the undamped one
+  eta           (6,)      task_space_bias: the wrench (m, f) (N m, N)
+  dV_f          (6,)      frame_acceleration: dV_b = J_b qdd + Jdot_b qd (rad/s^2, m/s^2);
+                          task_space_bias leaves Jdot_b qd in it
+Constraints (opendyn.algorithm.constraints; the row units and frames are constraint_jacobian's):
+  P             (nv, nv)  constraint_projection: I - A^T (A M^-1 A^T)^+ A M^-1
+  F_tip         (6,)      constraint_wrench: the wrench (m, f) a frame applies to the
+                          constraint, in the frame's coordinates (N m, N)
+  tau, qdd                constrained_inverse_dynamics and constrained_forward_dynamics return
+                          them, as inverse_dynamics and forward_dynamics do
+  constraint_rows(k)      the arrays of k constraint rows, made on the first call with k rows
+                          and kept for the next: A (k, nv) constraint_jacobian, Adot_qd (k,)
+                          constraint_drift, phi (k,) constraint_error (the three fill all
+                          three), lam (k,) constrained_forward_dynamics
 (N m or N for forces, rad/s^2 or m/s^2 for accelerations, as the functions' docstrings say.)
 """
 
@@ -60,6 +80,9 @@ from numba import njit
 
 from .._runtime.arrays import shaped
 from .._runtime.kernel_cache import INLINE, JIT
+
+# The arrays of k constraint rows (Data.constraint_rows): A (k, nv), Adot_qd, phi, lam (k,).
+ConstraintRows = namedtuple("ConstraintRows", ("A", "Adot_qd", "phi", "lam"))
 
 # Where a field starts and how many numbers it holds: start = nb * per_nb + nv * per_nv +
 # nv^2 * per_nv2 + fixed, and likewise its size. A namedtuple of ints, which numba freezes as a
@@ -102,10 +125,16 @@ WORK_FIELDS = (
     ("zero_v", (), "nv"),
     ("e_k", (), "nv"),
     ("J", (6,), "nv"),
+    ("JMinv", (6,), "nv"),
     ("M", (), "nv2"),
     ("C", (), "nv2"),
+    ("P", (), "nv2"),
     ("T_sf", (4, 4), "fixed"),
     ("energy", (2,), "fixed"),
+    ("Lambda", (6, 6), "fixed"),
+    ("eta", (6,), "fixed"),
+    ("dV_f", (6,), "fixed"),
+    ("F_tip", (6,), "fixed"),
     ("no_loads", (1, 6), "fixed"),
     ("scratch", (9, 6), "fixed"),
     ("temp", (3, 6), "fixed"),
@@ -179,6 +208,18 @@ class Data:
         # nv^3 numbers each: beside the buffer, which every Model keeps one of
         self.Gamma = np.zeros((nv, nv, nv))
         self._C_e = np.zeros((nv, nv, nv))
+        self._constraint_rows = {}
+
+    def constraint_rows(self, k: int) -> ConstraintRows:
+        """The ConstraintRows of k constraint rows: A (k, nv), Adot_qd (k,), phi (k,), lam (k,),
+        made on the first call with this k and the same arrays on every later one (a call with
+        constraints of k rows returns them, so it allocates nothing after the first)."""
+        rows = self._constraint_rows.get(k)
+        if rows is None:
+            nv = self.model.nv
+            rows = ConstraintRows(np.zeros((k, nv)), np.zeros(k), np.zeros(k), np.zeros(k))
+            self._constraint_rows[k] = rows
+        return rows
 
     def __repr__(self) -> str:
         return f"Data({self.model.name!r}, nb={self.model.nb}, nv={self.model.nv})"
@@ -200,6 +241,7 @@ _J, _M, _C_MATRIX, _T_SF = (_where(n) for n in ("J", "M", "C", "T_sf"))
 _S_S, _G_S, _GC, _DS = (_where(n) for n in ("S_s", "G_s", "Gc", "dS"))
 _BC, _V_S, _IDLE, _STILL = (_where(n) for n in ("Bc", "V_s", "idle", "still"))
 _NO_LOADS, _SCRATCH, _TEMP = _where("no_loads"), _where("scratch"), _where("temp")
+_JMINV, _LAMBDA, _DV_F = _where("JMinv"), _where("Lambda"), _where("dV_f")
 
 
 @njit(**INLINE)
@@ -364,3 +406,21 @@ def coriolis_matrix_field(work, nb, nv):
 def mass_matrix_field(work, nb, nv):
     """M (nv, nv)."""
     return shaped(work_field(work, nb, nv, _M), (nv, nv))
+
+
+# A frame's task-space arrays (opendyn.algorithm.task_space), views of a work buffer, in the
+# frame's coordinates: J_b (6, nv), M (nv, nv) (or its Cholesky factor), JMinv = J_b M^-1
+# (6, nv), Lambda (6, 6), dV_f (6,).
+TaskSpace = namedtuple("TaskSpace", ("J_b", "M", "JMinv", "Lambda", "dV_f"))
+
+
+@njit(**JIT)
+def task_space_fields(work, nb, nv):
+    """The TaskSpace views of a work buffer."""
+    return TaskSpace(
+        shaped(work_field(work, nb, nv, _J), (6, nv)),
+        mass_matrix_field(work, nb, nv),
+        shaped(work_field(work, nb, nv, _JMINV), (6, nv)),
+        shaped(work_field(work, nb, nv, _LAMBDA), (6, 6)),
+        work_field(work, nb, nv, _DV_F),
+    )

@@ -28,7 +28,7 @@ from ..algorithm.cholesky import (
     largest_diagonal,
 )
 from ..algorithm.configuration import integrate_kernel
-from ..algorithm.constraints import constrained_solve_at
+from ..algorithm.constraints import ROW_COUNT, constrained_solve_at
 from ..algorithm.crba import crba_kernel
 from ..algorithm.energy import kinetic_gradient_kernel
 from ..algorithm.rnea import rnea_kernel
@@ -45,7 +45,7 @@ def velocity_solve(ibuf, fbuf, con, q, qd, M, rhs, qdd):
     None is decided when it compiles. Returns a Status (SINGULAR + k: M singular at joint k)."""
     if con is None:
         return cholesky_solve(M, rhs, qdd)
-    lam = np.empty(con.rows[:, 2].sum())
+    lam = np.empty(con.rows[:, ROW_COUNT].sum())
     return constrained_solve_at(ibuf, fbuf, con, q, qd, M, rhs, qdd, lam)
 
 

@@ -32,7 +32,7 @@ from .._runtime.compile_notice import compile_seconds, compiling
 from .._runtime.signals import signal_name
 from .._runtime.status import Status
 from .._runtime.version import __version__
-from ..algorithm.constraints import constraint_terms_kernel
+from ..algorithm.constraints import ROW_COUNT, constraint_terms_kernel
 from ..algorithm.contact import contact_record_kernel
 from ..algorithm.energy import energies
 from ..errors import SceneError, SimulationError
@@ -470,7 +470,7 @@ def _violation(model, table, q, qd):
     """(max_i |phi_i|, max_i |(A qd)_i|) at each sample (K,): how far the samples are off the
     constraints, in position (m or rad) and velocity (m/s or rad/s)."""
     rows, params = table.constraints.rows, table.constraints.params
-    k = int(rows[:, 2].sum())
+    k = int(rows[:, ROW_COUNT].sum())
     A, Adot_qd, phi = np.empty((k, model.nv)), np.empty(k), np.empty(k)
     position, velocity = np.empty(len(q)), np.empty(len(q))
     for i in range(len(q)):

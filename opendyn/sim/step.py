@@ -38,7 +38,7 @@ from numba import njit
 from .._runtime.arrays import fill, zero_matrix
 from .._runtime.kernel_cache import INLINE, JIT
 from .._runtime.status import Status
-from ..algorithm.constraints import constrained_forward_kernel
+from ..algorithm.constraints import ROW_COUNT, constrained_forward_kernel
 from ..algorithm.forward import forward_kernel, method_switches
 from .effects import GRAVITY
 from .effects.dispatch import EVERY, run_stages
@@ -109,7 +109,7 @@ def solve_with(con, scene, q, qd, tau, qdd):
             scene.ibuf, scene.fbuf, scene.work, q, qd, tau, scene.loads, qdd, scene.armature,
             scene.method,
         )
-    lam = np.empty(con.rows[:, 2].sum())
+    lam = np.empty(con.rows[:, ROW_COUNT].sum())
     return constrained_forward_kernel(
         scene.ibuf, scene.fbuf, con, q, qd, tau, scene.loads, scene.armature, qdd, lam
     )

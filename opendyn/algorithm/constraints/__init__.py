@@ -45,18 +45,23 @@ from .solve import (
     constrained_solve_kernel,
     constrained_solve_rank_kernel,
 )
-from .table import ConstraintTable, constraint_table
+from .table import BODY_A, BODY_B, KIND, OFFSET, ROW_COUNT, ConstraintTable, constraint_table
 from .terms import constraint_terms_kernel
 
 __all__ = [
-    "ConstraintTable",
+    "BODY_A",
+    "BODY_B",
     "FIXED_POSE",
     "JOINT_COUPLING",
+    "KIND",
     "NO_STABILISATION",
+    "OFFSET",
     "POINT_ON_PLANE",
     "POINT_TO_POINT",
     "POINT_TO_WORLD",
     "RANK_RTOL",
+    "ROW_COUNT",
+    "ConstraintTable",
     "constrained_forward_dynamics",
     "constrained_forward_kernel",
     "constrained_inverse_dynamics",

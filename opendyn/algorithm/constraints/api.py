@@ -7,6 +7,16 @@ the constraints:
     J_b^T F_tip = A^T lam,  F_tip = J_b^-T A^T lam  where J_b is square and invertible
 
 For rank-deficient A, (A M^-1 A^T)^-1 is the pseudo-inverse (opendyn.algorithm.constraints.solve).
+
+Each takes an optional data= (a Data of the model, single states): the result is then an array
+the Data holds, overwritten by the next call that computes it: data.constraint_rows(k) for the
+k-row results A, Adot qd, phi and lam (made on the first call with k rows), data.qdd, data.tau,
+data.P and data.F_tip. What still allocates with data=: the constraint table, built from the
+constraint objects on every call (small arrays, freed when the call returns), the compiled
+kernels' k-sized temporaries (the constraint rows' kinematics and the eigendecomposition of
+A M^-1 A^T; the simulation step shares those kernels), and the numpy factorisations of
+constraint_projection, constrained_inverse_dynamics and constraint_wrench, whose results are
+copied into the Data.
 """
 
 from __future__ import annotations
@@ -14,7 +24,8 @@ from __future__ import annotations
 import numpy as np
 
 from .. import checks
-from ..crba import mass_matrix
+from ..crba import crba_kernel, mass_matrix
+from ..eigen import symmetric_eigen
 from ..kinematics import jacobian
 from ..rnea import rnea_kernel
 from .arguments import _configuration, _matrix_A, _state, _vector_k
@@ -23,23 +34,37 @@ from .solve import (
     RANK_RTOL,
     constrained_forward_kernel,
     constrained_solve_kernel,
-    symmetric_eigen,
 )
-from .table import ConstraintTable, _table
+from .table import ROW_COUNT, ConstraintTable, _table
 from .terms import constraint_terms_kernel
 
 _TERMS = ("A", "Adot_qd", "phi")  # what constraint_terms_kernel computes, in its order
 
 
-def _term(model, q, qd, constraints, q_bound, what, term):
-    """One of the constraints' terms at (q, qd): "A", "Adot_qd" or "phi", checked finite."""
+def _data_for(model, data, what, *states):
+    """Check data (None, or a Data of this model) and, with data, that no state is a batch:
+    the errors of every data= call (checks.work_of, checks.single_state_only)."""
+    if data is None:
+        return
+    checks.work_of(model, data, what)
+    if any(not isinstance(x, str) and np.ndim(x) > 1 for x in states):
+        checks.single_state_only(data, what)
+
+
+def _term(model, q, qd, constraints, q_bound, what, term, data):
+    """One of the constraints' terms at (q, qd): "A", "Adot_qd" or "phi", checked finite; in
+    data.constraint_rows(k) with data."""
+    _data_for(model, data, what, q, qd, q_bound)
     q = _configuration(model, q, "q", what)
     qd = model._zero_v if qd is None else _state(model, qd, "qd", what)
     # A and Adot qd do not depend on targets: those two bind None defaults at q
     q0 = q if isinstance(q_bound, str) else q_bound
     rows, params = _table(model, constraints, q0, "q_bound")
-    k = int(rows[:, 2].sum())
-    terms = np.empty((k, model.nv)), np.empty(k), np.empty(k)
+    k = int(rows[:, ROW_COUNT].sum())
+    if data is None:
+        terms = np.empty((k, model.nv)), np.empty(k), np.empty(k)
+    else:
+        terms = data.constraint_rows(k)[: len(_TERMS)]
     status = constraint_terms_kernel(model._ibuf, model._fbuf, rows, params, q, qd, *terms)
     arguments = {"q": q, "qd": qd, "q_bound": q0}
     if status:
@@ -47,7 +72,7 @@ def _term(model, q, qd, constraints, q_bound, what, term):
     return checks.check_result(terms[_TERMS.index(term)], what, term, arguments)
 
 
-def constraint_jacobian(model, q, constraints):
+def constraint_jacobian(model, q, constraints, data=None):
     """A(q): (k, nv) the constraints' rows stacked in order, A qd = 0 on the motion.
 
     q: (nq,) configuration; constraints: one constraint object or a sequence
@@ -56,12 +81,13 @@ def constraint_jacobian(model, q, constraints):
     of frame b relative to frame a in frame b's axes (angular first), a JointCoupling's its
     matrix. On a floating base the first 6 columns are per unit base body twist (omega_b, v_b).
     Targets do not enter A, so None targets are simply bound at q.
+    data: optional Data of this model: returns data.constraint_rows(k).A.
     """
     checks.check_model(model, "constraint_jacobian")
-    return _term(model, q, None, constraints, "q", "constraint_jacobian", "A")
+    return _term(model, q, None, constraints, "q", "constraint_jacobian", "A", data)
 
 
-def constraint_drift(model, q, qd, constraints):
+def constraint_drift(model, q, qd, constraints, data=None):
     """Adot(q, qd) qd: (k,) the time derivative of A qd at qdd = 0, without gravity, so that
     d/dt (A qd) = A qdd + Adot qd. For a point: its classical acceleration in world axes
     (m/s^2); for a FixedPose: the rate of the relative twist (frame b axes, angular first);
@@ -70,12 +96,13 @@ def constraint_drift(model, q, qd, constraints):
     q: (nq,) configuration, qd: (nv,) velocity (on a floating base qdd is the rate of the base
     body twist); constraints: one constraint object or a sequence. Targets do not enter, so
     None targets are bound at q.
+    data: optional Data of this model: returns data.constraint_rows(k).Adot_qd.
     """
     checks.check_model(model, "constraint_drift")
-    return _term(model, q, qd, constraints, "q", "constraint_drift", "Adot_qd")
+    return _term(model, q, qd, constraints, "q", "constraint_drift", "Adot_qd", data)
 
 
-def constraint_error(model, q, constraints, q_bound=None):
+def constraint_error(model, q, constraints, q_bound=None, data=None):
     """phi(q): (k,) the constraints' position errors, d/dt phi = A qd (for a FixedPose where
     phi = 0): p - target, n . p - offset, p_a - p_b (m, world axes), log(T_ab*^-1 T_ab) (rad, m;
     frame b axes, angular first), C (q (-) q_ref) = C difference(model, q_ref, q).
@@ -83,13 +110,24 @@ def constraint_error(model, q, constraints, q_bound=None):
     q: (nq,) configuration; constraints: one constraint object or a sequence;
     q_bound: (nq,) the configuration at which a None target / offset / T_ab / q_ref is bound.
     A None default without q_bound raises ValueError naming the constraint and the field.
+    data: optional Data of this model: returns data.constraint_rows(k).phi.
     """
     checks.check_model(model, "constraint_error")
-    return _term(model, q, None, constraints, q_bound, "constraint_error", "phi")
+    return _term(model, q, None, constraints, q_bound, "constraint_error", "phi", data)
 
 
 def constrained_forward_dynamics(
-    model, q, qd, tau, constraints=None, *, A=None, Adot_qd=None, gravity=None, f_tip=None
+    model,
+    q,
+    qd,
+    tau,
+    constraints=None,
+    *,
+    A=None,
+    Adot_qd=None,
+    gravity=None,
+    f_tip=None,
+    data=None,
 ):
     """(qdd, lam): forward dynamics under A(q) qd = 0,
         M qdd + h + A^T lam = tau,   A qdd + Adot qd = 0,
@@ -108,10 +146,14 @@ def constrained_forward_dynamics(
     constraints (for a point constraint: the force in N, world axes, that the point pushes with;
     for a FixedPose: the wrench (m, f) frame b applies, in frame b's coordinates). For
     rank-deficient A, lam is the minimum-norm solution (constraints.solve).
+    data: optional Data of this model: returns data.qdd and data.constraint_rows(k).lam; with
+      A, data.h holds the right-hand side tau - h - J^T F_tip and data.M's lower triangle the
+      Cholesky factor of M.
     Raises SingularMassMatrixError when M is singular.
     """
     what = "constrained_forward_dynamics"
     checks.check_model(model, what)
+    _data_for(model, data, what, q, qd, tau)
     if (constraints is None) == (A is None):
         raise ValueError(
             f"{what}: give exactly one of `constraints` (constraint objects) and `A` (a (k, nv) "
@@ -127,8 +169,7 @@ def constrained_forward_dynamics(
     loads = checks.loads(model, gravity, f_tip)
     if constraints is not None:
         rows, params = _table(model, constraints, q, "q")
-        k = int(rows[:, 2].sum())
-        qdd, lam = np.empty(model.nv), np.empty(k)
+        qdd, lam = _solution(model, int(rows[:, ROW_COUNT].sum()), data)
         status = constrained_forward_kernel(
             model._ibuf,
             model._fbuf,
@@ -144,12 +185,19 @@ def constrained_forward_dynamics(
     else:
         A = _matrix_A(model, A, what)
         gamma = _vector_k(Adot_qd, A.shape[0], "Adot_qd", what)
-        rhs = np.empty(model.nv)
-        rnea_kernel(model._ibuf, model._fbuf, model._work, q, qd, model._zero_v, loads, rhs)
-        rhs = tau - rhs
-        M = mass_matrix(model, q)
-        qdd, lam = np.empty(model.nv), np.empty(A.shape[0])
-        status = constrained_solve_kernel(M, rhs, A, gamma, qdd, lam)
+        work = checks.work_of(model, data, what)
+        if data is None:
+            rhs, M = np.empty(model.nv), np.empty((model.nv, model.nv))
+        else:
+            rhs, M = data.h, data.M
+        # rhs = tau - h - J^T F_tip, M by CRBA
+        status = rnea_kernel(model._ibuf, model._fbuf, work, q, qd, model._zero_v, loads, rhs)
+        if not status:
+            np.subtract(tau, rhs, out=rhs)
+            status = crba_kernel(model._ibuf, model._fbuf, work, q, M)
+        qdd, lam = _solution(model, A.shape[0], data)
+        if not status:
+            status = constrained_solve_kernel(M, rhs, A, gamma, qdd, lam)
     arguments = {
         "q": q,
         "qd": qd,
@@ -165,6 +213,22 @@ def constrained_forward_dynamics(
         checks.check_result(qdd, what, "qdd", arguments),
         checks.check_result(lam, what, "lam", arguments),
     )
+
+
+def _solution(model, k, data):
+    """(qdd (nv,), lam (k,)) to solve into: fresh, or data.qdd and data.constraint_rows(k).lam."""
+    if data is None:
+        return np.empty(model.nv), np.empty(k)
+    return data.qdd, data.constraint_rows(k).lam
+
+
+def _held(x, data, field):
+    """x, or with data its copy in the Data's field of that name (which is returned)."""
+    if data is None:
+        return x
+    out = getattr(data, field)
+    out[...] = x
+    return out
 
 
 def _pseudo_inverse(G):
@@ -192,22 +256,25 @@ def _projection(model, q, A, what):
     return P, G_pinv, M_inv
 
 
-def constraint_projection(model, q, A):
+def constraint_projection(model, q, A, data=None):
     """P(q) = I - A^T (A M^-1 A^T)^+ A M^-1: (nv, nv), so that P tau = P (M qdd + h) on the
     constrained motion (constrained inverse dynamics). P A^T = 0 (P removes the torques the
     constraints absorb), P^2 = P, A M^-1 P = 0, and P M = M - A^T G^+ A is symmetric.
 
     q: (nq,) configuration; A: (k, nv) constraint matrix (e.g. constraint_jacobian). For
     rank-deficient A, (A M^-1 A^T)^+ is the pseudo-inverse (constraints.solve).
+    data: optional Data of this model: returns data.P (computed by numpy, then copied in).
     """
     what = "constraint_projection"
     checks.check_model(model, what)
+    _data_for(model, data, what, q)
     q = _configuration(model, q, "q", what)
     A = _matrix_A(model, A, what)
-    return checks.check_result(_projection(model, q, A, what)[0], what, "P", {"q": q, "A": A})
+    P = checks.check_result(_projection(model, q, A, what)[0], what, "P", {"q": q, "A": A})
+    return _held(P, data, "P")
 
 
-def constrained_inverse_dynamics(model, q, qd, qdd, A, lam=None, gravity=None):
+def constrained_inverse_dynamics(model, q, qd, qdd, A, lam=None, gravity=None, data=None):
     """tau (nv,): the joint torques that produce qdd under the constraints A qd = 0.
 
     lam None: tau = P (M qdd + h), the torque with no part that the constraints absorb
@@ -219,9 +286,11 @@ def constrained_inverse_dynamics(model, q, qd, qdd, A, lam=None, gravity=None):
 
     q: (nq,) configuration; qd, qdd: (nv,); A: (k, nv); lam: (k,) constraint force as returned by
     constrained_forward_dynamics; gravity: optional (3,) world-frame gravity (m/s^2).
+    data: optional Data of this model: returns data.tau (computed by numpy, then copied in).
     """
     what = "constrained_inverse_dynamics"
     checks.check_model(model, what)
+    _data_for(model, data, what, q, qd, qdd)
     q = _configuration(model, q, "q", what)
     qd = _state(model, qd, "qd", what)
     qdd = _state(model, qdd, "qdd", what)
@@ -247,10 +316,10 @@ def constrained_inverse_dynamics(model, q, qd, qdd, A, lam=None, gravity=None):
     if lam is not None:
         lam_P = -G_pinv @ (A @ (M_inv @ tau_free))
         tau = tau + A.T @ (lam - lam_P)
-    return checks.check_result(tau, what, "tau", arguments)
+    return _held(checks.check_result(tau, what, "tau", arguments), data, "tau")
 
 
-def constraint_wrench(model, q, frame, A, lam):
+def constraint_wrench(model, q, frame, A, lam, data=None):
     """F_tip = J_b^-T A^T lam: (6,) the wrench (m, f) the frame applies to the constraint, in
     the frame's coordinates (N m, N), so that J_b^T F_tip = A^T lam (the seed's J^T F_tip =
     A^T lam); J_b is the frame's body Jacobian.
@@ -258,9 +327,11 @@ def constraint_wrench(model, q, frame, A, lam):
     q: (nq,) configuration; frame: a frame name; A: (k, nv); lam: (k,) (as from
     constrained_forward_dynamics). Raises ValueError when J_b is not square (nv != 6) or not
     invertible at q (a singular configuration), saying so.
+    data: optional Data of this model: returns data.F_tip (computed by numpy, then copied in).
     """
     what = "constraint_wrench"
     checks.check_model(model, what)
+    _data_for(model, data, what, q)
     q = _configuration(model, q, "q", what)
     A = _matrix_A(model, A, what)
     lam = _vector_k(lam, A.shape[0], "lam", what)
@@ -277,4 +348,5 @@ def constraint_wrench(model, q, frame, A, lam):
             f"{sv}): the frame cannot move in every direction, so F_tip is not determined"
         )
     F_tip = np.linalg.solve(J_b.T, A.T @ lam)
-    return checks.check_result(F_tip, what, "F_tip", {"q": q, "A": A, "lam": lam})
+    F_tip = checks.check_result(F_tip, what, "F_tip", {"q": q, "A": A, "lam": lam})
+    return _held(F_tip, data, "F_tip")

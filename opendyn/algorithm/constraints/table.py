@@ -3,7 +3,8 @@ configuration, as the flat arrays the compiled kernels read.
 
 Compiled interface:
   constraint_table(model, constraints, q0 (nq,)) -> rows (n_c, 5) int64, params (p,) float64
-      row: (kind, offset into params, m rows of A, body_a, body_b), body -1 = the fixed world
+      row: (kind, offset into params, m rows of A, body_a, body_b), body -1 = the fixed world;
+      its columns by name: KIND, OFFSET, ROW_COUNT, BODY_A, BODY_B
   ConstraintTable(rows, params, gains): what the constrained solve takes, the table and the
       Baumgarte gains (alpha, beta) (2,) 1/s of A qdd + Adot qd + 2 alpha A qd + beta^2 phi = 0
       (NO_STABILISATION, zeros: none)
@@ -26,7 +27,9 @@ from .. import checks
 from ..kinematics import frame_pose
 from .arguments import _configuration
 
-ROW_FIELDS = ("kind", "offset", "rows", "body_a", "body_b")  # columns of the table's rows
+# The columns of the table's rows (n_c, 5), by name: the constraint's kind, the offset of its
+# numbers in params, its count of rows of A, and the bodies of its frames a and b (-1: the world).
+KIND, OFFSET, ROW_COUNT, BODY_A, BODY_B = range(5)
 # The constraints as the compiled solve reads them: rows (n_c, 5) int64 and params (p,) float64
 # of constraint_table, and the Baumgarte gains (alpha, beta) (2,) float64, 1/s.
 ConstraintTable = namedtuple("ConstraintTable", ("rows", "params", "gains"))
@@ -156,7 +159,9 @@ def _table(model, constraints, q0, q0_name="q0"):
             else:
                 q_ref = _configuration(model, q_ref, "q_ref", label)
             p = np.concatenate([C.ravel(), q_ref])
-        rows[n] = (c.kind, offset, c.n_rows(model.nv), body_a, body_b)
+        rows[n, KIND], rows[n, OFFSET] = c.kind, offset
+        rows[n, ROW_COUNT] = c.n_rows(model.nv)
+        rows[n, BODY_A], rows[n, BODY_B] = body_a, body_b
         params.append(np.asarray(p, dtype=np.float64))
         offset += len(p)
     params = np.ascontiguousarray(np.concatenate(params) if params else np.zeros(0))
@@ -166,9 +171,10 @@ def _table(model, constraints, q0, q0_name="q0"):
 def constraint_table(model, constraints, q0):
     """The compiled form of constraints: (rows (n_c, 5) int64, params (p,) float64).
 
-    rows[n] = (kind, offset into params, m (its rows of A), body_a, body_b), body -1 = the fixed
-    world, kind one of opendyn.multibody.constraint_objects.POINT_TO_WORLD, POINT_ON_PLANE,
-    POINT_TO_POINT, FIXED_POSE, JOINT_COUPLING. params per kind, from the offset (points in body
+    rows[n] = (kind, offset into params, m (its rows of A), body_a, body_b), the columns KIND,
+    OFFSET, ROW_COUNT, BODY_A, BODY_B; body -1 = the fixed world, kind one of
+    opendyn.multibody.constraint_objects.POINT_TO_WORLD, POINT_ON_PLANE, POINT_TO_POINT,
+    FIXED_POSE, JOINT_COUPLING. params per kind, from the offset (points in body
     coordinates, i.e. T_{body,frame} applied; world vectors in the world frame; m, rad):
       POINT_TO_WORLD  r_a (3), target (3)
       POINT_ON_PLANE  r_a (3), unit normal (3), offset (1)

@@ -41,12 +41,13 @@ from .frames import (
     relative_pose,
     world_poses,
 )
+from .table import BODY_A, BODY_B, KIND, OFFSET, ROW_COUNT
 
 
 @njit(**JIT)
 def constraint_terms_kernel(ibuf, fbuf, rows, params, q, qd, A, Adot_qd, phi):
     """A (k, nv), Adot_qd (k,), phi (k,) <- every constraint's rows at (q (nq,), qd (nv,)),
-    k = rows[:, 2].sum(), in table order. Adot qd is d/dt (A qd) at qdd = 0 (no gravity).
+    k = rows[:, ROW_COUNT].sum(), in table order. Adot qd is d/dt (A qd) at qdd = 0 (no gravity).
     Point rows: world axes; FIXED_POSE: frame b axes, angular first (see
     opendyn.multibody.constraint_objects). Returns a Status: OK, Q_NOT_FINITE,
     Q_NOT_UNIT_QUATERNION or QD_NOT_FINITE."""
@@ -80,7 +81,8 @@ def constraint_terms_kernel(ibuf, fbuf, rows, params, q, qd, A, Adot_qd, phi):
     zero_matrix(A)
     r0 = 0
     for n in range(rows.shape[0]):
-        kind, o, m, body_a, body_b = rows[n, 0], rows[n, 1], rows[n, 2], rows[n, 3], rows[n, 4]
+        kind, o, m = rows[n, KIND], rows[n, OFFSET], rows[n, ROW_COUNT]
+        body_a, body_b = rows[n, BODY_A], rows[n, BODY_B]
         if kind == POINT_TO_WORLD or kind == POINT_TO_POINT:
             # world velocity of point a (minus that of point b): 3 rows
             point_motion(R_s, p_s, V, dV, body_a, params[o : o + 3], p_a, a_a)
