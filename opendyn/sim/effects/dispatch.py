@@ -3,17 +3,18 @@
     run_stages(which, effects, ctx, out)    the effect of slot `which` (EVERY: every slot, in
                                             order) adds its generalized force to out
 
-numba builds it when it compiles a caller, for the tuple's types: slot k calls
-registry.stages()[k].apply(effects[k], ctx, out), unless effects[k] is None. The test
-`is not None` on a None-typed slot is a constant, so the call of an effect the scene does not
-name is dropped (its apply is compiled for None only, where it is a bare return: a call left
-in, with its array arguments, cost about 60 ns per empty slot and evaluation). Nothing here is
-made at run time: the implementation is numba's own extension mechanism (`overload`), chosen
-when a caller compiles, and the compiled callers cache on disk as any kernel.
+numba builds it when it compiles a caller, for the tuple's types: for each slot k whose
+parameters are not None, a call registry.stages()[k].apply(effects[k], ctx, out). A slot the
+scene does not name (None) gets no line at all, so its effect is neither compiled nor run. The
+body is written out, one `if` per named slot, when the caller compiles (numba's extension
+mechanism, `overload`): a recursion over the tuple's tail, effects[1:], copied the tuple's
+arrays at every level, about 1.2 us an evaluation on the UR5 with a PD controller. Nothing
+here is made at run time, and the compiled callers cache on disk as any kernel.
 """
 
 from __future__ import annotations
 
+from numba.core import types
 from numba.extending import overload
 
 from .interface import OK
@@ -30,24 +31,20 @@ def run_stages(which, effects, ctx, out):
     raise NotImplementedError("run_stages runs in compiled code (numba) only")
 
 
-def _none_left(which, effects, ctx, out):
-    return OK
-
-
-@overload(run_stages)
+@overload(run_stages, inline="always")
 def _run_stages(which, effects, ctx, out):
-    """run_stages for the type of `effects`, the tuple of the slots from len(stages) -
-    len(effects) on: the first one's effect, then run_stages on the rest of the tuple."""
-    if len(effects) == 0:
-        return _none_left
-    slot = len(stages()) - len(effects)
-    apply = stages()[slot].apply
-
-    def first_then_rest(which, effects, ctx, out):
-        if (which == EVERY or which == slot) and effects[0] is not None:
-            status = apply(effects[0], ctx, out)
-            if status:
-                return status
-        return run_stages(which, effects[1:], ctx, out)
-
-    return first_then_rest
+    """run_stages for the type of `effects`: one call per slot that is not None, in order."""
+    named = [k for k, kind in enumerate(effects.types) if not isinstance(kind, types.NoneType)]
+    lines = ["def run_named(which, effects, ctx, out):"]
+    for k in named:
+        lines += [
+            f"    if which == EVERY or which == {k}:",
+            f"        status = apply_{k}(effects[{k}], ctx, out)",
+            "        if status:",
+            "            return status",
+        ]
+    lines.append("    return OK")
+    scope = {"__name__": __name__, "EVERY": EVERY, "OK": OK}
+    scope.update({f"apply_{k}": stages()[k].apply for k in named})
+    exec("\n".join(lines), scope)  # noqa: S102 (the lines above, nothing from outside)
+    return scope["run_named"]
