@@ -25,12 +25,12 @@ def immutable(x, dtype=np.float64) -> np.ndarray:
 
 @intrinsic
 def shaped(typingctx, flat, shape):
-    """shaped(flat, shape): a C-contiguous view of the 1-D C-contiguous array `flat` with the
-    given shape (a tuple of integers whose product is flat's length; not checked: the callers
+    """shaped(flat, shape): a C-contiguous view of the C-contiguous array `flat` with the
+    given shape (a tuple of integers whose product is flat's size; not checked: the callers
     slice `flat` from a layout table). What `flat.reshape(shape)` gives, without its call to
     numba's run-time reshape helper (about 18 ns a view, opaque to LLVM): the kernels make
     20-odd views of their buffers on every call. Any other argument type is a typing error."""
-    if not (isinstance(flat, types.Array) and flat.ndim == 1 and flat.layout == "C"):
+    if not (isinstance(flat, types.Array) and flat.layout == "C"):
         return None
     if not (isinstance(shape, types.UniTuple) and isinstance(shape.dtype, types.Integer)):
         return None
@@ -96,5 +96,5 @@ def all_finite(x):
 def result_status(x):
     """OK when every entry of the C-contiguous result x is finite, else RESULT_NOT_FINITE: a
     kernel's last check, after its finite arguments (float64 overflowed on the way)."""
-    return Status.OK.value if all_finite(x.reshape(x.size)) else Status.RESULT_NOT_FINITE.value
+    return Status.OK.value if all_finite(shaped(x, (x.size,))) else Status.RESULT_NOT_FINITE.value
 
