@@ -57,6 +57,9 @@ SCENES = (
     "four_bar",
     "planar_3r_pinned",
     "ur5_on_plane",
+    "ball_drop",
+    "quadruped_drop",
+    "panda_impedance",
 )
 
 
