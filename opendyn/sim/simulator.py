@@ -155,6 +155,8 @@ class Simulator:
         tau: (nv,) generalized force (N m or N) added to the scene's effects as control torque
           (None: zero); on a floating base also the joints' (nv - 6,) alone, and its base part
           (the first 6) must be zero: the base is not actuated.
+        The scene's `clip = true` clips its own control law, not tau (clip a Python
+        controller's torque in the controller).
         A fixed-step integrator takes whole steps (a duration that is not a whole number of
         run.dt is a ValueError naming both); DOPRI5 lands exactly on the end. With a Python
         controller, the duration must be a whole number of control periods, and the
