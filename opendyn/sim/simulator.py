@@ -34,6 +34,8 @@ from .._runtime.entry import entry_for
 from .._runtime.signals import signal_name
 from ..algorithm import checks
 from ..errors import SceneError, SimulationError
+from ..io.scene.sections_robot import BASE_QUATERNION_TOLERANCE
+from ..io.scene.sections_run import whole_steps
 from ..multibody.joints import FREE
 from . import effects, integrators, step
 from .diagnostics import check_contact_step, failure_message
@@ -51,11 +53,6 @@ from .simulate import (
     trajectory_of,
 )
 
-# a duration counts as a whole number of steps within this relative tolerance (as run.dt does)
-_WHOLE_RTOL = 1e-9
-# a configuration's quaternion may be off unit norm by this much (then normalised), as a scene's
-# base_orientation
-_QUATERNION_TOLERANCE = 1e-6
 
 
 class Simulator:
@@ -76,7 +73,9 @@ class Simulator:
         _, self._every, _ = preflight(scene, self._integ)
         self._table = effects.stage_table(scene)
         check_contact_step(scene, self._table)
-        self._controller, self.control_dt = _controller_of(scene, controller, control_dt)
+        self._controller, self.control_dt = _controller_of(
+            scene, self._integ, controller, control_dt
+        )
         self._held = python_control.held_torque(self.model)
         self._data = step.scene_data(self.model, self._table, self._held)
         self._free = free_joints(self.model)
@@ -176,7 +175,7 @@ class Simulator:
             self._held[:] = tau_user
             self._advance(duration)
             return
-        ticks = _whole(duration / self.control_dt)
+        ticks = whole_steps(duration / self.control_dt)
         if ticks is None:
             raise ValueError(
                 f"Simulator.step: duration = {duration:g} s is not a whole number of control "
@@ -215,7 +214,7 @@ class Simulator:
         if self._integ.adaptive:
             status = self._advance_adaptive(self._t + duration)
         else:
-            n = _whole(duration / self.scene.run.dt)
+            n = whole_steps(duration / self.scene.run.dt)
             if n is None:
                 raise ValueError(
                     f"Simulator.step: duration = {duration:g} s is not a whole number of steps "
@@ -358,7 +357,7 @@ def run_controlled(scene, controller, control_dt, progress, raise_on_failure):
     with simulate's progress bar, Ctrl-C and failure handling."""
     sim = Simulator(scene, controller=controller, control_dt=control_dt)
     duration, period = scene.run.duration, sim.control_dt
-    ticks = max(1, math.ceil(duration / period * (1 - _WHOLE_RTOL)))
+    ticks = whole_steps(duration / period) or math.ceil(duration / period)
     bar = progress_bar(duration) if progress else None
     shown, shown_at = 0.0, time.perf_counter()
     message = ""
@@ -387,7 +386,7 @@ def run_controlled(scene, controller, control_dt, progress, raise_on_failure):
     return trajectory
 
 
-def _controller_of(scene, controller, control_dt):
+def _controller_of(scene, integ, controller, control_dt):
     """(fn or None, control period s): the given controller or the scene's Python one, and
     its period: control_dt, else the scene's [control] control_dt, else run.control_dt, else
     run.dt; for a fixed-step integrator a whole number of steps."""
@@ -411,7 +410,7 @@ def _controller_of(scene, controller, control_dt):
     control_dt = checks.as_real(control_dt, "control_dt")
     if not (math.isfinite(control_dt) and control_dt > 0):
         raise ValueError(f"control_dt must be a time > 0 (s), got {control_dt}")
-    if run.integrator not in ("dopri5",) and _whole(control_dt / run.dt) is None:
+    if not integ.adaptive and whole_steps(control_dt / run.dt) is None:
         raise ValueError(
             f"{scene.source}: control_dt = {control_dt:g} s is not a whole number of steps of "
             f"run.dt = {run.dt:g} s ({control_dt / run.dt:.6g} steps); the fixed-step "
@@ -424,9 +423,9 @@ def load_controller(spec, what):
     """The function that spec names: "FILE.py:NAME" (a file, loaded as a module of its own) or
     "MODULE:NAME" (imported). SceneError naming `what`, the file or module and the reason
     when it cannot be loaded."""
-    where, _, name = str(spec).rpartition(":")
-    if not where or not name.isidentifier():
-        raise SceneError(f'{what}: {spec!r} is not "FILE.py:NAME" or "MODULE:NAME"')
+    where, name = python_control.function_parts(spec)
+    if where is None:
+        raise SceneError(f"{what}: {python_control.NOT_A_FUNCTION.format(spec=spec)}")
     try:
         if where.endswith(".py"):
             path = pathlib.Path(where)
@@ -454,15 +453,16 @@ def load_controller(spec, what):
 
 def _configuration(model, q):
     """q checked as an initial configuration (nq,): finite, unit quaternions (normalised
-    within _QUATERNION_TOLERANCE)."""
+    within BASE_QUATERNION_TOLERANCE)."""
     q = _vector(model, q, "Simulator.reset: q", model.nq)
     for i in np.flatnonzero(model.jtype == FREE):
         k = int(model.iq[i]) + 3
         norm = float(np.linalg.norm(q[k : k + 4]))
-        if not abs(norm - 1.0) <= _QUATERNION_TOLERANCE:
+        if not abs(norm - 1.0) <= BASE_QUATERNION_TOLERANCE:
             raise ValueError(
                 f"Simulator.reset: q[{k}:{k + 4}] is the floating base's quaternion [x, y, z, "
-                f"w] and must have unit norm (within {_QUATERNION_TOLERANCE:g}), found {norm:.6g}"
+                f"w] and must have unit norm (within {BASE_QUATERNION_TOLERANCE:g}), found "
+                f"{norm:.6g}"
             )
         q[k : k + 4] /= norm
     return q
@@ -478,12 +478,6 @@ def _vector(model, x, what, n=None):
     if not np.all(np.isfinite(a)):
         raise ValueError(f"{what}: not finite: {_shown(a)}")
     return a
-
-
-def _whole(ratio):
-    """round(ratio) when ratio is a whole number >= 1 to rounding, else None."""
-    n = round(ratio)
-    return n if n >= 1 and abs(ratio - n) <= _WHOLE_RTOL * ratio else None
 
 
 def _shown(a):

@@ -92,7 +92,7 @@ def check_fixed_steps(run: Run, source: str) -> None:
     ratio = output_dt / dt
     if not np.isfinite(ratio):
         r.fail("run.dt", f"{dt:g} s is too small a step to count in float64")
-    if not _whole(ratio):
+    if whole_steps(ratio) is None:
         r.fail(
             "run.output_dt",
             f"{output_dt:g} s is not a whole multiple of run.dt = {dt:g} s (it is "
@@ -107,7 +107,7 @@ def check_fixed_steps(run: Run, source: str) -> None:
             f"than a run can count (2^53 = {MAX_STEPS:.3g}); shorten run.duration or raise "
             "run.dt",
         )
-    if not _whole(ratio):
+    if whole_steps(ratio) is None:
         below, above = int(np.floor(ratio)) or 1, int(np.ceil(ratio))
         r.fail(
             "run.duration",
@@ -117,7 +117,8 @@ def check_fixed_steps(run: Run, source: str) -> None:
         )
 
 
-def _whole(ratio: float) -> bool:
-    """Whether a ratio of times is a whole number (at least 1) of steps, to rounding."""
+def whole_steps(ratio: float) -> int | None:
+    """round(ratio) when a ratio of times is a whole number (at least 1) of steps, to rounding;
+    else None."""
     steps = round(ratio)
-    return steps >= 1 and abs(ratio - steps) <= _WHOLE_STEPS_RTOL * ratio
+    return steps if steps >= 1 and abs(ratio - steps) <= _WHOLE_STEPS_RTOL * ratio else None

@@ -48,12 +48,9 @@ def read(r, table, q0) -> Control:
             'to the scene file) or "MODULE:NAME"',
         )
     function = r.string(table["function"], "control.function")
-    where, _, name = function.rpartition(":")
-    if not where or not name.isidentifier():
-        r.fail(
-            "control.function",
-            f'{function!r} is not "FILE.py:NAME" or "MODULE:NAME" (NAME: the function\'s name)',
-        )
+    where, name = function_parts(function)
+    if where is None:
+        r.fail("control.function", NOT_A_FUNCTION.format(spec=function))
     if where.endswith(".py"):
         path = pathlib.Path(where)
         if not path.is_absolute() and getattr(r, "base_dir", None) is not None:
@@ -65,6 +62,16 @@ def read(r, table, q0) -> Control:
     if "control_dt" in table:
         control_dt = r.number(table["control_dt"], "control.control_dt", positive=True)
     return Control(kind=CONTROL_TYPE, function=function, control_dt=control_dt)
+
+
+NOT_A_FUNCTION = '{spec!r} is not "FILE.py:NAME" or "MODULE:NAME" (NAME: the function\'s name)'
+
+
+def function_parts(spec) -> tuple[str | None, str | None]:
+    """(where, name) of a function spec "FILE.py:NAME" or "MODULE:NAME" (the last colon
+    splits, so a Windows path's drive stays in where); (None, None) when it is neither."""
+    where, _, name = str(spec).rpartition(":")
+    return (where, name) if where and name.isidentifier() else (None, None)
 
 
 def pack(control, model) -> np.ndarray:
