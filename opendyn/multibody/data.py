@@ -35,6 +35,17 @@ Per body, as the last evaluation that computes them left them:
   Bc            (nb, 6, 3) the angular columns of the subtree's sum of
                           Bs = -1/2 (G ad_V + ad_V^T G) - 1/2 X(G V), in {s}
   V_s           (nb, 6)   body twists in {s} (the spatial velocities)
+The dynamics' derivatives (opendyn.algorithm.rnea_derivatives, minverse), in {s}:
+  A_s           (nb, 6)   body accelerations dV_s/dt in {s}, with gravity as the base's
+                          acceleration (0, -g) (rad/s^2, m/s^2)
+  Fc_s          (nb, 6)   the sum over the subtree of body i of the wrenches G A + V x* G V and
+                          the wrenches the bodies apply to the environment, in {s} (N m, N)
+  psi, alpha, beta (nb, 6, 6) rows k < nv_i: the rates of V and A that moving joint i's axis
+                          S = S_s[i, k] adds beyond carrying the subtree along: psi = V_lambda x S,
+                          alpha = A_lambda x S + V_lambda x psi (per rad or m); beta = dS + psi,
+                          the rate of A per unit of its velocity (per s)
+  IA_s, U_s, Dinv (nb, 6, 6) the recursive M^-1's articulated inertias in {s}, U_i = IA_i S_i
+                          (rows) and D_i^-1 = (S_i^T U_i)^-1
 Joint space, the results (the function that returns each):
   tau           (nv,)     inverse_dynamics
   g             (nv,)     gravity_forces
@@ -45,6 +56,8 @@ Joint space, the results (the function that returns each):
   M             (nv, nv)  mass_matrix; forward dynamics by CRBA and the task-space functions
                           leave in its lower triangle the Cholesky factor L of M = L L^T
   C             (nv, nv)  coriolis_matrix
+  dtau_dq, dtau_dqd (nv, nv) inverse_dynamics_derivatives (with data.M = dtau/dqdd)
+  ddq_dq, ddq_dqd, Minv (nv, nv) forward_dynamics_derivatives (Minv = dqdd/dtau = M^-1)
   Gamma         (nv, nv, nv) christoffel_symbols (an array of its own beside the buffer)
   J             (6, nv)   jacobian; the task-space functions leave the frame's J_b in it
   T_sf          (4, 4)    frame_pose (jacobian and the task-space functions leave the frame's
@@ -115,6 +128,15 @@ WORK_FIELDS = (
     ("dS", (6, 6), "nb"),
     ("Bc", (6, 3), "nb"),
     ("V_s", (6,), "nb"),
+    ("A_s", (6,), "nb"),
+    ("Fc_s", (6,), "nb"),
+    ("psi", (6, 6), "nb"),
+    ("alpha", (6, 6), "nb"),
+    ("beta", (6, 6), "nb"),
+    ("IA_s", (6, 6), "nb"),
+    ("U_s", (6, 6), "nb"),
+    ("Dinv", (6, 6), "nb"),
+    ("subtree_end", (), "nb"),
     ("idle", (), "nb"),
     ("still", (), "nb"),
     ("tau", (), "nv"),
@@ -129,6 +151,12 @@ WORK_FIELDS = (
     ("M", (), "nv2"),
     ("C", (), "nv2"),
     ("P", (), "nv2"),
+    ("dtau_dq", (), "nv2"),
+    ("dtau_dqd", (), "nv2"),
+    ("ddq_dq", (), "nv2"),
+    ("ddq_dqd", (), "nv2"),
+    ("Minv", (), "nv2"),
+    ("unit_responses", (6,), "nv2"),
     ("T_sf", (4, 4), "fixed"),
     ("energy", (2,), "fixed"),
     ("Lambda", (6, 6), "fixed"),
@@ -140,7 +168,18 @@ WORK_FIELDS = (
     ("temp", (3, 6), "fixed"),
 )
 # the kernels' scratch; every other field is one a user reads
-SCRATCH_FIELDS = ("body_flag", "idle", "still", "zero_v", "e_k", "no_loads", "scratch", "temp")
+SCRATCH_FIELDS = (
+    "body_flag",
+    "idle",
+    "still",
+    "subtree_end",
+    "zero_v",
+    "e_k",
+    "unit_responses",
+    "no_loads",
+    "scratch",
+    "temp",
+)
 PUBLIC_FIELDS = tuple(name for name, _, _ in WORK_FIELDS if name not in SCRATCH_FIELDS)
 _UNITS = ("nb", "nv", "nv2", "fixed")
 
@@ -176,7 +215,7 @@ def _shape(name, shape, unit, nb, nv):
         return (nb, *shape)
     if unit == "nv":
         return (*shape, nv)
-    return (nv, nv) if unit == "nv2" else shape
+    return (*shape, nv, nv) if unit == "nv2" else shape
 
 
 class Data:
@@ -423,4 +462,64 @@ def task_space_fields(work, nb, nv):
         shaped(work_field(work, nb, nv, _JMINV), (6, nv)),
         shaped(work_field(work, nb, nv, _LAMBDA), (6, 6)),
         work_field(work, nb, nv, _DV_F),
+    )
+
+
+_A_S, _FC_S, _PSI, _ALPHA, _BETA = (_where(n) for n in ("A_s", "Fc_s", "psi", "alpha", "beta"))
+_IA_S, _U_S, _DINV, _SUBTREE_END = (_where(n) for n in ("IA_s", "U_s", "Dinv", "subtree_end"))
+_DTAU_DQ, _DTAU_DQD = _where("dtau_dq"), _where("dtau_dqd")
+_DDQ_DQ, _DDQ_DQD, _MINV, _UNIT_RESPONSES = (
+    _where(n) for n in ("ddq_dq", "ddq_dqd", "Minv", "unit_responses")
+)
+
+# The derivatives' per-body arrays (opendyn.algorithm.rnea_derivatives), views of a work
+# buffer, in {s}: A_s, Fc_s (nb, 6), and per joint axis psi, alpha, beta (nb, 6, 6).
+AxisRates = namedtuple("AxisRates", ("A_s", "Fc_s", "psi", "alpha", "beta"))
+
+
+@njit(**JIT)
+def axis_rates(work, nb):
+    """The AxisRates views of a work buffer."""
+    return AxisRates(
+        shaped(body_field(work, nb, _A_S), (nb, 6)),
+        shaped(body_field(work, nb, _FC_S), (nb, 6)),
+        shaped(body_field(work, nb, _PSI), (nb, 6, 6)),
+        shaped(body_field(work, nb, _ALPHA), (nb, 6, 6)),
+        shaped(body_field(work, nb, _BETA), (nb, 6, 6)),
+    )
+
+
+# The recursive M^-1's arrays (opendyn.algorithm.minverse), views of a work buffer, in {s}:
+# IA_s, U_s, Dinv (nb, 6, 6), subtree_end (nb,) (one past the last coordinate of the subtree of
+# body i, as a float) and responses (nb, 6, nv), the bias wrenches, then the accelerations, of
+# unit torques (it needs nb <= nv: one coordinate or more per body).
+InverseTerms = namedtuple("InverseTerms", ("IA_s", "U_s", "Dinv", "subtree_end", "responses"))
+
+
+@njit(**JIT)
+def inverse_terms(work, nb, nv):
+    """The InverseTerms views of a work buffer."""
+    return InverseTerms(
+        shaped(body_field(work, nb, _IA_S), (nb, 6, 6)),
+        shaped(body_field(work, nb, _U_S), (nb, 6, 6)),
+        shaped(body_field(work, nb, _DINV), (nb, 6, 6)),
+        body_field(work, nb, _SUBTREE_END),
+        shaped(work_field(work, nb, nv, _UNIT_RESPONSES)[: nb * 6 * nv], (nb, 6, nv)),
+    )
+
+
+# The derivatives' joint-space results, views of a work buffer: dtau_dq, dtau_dqd, ddq_dq,
+# ddq_dqd, Minv (nv, nv).
+Derivatives = namedtuple("Derivatives", ("dtau_dq", "dtau_dqd", "ddq_dq", "ddq_dqd", "Minv"))
+
+
+@njit(**JIT)
+def derivative_fields(work, nb, nv):
+    """The Derivatives views of a work buffer."""
+    return Derivatives(
+        shaped(work_field(work, nb, nv, _DTAU_DQ), (nv, nv)),
+        shaped(work_field(work, nb, nv, _DTAU_DQD), (nv, nv)),
+        shaped(work_field(work, nb, nv, _DDQ_DQ), (nv, nv)),
+        shaped(work_field(work, nb, nv, _DDQ_DQD), (nv, nv)),
+        shaped(work_field(work, nb, nv, _MINV), (nv, nv)),
     )

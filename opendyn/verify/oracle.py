@@ -191,6 +191,70 @@ class PinocchioOracle:
         qdd = pin.aba(*args, self.fext(q, f_tip)) if f_tip else pin.aba(*args)
         return self.back(qdd)
 
+    def rnea_derivatives(self, q, qd, qdd, f_tip=None, gravity=None):
+        """(dtau_dq, dtau_dqd, M) (nv, nv) each by computeRNEADerivatives (M's lower triangle
+        mirrored where Pinocchio leaves it zero); q-derivatives in the tangent space, as
+        opendyn's. With coupled mimic joints (which it refuses), central differences of
+        Pinocchio's RNEA, Richardson-extrapolated (error about 1e-10 relative)."""
+        pin = self.pin
+        if self.coupled:
+            return self._rnea_differences(q, qd, qdd, f_tip, gravity)
+        self.set_gravity(gravity)
+        args = (self.model, self.data, self.q(q), self.v(qd), self.v(qdd))
+        if f_tip:
+            dq, dv, da = pin.computeRNEADerivatives(*args, self.fext(q, f_tip))
+        else:
+            dq, dv, da = pin.computeRNEADerivatives(*args)
+        da = np.array(da)
+        lower = np.tril_indices_from(da, -1)
+        if not da[lower].any():
+            da = np.triu(da) + np.triu(da, 1).T
+        return self.back_matrix(dq), self.back_matrix(dv), self.back_matrix(da)
+
+    def aba_derivatives(self, q, qd, tau, f_tip=None, gravity=None):
+        """(dqdd_dq, dqdd_dqd, M^-1) (nv, nv) each by computeABADerivatives (M^-1's lower
+        triangle mirrored where Pinocchio leaves it zero). With coupled mimic joints (no ABA
+        in Pinocchio), -M^-1 (dtau_dq, dtau_dqd) at qdd = aba(...) from rnea_derivatives."""
+        pin = self.pin
+        if self.coupled:
+            qdd = self.aba(q, qd, tau, f_tip, gravity)
+            dq, dv, M = self.rnea_derivatives(q, qd, qdd, f_tip, gravity)
+            Minv = np.linalg.inv(M)
+            return -Minv @ dq, -Minv @ dv, Minv
+        self.set_gravity(gravity)
+        args = (self.model, self.data, self.q(q), self.v(qd), self.v(tau))
+        if f_tip:
+            dq, dv, Minv = pin.computeABADerivatives(*args, self.fext(q, f_tip))
+        else:
+            dq, dv, Minv = pin.computeABADerivatives(*args)
+        Minv = np.array(Minv)
+        if not Minv[np.tril_indices_from(Minv, -1)].any():
+            Minv = np.triu(Minv) + np.triu(Minv, 1).T
+        return self.back_matrix(dq), self.back_matrix(dv), self.back_matrix(Minv)
+
+    def _rnea_differences(self, q, qd, qdd, f_tip, gravity):
+        """Central differences of Pinocchio's RNEA in q (along opendyn's integrate), qd and
+        qdd, each Richardson-extrapolated from steps h and h/2."""
+        from ..algorithm.configuration import integrate
+
+        n = self.od.nv
+        E = np.eye(n)
+
+        def central(f, h):
+            return np.stack([(f(h * E[k]) - f(-h * E[k])) / (2 * h) for k in range(n)], 1)
+
+        def richardson(f, h=1e-3):
+            return (4 * central(f, h / 2) - central(f, h)) / 3
+
+        def tau(q_, qd_, qdd_):
+            return self.rnea(q_, qd_, qdd_, f_tip, gravity)
+
+        return (
+            richardson(lambda e: tau(integrate(self.od, q, e, 1.0), qd, qdd)),
+            richardson(lambda e: tau(q, qd + e, qdd)),
+            richardson(lambda e: tau(q, qd, qdd + e)),
+        )
+
     def gravity_forces(self, q, gravity=None):
         """g (nv,), by Pinocchio's computeGeneralizedGravity."""
         self.set_gravity(gravity)
