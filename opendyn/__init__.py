@@ -23,6 +23,7 @@ from .errors import (
 # folder named by the hash of the package's sources (opendyn._runtime.kernel_cache); by layer:
 # multibody -> algorithm -> io -> sim -> sweep
 with kernel_cache():
+    from .algorithm.aba_derivatives import forward_dynamics_derivatives
     from .algorithm.christoffel import christoffel_symbols, coriolis_matrix
     from .algorithm.configuration import (
         difference,
@@ -45,6 +46,7 @@ with kernel_cache():
     from .algorithm.forward import forward_dynamics
     from .algorithm.kinematics import frame_pose, jacobian
     from .algorithm.rnea import bias_forces, coriolis_forces, gravity_forces, inverse_dynamics
+    from .algorithm.rnea_derivatives import inverse_dynamics_derivatives
     from .algorithm.task_space import frame_acceleration, task_space_bias, task_space_mass_matrix
     from .io.scene.files import default_scene, load_scene, scene_from_dict
     from .io.scene.schema import Scene
@@ -112,10 +114,12 @@ __all__ = [
     "coriolis_forces",
     "coriolis_matrix",
     "forward_dynamics",
+    "forward_dynamics_derivatives",
     "frame_acceleration",
     "frame_pose",
     "gravity_forces",
     "inverse_dynamics",
+    "inverse_dynamics_derivatives",
     "jacobian",
     "kinetic_energy",
     "load_urdf",

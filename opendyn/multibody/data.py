@@ -523,3 +523,9 @@ def derivative_fields(work, nb, nv):
         shaped(work_field(work, nb, nv, _DDQ_DQD), (nv, nv)),
         shaped(work_field(work, nb, nv, _MINV), (nv, nv)),
     )
+
+
+@njit(**JIT)
+def joint_accelerations(work, nb, nv):
+    """qdd (nv,): forward dynamics' result."""
+    return work_field(work, nb, nv, _QDD)
