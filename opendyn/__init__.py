@@ -61,6 +61,7 @@ with kernel_cache():
     )
     from .multibody.data import Data
     from .multibody.model import CollisionSphere, Frame, Model
+    from .sim.linearize import linearize
     from .sim.simulate import simulate
     from .sim.simulator import Simulator
     from .sim.trajectory import Trajectory
@@ -81,6 +82,7 @@ __all__ = [
     "random_configuration",
     "load_scene",
     "scene_from_dict",
+    "linearize",
     "simulate",
     "Simulator",
     "sweep",

@@ -5,8 +5,10 @@
 Prints, for UR5, Panda and talos_full_v2 with a fixed base and for solo12, anymal and
 talos_full_v2 with a floating base (Pinocchio with a JointModelFreeFlyer root), microseconds
 per call and the ratio opendyn / Pinocchio for inverse dynamics, the mass matrix, forward
-dynamics (each method), the Coriolis matrix and a frame Jacobian, each without and with a Data
-(data=); then batched inverse dynamics
+dynamics (each method), the Coriolis matrix, the derivatives of inverse and forward dynamics
+(computeRNEADerivatives, computeABADerivatives) and a frame Jacobian, each without and with a
+Data (data=); then the derivatives against central differences of our own functions; then
+batched inverse dynamics
 over N = 10,000 states against a Python loop over pin.rnea and against pin.rneaInParallel; then
 numba's first-call compile time and the start-up time with the on-disk cache, measured in
 fresh processes. States are converted to Pinocchio's conventions by opendyn.verify's adapter.
@@ -137,6 +139,20 @@ def single_state_rows(name, floating_base, budget):
             lambda: pin.computeCoriolisMatrix(pmodel, pdata, qp, vp),
         ),
         (
+            "inverse_dynamics_derivatives",
+            lambda: od.inverse_dynamics_derivatives(model, q, qd, qdd),
+            lambda: od.inverse_dynamics_derivatives(model, q, qd, qdd, data=data),
+            "computeRNEADerivatives",
+            lambda: pin.computeRNEADerivatives(pmodel, pdata, qp, vp, ap),
+        ),
+        (
+            "forward_dynamics_derivatives",
+            lambda: od.forward_dynamics_derivatives(model, q, qd, qdd),
+            lambda: od.forward_dynamics_derivatives(model, q, qd, qdd, data=data),
+            "computeABADerivatives",
+            lambda: pin.computeABADerivatives(pmodel, pdata, qp, vp, ap),
+        ),
+        (
             "jacobian (body)",
             lambda: od.jacobian(model, q, frame, "body"),
             lambda: od.jacobian(model, q, frame, "body", data=data),
@@ -174,6 +190,44 @@ def batch_rows(name, floating_base, n_states, budget):
     loop = per_call_us(pin_loop, budget)
     parallel = per_call_us(lambda: pin.rneaInParallel(2, pool, QpT, VpT, ApT, tau_out), budget)
     return [(label, n_states, ours / n_states, loop / n_states, parallel / n_states)]
+
+
+def central_differences(f, q, x, model):
+    """(df/dq along od.integrate, df/dx) by central differences with h = 1e-6: 4 nv calls."""
+    h, E = 1e-6, np.eye(model.nv)
+    df_dq = [
+        (f(od.integrate(model, q, h * e, 1.0), x) - f(od.integrate(model, q, -h * e, 1.0), x))
+        / (2 * h)
+        for e in E
+    ]
+    df_dx = [(f(q, x + h * e) - f(q, x - h * e)) / (2 * h) for e in E]
+    return np.array(df_dq).T, np.array(df_dx).T
+
+
+def difference_rows(name, floating_base, budget):
+    """Microseconds of each analytical derivative function against central differences of
+    our own inverse or forward dynamics (in q along integrate and in qd: 4 nv calls)."""
+    model, _, label = load_pair(name, floating_base)
+    q, qd, qdd = random_states(model, np.random.default_rng(0))
+    rows = []
+    for ours_name, analytical, function in (
+        (
+            "inverse_dynamics_derivatives",
+            lambda: od.inverse_dynamics_derivatives(model, q, qd, qdd),
+            lambda q_, qd_: od.inverse_dynamics(model, q_, qd_, qdd),
+        ),
+        (
+            "forward_dynamics_derivatives",
+            lambda: od.forward_dynamics_derivatives(model, q, qd, qdd),
+            lambda q_, qd_: od.forward_dynamics(model, q_, qd_, qdd),
+        ),
+    ):
+        analytical()
+        t_ours, t_diff = paired_us(
+            analytical, lambda: central_differences(function, q, qd, model), budget_s=budget
+        )
+        rows.append((label, model.nv, ours_name, t_ours, t_diff))
+    return rows
 
 
 STARTUP = """
@@ -229,6 +283,19 @@ def main():
             print(
                 f"| {robot} | {nv} | {ours_name} | {t_ours:.2f} | {with_data[0]} | {pin_name} "
                 f"| {t_pin:.2f} | {t_ours / t_pin:.2f} | {with_data[1]} |"
+            )
+
+    print(
+        "\nAnalytical derivatives against central differences of opendyn's own inverse or "
+        "forward dynamics (in q along integrate and in qd, 4 nv calls), microseconds:\n"
+    )
+    print("| robot | nv | function | analytical | central differences | speed-up |")
+    print("|---|---:|---|---:|---:|---:|")
+    for name, floating_base in ROBOTS:
+        for robot, nv, ours_name, t_ours, t_diff in difference_rows(name, floating_base, budget):
+            print(
+                f"| {robot} | {nv} | {ours_name} | {t_ours:.2f} | {t_diff:.1f} "
+                f"| {t_diff / t_ours:.0f}x |"
             )
 
     n = 10_000

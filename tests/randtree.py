@@ -70,7 +70,7 @@ def _inertial_xml(rng):
     )
 
 
-def _joint_xml(rng, name, jtype, parent, child):
+def _joint_xml(rng, name, jtype, parent, child, mimic=None):
     lines = [
         f'  <joint name="{name}" type="{jtype}">',
         f'    <parent link="{parent}"/>',
@@ -91,12 +91,24 @@ def _joint_xml(rng, name, jtype, parent, child):
             f'    <dynamics damping="{_num(rng.uniform(0, 1))}" '
             f'friction="{_num(rng.uniform(0, 0.5))}"/>'
         )
+    if mimic is not None:
+        leader, multiplier, offset = mimic
+        lines.append(
+            f'    <mimic joint="{leader}" multiplier="{_num(multiplier)}" offset="{_num(offset)}"/>'
+        )
     lines.append("  </joint>")
     return "\n".join(lines) + "\n"
 
 
 def random_tree_urdf(
-    seed, n_links=12, root_branches=3, p_chain=0.5, p_fixed=0.2, p_massless=0.3, n_flanges=2
+    seed,
+    n_links=12,
+    root_branches=3,
+    p_chain=0.5,
+    p_fixed=0.2,
+    p_massless=0.3,
+    n_flanges=2,
+    n_mimic=0,
 ):
     """URDF XML text of a random kinematic tree.
 
@@ -110,6 +122,9 @@ def random_tree_urdf(
       p_massless: probability that a link has no <inertial>; a moving body left without any
         mass gets one on its moving joint's child link.
       n_flanges: leaves that get a massless tool flange on a fixed joint ("<leaf>_flange").
+      n_mimic: at most this many revolute or prismatic joints mimic an earlier joint of their
+        type (<mimic> with a random multiplier and offset); drawn from a generator of their
+        own, so that the rest of the tree is the same for every n_mimic.
     Returns the XML text; the robot is named "random_tree_<seed>".
     """
     rng = np.random.default_rng(seed)
@@ -141,6 +156,7 @@ def random_tree_urdf(
     leaves = [k for k in range(1, n_links) if k not in parent]
     flanges = [int(k) for k in rng.choice(leaves, size=min(n_flanges, len(leaves)), replace=False)]
 
+    mimic = _random_mimics(np.random.default_rng([seed, 1]), parent, jtype, n_mimic)
     out = [f'<?xml version="1.0"?>\n<robot name="random_tree_{seed}">\n']
     for k in range(n_links):
         out.append(f'  <link name="{names[k]}">\n')
@@ -148,12 +164,37 @@ def random_tree_urdf(
             out.append(_inertial_xml(rng))
         out.append("  </link>\n")
         if k > 0:
-            out.append(_joint_xml(rng, f"joint{k}", jtype[k], names[parent[k]], names[k]))
+            out.append(
+                _joint_xml(rng, f"joint{k}", jtype[k], names[parent[k]], names[k], mimic.get(k))
+            )
     for k in flanges:
         out.append(f'  <link name="{names[k]}_flange"/>\n')
         out.append(_joint_xml(rng, f"joint{k}_flange", "fixed", names[k], f"{names[k]}_flange"))
     out.append("</robot>\n")
     return "".join(out)
+
+
+def _random_mimics(rng, parent, jtype, n_mimic):
+    """{k: (leader joint name, multiplier, offset)}: up to n_mimic revolute or prismatic joints
+    that follow a joint of their type above them (as Pinocchio requires) which is itself no
+    follower."""
+
+    def above(k):
+        k = parent[k]
+        while k > 0:
+            yield k
+            k = parent[k]
+
+    mimic = {}
+    candidates = [k for k in range(1, len(jtype)) if jtype[k] in ("revolute", "prismatic")]
+    for k in rng.permutation(candidates):
+        k = int(k)
+        leaders = [j for j in above(k) if jtype[j] == jtype[k] and j not in mimic]
+        if len(mimic) == n_mimic or not leaders or any(v[0] == f"joint{k}" for v in mimic.values()):
+            continue
+        multiplier = rng.choice([-1.0, 1.0]) * rng.uniform(0.3, 2.0)
+        mimic[k] = (f"joint{int(rng.choice(leaders))}", multiplier, rng.uniform(-0.5, 0.5))
+    return mimic
 
 
 def random_chain_urdf(seed, n):

@@ -189,7 +189,8 @@ import numpy as np
 from numba import njit
 from numba.core.runtime import rtsys
 import opendyn as od
-from opendyn.algorithm import christoffel, crba, energy, forward, kinematics, rnea, task_space
+from opendyn.algorithm import aba_derivatives, christoffel, crba, energy, forward, kinematics
+from opendyn.algorithm import rnea, rnea_derivatives, task_space
 
 model = od.load_urdf(sys.argv[1], floating_base=sys.argv[2] == "1", check_inertia=False)
 rng = np.random.default_rng(0)
@@ -237,6 +238,17 @@ calls["frame_pose"] = (
 calls["jacobian"] = (
     lambda **kw: od.jacobian(model, q, frame.name, expressed_in="body", **kw),
     kinematics.jacobian_kernel, (*buffers, q, (frame.body, frame.T_body_frame), True, data.J),
+)
+calls["inverse_dynamics_derivatives"] = (
+    lambda **kw: od.inverse_dynamics_derivatives(model, q, qd, qdd, **kw),
+    rnea_derivatives.rnea_derivatives_kernel,
+    (*buffers, q, qd, qdd, model._loads, data.dtau_dq, data.dtau_dqd, data.M),
+)
+calls["forward_dynamics_derivatives"] = (
+    lambda **kw: od.forward_dynamics_derivatives(model, q, qd, qdd, **kw),
+    aba_derivatives.aba_derivatives_kernel,
+    (*buffers, (q, qd, qdd), model._loads, forward.NO_ARMATURE,
+     forward.method_switches(model, "aba"), data.ddq_dq, data.ddq_dqd, data.Minv),
 )
 link = model.frames[model.frame_index(model.body_names[-1])]  # moves in six directions
 calls["task_space_mass_matrix"] = (
@@ -307,7 +319,7 @@ def test_a_call_with_data_allocates_nothing(name, floating):
     )
     assert proc.returncode == 0, proc.stderr
     counts = json.loads(proc.stdout.strip().splitlines()[-1])
-    assert len(counts) == 14
+    assert len(counts) == 16
     for call, count in counts.items():
         assert count["kernel"] == 0 and count["numpy with data"] == 0, (call, count)
         if call != "kinetic_energy":

@@ -41,6 +41,8 @@ FUNCTIONS = [
     "forward_dynamics[aba]",
     "forward_dynamics[crba]",
     "forward_dynamics[newton_euler]",
+    "inverse_dynamics_derivatives",
+    "forward_dynamics_derivatives",
     "frame_pose",
     "jacobian[space]",
     "jacobian[body]",
@@ -166,7 +168,7 @@ def test_a_wrong_mass_matrix_fails_its_row_and_only_its_row(monkeypatch):
     table = V.format_table(checks, model)
     row_line = next(line for line in table.splitlines() if line.startswith("mass_matrix "))
     assert row_line.split()[-1] == "FAIL"
-    assert "FAILED: 1 of 18 functions: mass_matrix" in table
+    assert "FAILED: 1 of 20 functions: mass_matrix" in table
 
 
 @needs_pinocchio
@@ -194,7 +196,7 @@ def test_table_names_robot_nv_rtol_and_every_function():
     for function in FUNCTIONS:
         (line,) = [line for line in lines if line.split()[:1] == [function]]
         assert line.split()[-1] == ("n/a" if function == "task_space_mass_matrix" else "PASS")
-    assert "all 17 compared functions agree with Pinocchio" in table
+    assert "all 19 compared functions agree with Pinocchio" in table
 
 
 def test_random_states_lie_within_the_joint_limits(tmp_path):

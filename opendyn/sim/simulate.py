@@ -534,8 +534,9 @@ def _provenance(scene, table):
     }
 
 
-def as_scene(scene):
-    """scene itself, or the scene that a file or a shipped scene's name names."""
+def as_scene(scene, what="simulate"):
+    """scene itself, or the scene that a file or a shipped scene's name names; a TypeError
+    naming `what` (the function called) for anything else."""
     if isinstance(scene, Scene):
         return scene
     if isinstance(scene, (str, os.PathLike)):
@@ -546,6 +547,6 @@ def as_scene(scene):
     elif isinstance(scene, dict):
         hint = "; od.scene_from_dict(data) makes a Scene of a dict"
     raise TypeError(
-        "simulate: scene must be an opendyn Scene (from od.load_scene or od.default_scene) or "
+        f"{what}: scene must be an opendyn Scene (from od.load_scene or od.default_scene) or "
         f"a scene file or shipped scene's name, got {type(scene).__name__}{hint}"
     )

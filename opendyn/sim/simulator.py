@@ -80,8 +80,6 @@ class Simulator:
         self._data = step.scene_data(self.model, self._table, self._held)
         self._free = free_joints(self.model)
         # the joints' velocity coordinates and the floating base's (which no torque drives)
-        self._joints = np.asarray(self.model.v_index, dtype=np.int64)
-        self._base = np.setdiff1d(np.arange(self.model.nv), self._joints)
         if self._integ.adaptive:
             self._tableau = self._integ.tableau()
         else:
@@ -116,9 +114,12 @@ class Simulator:
         a scene's initial state is (shapes, finite numbers, a unit quaternion for a floating
         base). The record starts again."""
         model = self.model
-        q = np.array(self.scene.q0 if q is None else _configuration(model, q), dtype=np.float64)
+        q = np.array(
+            self.scene.q0 if q is None else checked_configuration(model, q, "Simulator.reset: q"),
+            dtype=np.float64,
+        )
         qd = np.array(
-            self.scene.qd0 if qd is None else _vector(model, qd, "Simulator.reset: qd"),
+            self.scene.qd0 if qd is None else checked_vector(model, qd, "Simulator.reset: qd"),
             dtype=np.float64,
         )
         t = checks.as_real(t, "Simulator.reset: t")
@@ -169,7 +170,7 @@ class Simulator:
                 f"the simulator stopped ({self._stopped}); reset() it to step again",
                 self.trajectory(),
             )
-        tau_user = self._torque(tau, "Simulator.step: tau")
+        tau_user = checked_torque(self.model, tau, "Simulator.step: tau")
         duration = self.control_dt if duration is None else self._duration(duration)
         if self._controller is None:
             self._held[:] = tau_user
@@ -205,7 +206,9 @@ class Simulator:
             self._stop(f"controller {_name(fn)} raised {type(error).__name__}: {error} at "
                        f"t = {t:.6g} s", error)
         try:
-            return self._torque(tau, f"controller {_name(fn)} at t = {t:.6g} s returned tau")
+            return checked_torque(
+                self.model, tau, f"controller {_name(fn)} at t = {t:.6g} s returned tau"
+            )
         except (TypeError, ValueError) as error:
             self._stop(str(error), error)
 
@@ -326,30 +329,6 @@ class Simulator:
 
     # -- torques -----------------------------------------------------------------------------
 
-    def _torque(self, tau, what):
-        """tau as the held torque's (nv,) float64 values: (nv,), or on a floating base the
-        joints' (nv - 6,); TypeError or ValueError naming `what` otherwise."""
-        model, joints, base = self.model, self._joints, self._base
-        if tau is None:
-            return 0.0
-        a = checks.as_float_array(tau, what)
-        if base.size and a.shape == joints.shape:
-            full = np.zeros(model.nv)
-            full[joints] = a
-            a = full
-        if a.shape != (model.nv,):
-            also = f" or the joints' ({len(joints)},)" if base.size else ""
-            raise ValueError(f"{what}: expected shape ({model.nv},){also}, got {_shown(a)}")
-        if not np.isfinite(a).all():
-            raise ValueError(f"{what}: not finite: {_shown(a)}")
-        if base.size and np.any(a[base] != 0.0):
-            raise ValueError(
-                f"{what}: the floating base is not actuated, so tau at its coordinates "
-                f"{base.tolist()} must be zero, got {a[base].tolist()} (give the joints' "
-                f"({len(joints)},) alone)"
-            )
-        return a
-
 
 def run_controlled(scene, controller, control_dt, progress, raise_on_failure):
     """simulate(scene, controller=...): a Simulator ticked one control period at a time over
@@ -451,16 +430,42 @@ def load_controller(spec, what):
     return fn
 
 
-def _configuration(model, q):
+def checked_torque(model, tau, what):
+    """tau as a (nv,) float64 generalized force: (nv,), or on a floating base the joints'
+    (nv - 6,); 0.0 for None; TypeError or ValueError naming `what` otherwise."""
+    if tau is None:
+        return 0.0
+    joints = np.asarray(model.v_index, dtype=np.int64)
+    base = np.setdiff1d(np.arange(model.nv), joints)
+    a = checks.as_float_array(tau, what)
+    if base.size and a.shape == joints.shape:
+        full = np.zeros(model.nv)
+        full[joints] = a
+        a = full
+    if a.shape != (model.nv,):
+        also = f" or the joints' ({len(joints)},)" if base.size else ""
+        raise ValueError(f"{what}: expected shape ({model.nv},){also}, got {_shown(a)}")
+    if not np.isfinite(a).all():
+        raise ValueError(f"{what}: not finite: {_shown(a)}")
+    if base.size and np.any(a[base] != 0.0):
+        raise ValueError(
+            f"{what}: the floating base is not actuated, so tau at its coordinates "
+            f"{base.tolist()} must be zero, got {a[base].tolist()} (give the joints' "
+            f"({len(joints)},) alone)"
+        )
+    return a
+
+
+def checked_configuration(model, q, what):
     """q checked as an initial configuration (nq,): finite, unit quaternions (normalised
-    within BASE_QUATERNION_TOLERANCE)."""
-    q = _vector(model, q, "Simulator.reset: q", model.nq)
+    within BASE_QUATERNION_TOLERANCE); errors name `what`."""
+    q = checked_vector(model, q, what, model.nq)
     for i in np.flatnonzero(model.jtype == FREE):
         k = int(model.iq[i]) + 3
         norm = float(np.linalg.norm(q[k : k + 4]))
         if not abs(norm - 1.0) <= BASE_QUATERNION_TOLERANCE:
             raise ValueError(
-                f"Simulator.reset: q[{k}:{k + 4}] is the floating base's quaternion [x, y, z, "
+                f"{what}[{k}:{k + 4}] is the floating base's quaternion [x, y, z, "
                 f"w] and must have unit norm (within {BASE_QUATERNION_TOLERANCE:g}), found "
                 f"{norm:.6g}"
             )
@@ -468,7 +473,7 @@ def _configuration(model, q):
     return q
 
 
-def _vector(model, x, what, n=None):
+def checked_vector(model, x, what, n=None):
     """x as a finite float64 (n,) copy (n = nv by default); TypeError or ValueError naming
     `what`."""
     n = model.nv if n is None else n

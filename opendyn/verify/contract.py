@@ -21,6 +21,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..algorithm.aba_derivatives import forward_dynamics_derivatives
 from ..algorithm.christoffel import christoffel_symbols, coriolis_matrix
 from ..algorithm.configuration import random_configuration
 from ..algorithm.crba import mass_matrix
@@ -28,6 +29,7 @@ from ..algorithm.energy import kinetic_energy, potential_energy
 from ..algorithm.forward import METHODS, forward_dynamics
 from ..algorithm.kinematics import frame_pose, jacobian
 from ..algorithm.rnea import bias_forces, coriolis_forces, gravity_forces, inverse_dynamics
+from ..algorithm.rnea_derivatives import inverse_dynamics_derivatives
 from ..algorithm.task_space import task_space_mass_matrix
 from ..errors import SingularMassMatrixError
 from ..io.urdf import load_urdf
@@ -194,7 +196,9 @@ def verify(
     Returns one Check per function, in this order: inverse_dynamics (plain, with an f_tip
     wrench on ``tip_frame``, with gravity (0.3, -0.2, -1.62)), mass_matrix, gravity_forces,
     coriolis_forces, bias_forces, coriolis_matrix, christoffel_symbols,
-    forward_dynamics[aba|crba|newton_euler] (plain and with the f_tip wrench), frame_pose and
+    forward_dynamics[aba|crba|newton_euler] (plain and with the f_tip wrench),
+    inverse_dynamics_derivatives and forward_dynamics_derivatives (plain and with the f_tip
+    wrench; q-derivatives in the tangent space, as Pinocchio's), frame_pose and
     jacobian[space], jacobian[body] on every frame, kinetic_energy, potential_energy,
     task_space_mass_matrix on ``tip_frame`` (only where J_b M^-1 J_b^T has a condition number
     below 1e6). Functions taking a gravity argument are checked with the default and the
@@ -282,6 +286,7 @@ def verify(
                         P.aba(q, qd, tau, **loads),
                         "with f_tip" if loads else "",
                     )
+        _derivatives(row, model, P, k, (q, qd, qdd, tau), variants, singular)
         for name in frames:
             row("frame_pose").compare(
                 k, lambda: frame_pose(model, q, name), P.frame_pose(q, name), f"frame {name!r}"
@@ -302,6 +307,36 @@ def verify(
             )
         _task_space(row("task_space_mass_matrix"), model, P, k, q, tip, singular)
     return [r.check(rtol) for r in rows.values()]
+
+
+def _derivatives(row, model, P, k, state, variants, singular):
+    """inverse_dynamics_derivatives and forward_dynamics_derivatives (their three matrices
+    stacked) against computeRNEADerivatives and computeABADerivatives, plain and with each
+    variant's loads; where M is singular the forward derivatives must be refused."""
+    q, qd, qdd, tau = state
+    for loads in variants:
+        where = "with f_tip" if loads else ""
+        row("inverse_dynamics_derivatives").compare(
+            k,
+            lambda: np.stack(inverse_dynamics_derivatives(model, q, qd, qdd, **loads)),
+            np.stack(P.rnea_derivatives(q, qd, qdd, **loads)),
+            where,
+        )
+        fd = row("forward_dynamics_derivatives")
+        if singular:
+            fd.expect_raise(
+                k,
+                lambda: forward_dynamics_derivatives(model, q, qd, tau, **loads),
+                SingularMassMatrixError,
+                "M is singular",
+            )
+        else:
+            fd.compare(
+                k,
+                lambda: np.stack(forward_dynamics_derivatives(model, q, qd, tau, **loads)),
+                np.stack(P.aba_derivatives(q, qd, tau, **loads)),
+                where,
+            )
 
 
 def _task_space(r, model, P, k, q, tip, singular):

@@ -214,11 +214,15 @@ class PinocchioOracle:
     def aba_derivatives(self, q, qd, tau, f_tip=None, gravity=None):
         """(dqdd_dq, dqdd_dqd, M^-1) (nv, nv) each by computeABADerivatives (M^-1's lower
         triangle mirrored where Pinocchio leaves it zero). With coupled mimic joints (no ABA
-        in Pinocchio), -M^-1 (dtau_dq, dtau_dqd) at qdd = aba(...) from rnea_derivatives."""
+        in Pinocchio), -M^-1 (dtau_dq, dtau_dqd) at qdd = M^-1 (tau - rnea(q, qd, 0)), all from
+        rnea_derivatives (differences of Pinocchio's RNEA: its CRBA does not always agree with
+        its RNEA on coupled joints)."""
         pin = self.pin
         if self.coupled:
-            qdd = self.aba(q, qd, tau, f_tip, gravity)
-            dq, dv, M = self.rnea_derivatives(q, qd, qdd, f_tip, gravity)
+            zero = np.zeros(self.od.nv)
+            M = self.rnea_derivatives(q, qd, zero, f_tip, gravity)[2]
+            qdd = np.linalg.solve(M, tau - self.rnea(q, qd, zero, f_tip, gravity))
+            dq, dv, _ = self.rnea_derivatives(q, qd, qdd, f_tip, gravity)
             Minv = np.linalg.inv(M)
             return -Minv @ dq, -Minv @ dv, Minv
         self.set_gravity(gravity)

@@ -50,3 +50,6 @@ def pack(values, model) -> np.ndarray:
     out = np.zeros(model.nv)
     out[model.v_index] = values
     return out
+
+
+tangent = None  # armature changes M, not tau

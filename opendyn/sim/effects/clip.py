@@ -64,3 +64,16 @@ def apply(p, ctx, out):
         j = p.iv[k]
         out.control[j] = min(max(out.control[j], -p.limit[k]), p.limit[k])
     return OK
+
+
+def tangent(control, at):
+    """The change clipping makes to the control laws' torque and derivatives so far
+    (at.control): where |tau_j| exceeds the limit, tau_j becomes +-limit and its derivatives
+    0."""
+    tau, dtau_dq, dtau_dqd = at.control
+    limit = np.full(tau.shape[0], np.inf)
+    limit[v_indices(at.scene.model)] = at.scene.model.effort_limit
+    clipped = np.abs(tau) > limit
+    change = np.zeros_like(tau)
+    change[clipped] = np.sign(tau[clipped]) * limit[clipped] - tau[clipped]
+    return change, -dtau_dq * clipped[:, None], -dtau_dqd * clipped[:, None]

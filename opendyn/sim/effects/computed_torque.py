@@ -146,3 +146,42 @@ def apply(p, ctx, out):
         if ctx.armature.shape[0]:
             out.control[j] += ctx.armature[j] * qdd_c[j]
     return OK
+
+
+def tangent(control, at):
+    """(tau, dtau_dq, dtau_dqd) of the computed torques, exactly: with qdd_c's slopes -kp and
+    -kd on the joints and y = (a_b, qdd_c) (a_b = 0 for a fixed base),
+        tau = ID(q, qd, y) + armature qdd_c,
+        dtau/dq = dID/dq + (M + diag(armature)) dy/dq     (likewise in qd),
+    where on a floating base a_b keeps ID's base rows at zero:
+        da_b/dq = -M_bb^-1 (dID_b/dq + M_bj dqdd_c/dq)."""
+    from ...algorithm.crba import mass_matrix
+    from ...algorithm.rnea import inverse_dynamics
+    from ...algorithm.rnea_derivatives import inverse_dynamics_derivatives
+
+    model, t = at.scene.model, at.t
+    nv, iq, iv = model.nv, q_indices(model), v_indices(model)
+    w = 2.0 * np.pi * control.frequency
+    s, c = np.sin(w * t + control.phase), np.cos(w * t + control.phase)
+    q_r, qd_r = control.offset + control.amplitude * s, control.amplitude * w * c
+    qdd_r = -control.amplitude * w * w * s
+    y = np.zeros(nv)
+    y[iv] = qdd_r + control.kp * (q_r - at.q[iq]) + control.kd * (qd_r - at.qd[iv])
+    dy_dq, dy_dqd = np.zeros((nv, nv)), np.zeros((nv, nv))
+    dy_dq[iv, iv], dy_dqd[iv, iv] = -control.kp, -control.kd
+    if model.floating_base:
+        b = slice(0, 6)
+        M = mass_matrix(model, at.q)
+        h_b = inverse_dynamics(model, at.q, at.qd, y, gravity=at.gravity)[b]  # y_b = 0 here
+        y[b] = -np.linalg.solve(M[b, b], h_b)
+    dID_dq, dID_dqd, M = inverse_dynamics_derivatives(model, at.q, at.qd, y, gravity=at.gravity)
+    if model.floating_base:
+        dy_dq[b] = -np.linalg.solve(M[b, b], dID_dq[b] + M[b] @ dy_dq)
+        dy_dqd[b] = -np.linalg.solve(M[b, b], dID_dqd[b] + M[b] @ dy_dqd)
+    M_a = M + np.diag(at.armature)
+    tau = inverse_dynamics(model, at.q, at.qd, y, gravity=at.gravity) + at.armature * y
+    dtau_dq = dID_dq + M_a @ dy_dq
+    dtau_dqd = dID_dqd + M_a @ dy_dqd
+    joints = np.zeros(nv, dtype=bool)
+    joints[iv] = True
+    return tau * joints, dtau_dq * joints[:, None], dtau_dqd * joints[:, None]

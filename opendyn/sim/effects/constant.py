@@ -10,6 +10,8 @@ from __future__ import annotations
 
 from collections import namedtuple
 
+import numpy as np
+
 from numba import njit
 
 from ..._runtime.kernel_cache import JIT
@@ -55,3 +57,11 @@ def apply(p, ctx, out):
     for k in range(p.iv.shape[0]):
         out.control[p.iv[k]] += p.tau_0[k]
     return OK
+
+
+def tangent(control, at):
+    """(tau, 0, 0): the constant torques, which depend on nothing."""
+    nv = at.qd.shape[0]
+    tau = np.zeros(nv)
+    tau[v_indices(at.scene.model)] = control.tau
+    return tau, np.zeros((nv, nv)), np.zeros((nv, nv))

@@ -18,9 +18,20 @@ from numba import njit
 
 from ..._runtime.arrays import immutable
 from ..._runtime.kernel_cache import JIT
-from ...algorithm.contact import contact_jacobians_kernel, contact_kernel
+from ...algorithm.contact import (
+    DAMPING,
+    FRICTION,
+    GROUND,
+    PER_POINT,
+    SHARED,
+    SLIP,
+    STIFFNESS,
+    contact_jacobians_kernel,
+    contact_kernel,
+)
 from ...io.scene.values import _found
 from .interface import OK, PASSIVE, floats
+from .tangent import bracket, path_axes, point_velocities, wrench_tangent
 
 NAME = "contact"
 SECTION = "effects"
@@ -229,3 +240,63 @@ def rates(contact, at):
             )
         )
     return found
+
+
+def tangent(contact, at):
+    """(tau, dtau_dq, dtau_dqd) of the contact forces, exactly, at each sphere's lowest point
+    x = c - r e_z touching the ground with f_n > 0 (opendyn.sim.effects.tangent): the centre c
+    moves with the body, the lowest point stays below it. With J_j(y) = v_j + w_j x y the
+    velocity of the body's point at y per unit of axis j and v_p = sum_j J_j(x) qd_j the
+    velocity of the body's material at x,
+        dx/dq_j = J_j(c),   dv_p/dq_j = (S_j x W_j) at x + w_b x J_j(c),   dv_p/dqd_j = J_j(x),
+    W_j the twist of the body relative to the joint of j's parent and w_b its angular
+    velocity; delta = h - x_z, delta_dot = -v_z, df_n = k d(delta) + d d(delta_dot), and
+        df_t = -mu (df_n v_t / s + f_n (dv_t / s - v_t (v_t . dv_t) / s^3)),
+    F_s = (x x f, f) with dF_s/dq_j = (J_j(c) x f + x x df_j, df_j), and
+    dtau_i/dqd_j = J_i(x) . df_j."""
+    model = at.scene.model
+    nv = model.nv
+    bodies, params = contact_table(model, contact)
+    h, k, d = params[GROUND], params[STIFFNESS], params[DAMPING]
+    mu, v_s = params[FRICTION], params[SLIP]
+    tau, dtau_dq, dtau_dqd = np.zeros(nv), np.zeros((nv, nv)), np.zeros((nv, nv))
+    for point, b in enumerate(bodies):
+        c_b = params[SHARED + PER_POINT * point : SHARED + PER_POINT * point + 3]
+        radius = params[SHARED + PER_POINT * point + 3]
+        c = at.axes.p_s[b] + at.axes.R_s[b] @ c_b
+        x = c - np.array([0.0, 0.0, radius])
+        delta = h - x[2]
+        if delta <= 0.0:
+            continue
+        S, coords, depth = path_axes(model, at.axes, b)
+        qd_a = at.qd[coords]
+        J, J_c = point_velocities(S, x), point_velocities(S, c)  # (n_a, 3) each
+        v_p = J.T @ qd_a
+        f_n = k * delta - d * v_p[2]
+        if f_n <= 0.0:
+            continue
+        # dv_p/dq_j: W_j = sum of qd_i S_i over the axes i at or below j's body
+        W = np.array([(qd_a[:, None] * S)[depth >= depth[j]].sum(0) for j in range(len(S))])
+        w_b = (qd_a[:, None] * S[:, :3]).sum(0)
+        dv_dq = point_velocities(bracket(S, W), x) + np.cross(w_b, J_c)  # (n_a, 3) rows j
+        s = np.sqrt(v_p[0] ** 2 + v_p[1] ** 2 + v_s**2)
+        f = np.array([-mu * f_n * v_p[0] / s, -mu * f_n * v_p[1] / s, f_n])
+
+        def df(ddelta, dv):
+            """the force's change (rows j, 3) for changes of delta (rows j) and v_p (j, 3)"""
+            dfn = k * ddelta - d * dv[:, 2]
+            v_t, dv_t = v_p[:2], dv[:, :2]
+            dft = -mu * (
+                dfn[:, None] * v_t / s
+                + f_n * (dv_t / s - np.outer(dv_t @ v_t, v_t) / s**3)
+            )
+            return np.concatenate([dft, dfn[:, None]], axis=1)
+
+        df_dq, df_dqd = df(-J_c[:, 2], dv_dq), df(np.zeros(len(S)), J)
+        F_s = np.concatenate([np.cross(x, f), f])
+        dF_dq = np.concatenate([np.cross(J_c, f) + np.cross(x, df_dq), df_dq], axis=1)
+        tau_p, dtau_p = wrench_tangent(model, at.axes, b, F_s, dF_dq)
+        tau += tau_p
+        dtau_dq += dtau_p
+        np.add.at(dtau_dqd, (coords[:, None], coords[None, :]), J @ df_dqd.T)
+    return tau, dtau_dq, dtau_dqd

@@ -64,3 +64,12 @@ def apply(p, ctx, out):
 def rates(b, at):
     """The damping rate b / M_jj of each joint (1/s)."""
     return [("viscous damping", b / at.joint_mass, joint_labels(at.scene.model))]
+
+
+def tangent(b, at):
+    """(tau, dtau_dq, dtau_dqd): -b_k qd_j and its slope -b_k at each joint's velocity j."""
+    nv, iv = at.qd.shape[0], v_indices(at.scene.model)
+    tau, dtau_dqd = np.zeros(nv), np.zeros((nv, nv))
+    tau[iv] = -b * at.qd[iv]
+    dtau_dqd[iv, iv] = -b
+    return tau, np.zeros((nv, nv)), dtau_dqd

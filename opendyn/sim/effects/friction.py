@@ -83,3 +83,13 @@ def rates(friction, at):
     """The damping rate near zero velocity, f_c / (v_s M_jj), of each joint (1/s)."""
     rate = friction.coulomb / friction.smoothing / at.joint_mass
     return [("friction smoothing", rate, joint_labels(at.scene.model))]
+
+
+def tangent(friction, at):
+    """(tau, dtau_dq, dtau_dqd): -f_c tanh(qd_j / v_s) and its slope -f_c (1 - tanh^2) / v_s."""
+    nv, iv = at.qd.shape[0], v_indices(at.scene.model)
+    s = np.tanh(at.qd[iv] / friction.smoothing)
+    tau, dtau_dqd = np.zeros(nv), np.zeros((nv, nv))
+    tau[iv] = -friction.coulomb * s
+    dtau_dqd[iv, iv] = -friction.coulomb * (1.0 - s * s) / friction.smoothing
+    return tau, np.zeros((nv, nv)), dtau_dqd

@@ -63,3 +63,6 @@ def apply(g, ctx, out):
     for k in range(3):
         ctx.dV_0[3 + k] = -g[k]
     return OK
+
+
+tangent = None  # gravity acts through the dynamics' base acceleration (0, -g)

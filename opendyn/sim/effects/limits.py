@@ -137,3 +137,18 @@ def rates(limits, at):
         ("joint-limit stiffness", np.sqrt(limits.stiffness / at.joint_mass), joints),
         ("joint-limit damping", limits.damping / at.joint_mass, joints),
     ]
+
+
+def tangent(limits, at):
+    """(tau, dtau_dq, dtau_dqd): past a limit -k (q - limit) - d qd, slopes -k and -d (the
+    side the joint is on; nothing within the limits)."""
+    model = at.scene.model
+    nv, iq, iv = model.nv, q_indices(model), v_indices(model)
+    q = at.q[iq]
+    depth = np.where(q > limits.upper, q - limits.upper, np.where(q < limits.lower, q - limits.lower, 0.0))
+    past = depth != 0.0
+    tau, dtau_dq, dtau_dqd = np.zeros(nv), np.zeros((nv, nv)), np.zeros((nv, nv))
+    tau[iv] = np.where(past, -limits.stiffness * depth - limits.damping * at.qd[iv], 0.0)
+    dtau_dq[iv, iv] = np.where(past, -limits.stiffness, 0.0)
+    dtau_dqd[iv, iv] = np.where(past, -limits.damping, 0.0)
+    return tau, dtau_dq, dtau_dqd

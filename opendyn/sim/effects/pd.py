@@ -77,3 +77,14 @@ def rates(control, at):
         ("PD stiffness", np.sqrt(control.kp / at.joint_mass), joints),
         ("PD damping", control.kd / at.joint_mass, joints),
     ]
+
+
+def tangent(control, at):
+    """(tau, dtau_dq, dtau_dqd): kp (q_set - q) - kd qd at the joints, slopes -kp and -kd."""
+    model = at.scene.model
+    nv, iq, iv = model.nv, q_indices(model), v_indices(model)
+    tau, dtau_dq, dtau_dqd = np.zeros(nv), np.zeros((nv, nv)), np.zeros((nv, nv))
+    tau[iv] = control.kp * (control.setpoint - at.q[iq]) - control.kd * at.qd[iv]
+    dtau_dq[iv, iv] = -control.kp
+    dtau_dqd[iv, iv] = -control.kd
+    return tau, dtau_dq, dtau_dqd

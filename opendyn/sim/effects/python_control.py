@@ -82,3 +82,12 @@ def pack(control, model) -> np.ndarray:
 def held_torque(model) -> np.ndarray:
     """A fresh zero held torque (nv,): what step.scene_data takes as `held`."""
     return np.zeros(model.nv)
+
+
+def tangent(control, at):
+    """A Python function has no derivative opendyn can take: a clear error."""
+    raise ValueError(
+        f"linearize: the scene's controller is the Python function {control.function!r}, "
+        "whose derivatives opendyn cannot take; linearize the scene without it "
+        "(scene.without('control')) and add your controller's own gains to A and B"
+    )

@@ -24,6 +24,7 @@ from ...io.scene.values import _found
 from ...multibody.data import frame_pose_field
 from ...multibody.layout import body_count
 from .interface import APPLIED, OK, floats
+from .tangent import bracket_transpose, path_axes, point_velocities, wrench_tangent
 
 NAME = "wrench"
 SECTION = "effects"
@@ -219,3 +220,34 @@ def apply(p, ctx, out):
                 s += J_b[r, j] * F[r]
             out.applied[j] += s
     return OK
+
+
+def tangent(wrenches, at):
+    """(tau, dtau_dq, 0) of the wrenches at time t, exactly (opendyn.sim.effects.tangent):
+    F about the world origin in world axes, F_s = (R m + p x R f, R f) for the frame's axes
+    ((R, p) = T_sf), turning with the body (dF_s/dq_j = S_j x* F_s), or F_s = (m + p x f, f)
+    for world-aligned axes, whose m and f stay put while the point p moves
+    (dF_s/dq_j = ((v_j + w_j x p) x f, 0))."""
+    model = at.scene.model
+    nv = model.nv
+    tau, dtau_dq = np.zeros(nv), np.zeros((nv, nv))
+    for w in wrenches:
+        frame = model.frames[model.frame_index(w.frame)]
+        b = frame.body
+        T_sf = np.eye(4)
+        T_sf[:3, :3], T_sf[:3, 3] = at.axes.R_s[b], at.axes.p_s[b]
+        T_sf = T_sf @ frame.T_body_frame
+        R, p = T_sf[:3, :3], T_sf[:3, 3]
+        m, f = w.at(at.t)[:3], w.at(at.t)[3:]
+        S = path_axes(model, at.axes, b)[0]
+        if w.expressed_in == "world":
+            F_s = np.concatenate([m + np.cross(p, f), f])
+            moved = np.cross(point_velocities(S, p), f)
+            dF_dq = np.concatenate([moved, np.zeros_like(moved)], axis=1)
+        else:
+            F_s = np.concatenate([R @ m + np.cross(p, R @ f), R @ f])
+            dF_dq = -bracket_transpose(S, F_s)
+        tau_w, dtau_w = wrench_tangent(model, at.axes, b, F_s, dF_dq)
+        tau += tau_w
+        dtau_dq += dtau_w
+    return tau, dtau_dq, np.zeros((nv, nv))
