@@ -18,7 +18,7 @@ import opendyn as od
 pin = pytest.importorskip("pinocchio")
 from pin_adapter import PinOracle  # noqa: E402
 from randtree import write_random_tree  # noqa: E402
-from test_pinocchio import MIMIC, MODELS, URDFS, _states, _test_frames  # noqa: E402
+from test_pinocchio import MIMIC, URDFS, _states, _test_frames  # noqa: E402
 
 RTOL = 1e-8  # relative to the largest entry of the reference (or 1 when that is smaller)
 SINGULAR_M = 1e-12

@@ -23,7 +23,7 @@ from opendyn.io.urdf import shipped_robots_dir
 from opendyn.sim import effects
 from opendyn.sim.effects import registry
 from opendyn.sim.effects.dispatch import run_stages
-from opendyn.sim.effects.interface import ENERGY_CLASSES, Context, Out
+from opendyn.sim.effects.interface import CONSERVATIVE, ENERGY_CLASSES, Context, Out
 
 README = (pathlib.Path(__file__).resolve().parents[1] / "README.md").read_text(encoding="utf-8")
 SCENE_FIELDS = {field.name for field in dataclasses.fields(Scene)}
@@ -116,6 +116,10 @@ def assert_declares_every_part(effect):
         assert effect.apply is None and not effect.DERIVATIVES
     else:
         assert isinstance(effect.STAGE, str) and isinstance(effect.apply, CPUDispatcher)
+    if effect.ENERGY == CONSERVATIVE and effect.SECTION == "effects":
+        assert effect.tangent is None, "gravity and armature act through the dynamics"
+    else:
+        assert callable(effect.tangent), "tangent(record, at): its exact derivatives"
     if effect.DERIVATIVES:
         assert callable(effect.rates), "a stiff effect names itself: rates(record, at)"
     else:

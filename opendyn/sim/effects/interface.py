@@ -32,6 +32,11 @@ An effect is one module of this package, listed once in registry.EFFECTS. The mo
   apply        the compiled generalized force, apply(params, ctx, out) -> a Status; params
                None compiles to nothing (numba prunes `if params is None` on an argument);
                None when the effect is no stage (armature: it changes M, not tau)
+  tangent      tangent(record, at) -> (tau (nv,), dtau_dq, dtau_dqd (nv, nv)): its generalized
+               force again (numpy) and its exact derivatives, q in the tangent space, for
+               opendyn.sim.linearize (at: opendyn.sim.effects.tangent.LinearAt); a control
+               law's are the control's, and clip returns the change it makes to them; None for
+               an effect that acts through the dynamics, not as a force (gravity, armature)
   label        (optional) label(record, model) -> the stage's name in reports for this record;
                STAGE when absent
 
