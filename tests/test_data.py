@@ -248,7 +248,7 @@ calls["forward_dynamics_derivatives"] = (
     lambda **kw: od.forward_dynamics_derivatives(model, q, qd, qdd, **kw),
     aba_derivatives.aba_derivatives_kernel,
     (*buffers, (q, qd, qdd), model._loads, forward.NO_ARMATURE,
-     forward.method_switches(model, "aba"), data.ddq_dq, data.ddq_dqd, data.Minv),
+     aba_derivatives.coupled_switch(model), data.ddq_dq, data.ddq_dqd, data.Minv),
 )
 link = model.frames[model.frame_index(model.body_names[-1])]  # moves in six directions
 calls["task_space_mass_matrix"] = (

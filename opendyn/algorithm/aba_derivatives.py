@@ -15,66 +15,87 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .._runtime.arrays import result_status
+from .._runtime.arrays import all_finite, result_status
 from .._runtime.kernel_cache import BATCH, JIT
+from .._runtime.status import Status
 from ..multibody.data import (
     derivative_fields,
     joint_accelerations,
+    joint_vectors,
     mass_matrix_field,
     new_work,
 )
+from ..multibody.joints import state_status
 from ..multibody.layout import body_count, dof_count
 from . import checks
-from .forward import NO_ARMATURE, forward_kernel, method_switches
+from .christoffel import space_axes_and_inertias, velocity_terms
+from .crba import crba_kernel
+from .forward import NO_ARMATURE
 from .minverse import inverse_mass_matrix_kernel, mass_matrix_inverse
-from .rnea_derivatives import rnea_derivatives_kernel
+from .rnea_derivatives import (
+    accelerations_and_wrenches,
+    assemble_derivatives,
+    joint_space_forces,
+    three_matrices,
+)
 
 
 @njit(**JIT)
-def invert(aba, ibuf, fbuf, work, armature, M, Minv):
-    """Minv <- (M + diag(armature))^-1: by the recursion when the compile-time switch aba is
-    not None (one coordinate per body), else by M's Cholesky factor (coupled joints; M is
-    overwritten by it). Returns a Status."""
-    if aba is not None:
+def invert(coupled, ibuf, fbuf, work, q, armature, M, Minv):
+    """Minv <- (M(q) + diag(armature))^-1, with the CoriolisTerms of space_axes_and_inertias in
+    `work`: by the recursion when the compile-time switch coupled is None (one coordinate per
+    body), else by the Cholesky factor of M from CRBA (coupled joints; M is left holding it).
+    Returns a Status."""
+    if coupled is None:
         return inverse_mass_matrix_kernel(ibuf, fbuf, work, armature, Minv)
+    crba_kernel(ibuf, fbuf, work, q, M)
     return mass_matrix_inverse(M, armature, Minv)
 
 
 @njit(**JIT)
 def times_minus(Minv, D, out):
-    """out = -Minv D for (nv, nv) arrays."""
-    n = Minv.shape[0]
+    """out = -Minv D for (nv, nv) arrays (a BLAS product into out, then its sign)."""
+    np.dot(Minv, D, out)
+    n = out.shape[0]
     for r in range(n):
         for c in range(n):
-            s = 0.0
-            for k in range(n):
-                s += Minv[r, k] * D[k, c]
-            out[r, c] = -s
+            out[r, c] = -out[r, c]
 
 
 @njit(**JIT)
-def aba_derivatives_kernel(ibuf, fbuf, work, state, loads, armature, method, ddq_dq, ddq_dqd, Minv):
+def aba_derivatives_kernel(ibuf, fbuf, work, state, loads, armature, coupled, ddq_dq, ddq_dqd, Minv):
     """ddq_dq, ddq_dqd, Minv (nv, nv) <- the derivatives of forward dynamics at state = (q, qd,
     tau), in `work` (a Data's buffer: its qdd, dtau_dq, dtau_dqd and M are left as the forward
     dynamics' and RNEA derivatives' at that state); loads as rnea_kernel's; armature (nv,) or
-    empty; method forward_kernel's switches (ABA, or CRBA for coupled joints). Returns a
-    Status."""
+    empty; coupled None, or True for coupled joints (invert). One kinematic pass serves all:
+    M^-1 first, then h from the world-frame wrenches at qdd = 0, qdd = M^-1 (tau - h), and the
+    RNEA derivatives at qdd. Returns a Status."""
     q, qd, tau = state
+    status = state_status(ibuf, q, qd)
+    if status:
+        return status
+    if not all_finite(tau):
+        return Status.TAU_NOT_FINITE.value
     nb, nv = body_count(ibuf), dof_count(ibuf)
-    qdd = joint_accelerations(work, nb, nv)
-    status = forward_kernel(ibuf, fbuf, work, q, qd, tau, loads, qdd, armature, method)
-    if status:
-        return status
-    fields = derivative_fields(work, nb, nv)
     M = mass_matrix_field(work, nb, nv)
-    status = rnea_derivatives_kernel(
-        ibuf, fbuf, work, q, qd, qdd, loads, fields.dtau_dq, fields.dtau_dqd, M
-    )
+    space_axes_and_inertias(ibuf, fbuf, work, q)
+    status = invert(coupled, ibuf, fbuf, work, q, armature, M, Minv)
     if status:
         return status
-    status = invert(method[0], ibuf, fbuf, work, armature, M, Minv)
-    if status:
-        return status
+    velocity_terms(ibuf, fbuf, work, qd)
+    # qdd = M^-1 (tau - h), h = sum over each axis's subtree of the wrenches at qdd = 0
+    h, zero, _ = joint_vectors(work, nb, nv)
+    accelerations_and_wrenches(ibuf, fbuf, work, qd, zero, loads)
+    joint_space_forces(ibuf, fbuf, work, h)
+    qdd = joint_accelerations(work, nb, nv)
+    for r in range(nv):
+        s = 0.0
+        for c in range(nv):
+            s += Minv[r, c] * (tau[c] - h[c])
+        qdd[r] = s
+    accelerations_and_wrenches(ibuf, fbuf, work, qd, qdd, loads)
+    fields = derivative_fields(work, nb, nv)
+    assemble_derivatives(ibuf, fbuf, work, fields.dtau_dq, fields.dtau_dqd, M)
     times_minus(Minv, fields.dtau_dq, ddq_dq)
     times_minus(Minv, fields.dtau_dqd, ddq_dqd)
     status = result_status(ddq_dq)
@@ -82,7 +103,7 @@ def aba_derivatives_kernel(ibuf, fbuf, work, state, loads, armature, method, ddq
 
 
 @njit(**BATCH)
-def aba_derivatives_batch_kernel(ibuf, fbuf, states, loads, method, out, status, start, stop):
+def aba_derivatives_batch_kernel(ibuf, fbuf, states, loads, coupled, out, status, start, stop):
     """Forward dynamics derivatives over rows [start, stop) of a batch, states = (q, qd, tau),
     into out (N, 3, nv, nv) (ddq_dq, ddq_dqd, Minv); loads (1 or N, rows, 6). The rows work in
     a buffer of their own."""
@@ -98,11 +119,17 @@ def aba_derivatives_batch_kernel(ibuf, fbuf, states, loads, method, out, status,
             (q[n], qd[n], tau[n]),
             loads[0] if shared else loads[n],
             armature,
-            method,
+            coupled,
             out[n, 0],
             out[n, 1],
             out[n, 2],
         )
+
+
+def coupled_switch(model):
+    """The kernel's compile-time switch: True for a model with coupled (mimic) joints, else
+    None."""
+    return True if model.coupled else None
 
 
 def forward_dynamics_derivatives(model, q, qd, tau, f_tip=None, gravity=None, data=None):
@@ -124,33 +151,29 @@ def forward_dynamics_derivatives(model, q, qd, tau, f_tip=None, gravity=None, da
     Raises SingularMassMatrixError (a ValueError) when M(q) is singular, as forward_dynamics.
     Models with coupled (mimic) joints invert M by its Cholesky factor (no ABA for them).
     """
-    checks.check_model(model, "forward_dynamics_derivatives")
     what = "forward_dynamics_derivatives"
+    checks.check_model(model, what)
     work = checks.work_of(model, data, what)
-    (q, qd, tau), batch = checks.as_states(model, q, ("qd", qd), ("tau", tau))
-    arguments = {"q": q, "qd": qd, "tau": tau, "gravity": gravity, "f_tip": f_tip}
-    nv, method = model.nv, method_switches(model, "aba")
-    if not batch:
-        if data is None:
-            out = (np.empty((nv, nv)), np.empty((nv, nv)), np.empty((nv, nv)))
-        else:
-            out = (data.ddq_dq, data.ddq_dqd, data.Minv)
+    single = checks.is_single(model, q, qd, tau)  # the common call: nothing to convert
+    if not single:
+        (q, qd, tau), batch = checks.as_states(model, q, ("qd", qd), ("tau", tau))
+    nv, coupled = model.nv, coupled_switch(model)
+    if single or not batch:
+        out = three_matrices(nv) if data is None else (data.ddq_dq, data.ddq_dqd, data.Minv)
+        loads = model._loads if gravity is None and f_tip is None else checks.loads(
+            model, gravity, f_tip
+        )
         status = aba_derivatives_kernel(
-            model._ibuf,
-            model._fbuf,
-            work,
-            (q, qd, tau),
-            checks.loads(model, gravity, f_tip),
-            NO_ARMATURE,
-            method,
-            *out,
+            model._ibuf, model._fbuf, work, (q, qd, tau), loads, NO_ARMATURE, coupled, *out
         )
         if status:
+            arguments = {"q": q, "qd": qd, "tau": tau, "gravity": gravity, "f_tip": f_tip}
             checks.raise_status(status, model, what, "dqdd_dq", arguments)
         return out
+    arguments = {"q": q, "qd": qd, "tau": tau, "gravity": gravity, "f_tip": f_tip}
     checks.single_state_only(data, what)
     n = q.shape[0]
-    inputs = ((q, qd, tau), checks.loads(model, gravity, f_tip, n), method)
+    inputs = ((q, qd, tau), checks.loads(model, gravity, f_tip, n), coupled)
     out = checks.run_batch(
         model, aba_derivatives_batch_kernel, inputs, np.empty((n, 3, nv, nv)), what,
         "dqdd_dq", arguments,

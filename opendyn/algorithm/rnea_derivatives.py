@@ -178,6 +178,22 @@ def assemble_derivatives(ibuf, fbuf, work, dtau_dq, dtau_dqd, M):
 
 
 @njit(**JIT)
+def joint_space_forces(ibuf, fbuf, work, tau):
+    """tau (nv,) <- S_k . Fc_s[i] for every axis k of every body i, the shares of coupled
+    joints added: the generalized forces of the AxisRates' subtree wrenches in `work`."""
+    body_tree = tree(ibuf, fbuf)
+    parent, nv_j, iv = body_tree.parent, body_tree.nv_j, body_tree.iv
+    nb = parent.shape[0]
+    S_s = coriolis_terms(work, nb).S_s
+    Fc = axis_rates(work, nb).Fc_s
+    for k in range(tau.shape[0]):
+        tau[k] = 0.0
+    for i in range(nb):
+        for k in range(nv_j[i]):
+            tau[iv[i] + k] += dot6(S_s[i, k], Fc[i])
+
+
+@njit(**JIT)
 def rnea_derivatives_kernel(ibuf, fbuf, work, q, qd, qdd, loads, dtau_dq, dtau_dqd, M):
     """dtau_dq, dtau_dqd, M (nv, nv) <- the derivatives of RNEA at one state, in `work` (a
     Data's buffer: its CoriolisTerms and AxisRates are left as this state's); loads as
@@ -218,6 +234,12 @@ def rnea_derivatives_batch_kernel(ibuf, fbuf, q, qd, qdd, loads, out, status, st
         )
 
 
+def three_matrices(nv):
+    """Three fresh (nv, nv) arrays, views of one allocation."""
+    out = np.empty((3, nv, nv))
+    return out[0], out[1], out[2]
+
+
 def inverse_dynamics_derivatives(model, q, qd, qdd, f_tip=None, gravity=None, data=None):
     """The partial derivatives of tau = inverse_dynamics(model, q, qd, qdd, f_tip, gravity),
     analytical (by differentiating RNEA, O(n d); the module docstring has the recursion).
@@ -235,23 +257,24 @@ def inverse_dynamics_derivatives(model, q, qd, qdd, f_tip=None, gravity=None, da
       dtau_dqd = d tau / d qd (N m s per rad);
       dtau_dqdd = M(q), full and symmetric (kg m^2, kg m, kg).
     """
-    checks.check_model(model, "inverse_dynamics_derivatives")
     what = "inverse_dynamics_derivatives"
+    checks.check_model(model, what)
     work = checks.work_of(model, data, what)
-    (q, qd, qdd), batch = checks.as_states(model, q, ("qd", qd), ("qdd", qdd))
-    arguments = {"q": q, "qd": qd, "qdd": qdd, "gravity": gravity, "f_tip": f_tip}
-    nv = model.nv
-    if not batch:
-        if data is None:
-            out = (np.empty((nv, nv)), np.empty((nv, nv)), np.empty((nv, nv)))
-        else:
-            out = (data.dtau_dq, data.dtau_dqd, data.M)
-        status = rnea_derivatives_kernel(
-            model._ibuf, model._fbuf, work, q, qd, qdd, checks.loads(model, gravity, f_tip), *out
+    single = checks.is_single(model, q, qd, qdd)  # the common call: nothing to convert
+    if not single:
+        (q, qd, qdd), batch = checks.as_states(model, q, ("qd", qd), ("qdd", qdd))
+    if single or not batch:
+        out = three_matrices(model.nv) if data is None else (data.dtau_dq, data.dtau_dqd, data.M)
+        loads = model._loads if gravity is None and f_tip is None else checks.loads(
+            model, gravity, f_tip
         )
+        status = rnea_derivatives_kernel(model._ibuf, model._fbuf, work, q, qd, qdd, loads, *out)
         if status:
+            arguments = {"q": q, "qd": qd, "qdd": qdd, "gravity": gravity, "f_tip": f_tip}
             checks.raise_status(status, model, what, "dtau_dq", arguments)
         return out
+    arguments = {"q": q, "qd": qd, "qdd": qdd, "gravity": gravity, "f_tip": f_tip}
+    nv = model.nv
     checks.single_state_only(data, what)
     n = q.shape[0]
     inputs = (q, qd, qdd, checks.loads(model, gravity, f_tip, n))

@@ -491,8 +491,8 @@ def axis_rates(work, nb):
 
 # The recursive M^-1's arrays (opendyn.algorithm.minverse), views of a work buffer, in {s}:
 # IA_s, U_s, Dinv (nb, 6, 6), subtree_end (nb,) (one past the last coordinate of the subtree of
-# body i, as a float) and responses (nb, 6, nv), the bias wrenches, then the accelerations, of
-# unit torques (it needs nb <= nv: one coordinate or more per body).
+# body i, as a float) and responses (nb, nv, 6), the bias wrenches, then the accelerations, of
+# unit torques, one 6-vector per torque (it needs nb <= nv: one coordinate or more per body).
 InverseTerms = namedtuple("InverseTerms", ("IA_s", "U_s", "Dinv", "subtree_end", "responses"))
 
 
@@ -504,7 +504,7 @@ def inverse_terms(work, nb, nv):
         shaped(body_field(work, nb, _U_S), (nb, 6, 6)),
         shaped(body_field(work, nb, _DINV), (nb, 6, 6)),
         body_field(work, nb, _SUBTREE_END),
-        shaped(work_field(work, nb, nv, _UNIT_RESPONSES)[: nb * 6 * nv], (nb, 6, nv)),
+        shaped(work_field(work, nb, nv, _UNIT_RESPONSES)[: nb * nv * 6], (nb, nv, 6)),
     )
 
 

@@ -25,8 +25,7 @@ import numpy as np
 import scipy.linalg
 
 from ..algorithm import checks
-from ..algorithm.aba_derivatives import aba_derivatives_kernel
-from ..algorithm.forward import method_switches
+from ..algorithm.aba_derivatives import aba_derivatives_kernel, coupled_switch
 from ..multibody.joints import FREE
 from ..spatial.algebra import ad
 from .effects import registry
@@ -95,7 +94,7 @@ def linearize(scene, t=0.0, q=None, qd=None, tau=None, discrete=False):
     loads = checks.loads(model, gravity_of(scene), None)
     status = aba_derivatives_kernel(
         model._ibuf, model._fbuf, work, (q, qd, tau_e + u), loads, armature,
-        method_switches(model, "aba"), ddq_dq, ddq_dqd, Minv,
+        coupled_switch(model), ddq_dq, ddq_dqd, Minv,
     )
     if status:
         arguments = {"q": q, "qd": qd, "tau": tau_e + u}
