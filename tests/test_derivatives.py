@@ -217,7 +217,7 @@ def test_data_holds_the_results_and_equals_fresh_calls(name, floating):
         for a, b in zip(held, od.forward_dynamics_derivatives(model, q, qd, qdd)):
             np.testing.assert_array_equal(a, b)
         # qdd = M^-1 (tau - h) there, where forward_dynamics runs ABA: equal to rounding
-        np.testing.assert_allclose(data.qdd, od.forward_dynamics(model, q, qd, qdd), rtol=1e-12)
+        assert_close(data.qdd, od.forward_dynamics(model, q, qd, qdd), "data.qdd", rtol=1e-12)
 
 
 def test_bad_arguments_are_named():
