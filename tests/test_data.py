@@ -242,7 +242,7 @@ calls["jacobian"] = (
 calls["inverse_dynamics_derivatives"] = (
     lambda **kw: od.inverse_dynamics_derivatives(model, q, qd, qdd, **kw),
     rnea_derivatives.rnea_derivatives_kernel,
-    (*buffers, q, qd, qdd, model._loads, data.dtau_dq, data.dtau_dqd, data.M),
+    (*buffers, (q, qd, qdd), model._loads, data.dtau_dq, data.dtau_dqd, data.M),
 )
 calls["forward_dynamics_derivatives"] = (
     lambda **kw: od.forward_dynamics_derivatives(model, q, qd, qdd, **kw),

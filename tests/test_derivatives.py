@@ -19,19 +19,14 @@ pin = pytest.importorskip("pinocchio")
 from pin_adapter import PinOracle  # noqa: E402
 from randtree import write_random_tree  # noqa: E402
 from test_pinocchio import MIMIC, URDFS, _states, _test_frames  # noqa: E402
+from test_pinocchio import assert_close as pinocchio_close  # noqa: E402
 
 RTOL = 1e-8  # relative to the largest entry of the reference (or 1 when that is smaller)
 SINGULAR_M = 1e-12
 
 
 def assert_close(ours, ref, what, rtol=RTOL):
-    ours, ref = np.asarray(ours, dtype=float), np.asarray(ref, dtype=float)
-    assert ours.shape == ref.shape, f"{what}: shape {ours.shape} != {ref.shape}"
-    if ref.size == 0:
-        return
-    scale = max(1.0, float(np.abs(ref).max()))
-    err = float(np.abs(ours - ref).max()) / scale
-    assert err <= rtol, f"{what}: relative error {err:.3e} > {rtol:g}"
+    pinocchio_close(ours, ref, what, rtol)
 
 
 def _load(path, **kw):
@@ -107,6 +102,7 @@ def test_derivatives_of_robots_with_mimic_joints(path):
 
 # -- central differences of our own functions --------------------------------------------------
 
+
 def _central(f, n, h):
     E = np.eye(n)
     return np.stack([(f(h * E[k]) - f(-h * E[k])) / (2 * h) for k in range(n)], axis=1)
@@ -143,6 +139,7 @@ def test_derivatives_equal_central_differences_of_our_dynamics(name, floating):
 
 
 # -- identities ---------------------------------------------------------------------------------
+
 
 def test_identities_on_a_fixed_base():
     """dtau/dqdd = M and dqdd/dtau = M^-1 (full, symmetric); c = qd^T Gamma qd gives
@@ -181,6 +178,7 @@ def test_moving_a_floating_robot_changes_its_accelerations_only_through_gravity(
 
 
 # -- batches, data=, errors ---------------------------------------------------------------------
+
 
 @pytest.mark.parametrize("name, floating", [("ur5", False), ("solo12", True)])
 def test_batches_equal_single_calls(name, floating):

@@ -56,7 +56,9 @@ def assert_matches_differences(scene, t, q, qd, rtol=2e-6):
     assert A.shape == (2 * nv, 2 * nv) and B.shape == (2 * nv, len(model.v_index))
     dq, dqd, du = differenced(scene, t, q, qd)
     for name, ours, ref in (
-        ("dqdd/dq", A[nv:, :nv], dq), ("dqdd/dqd", A[nv:, nv:], dqd), ("B", B[nv:], du)
+        ("dqdd/dq", A[nv:, :nv], dq),
+        ("dqdd/dqd", A[nv:, nv:], dqd),
+        ("B", B[nv:], du),
     ):
         scale = max(1.0, np.abs(ref).max(initial=0.0))
         assert np.abs(ours - ref).max(initial=0.0) <= rtol * scale, (scene.name, name)
@@ -75,8 +77,15 @@ def _touching_states(scene, count=3):
 
 @pytest.mark.parametrize(
     "name",
-    ["double_pendulum_push", "panda_computed_torque", "planar_3r_limits", "ur5_falling",
-     "solo12_falling", "t_handle_flip", "double_pendulum_swing"],
+    [
+        "double_pendulum_push",
+        "panda_computed_torque",
+        "planar_3r_limits",
+        "ur5_falling",
+        "solo12_falling",
+        "t_handle_flip",
+        "double_pendulum_swing",
+    ],
 )
 def test_linearize_matches_differences_of_the_scenes_own_dynamics(name):
     scene = od.load_scene(name)
@@ -163,7 +172,9 @@ def test_the_free_joints_error_moves_with_the_bases_twist():
 
         def e(s):
             return od.difference(
-                model, od.integrate(model, q0, v0 * s, 1.0), od.integrate(model, q, (v0 + dv) * s, 1.0)
+                model,
+                od.integrate(model, q0, v0 * s, 1.0),
+                od.integrate(model, q, (v0 + dv) * s, 1.0),
             )
 
         return (e(h) - e(-h)) / (2 * h)

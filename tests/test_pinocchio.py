@@ -47,14 +47,14 @@ URDFS = [p for p in _example_robot_data_urdfs() if _pinocchio_loads(p)]
 MODELS = {p: od.load_urdf(p, check_inertia=False) for p in URDFS}
 
 
-def assert_close(ours, ref, what):
+def assert_close(ours, ref, what, rtol=RTOL):
     ours, ref = np.asarray(ours, dtype=float), np.asarray(ref, dtype=float)
     assert ours.shape == ref.shape, f"{what}: shape {ours.shape} != {ref.shape}"
     if ref.size == 0:
         return
     scale = max(1.0, float(np.abs(ref).max()))
     err = float(np.abs(ours - ref).max()) / scale
-    assert err <= RTOL, f"{what}: relative error {err:.3e} > {RTOL:g}"
+    assert err <= rtol, f"{what}: relative error {err:.3e} > {rtol:g}"
 
 
 def _load(path, **kw):

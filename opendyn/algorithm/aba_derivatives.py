@@ -35,8 +35,8 @@ from .minverse import inverse_mass_matrix_kernel, mass_matrix_inverse
 from .rnea_derivatives import (
     accelerations_and_wrenches,
     assemble_derivatives,
+    derivatives_at,
     joint_space_forces,
-    three_matrices,
 )
 
 
@@ -63,7 +63,9 @@ def times_minus(Minv, D, out):
 
 
 @njit(**JIT)
-def aba_derivatives_kernel(ibuf, fbuf, work, state, loads, armature, coupled, ddq_dq, ddq_dqd, Minv):
+def aba_derivatives_kernel(
+    ibuf, fbuf, work, state, loads, armature, coupled, ddq_dq, ddq_dqd, Minv
+):
     """ddq_dq, ddq_dqd, Minv (nv, nv) <- the derivatives of forward dynamics at state = (q, qd,
     tau), in `work` (a Data's buffer: its qdd, dtau_dq, dtau_dqd and M are left as the forward
     dynamics' and RNEA derivatives' at that state); loads as rnea_kernel's; armature (nv,) or
@@ -103,14 +105,15 @@ def aba_derivatives_kernel(ibuf, fbuf, work, state, loads, armature, coupled, dd
 
 
 @njit(**BATCH)
-def aba_derivatives_batch_kernel(ibuf, fbuf, states, loads, coupled, out, status, start, stop):
+def aba_derivatives_batch_kernel(
+    ibuf, fbuf, states, loads, armature, coupled, out, status, start, stop
+):
     """Forward dynamics derivatives over rows [start, stop) of a batch, states = (q, qd, tau),
-    into out (N, 3, nv, nv) (ddq_dq, ddq_dqd, Minv); loads (1 or N, rows, 6). The rows work in
-    a buffer of their own."""
+    into out (N, 3, nv, nv) (ddq_dq, ddq_dqd, Minv); loads (1 or N, rows, 6); armature and
+    coupled as aba_derivatives_kernel's. The rows work in a buffer of their own."""
     q, qd, tau = states
     shared = loads.shape[0] == 1
     work = new_work(body_count(ibuf), dof_count(ibuf))
-    armature = np.zeros(0)
     for n in range(start, stop):
         status[n] = aba_derivatives_kernel(
             ibuf,
@@ -151,31 +154,16 @@ def forward_dynamics_derivatives(model, q, qd, tau, f_tip=None, gravity=None, da
     Raises SingularMassMatrixError (a ValueError) when M(q) is singular, as forward_dynamics.
     Models with coupled (mimic) joints invert M by its Cholesky factor (no ABA for them).
     """
-    what = "forward_dynamics_derivatives"
-    checks.check_model(model, what)
-    work = checks.work_of(model, data, what)
-    single = checks.is_single(model, q, qd, tau)  # the common call: nothing to convert
-    if not single:
-        (q, qd, tau), batch = checks.as_states(model, q, ("qd", qd), ("tau", tau))
-    nv, coupled = model.nv, coupled_switch(model)
-    if single or not batch:
-        out = three_matrices(nv) if data is None else (data.ddq_dq, data.ddq_dqd, data.Minv)
-        loads = model._loads if gravity is None and f_tip is None else checks.loads(
-            model, gravity, f_tip
-        )
-        status = aba_derivatives_kernel(
-            model._ibuf, model._fbuf, work, (q, qd, tau), loads, NO_ARMATURE, coupled, *out
-        )
-        if status:
-            arguments = {"q": q, "qd": qd, "tau": tau, "gravity": gravity, "f_tip": f_tip}
-            checks.raise_status(status, model, what, "dqdd_dq", arguments)
-        return out
-    arguments = {"q": q, "qd": qd, "tau": tau, "gravity": gravity, "f_tip": f_tip}
-    checks.single_state_only(data, what)
-    n = q.shape[0]
-    inputs = ((q, qd, tau), checks.loads(model, gravity, f_tip, n), coupled)
-    out = checks.run_batch(
-        model, aba_derivatives_batch_kernel, inputs, np.empty((n, 3, nv, nv)), what,
-        "dqdd_dq", arguments,
+    checks.check_model(model, "forward_dynamics_derivatives")
+    extra = (NO_ARMATURE, coupled_switch(model))
+    kernels = (aba_derivatives_kernel, aba_derivatives_batch_kernel, extra)
+    return derivatives_at(
+        model,
+        ("q", "qd", "tau"),
+        (q, qd, tau),
+        (f_tip, gravity),
+        data,
+        ("ddq_dq", "ddq_dqd", "Minv"),
+        kernels,
+        "forward_dynamics_derivatives",
     )
-    return out[:, 0], out[:, 1], out[:, 2]

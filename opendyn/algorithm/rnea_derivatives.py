@@ -194,11 +194,12 @@ def joint_space_forces(ibuf, fbuf, work, tau):
 
 
 @njit(**JIT)
-def rnea_derivatives_kernel(ibuf, fbuf, work, q, qd, qdd, loads, dtau_dq, dtau_dqd, M):
-    """dtau_dq, dtau_dqd, M (nv, nv) <- the derivatives of RNEA at one state, in `work` (a
-    Data's buffer: its CoriolisTerms and AxisRates are left as this state's); loads as
-    rnea_kernel's. Returns a Status: OK, Q/QD/QDD_NOT_FINITE, Q_NOT_UNIT_QUATERNION or
+def rnea_derivatives_kernel(ibuf, fbuf, work, state, loads, dtau_dq, dtau_dqd, M):
+    """dtau_dq, dtau_dqd, M (nv, nv) <- the derivatives of RNEA at state = (q, qd, qdd), in
+    `work` (a Data's buffer: its CoriolisTerms and AxisRates are left as this state's); loads
+    as rnea_kernel's. Returns a Status: OK, Q/QD/QDD_NOT_FINITE, Q_NOT_UNIT_QUATERNION or
     RESULT_NOT_FINITE."""
+    q, qd, qdd = state
     status = state_status(ibuf, q, qd)
     if status:
         return status
@@ -213,10 +214,11 @@ def rnea_derivatives_kernel(ibuf, fbuf, work, q, qd, qdd, loads, dtau_dq, dtau_d
 
 
 @njit(**BATCH)
-def rnea_derivatives_batch_kernel(ibuf, fbuf, q, qd, qdd, loads, out, status, start, stop):
-    """RNEA derivatives over rows [start, stop) of a batch into out (N, 3, nv, nv) (dtau_dq,
-    dtau_dqd, M); loads (1, rows, 6) shared or (N, rows, 6). The rows work in a buffer of
-    their own."""
+def rnea_derivatives_batch_kernel(ibuf, fbuf, states, loads, out, status, start, stop):
+    """RNEA derivatives over rows [start, stop) of a batch, states = (q, qd, qdd), into out
+    (N, 3, nv, nv) (dtau_dq, dtau_dqd, M); loads (1, rows, 6) shared or (N, rows, 6). The
+    rows work in a buffer of their own."""
+    q, qd, qdd = states
     shared = loads.shape[0] == 1
     work = new_work(body_count(ibuf), dof_count(ibuf))
     for n in range(start, stop):
@@ -224,9 +226,7 @@ def rnea_derivatives_batch_kernel(ibuf, fbuf, q, qd, qdd, loads, out, status, st
             ibuf,
             fbuf,
             work,
-            q[n],
-            qd[n],
-            qdd[n],
+            (q[n], qd[n], qdd[n]),
             loads[0] if shared else loads[n],
             out[n, 0],
             out[n, 1],
@@ -234,10 +234,46 @@ def rnea_derivatives_batch_kernel(ibuf, fbuf, q, qd, qdd, loads, out, status, st
         )
 
 
-def three_matrices(nv):
-    """Three fresh (nv, nv) arrays, views of one allocation."""
-    out = np.empty((3, nv, nv))
-    return out[0], out[1], out[2]
+def derivatives_at(model, names, state, extra_loads, data, fields, kernels, what):
+    """The three (nv, nv) derivative matrices that kernels = (kernel, batch_kernel, extra)
+    compute at state = (q, x, y) named `names`, for a single state or a batch (N, nv, nv)
+    each: kernel(ibuf, fbuf, work, (q, x, y), loads, *extra, *out) and batch_kernel(ibuf,
+    fbuf, (q, x, y), loads, *extra, out (N, 3, nv, nv), status, start, stop); extra_loads =
+    (f_tip, gravity); with data (single states) the Data's `fields`. The public derivative
+    functions' one path: a single float64 state goes straight to the kernel."""
+    checks.check_model(model, what)
+    work = checks.work_of(model, data, what)
+    kernel, batch_kernel, extra = kernels
+    f_tip, gravity = extra_loads
+    q, x, y = state
+    batch = False
+    if not checks.is_single(model, q, x, y):  # else nothing to convert
+        (q, x, y), batch = checks.as_states(model, q, (names[1], x), (names[2], y))
+    nv = model.nv
+    if not batch:
+        if data is None:
+            held = np.empty((3, nv, nv))
+            out = (held[0], held[1], held[2])
+        else:
+            out = tuple(getattr(data, field) for field in fields)
+        loads = (
+            model._loads
+            if gravity is None and f_tip is None
+            else checks.loads(model, gravity, f_tip)
+        )
+        status = kernel(model._ibuf, model._fbuf, work, (q, x, y), loads, *extra, *out)
+        if status:
+            arguments = {names[0]: q, names[1]: x, names[2]: y, "gravity": gravity}
+            checks.raise_status(status, model, what, fields[0], {**arguments, "f_tip": f_tip})
+        return out
+    checks.single_state_only(data, what)
+    arguments = {names[0]: q, names[1]: x, names[2]: y, "gravity": gravity, "f_tip": f_tip}
+    n = q.shape[0]
+    inputs = ((q, x, y), checks.loads(model, gravity, f_tip, n), *extra)
+    out = checks.run_batch(
+        model, batch_kernel, inputs, np.empty((n, 3, nv, nv)), what, fields[0], arguments
+    )
+    return out[:, 0], out[:, 1], out[:, 2]
 
 
 def inverse_dynamics_derivatives(model, q, qd, qdd, f_tip=None, gravity=None, data=None):
@@ -257,29 +293,14 @@ def inverse_dynamics_derivatives(model, q, qd, qdd, f_tip=None, gravity=None, da
       dtau_dqd = d tau / d qd (N m s per rad);
       dtau_dqdd = M(q), full and symmetric (kg m^2, kg m, kg).
     """
-    what = "inverse_dynamics_derivatives"
-    checks.check_model(model, what)
-    work = checks.work_of(model, data, what)
-    single = checks.is_single(model, q, qd, qdd)  # the common call: nothing to convert
-    if not single:
-        (q, qd, qdd), batch = checks.as_states(model, q, ("qd", qd), ("qdd", qdd))
-    if single or not batch:
-        out = three_matrices(model.nv) if data is None else (data.dtau_dq, data.dtau_dqd, data.M)
-        loads = model._loads if gravity is None and f_tip is None else checks.loads(
-            model, gravity, f_tip
-        )
-        status = rnea_derivatives_kernel(model._ibuf, model._fbuf, work, q, qd, qdd, loads, *out)
-        if status:
-            arguments = {"q": q, "qd": qd, "qdd": qdd, "gravity": gravity, "f_tip": f_tip}
-            checks.raise_status(status, model, what, "dtau_dq", arguments)
-        return out
-    arguments = {"q": q, "qd": qd, "qdd": qdd, "gravity": gravity, "f_tip": f_tip}
-    nv = model.nv
-    checks.single_state_only(data, what)
-    n = q.shape[0]
-    inputs = (q, qd, qdd, checks.loads(model, gravity, f_tip, n))
-    out = checks.run_batch(
-        model, rnea_derivatives_batch_kernel, inputs, np.empty((n, 3, nv, nv)), what,
-        "dtau_dq", arguments,
+    kernels = (rnea_derivatives_kernel, rnea_derivatives_batch_kernel, ())
+    return derivatives_at(
+        model,
+        ("q", "qd", "qdd"),
+        (q, qd, qdd),
+        (f_tip, gravity),
+        data,
+        ("dtau_dq", "dtau_dqd", "M"),
+        kernels,
+        "inverse_dynamics_derivatives",
     )
-    return out[:, 0], out[:, 1], out[:, 2]

@@ -93,8 +93,16 @@ def linearize(scene, t=0.0, q=None, qd=None, tau=None, discrete=False):
     work = model.data()._work
     loads = checks.loads(model, gravity_of(scene), None)
     status = aba_derivatives_kernel(
-        model._ibuf, model._fbuf, work, (q, qd, tau_e + u), loads, armature,
-        coupled_switch(model), ddq_dq, ddq_dqd, Minv,
+        model._ibuf,
+        model._fbuf,
+        work,
+        (q, qd, tau_e + u),
+        loads,
+        armature,
+        coupled_switch(model),
+        ddq_dq,
+        ddq_dqd,
+        Minv,
     )
     if status:
         arguments = {"q": q, "qd": qd, "tau": tau_e + u}

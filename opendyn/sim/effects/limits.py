@@ -145,7 +145,9 @@ def tangent(limits, at):
     model = at.scene.model
     nv, iq, iv = model.nv, q_indices(model), v_indices(model)
     q = at.q[iq]
-    depth = np.where(q > limits.upper, q - limits.upper, np.where(q < limits.lower, q - limits.lower, 0.0))
+    depth = np.where(
+        q > limits.upper, q - limits.upper, np.where(q < limits.lower, q - limits.lower, 0.0)
+    )
     past = depth != 0.0
     tau, dtau_dq, dtau_dqd = np.zeros(nv), np.zeros((nv, nv)), np.zeros((nv, nv))
     tau[iv] = np.where(past, -limits.stiffness * depth - limits.damping * at.qd[iv], 0.0)
