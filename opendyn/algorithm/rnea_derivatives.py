@@ -240,8 +240,8 @@ def derivatives_at(model, names, state, extra_loads, data, fields, kernels, what
     each: kernel(ibuf, fbuf, work, (q, x, y), loads, *extra, *out) and batch_kernel(ibuf,
     fbuf, (q, x, y), loads, *extra, out (N, 3, nv, nv), status, start, stop); extra_loads =
     (f_tip, gravity); with data (single states) the Data's `fields`. The public derivative
-    functions' one path: a single float64 state goes straight to the kernel."""
-    checks.check_model(model, what)
+    functions' one path (after their check_model): a single float64 state goes straight to
+    the kernel."""
     work = checks.work_of(model, data, what)
     kernel, batch_kernel, extra = kernels
     f_tip, gravity = extra_loads
@@ -255,7 +255,7 @@ def derivatives_at(model, names, state, extra_loads, data, fields, kernels, what
             held = np.empty((3, nv, nv))
             out = (held[0], held[1], held[2])
         else:
-            out = tuple(getattr(data, field) for field in fields)
+            out = (getattr(data, fields[0]), getattr(data, fields[1]), getattr(data, fields[2]))
         loads = (
             model._loads
             if gravity is None and f_tip is None
@@ -293,6 +293,7 @@ def inverse_dynamics_derivatives(model, q, qd, qdd, f_tip=None, gravity=None, da
       dtau_dqd = d tau / d qd (N m s per rad);
       dtau_dqdd = M(q), full and symmetric (kg m^2, kg m, kg).
     """
+    checks.check_model(model, "inverse_dynamics_derivatives")
     kernels = (rnea_derivatives_kernel, rnea_derivatives_batch_kernel, ())
     return derivatives_at(
         model,
