@@ -23,6 +23,13 @@ from .errors import (
 # folder named by the hash of the package's sources (opendyn._runtime.kernel_cache); by layer:
 # multibody -> algorithm -> io -> sim -> sweep
 with kernel_cache():
+    from .algorithm.centroidal import (
+        center_of_mass,
+        center_of_mass_jacobian,
+        centroidal_momentum,
+        centroidal_momentum_matrix,
+        centroidal_momentum_rate_bias,
+    )
     from .algorithm.christoffel import christoffel_symbols, coriolis_matrix
     from .algorithm.configuration import (
         difference,
@@ -108,6 +115,11 @@ __all__ = [
     "URDFError",
     "available_robots",
     "bias_forces",
+    "center_of_mass",
+    "center_of_mass_jacobian",
+    "centroidal_momentum",
+    "centroidal_momentum_matrix",
+    "centroidal_momentum_rate_bias",
     "christoffel_symbols",
     "coriolis_forces",
     "coriolis_matrix",
