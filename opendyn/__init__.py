@@ -51,6 +51,7 @@ with kernel_cache():
     from .algorithm.energy import kinetic_energy, potential_energy
     from .algorithm.forward import forward_dynamics
     from .algorithm.kinematics import frame_pose, jacobian
+    from .algorithm.regressor import torque_regressor
     from .algorithm.rnea import bias_forces, coriolis_forces, gravity_forces, inverse_dynamics
     from .algorithm.task_space import frame_acceleration, task_space_bias, task_space_mass_matrix
     from .io.scene.files import default_scene, load_scene, scene_from_dict
@@ -135,4 +136,5 @@ __all__ = [
     "potential_energy",
     "task_space_bias",
     "task_space_mass_matrix",
+    "torque_regressor",
 ]
