@@ -50,6 +50,7 @@ with kernel_cache():
     from .algorithm.crba import mass_matrix
     from .algorithm.energy import kinetic_energy, potential_energy
     from .algorithm.forward import forward_dynamics
+    from .algorithm.identification import identify, identify_payload
     from .algorithm.kinematics import frame_pose, jacobian
     from .algorithm.regressor import torque_regressor
     from .algorithm.rnea import bias_forces, coriolis_forces, gravity_forces, inverse_dynamics
@@ -128,6 +129,8 @@ __all__ = [
     "frame_acceleration",
     "frame_pose",
     "gravity_forces",
+    "identify",
+    "identify_payload",
     "inverse_dynamics",
     "jacobian",
     "kinetic_energy",

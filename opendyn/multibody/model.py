@@ -122,6 +122,25 @@ _ARRAY_FIELDS = (
 )
 
 
+def parameters_of(mass, h, I_o):
+    """(..., 10) inertial parameters (m, h_x, h_y, h_z, I_xx, I_xy, I_yy, I_xz, I_yz, I_zz) of
+    masses (...,), first moments h = m c (..., 3) and rotational inertias I_o (..., 3, 3) about
+    the frames' origins (Model.inertial_parameters' order)."""
+    mass = np.asarray(mass, dtype=float)
+    pi = np.empty((*mass.shape, 10))
+    pi[..., 0] = mass
+    pi[..., 1:4] = h
+    pi[..., 4:] = np.asarray(I_o)[..., (0, 0, 1, 0, 1, 2), (0, 1, 1, 2, 2, 2)]
+    return pi
+
+
+def rigid_body_of(pi_i):
+    """(m, h (3,), I_o (3, 3)) of one body's 10 inertial parameters (parameters_of's inverse)."""
+    mass, h0, h1, h2, xx, xy, yy, xz, yz, zz = (float(x) for x in pi_i)
+    I_o = np.array([[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]])
+    return mass, np.array([h0, h1, h2]), I_o
+
+
 def inertia_from_parameters(mass, h, I_o):
     """G = [[I_o, [h]], [[h]^T, m 1]] (6, 6): the spatial inertia of mass m (kg), first moment
     h = m c (kg m) and rotational inertia I_o (kg m^2) about the frame's origin, angular first
@@ -445,11 +464,7 @@ class Model:
         I_zz) of body i: its mass (kg), first moment (kg m) and rotational inertia about the
         origin of its frame {i} (kg m^2), all in {i}'s axes (Pinocchio's order). Inverse
         dynamics is linear in them: tau = torque_regressor(model, q, qd, qdd) @ pi."""
-        pi = np.empty((self.nb, 10))
-        pi[:, 0] = self.mass
-        pi[:, 1:4] = self.h
-        pi[:, 4:] = self.I_o[:, (0, 0, 1, 0, 1, 2), (0, 1, 1, 2, 2, 2)]
-        return pi.ravel()
+        return parameters_of(self.mass, self.h, self.I_o).ravel()
 
     def with_inertial_parameters(self, pi, check_inertia=True) -> Model:
         """A new Model whose bodies have the inertial parameters pi (10 nb,), in the order of
@@ -478,9 +493,8 @@ class Model:
         if not np.all(np.isfinite(pi)):
             raise ValueError(f"pi must be finite, got {pi}")
         G = np.zeros((self.nb, 6, 6))
-        for i, (mass, h0, h1, h2, xx, xy, yy, xz, yz, zz) in enumerate(pi.reshape(-1, 10)):
-            h = np.array([h0, h1, h2])
-            I_o = np.array([[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]])
+        for i, pi_i in enumerate(pi.reshape(-1, 10)):
+            mass, h, I_o = rigid_body_of(pi_i)
             problem = _rigid_body_problem(mass, h, I_o, check_inertia)
             if problem:
                 raise ValueError(
