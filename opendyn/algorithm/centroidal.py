@@ -95,10 +95,12 @@ def center_of_mass_kernel(ibuf, fbuf, work, q, c):
 
 
 @njit(**JIT)
-def centroidal_map_kernel(ibuf, fbuf, work, q, A_G):
-    """A_G (6, nv) <- the centroidal momentum matrix at q, in `work` (R_s, p_s are left as the
-    body poses; mass_c, h_c, I_c as the subtrees' composite inertias about c in world axes).
-    Returns a Status: OK, Q_NOT_FINITE, Q_NOT_UNIT_QUATERNION or RESULT_NOT_FINITE."""
+def centroidal_map_kernel(ibuf, fbuf, work, q, linear_only, A_G):
+    """A_G (6, nv) <- the centroidal momentum matrix at q or, when linear_only, A_G (3, nv) <-
+    J_c, its linear rows over M (the subtrees' rotational inertias are then not formed), in
+    `work` (R_s, p_s are left as the body poses; mass_c, h_c and, unless linear_only, I_c as
+    the subtrees' composite inertias about c in world axes). Returns a Status: OK,
+    Q_NOT_FINITE, Q_NOT_UNIT_QUATERNION or RESULT_NOT_FINITE."""
     status = configuration_status(ibuf, q)
     if status:
         return status
@@ -119,16 +121,27 @@ def centroidal_map_kernel(ibuf, fbuf, work, q, A_G):
     temp = temp_vectors(work, nb, nv)
     S_G, F, c = temp[0], temp[1], temp[2, :3]
     p_G = temp[2, 3:]
-    centre_of_mass_of(R_s, p_s, mass, h, c)
-    # Ic_{G,i} <- G_i in {G}, then the subtree sums (all in one frame: plain sums), tips first
+    total = centre_of_mass_of(R_s, p_s, mass, h, c)
+    # Ic_{G,i} <- G_i in {G} (mass and first moment R_i h_i + m_i (p_i - c) alone when
+    # linear_only), then the subtree sums (all in one frame: plain sums), tips first
     fill(mass_c, 0.0)
     fill(h_c, 0.0)
     fill(I_c, 0.0)
     for i in range(nb):
         relative_to(p_s[i], c, p_G)
-        add_rigid_inertia_to_parent(
-            R_s[i], p_G, mass[i], h[i], I_o[i], mass_c[i : i + 1], h_c[i], I_c[i], scratch
-        )
+        if linear_only:
+            mass_c[i] = mass[i]
+            for r in range(3):
+                h_c[i, r] = (
+                    R_s[i, r, 0] * h[i, 0]
+                    + R_s[i, r, 1] * h[i, 1]
+                    + R_s[i, r, 2] * h[i, 2]
+                    + mass[i] * p_G[r]
+                )
+        else:
+            add_rigid_inertia_to_parent(
+                R_s[i], p_G, mass[i], h[i], I_o[i], mass_c[i : i + 1], h_c[i], I_c[i], scratch
+            )
     for i in range(nb - 1, -1, -1):
         lam = parent[i]
         if lam >= 0:
@@ -137,15 +150,20 @@ def centroidal_map_kernel(ibuf, fbuf, work, q, A_G):
                 h_c[lam, r] += h_c[i, r]
                 for k in range(3):
                     I_c[lam, r, k] += I_c[i, r, k]
-    # A_G[:, iv_i + k] = mult_i Ic_{G,i} S_{G,k}, S_{G,k} = Ad_{T_{G,i}} s_k
+    # A_G[:, iv_i + k] = mult_i Ic_{G,i} S_{G,k}, S_{G,k} = Ad_{T_{G,i}} s_k; its linear rows
+    # are m_c v - h_c x w for S_{G,k} = (w, v)
     zero_matrix(A_G)
     for i in range(nb):
         relative_to(p_s[i], c, p_G)
         for k in range(nv_j[i]):
             space_axis(R_s[i], p_G, S[i, k], S_G)
             rigid_inertia_times(mass_c[i], h_c[i], I_c[i], S_G, F)
-            for r in range(6):
-                A_G[r, iv[i] + k] += mult[i] * F[r]
+            if linear_only:
+                for r in range(3):
+                    A_G[r, iv[i] + k] += mult[i] * F[3 + r] / total
+            else:
+                for r in range(6):
+                    A_G[r, iv[i] + k] += mult[i] * F[r]
     return result_status(A_G)
 
 
@@ -196,11 +214,12 @@ def center_of_mass_batch_kernel(ibuf, fbuf, q, c, status, start, stop):
 
 
 @njit(**BATCH)
-def centroidal_map_batch_kernel(ibuf, fbuf, q, A_G, status, start, stop):
-    """Centroidal momentum matrices over rows [start, stop) of a batch (N, nq) -> (N, 6, nv)."""
+def centroidal_map_batch_kernel(ibuf, fbuf, q, linear_only, A_G, status, start, stop):
+    """Centroidal momentum matrices (or, linear_only, J_c) over rows [start, stop) of a batch
+    (N, nq) -> (N, 6, nv) (or (N, 3, nv))."""
     work = new_work(body_count(ibuf), dof_count(ibuf))
     for n in range(start, stop):
-        status[n] = centroidal_map_kernel(ibuf, fbuf, work, q[n], A_G[n])
+        status[n] = centroidal_map_kernel(ibuf, fbuf, work, q[n], linear_only, A_G[n])
 
 
 @njit(**BATCH)
@@ -211,41 +230,57 @@ def centroidal_momentum_batch_kernel(ibuf, fbuf, q, qd, qdd, out, status, start,
         status[n] = centroidal_momentum_kernel(ibuf, fbuf, work, q[n], qd[n], qdd[n], out[n])
 
 
-def _check_mass(model, what):
-    """ValueError when nothing of the model that moves has mass: no centre of mass."""
-    if not np.sum(model.mass) > 0.0:
-        raise ValueError(
-            f"{what}: model {model.name!r} has no moving mass (its bodies' masses sum to "
-            f"{float(np.sum(model.mass)):g} kg), so it has no centre of mass"
-        )
-
-
-def _evaluate(model, what, result, kernels, shape, q, *named):
+def _evaluate(model, what, result, kernels, shape, q, *named, options=()):
     """The kernel at a single state, or the batch kernel over a batch (N, ...): kernels =
     (kernel, batch_kernel), shape the result's shape for one state, named the (name, value)
-    velocity-like arguments after q. Returns the result, (*shape) or (N, *shape)."""
-    checks.check_model(model, what)
-    _check_mass(model, what)
+    velocity-like arguments after q (at most two), options the kernel's arguments after them.
+    Returns the result, (*shape) or (N, *shape). ValueError when nothing that moves has mass:
+    there is no centre of mass. The caller has checked the model."""
+    if not model._total_mass > 0.0:
+        raise ValueError(
+            f"{what}: model {model.name!r} has no moving mass (its bodies' masses sum to "
+            f"{model._total_mass:g} kg), so it has no centre of mass"
+        )
     kernel, batch_kernel = kernels
+    values = [value for _, value in named]
+    if checks.is_single(model, q, *values):
+        out = np.empty(shape)
+        status = kernel(model._ibuf, model._fbuf, model._work, q, *values, *options, out)
+        if status:
+            arguments = dict(zip(["q"] + [name for name, _ in named], [q, *values]))
+            checks.raise_status(status, model, what, result, arguments)
+        return out
     if named:
         arrays, batch = checks.as_states(model, q, *named)
     else:
         arrays = [checks.as_q(model, q)]
         batch = arrays[0].ndim == 2
-    arguments = dict(zip(["q"] + [name for name, _ in named], arrays))
+    names = ["q"] + [name for name, _ in named]
     if not batch:
-        out = np.empty(shape)
-        status = kernel(model._ibuf, model._fbuf, model._work, *arrays, out)
-        if status:
-            checks.raise_status(status, model, what, result, arguments)
-        return out
+        single = zip(names[1:], arrays[1:])
+        return _evaluate(model, what, result, kernels, shape, arrays[0], *single, options=options)
+    arguments = dict(zip(names, arrays))
     out = np.empty((arrays[0].shape[0], *shape))
-    return checks.run_batch(model, batch_kernel, tuple(arrays), out, what, result, arguments)
+    inputs = (*arrays, *options)
+    return checks.run_batch(model, batch_kernel, inputs, out, what, result, arguments)
 
 
 _COM = (center_of_mass_kernel, center_of_mass_batch_kernel)
 _MAP = (centroidal_map_kernel, centroidal_map_batch_kernel)
 _MOMENTUM = (centroidal_momentum_kernel, centroidal_momentum_batch_kernel)
+
+
+def _momentum(model, q, qd):
+    """(h_G, dh_G/dt at qdd = 0) (2, 6) of a single state that needs no conversion and whose
+    kernel succeeds, else None (then _evaluate converts, raises or runs the batch)."""
+    if model._total_mass > 0.0 and checks.is_single(model, q, qd):
+        out = np.empty((2, 6))
+        status = centroidal_momentum_kernel(
+            model._ibuf, model._fbuf, model._work, q, qd, model._zero_v, out
+        )
+        if not status:
+            return out
+    return None
 
 
 def center_of_mass(model, q):
@@ -255,6 +290,11 @@ def center_of_mass(model, q):
     the moving bodies: links welded to a fixed root are part of the world, as in every dynamics
     function. ValueError when M is zero.
     """
+    checks.check_model(model, "center_of_mass")
+    if model._total_mass > 0.0 and checks.is_single(model, q):
+        c = np.empty(3)
+        if not center_of_mass_kernel(model._ibuf, model._fbuf, model._work, q, c):
+            return c
     return _evaluate(model, "center_of_mass", "c", _COM, (3,), q)
 
 
@@ -263,11 +303,18 @@ def center_of_mass_jacobian(model, q):
     per velocity coordinate (for a floating base, per component of the base twist (omega_b,
     v_b) in the base frame, then per joint).
 
-    J_c = l_G-rows of A_G / M (centroidal_momentum_matrix): the linear momentum is M c_dot.
+    J_c = the l_G rows of A_G over M (centroidal_momentum_matrix), the linear momentum being
+    M c_dot; the same kernel, without forming the subtrees' rotational inertias.
     q: (nq,) or (N, nq) -> (3, nv) or (N, 3, nv).
     """
-    A_G = _evaluate(model, "center_of_mass_jacobian", "J_c", _MAP, (6, model.nv), q)
-    return A_G[..., 3:, :] / float(np.sum(model.mass))
+    checks.check_model(model, "center_of_mass_jacobian")
+    if model._total_mass > 0.0 and checks.is_single(model, q):
+        J_c = np.empty((3, model.nv))
+        if not centroidal_map_kernel(model._ibuf, model._fbuf, model._work, q, True, J_c):
+            return J_c
+    return _evaluate(
+        model, "center_of_mass_jacobian", "J_c", _MAP, (3, model.nv), q, options=(True,)
+    )
 
 
 def centroidal_momentum_matrix(model, q):
@@ -284,7 +331,14 @@ def centroidal_momentum_matrix(model, q):
     robot's spatial inertia moved from the base frame to {G}.
     q: (nq,) or (N, nq) -> (6, nv) or (N, 6, nv).
     """
-    return _evaluate(model, "centroidal_momentum_matrix", "A_G", _MAP, (6, model.nv), q)
+    checks.check_model(model, "centroidal_momentum_matrix")
+    if model._total_mass > 0.0 and checks.is_single(model, q):
+        A_G = np.empty((6, model.nv))
+        if not centroidal_map_kernel(model._ibuf, model._fbuf, model._work, q, False, A_G):
+            return A_G
+    return _evaluate(
+        model, "centroidal_momentum_matrix", "A_G", _MAP, (6, model.nv), q, options=(False,)
+    )
 
 
 def centroidal_momentum(model, q, qd):
@@ -294,8 +348,19 @@ def centroidal_momentum(model, q, qd):
 
     q, qd: (nq,), (nv,), or batches (N, nq), (N, nv) -> (6,) or (N, 6).
     """
+    checks.check_model(model, "centroidal_momentum")
+    out = _momentum(model, q, qd)
+    if out is not None:
+        return out[0]
     out = _evaluate(
-        model, "centroidal_momentum", "h_G", _MOMENTUM, (2, 6), q, ("qd", qd), ("qdd", _zeros(qd))
+        model,
+        "centroidal_momentum",
+        "h_G",
+        _MOMENTUM,
+        (2, 6),
+        q,
+        ("qd", qd),
+        ("qdd", model._zero_v),
     )
     return out[..., 0, :]
 
@@ -310,6 +375,10 @@ def centroidal_momentum_rate_bias(model, q, qd):
     sum of the bodies' net wrenches G_i dV_i - ad_{V_i}^T G_i V_i at qdd = 0, moved to {G}.
     q, qd: (nq,), (nv,), or batches -> (6,) or (N, 6).
     """
+    checks.check_model(model, "centroidal_momentum_rate_bias")
+    out = _momentum(model, q, qd)
+    if out is not None:
+        return out[1]
     out = _evaluate(
         model,
         "centroidal_momentum_rate_bias",
@@ -318,14 +387,6 @@ def centroidal_momentum_rate_bias(model, q, qd):
         (2, 6),
         q,
         ("qd", qd),
-        ("qdd", _zeros(qd)),
+        ("qdd", model._zero_v),
     )
     return out[..., 1, :]
-
-
-def _zeros(qd):
-    """Zeros of qd's shape, for a qd that may not be an array yet (its checks come after)."""
-    try:
-        return np.zeros(np.shape(qd))
-    except (TypeError, ValueError):
-        return np.zeros(0)

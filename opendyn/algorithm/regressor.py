@@ -166,6 +166,11 @@ def torque_regressor(model, q, qd, qdd, gravity=None, friction=False):
     """
     what = "torque_regressor"
     checks.check_model(model, what)
+    if gravity is None and not friction and checks.is_single(model, q, qd, qdd):
+        Y = np.empty((model.nv, PARAMETERS_PER_BODY * model.nb))
+        dV_0 = model._loads[0]
+        if not regressor_kernel(model._ibuf, model._fbuf, model._work, q, qd, qdd, dV_0, Y):
+            return Y
     (q, qd, qdd), batch = checks.as_states(model, q, ("qd", qd), ("qdd", qdd))
     dV_0 = np.zeros(6)
     linear(dV_0)[:] = -checks.as_gravity(model, gravity)

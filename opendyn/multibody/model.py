@@ -378,6 +378,7 @@ class Model:
         object.__setattr__(self, "_vector_shape", (nv,))
         object.__setattr__(self, "_matrix_shape", (nv, nv))
         object.__setattr__(self, "_zero_v", np.zeros(nv))
+        object.__setattr__(self, "_total_mass", float(np.sum(self._fields["mass"])))
         object.__setattr__(self, "_gravity", np.array(self.gravity))
         loads = np.zeros((1, 6))
         linear(loads[0])[:] = -self._gravity  # the kernels' dV_0 = (0, -g), no wrenches
