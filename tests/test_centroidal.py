@@ -8,6 +8,9 @@ A_G qdd + Adot_G qd by central differences.
 
 from __future__ import annotations
 
+import json
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -168,3 +171,17 @@ def test_a_robot_without_moving_mass_has_no_centre_of_mass(tmp_path):
     for fn in (od.center_of_mass, od.center_of_mass_jacobian, od.centroidal_momentum_matrix):
         with pytest.raises(ValueError, match="'massless' has no moving mass"):
             fn(model, np.zeros(1))
+
+
+def test_importing_opendyn_compiles_none_of_these_kernels():
+    """The kernels compile (or load from the cache) on their first call, never at import."""
+    code = (
+        "import opendyn, json\n"
+        "from opendyn.algorithm import centroidal, regressor\n"
+        "kernels = [getattr(centroidal, n) for n in dir(centroidal) if n.endswith('_kernel')]\n"
+        "kernels += [regressor.regressor_kernel, regressor.regressor_batch_kernel]\n"
+        "print(json.dumps({k.__name__: len(k.signatures) for k in kernels}))\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    signatures = json.loads(out.stdout)
+    assert len(signatures) == 8 and not any(signatures.values()), signatures
