@@ -185,3 +185,14 @@ def test_importing_opendyn_compiles_none_of_these_kernels():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     signatures = json.loads(out.stdout)
     assert len(signatures) == 8 and not any(signatures.values()), signatures
+
+
+def test_the_momentum_is_returned_where_only_its_rate_would_overflow():
+    """h_G is linear in qd, Adot_G qd quadratic: at qd ~ 1e200 the first is finite, the second
+    is not, and only the second is refused."""
+    model = od.load_urdf("ur5")
+    q, qd = np.zeros(6), np.full(6, 1e200)
+    h_G = od.centroidal_momentum(model, q, qd)
+    assert np.all(np.isfinite(h_G)) and np.abs(h_G).max() > 1e199
+    with pytest.raises(od.NonFiniteResultError, match="Adot_G qd"):
+        od.centroidal_momentum_rate_bias(model, q, qd)

@@ -168,10 +168,10 @@ def centroidal_map_kernel(ibuf, fbuf, work, q, linear_only, A_G):
 
 
 @njit(**JIT)
-def centroidal_momentum_kernel(ibuf, fbuf, work, q, qd, qdd, out):
-    """out (2, 6) <- (h_G, dh_G/dt = A_G qdd + Adot_G qd) at (q, qd, qdd), without gravity, in
-    `work` (R, p, R_s, p_s, V and dV are left as this state's). Returns a Status: OK,
-    Q/QD/QDD_NOT_FINITE, Q_NOT_UNIT_QUATERNION or RESULT_NOT_FINITE."""
+def centroidal_momentum_kernel(ibuf, fbuf, work, q, qd, qdd, rate, out):
+    """out (2, 6) <- (h_G, dh_G/dt = A_G qdd + Adot_G qd) at (q, qd, qdd), without gravity, or,
+    unless rate, (h_G, 0), in `work` (R, p, R_s, p_s, V and dV are left as this state's).
+    Returns a Status: OK, Q/QD/QDD_NOT_FINITE, Q_NOT_UNIT_QUATERNION or RESULT_NOT_FINITE."""
     status = state_status(ibuf, q, qd)
     if status:
         return status
@@ -197,11 +197,12 @@ def centroidal_momentum_kernel(ibuf, fbuf, work, q, qd, qdd, out):
     fill(out, 0.0)
     for i in range(nb):
         rigid_inertia_times(mass[i], h[i], I_o[i], V[i], P)
-        rigid_inertia_times(mass[i], h[i], I_o[i], dV[i], F)
-        add_neg_ad_transpose(V[i], P, F)
         relative_to(p_s[i], c, p_G)
         add_wrench_to_parent(R_s[i], p_G, P, out[0])
-        add_wrench_to_parent(R_s[i], p_G, F, out[1])
+        if rate:
+            rigid_inertia_times(mass[i], h[i], I_o[i], dV[i], F)
+            add_neg_ad_transpose(V[i], P, F)
+            add_wrench_to_parent(R_s[i], p_G, F, out[1])
     return result_status(out)
 
 
@@ -223,11 +224,11 @@ def centroidal_map_batch_kernel(ibuf, fbuf, q, linear_only, A_G, status, start, 
 
 
 @njit(**BATCH)
-def centroidal_momentum_batch_kernel(ibuf, fbuf, q, qd, qdd, out, status, start, stop):
-    """(h_G, dh_G/dt) over rows [start, stop) of a batch -> (N, 2, 6)."""
+def centroidal_momentum_batch_kernel(ibuf, fbuf, q, qd, qdd, rate, out, status, start, stop):
+    """(h_G, dh_G/dt or 0) over rows [start, stop) of a batch -> (N, 2, 6)."""
     work = new_work(body_count(ibuf), dof_count(ibuf))
     for n in range(start, stop):
-        status[n] = centroidal_momentum_kernel(ibuf, fbuf, work, q[n], qd[n], qdd[n], out[n])
+        status[n] = centroidal_momentum_kernel(ibuf, fbuf, work, q[n], qd[n], qdd[n], rate, out[n])
 
 
 def _evaluate(model, what, result, kernels, shape, q, *named, options=()):
@@ -270,13 +271,14 @@ _MAP = (centroidal_map_kernel, centroidal_map_batch_kernel)
 _MOMENTUM = (centroidal_momentum_kernel, centroidal_momentum_batch_kernel)
 
 
-def _momentum(model, q, qd):
-    """(h_G, dh_G/dt at qdd = 0) (2, 6) of a single state that needs no conversion and whose
-    kernel succeeds, else None (then _evaluate converts, raises or runs the batch)."""
+def _momentum(model, q, qd, rate):
+    """(h_G, dh_G/dt at qdd = 0 or, unless rate, 0) (2, 6) of a single state that needs no
+    conversion and whose kernel succeeds, else None (then _evaluate converts, raises or runs
+    the batch)."""
     if model._total_mass > 0.0 and checks.is_single(model, q, qd):
         out = np.empty((2, 6))
         status = centroidal_momentum_kernel(
-            model._ibuf, model._fbuf, model._work, q, qd, model._zero_v, out
+            model._ibuf, model._fbuf, model._work, q, qd, model._zero_v, rate, out
         )
         if not status:
             return out
@@ -349,7 +351,7 @@ def centroidal_momentum(model, q, qd):
     q, qd: (nq,), (nv,), or batches (N, nq), (N, nv) -> (6,) or (N, 6).
     """
     checks.check_model(model, "centroidal_momentum")
-    out = _momentum(model, q, qd)
+    out = _momentum(model, q, qd, False)
     if out is not None:
         return out[0]
     out = _evaluate(
@@ -361,6 +363,7 @@ def centroidal_momentum(model, q, qd):
         q,
         ("qd", qd),
         ("qdd", model._zero_v),
+        options=(False,),
     )
     return out[..., 0, :]
 
@@ -376,7 +379,7 @@ def centroidal_momentum_rate_bias(model, q, qd):
     q, qd: (nq,), (nv,), or batches -> (6,) or (N, 6).
     """
     checks.check_model(model, "centroidal_momentum_rate_bias")
-    out = _momentum(model, q, qd)
+    out = _momentum(model, q, qd, True)
     if out is not None:
         return out[1]
     out = _evaluate(
@@ -388,5 +391,6 @@ def centroidal_momentum_rate_bias(model, q, qd):
         q,
         ("qd", qd),
         ("qdd", model._zero_v),
+        options=(True,),
     )
     return out[..., 1, :]

@@ -150,8 +150,9 @@ def identify(model, q, qd, qdd, tau, friction=False):
     """The base inertial parameters (and friction) of a robot from measured torques.
 
     q (N, nq), qd, qdd, tau (N, nv): N samples of the state and the measured joint torques
-    (N m or N; a floating base's first six the wrench on the base, which a robot on the ground
-    does not measure: identify its joints on a fixed base). friction=True adds each joint's
+    (N m or N; for a floating base the first six are the wrench (m_b, f_b) on the base in its
+    frame: zero in flight, the contacts' share otherwise, which must then be known or
+    measured). friction=True adds each joint's
     viscous and Coulomb coefficients (torque_regressor's friction columns).
     Returns an Identification: the r identifiable combinations beta = base @ pi_full of the
     full parameters (the module docstring has the method), their standard deviations, the

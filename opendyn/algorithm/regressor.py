@@ -18,7 +18,7 @@ and joint j transmits the wrenches of the bodies it carries, so the columns of b
 
 (zero elsewhere). Gravity enters as the base acceleration dV_0 = (0, -g), as in the RNEA.
 (Atkeson, An and Hollerbach, "Estimation of inertial parameters of manipulator loads and links",
-IJRR 5(3), 1986; Khalil and Dombre, Modeling, Identification and Control of Robots, 2002, ch. 12.)
+IJRR 5(3), 1986; Khalil and Dombre, Modeling, Identification and Control of Robots, 2002.)
 """
 
 from __future__ import annotations
