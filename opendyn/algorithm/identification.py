@@ -122,14 +122,26 @@ def _samples(model, what, q, qd, qdd, tau):
     return [a if a.ndim == 2 else a[None] for a in arrays]
 
 
-def _least_squares(W, T, what, rcond=None):
-    """beta, std, cond, rms, pivots and R of the least-squares fit of T by the independent
-    columns of W (rank-revealing QR with column pivoting)."""
+class _Fit(NamedTuple):
+    """A least-squares fit of T by the independent columns of W: W[:, pivots[:rank]] beta ~ T,
+    with W P = Q R (P the pivots), beta's covariance, cond(R_11) and the residual's RMS."""
+
+    beta: np.ndarray
+    covariance: np.ndarray
+    condition: float
+    rms: float
+    pivots: np.ndarray
+    R: np.ndarray
+    rank: int
+
+
+def _least_squares(W, T, what):
+    """The _Fit of T (m,) by W (m, p), from a QR decomposition with column pivoting whose
+    diagonal below max(m, p) eps |R_00| counts as zero (numerical rank)."""
     m, p = W.shape
     Q, R, pivots = qr(W, mode="economic", pivoting=True)
     d = np.abs(np.diag(R))
-    tol = (max(m, p) * np.finfo(float).eps if rcond is None else rcond) * d[0] if d.size else 0
-    r = int(np.sum(d > tol))
+    r = int(np.sum(d > max(m, p) * np.finfo(float).eps * d[0])) if d.size else 0
     if m <= r:
         raise ValueError(
             f"{what}: {m} torque samples (N nv) do not overdetermine the {r} identifiable "
@@ -140,10 +152,15 @@ def _least_squares(W, T, what, rcond=None):
     residual = T - W[:, pivots[:r]] @ beta
     sigma2 = float(residual @ residual) / (m - r)
     R_inv = solve_triangular(R_11, np.eye(r))
-    covariance = sigma2 * (R_inv @ R_inv.T)
-    condition = float(np.linalg.cond(R_11)) if r else np.inf
-    rms = float(np.sqrt(np.mean(residual**2)))
-    return beta, covariance, condition, rms, pivots, R, r
+    return _Fit(
+        beta=beta,
+        covariance=sigma2 * (R_inv @ R_inv.T),
+        condition=float(np.linalg.cond(R_11)) if r else np.inf,
+        rms=float(np.sqrt(np.mean(residual**2))),
+        pivots=pivots,
+        R=R,
+        rank=r,
+    )
 
 
 def identify(model, q, qd, qdd, tau, friction=False):
@@ -152,8 +169,8 @@ def identify(model, q, qd, qdd, tau, friction=False):
     q (N, nq), qd, qdd, tau (N, nv): N samples of the state and the measured joint torques
     (N m or N; for a floating base the first six are the wrench (m_b, f_b) on the base in its
     frame: zero in flight, the contacts' share otherwise, which must then be known or
-    measured). friction=True adds each joint's
-    viscous and Coulomb coefficients (torque_regressor's friction columns).
+    measured). friction=True adds each joint's viscous and Coulomb coefficients
+    (torque_regressor's friction columns).
     Returns an Identification: the r identifiable combinations beta = base @ pi_full of the
     full parameters (the module docstring has the method), their standard deviations, the
     grouping as text, the condition number and the residual. With noise-free torques of
@@ -164,23 +181,22 @@ def identify(model, q, qd, qdd, tau, friction=False):
     what = "identify"
     q, qd, qdd, tau = _samples(model, what, q, qd, qdd, tau)
     W = torque_regressor(model, q, qd, qdd, friction=friction)
-    beta, covariance, condition, rms, pivots, R, r = _least_squares(W, tau.ravel(), what)
-    K = solve_triangular(R[:r, :r], R[:r, r:])
-    p = W.shape[1]
-    base = np.zeros((r, p))
+    fit = _least_squares(W, tau.ravel(), what)
+    r, pivots = fit.rank, fit.pivots
+    base = np.zeros((r, W.shape[1]))
     base[:, pivots[:r]] = np.eye(r)
-    base[:, pivots[r:]] = K
+    base[:, pivots[r:]] = solve_triangular(fit.R[:r, :r], fit.R[:r, r:])  # K = R_11^-1 R_12
     names = parameter_names(model, friction)
     return Identification(
-        parameters=beta,
-        std=np.sqrt(np.diag(covariance)),
+        parameters=fit.beta,
+        std=np.sqrt(np.diag(fit.covariance)),
         base=base,
         names=names,
         grouping=tuple(_grouping(row, names) for row in base),
         independent=np.asarray(pivots[:r]),
         rank=r,
-        condition_number=condition,
-        residual_rms=rms,
+        condition_number=fit.condition,
+        residual_rms=fit.rms,
     )
 
 
@@ -262,17 +278,18 @@ def identify_payload(model, frame, q, qd, qdd, tau):
     columns = slice(PARAMETERS_PER_BODY * f.body, PARAMETERS_PER_BODY * (f.body + 1))
     W = torque_regressor(model, q, qd, qdd)[:, columns] @ _payload_map(f.T_body_frame)
     T = (tau - inverse_dynamics(model, q, qd, qdd)).ravel()
-    beta, covariance, condition, rms, pivots, _, r = _least_squares(W, T, what)
-    if r < PARAMETERS_PER_BODY:
-        unseen = ", ".join(PARAMETER_NAMES[k] for k in sorted(pivots[r:]))
+    fit = _least_squares(W, T, what)
+    pivots = fit.pivots
+    if fit.rank < PARAMETERS_PER_BODY:
+        unseen = ", ".join(PARAMETER_NAMES[k] for k in sorted(pivots[fit.rank :]))
         raise ValueError(
-            f"{what}: the samples do not excite the payload's parameters {unseen} (rank {r} of "
+            f"{what}: the samples do not excite the payload's parameters {unseen} (rank {fit.rank} of "
             "10); move the frame through more varied orientations, speeds and accelerations"
         )
     phi = np.empty(PARAMETERS_PER_BODY)
-    phi[pivots] = beta
-    cov = np.empty_like(covariance)
-    cov[np.ix_(pivots, pivots)] = covariance
+    phi[pivots] = fit.beta
+    cov = np.empty_like(fit.covariance)
+    cov[np.ix_(pivots, pivots)] = fit.covariance
     mass, com, inertia, mass_std, com_std, inertia_std = _payload_from_parameters(phi, cov)
     return PayloadEstimate(
         mass=mass,
@@ -283,6 +300,6 @@ def identify_payload(model, frame, q, qd, qdd, tau):
         inertia_std=inertia_std,
         parameters=phi,
         parameters_std=np.sqrt(np.diag(cov)),
-        condition_number=condition,
-        residual_rms=rms,
+        condition_number=fit.condition,
+        residual_rms=fit.rms,
     )
