@@ -24,6 +24,13 @@ from .errors import (
 # multibody -> algorithm -> io -> sim -> sweep
 with kernel_cache():
     from .algorithm.aba_derivatives import forward_dynamics_derivatives
+    from .algorithm.centroidal import (
+        center_of_mass,
+        center_of_mass_jacobian,
+        centroidal_momentum,
+        centroidal_momentum_matrix,
+        centroidal_momentum_rate_bias,
+    )
     from .algorithm.christoffel import christoffel_symbols, coriolis_matrix
     from .algorithm.configuration import (
         difference,
@@ -44,7 +51,9 @@ with kernel_cache():
     from .algorithm.crba import mass_matrix
     from .algorithm.energy import kinetic_energy, potential_energy
     from .algorithm.forward import forward_dynamics
+    from .algorithm.identification import identify, identify_payload
     from .algorithm.kinematics import frame_pose, jacobian
+    from .algorithm.regressor import torque_regressor
     from .algorithm.rnea import bias_forces, coriolis_forces, gravity_forces, inverse_dynamics
     from .algorithm.rnea_derivatives import inverse_dynamics_derivatives
     from .algorithm.task_space import frame_acceleration, task_space_bias, task_space_mass_matrix
@@ -112,6 +121,11 @@ __all__ = [
     "URDFError",
     "available_robots",
     "bias_forces",
+    "center_of_mass",
+    "center_of_mass_jacobian",
+    "centroidal_momentum",
+    "centroidal_momentum_matrix",
+    "centroidal_momentum_rate_bias",
     "christoffel_symbols",
     "coriolis_forces",
     "coriolis_matrix",
@@ -120,6 +134,8 @@ __all__ = [
     "frame_acceleration",
     "frame_pose",
     "gravity_forces",
+    "identify",
+    "identify_payload",
     "inverse_dynamics",
     "inverse_dynamics_derivatives",
     "jacobian",
@@ -129,4 +145,5 @@ __all__ = [
     "potential_energy",
     "task_space_bias",
     "task_space_mass_matrix",
+    "torque_regressor",
 ]

@@ -7,8 +7,9 @@ talos_full_v2 with a floating base (Pinocchio with a JointModelFreeFlyer root), 
 per call and the ratio opendyn / Pinocchio for inverse dynamics, the mass matrix, forward
 dynamics (each method), the Coriolis matrix, the derivatives of inverse and forward dynamics
 (computeRNEADerivatives, computeABADerivatives) and a frame Jacobian, each without and with a
-Data (data=); then the derivatives against central differences of our own functions; then
-batched inverse dynamics
+Data (data=); then the derivatives against central differences of our own functions; then the
+centroidal functions and the joint-torque regressor (UR5, Panda, talos fixed, solo12 and talos
+floating; --centroidal prints only that table); then batched inverse dynamics
 over N = 10,000 states against a Python loop over pin.rnea and against pin.rneaInParallel; then
 numba's first-call compile time and the start-up time with the on-disk cache, measured in
 fresh processes. States are converted to Pinocchio's conventions by opendyn.verify's adapter.
@@ -171,6 +172,85 @@ def single_state_rows(name, floating_base, budget):
     return rows
 
 
+# the centroidal functions and the regressor: (robot, floating base)
+CENTROIDAL_ROBOTS = (
+    ("ur5", False),
+    ("panda", False),
+    ("talos_full_v2", False),
+    ("solo12", True),
+    ("talos_full_v2", True),
+)
+
+
+def centroidal_rows(name, floating_base, budget):
+    """The centroidal functions and the joint-torque regressor against Pinocchio's
+    centerOfMass, jacobianCenterOfMass, ccrba, computeCentroidalMomentum,
+    computeCentroidalMomentumTimeVariation (its dh_g at a = 0 is Adot_G qd) and
+    computeJointTorqueRegressor, paired."""
+    model, oracle, label = load_pair(name, floating_base)
+    pmodel, pdata = oracle.model, oracle.data
+    q, qd, qdd = random_states(model, np.random.default_rng(0))
+    qp, vp, ap = oracle.q(q), oracle.v(qd), oracle.v(qdd)
+    zero = np.zeros(pmodel.nv)
+    cases = [
+        (
+            "center_of_mass",
+            lambda: od.center_of_mass(model, q),
+            "centerOfMass",
+            lambda: pin.centerOfMass(pmodel, pdata, qp),
+        ),
+        (
+            "center_of_mass_jacobian",
+            lambda: od.center_of_mass_jacobian(model, q),
+            "jacobianCenterOfMass",
+            lambda: pin.jacobianCenterOfMass(pmodel, pdata, qp),
+        ),
+        (
+            "centroidal_momentum_matrix",
+            lambda: od.centroidal_momentum_matrix(model, q),
+            "ccrba",
+            lambda: pin.ccrba(pmodel, pdata, qp, vp),
+        ),
+        (
+            "centroidal_momentum",
+            lambda: od.centroidal_momentum(model, q, qd),
+            "computeCentroidalMomentum",
+            lambda: pin.computeCentroidalMomentum(pmodel, pdata, qp, vp),
+        ),
+        (
+            "centroidal_momentum_rate_bias",
+            lambda: od.centroidal_momentum_rate_bias(model, q, qd),
+            "computeCentroidalMomentumTimeVariation (a = 0)",
+            lambda: pin.computeCentroidalMomentumTimeVariation(pmodel, pdata, qp, vp, zero),
+        ),
+        (
+            "torque_regressor",
+            lambda: od.torque_regressor(model, q, qd, qdd),
+            "computeJointTorqueRegressor",
+            lambda: pin.computeJointTorqueRegressor(pmodel, pdata, qp, vp, ap),
+        ),
+    ]
+    rows = []
+    for ours_name, ours, pin_name, theirs in cases:
+        ours(), theirs()
+        t_ours, t_pin = paired_us(ours, theirs, budget_s=budget)
+        rows.append((label, model.nv, ours_name, t_ours, pin_name, t_pin))
+    return rows
+
+
+def print_centroidal_table(budget):
+    print("| robot | nv | opendyn | us | Pinocchio | us | ratio |")
+    print("|---|---:|---|---:|---|---:|---:|")
+    for name, floating_base in CENTROIDAL_ROBOTS:
+        for robot, nv, ours_name, t_ours, pin_name, t_pin in centroidal_rows(
+            name, floating_base, budget
+        ):
+            print(
+                f"| {robot} | {nv} | {ours_name} | {t_ours:.2f} | {pin_name} | {t_pin:.2f} "
+                f"| {t_ours / t_pin:.2f} |"
+            )
+
+
 def batch_rows(name, floating_base, n_states, budget):
     model, oracle, label = load_pair(name, floating_base)
     pmodel, pdata = oracle.model, oracle.data
@@ -264,6 +344,9 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="short timing loops (noisier)")
     parser.add_argument("--no-startup", action="store_true", help="skip the compile-time runs")
+    parser.add_argument(
+        "--centroidal", action="store_true", help="only the centroidal and regressor table"
+    )
     args = parser.parse_args()
     budget = 0.1 if args.quick else 0.5
 
@@ -271,9 +354,11 @@ def main():
         f"opendyn {od.__version__}, Pinocchio {pin.__version__}, numpy {np.__version__}, "
         f"{os.cpu_count()} cores\n"
     )
+    if args.centroidal:
+        print_centroidal_table(budget)
+        return
     print(
-        "| robot | nv | opendyn | us | us with data= | Pinocchio | us | ratio "
-        "| ratio with data= |"
+        "| robot | nv | opendyn | us | us with data= | Pinocchio | us | ratio | ratio with data= |"
     )
     print("|---|---:|---|---:|---:|---|---:|---:|---:|")
     for name, floating_base in ROBOTS:
@@ -297,6 +382,9 @@ def main():
                 f"| {robot} | {nv} | {ours_name} | {t_ours:.2f} | {t_diff:.1f} "
                 f"| {t_diff / t_ours:.0f}x |"
             )
+
+    print("\nCentroidal dynamics and the joint-torque regressor:\n")
+    print_centroidal_table(budget)
 
     n = 10_000
     print(f"\nBatched inverse dynamics, N = {n} states, microseconds per state:\n")

@@ -131,6 +131,7 @@ def test_scene_settings_are_a_read_only_mapping(tmp_path):
 
 Q = np.array([0.1, -0.4, 0.3, 0.2, -0.1, 0.5])
 A_ROW = np.eye(6)[:1]
+SAMPLES = np.random.default_rng(0).normal(size=(4, 30, 6))  # q, qd, qdd, tau of 30 samples
 POINT = od.PointToWorld("tool0")
 PUBLIC = {  # every public function that takes a model, called with good other arguments
     "inverse_dynamics": lambda m: od.inverse_dynamics(m, Q, Q, Q),
@@ -160,6 +161,14 @@ PUBLIC = {  # every public function that takes a model, called with good other a
     "normalize": lambda m: od.normalize(m, Q),
     "neutral": lambda m: od.neutral(m),
     "random_configuration": lambda m: od.random_configuration(m, 0),
+    "center_of_mass": lambda m: od.center_of_mass(m, Q),
+    "center_of_mass_jacobian": lambda m: od.center_of_mass_jacobian(m, Q),
+    "centroidal_momentum_matrix": lambda m: od.centroidal_momentum_matrix(m, Q),
+    "centroidal_momentum": lambda m: od.centroidal_momentum(m, Q, Q),
+    "centroidal_momentum_rate_bias": lambda m: od.centroidal_momentum_rate_bias(m, Q, Q),
+    "torque_regressor": lambda m: od.torque_regressor(m, Q, Q, Q),
+    "identify": lambda m: od.identify(m, *SAMPLES),
+    "identify_payload": lambda m: od.identify_payload(m, "tool0", *SAMPLES),
 }
 
 
@@ -273,6 +282,10 @@ ARRAY_ARGUMENTS = {  # (function, argument): (its good value, a call with that a
     ("PointToPoint", "point_b"): (G3, lambda m, x: od.PointToPoint("tool0", "base", point_b=x)),
     ("FixedPose", "T_ab"): (np.eye(4), lambda m, x: od.FixedPose("tool0", "base", T_ab=x)),
     ("JointCoupling", "A"): (A_ROW, lambda m, x: od.JointCoupling(x)),
+    ("center_of_mass", "q"): (Q, lambda m, x: od.center_of_mass(m, x)),
+    ("centroidal_momentum", "qd"): (Q, lambda m, x: od.centroidal_momentum(m, Q, x)),
+    ("torque_regressor", "qdd"): (Q, lambda m, x: od.torque_regressor(m, Q, Q, x)),
+    ("identify", "tau"): (SAMPLES[3], lambda m, x: od.identify(m, *SAMPLES[:3], x)),
 }
 
 
@@ -341,6 +354,11 @@ OVERFLOWS = {  # finite arguments whose result overflows: (call, result name, li
     ),
     "integrate": (lambda m: od.integrate(m, Q, HUGE, 10.0), "q", "v up to"),
     "difference": (lambda m: od.difference(m, -HUGE, HUGE), "v", "q0 up to 1e+308"),
+    "centroidal_momentum": (lambda m: od.centroidal_momentum(m, Q, HUGE), "h_G", "qd up to"),
+    "centroidal_momentum_rate_bias": (
+        lambda m: od.centroidal_momentum_rate_bias(m, Q, BIG), "Adot_G qd", "qd up to"
+    ),
+    "torque_regressor": (lambda m: od.torque_regressor(m, Q, BIG, Q), "Y", "qd up to"),
 }
 
 

@@ -187,7 +187,8 @@ def _scene_header(scene):
 
 
 def summary(scene, traj):
-    """The run in a few lines: time, speed, steps, integrator statistics, energy."""
+    """The run in a few lines: time, speed, steps, integrator statistics, energy; for a floating
+    robot that nothing but gravity acts on from outside, how well its momentum was kept."""
     stats = traj.stats
     wall = stats["wall_s"]
     simulated = stats["simulated_s"]
@@ -234,6 +235,10 @@ def summary(scene, traj):
         )
     if traj.has_contact and len(traj.t):
         lines.append(_contact_line(traj))
+    if len(traj.com) and not (
+        scene.contact or scene.wrenches or scene.constraints or scene.armature is not None
+    ):
+        lines.append(_momentum_line(scene, traj))
     if len(traj.violation_position):
         gains = scene.baumgarte
         how = (
@@ -247,6 +252,24 @@ def summary(scene, traj):
             f"rad, max |A qd| = {traj.violation_velocity.max():.3g} m/s or rad/s"
         )
     return "\n".join(lines)
+
+
+def _momentum_line(scene, traj):
+    """How well a floating robot kept its momentum, when nothing outside it acts but gravity:
+    dh_G/dt = (0, M g), so k_G stays k_G(0) and l_G is l_G(0) + M g t (joint torques, damping
+    and friction are internal)."""
+    from ..sim.simulate import gravity_of
+
+    h = traj.centroidal_momentum
+    t = traj.t - traj.t[0]
+    weight = scene.model._total_mass * gravity_of(scene)
+    k_drift = np.abs(h[:, :3] - h[0, :3]).max()
+    l_drift = np.abs(h[:, 3:] - h[0, 3:] - np.outer(t, weight)).max()
+    return (
+        f"momentum    about the centre of mass (only gravity acts from outside): max |k_G - "
+        f"k_G(0)| = {k_drift:.3g} kg m^2/s (max |k_G| {np.abs(h[:, :3]).max():.3g}), max |l_G - "
+        f"l_G(0) - M g t| = {l_drift:.3g} kg m/s (max |l_G| {np.abs(h[:, 3:]).max():.3g})"
+    )
 
 
 def _contact_line(traj):

@@ -43,6 +43,7 @@ from ..spatial.algebra import (
     _as_rotational_inertia,
     inverse_transform,
     linear,
+    skew,
     spatial_inertia,
     transform_inertia,
 )
@@ -119,6 +120,57 @@ _ARRAY_FIELDS = (
     ("continuous", bool),
     ("gravity", np.float64),
 )
+
+
+def parameters_of(mass, h, I_o):
+    """(..., 10) inertial parameters (m, h_x, h_y, h_z, I_xx, I_xy, I_yy, I_xz, I_yz, I_zz) of
+    masses (...,), first moments h = m c (..., 3) and rotational inertias I_o (..., 3, 3) about
+    the frames' origins (Model.inertial_parameters' order)."""
+    mass = np.asarray(mass, dtype=float)
+    pi = np.empty((*mass.shape, 10))
+    pi[..., 0] = mass
+    pi[..., 1:4] = h
+    pi[..., 4:] = np.asarray(I_o)[..., (0, 0, 1, 0, 1, 2), (0, 1, 1, 2, 2, 2)]
+    return pi
+
+
+def rigid_body_of(pi_i):
+    """(m, h (3,), I_o (3, 3)) of one body's 10 inertial parameters (parameters_of's inverse)."""
+    mass, h0, h1, h2, xx, xy, yy, xz, yz, zz = (float(x) for x in pi_i)
+    I_o = np.array([[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]])
+    return mass, np.array([h0, h1, h2]), I_o
+
+
+def inertia_from_parameters(mass, h, I_o):
+    """G = [[I_o, [h]], [[h]^T, m 1]] (6, 6): the spatial inertia of mass m (kg), first moment
+    h = m c (kg m) and rotational inertia I_o (kg m^2) about the frame's origin, angular first
+    (the inverse of layout.rigid_body_form)."""
+    G = np.zeros((6, 6))
+    G[:3, :3] = I_o
+    G[:3, 3:] = skew(h)
+    G[3:, :3] = skew(h).T
+    G[3:, 3:] = mass * np.eye(3)
+    return G
+
+
+def _rigid_body_problem(mass, h, I_o, check_inertia):
+    """What makes (m, h, I_o) no rigid body's parameters, as a phrase; "" when they are one
+    (or, with check_inertia False, when only a negative mass is refused)."""
+    if mass < 0:
+        return f"negative mass {mass:g} kg"
+    if not check_inertia:
+        return ""
+    if mass == 0:
+        if np.any(h != 0):
+            return f"no mass but a first moment m c = {h} kg m"
+        I_com = I_o
+    else:
+        I_com = I_o - (np.dot(h, h) * np.eye(3) - np.outer(h, h)) / mass
+    try:
+        _as_rotational_inertia(I_com, "its inertia about the centre of mass")
+    except ValueError as e:
+        return str(e)
+    return ""
 
 
 @dataclass(frozen=True, eq=False)
@@ -326,6 +378,7 @@ class Model:
         object.__setattr__(self, "_vector_shape", (nv,))
         object.__setattr__(self, "_matrix_shape", (nv, nv))
         object.__setattr__(self, "_zero_v", np.zeros(nv))
+        object.__setattr__(self, "_total_mass", float(np.sum(self._fields["mass"])))
         object.__setattr__(self, "_gravity", np.array(self.gravity))
         loads = np.zeros((1, 6))
         linear(loads[0])[:] = -self._gravity  # the kernels' dV_0 = (0, -g), no wrenches
@@ -397,10 +450,61 @@ class Model:
         T_fi = inverse_transform(f.T_body_frame)
         G = np.array(self.G)
         G[f.body] += transform_inertia(G_payload_f, T_fi)
+        return self._with_inertias(G)
+
+    def _with_inertias(self, G) -> Model:
+        """A new Model with the spatial inertias G (nb, 6, 6), everything else this one's."""
         fbuf = self._fbuf.copy()
         for key, values in zip(("G", "mass", "h", "I_o"), (G, *rigid_body_form(G))):
             write_field(fbuf, FLOAT_AT, key, self.nb, values)
         return dataclasses.replace(self, _fbuf=fbuf)
+
+    def inertial_parameters(self) -> np.ndarray:
+        """pi (10 nb,): the inertial parameters of the moving bodies, 10 per body in body
+        order, pi[10 i : 10 i + 10] = (m, m c_x, m c_y, m c_z, I_xx, I_xy, I_yy, I_xz, I_yz,
+        I_zz) of body i: its mass (kg), first moment (kg m) and rotational inertia about the
+        origin of its frame {i} (kg m^2), all in {i}'s axes (Pinocchio's order). Inverse
+        dynamics is linear in them: tau = torque_regressor(model, q, qd, qdd) @ pi."""
+        return parameters_of(self.mass, self.h, self.I_o).ravel()
+
+    def with_inertial_parameters(self, pi, check_inertia=True) -> Model:
+        """A new Model whose bodies have the inertial parameters pi (10 nb,), in the order of
+        ``inertial_parameters`` (this one is unchanged; ``with_inertial_parameters(
+        model.inertial_parameters())`` gives the same arrays).
+
+        Each body's parameters must be those of a rigid body: mass m >= 0; with m > 0, the
+        rotational inertia about the centre of mass c = (m c) / m, I_c = I - m [c]^T [c],
+        symmetric positive semi-definite with principal moments within the triangle
+        inequality; with m = 0, a zero first moment and such an I. check_inertia=False keeps
+        parameters no rigid body has (as load_urdf's check_inertia=False keeps a URDF's),
+        except a negative mass. ValueError naming the body and its slice of pi otherwise;
+        pi of another length, or not finite, is a ValueError naming pi.
+        """
+        pi = np.asarray(pi)
+        if pi.dtype.kind not in "iuf":
+            raise TypeError(
+                f"pi must be an array of numbers (integers or floats), got dtype {pi.dtype}"
+            )
+        pi = pi.astype(float)
+        if pi.shape != (10 * self.nb,):
+            raise ValueError(
+                f"pi must have shape ({10 * self.nb},) (10 inertial parameters for each of the "
+                f"{self.nb} bodies of model {self.name!r}), got shape {pi.shape}"
+            )
+        if not np.all(np.isfinite(pi)):
+            raise ValueError(f"pi must be finite, got {pi}")
+        G = np.zeros((self.nb, 6, 6))
+        for i, pi_i in enumerate(pi.reshape(-1, 10)):
+            mass, h, I_o = rigid_body_of(pi_i)
+            problem = _rigid_body_problem(mass, h, I_o, check_inertia)
+            if problem:
+                raise ValueError(
+                    f"with_inertial_parameters: body {self.body_names[i]!r} (pi[{10 * i}:"
+                    f"{10 * i + 10}]): {problem}"
+                    + ("" if mass < 0 else "; check_inertia=False keeps it as written")
+                )
+            G[i] = inertia_from_parameters(mass, h, I_o)
+        return self._with_inertias(G)
 
     def data(self) -> Data:
         """A new Data for this model: the work arrays that the dynamics functions' ``data=``

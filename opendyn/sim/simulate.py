@@ -32,6 +32,7 @@ from .._runtime.compile_notice import compile_seconds, compiling
 from .._runtime.signals import signal_name
 from .._runtime.status import Status
 from .._runtime.version import __version__
+from ..algorithm.centroidal import center_of_mass, centroidal_momentum
 from ..algorithm.constraints import ROW_COUNT, constraint_terms_kernel
 from ..algorithm.contact import contact_record_kernel
 from ..algorithm.energy import energies
@@ -446,6 +447,7 @@ def trajectory_of(scene, table, out, complete, message, stats):
         )
     return Trajectory(
         **contact,
+        **_centroidal_record(model, q, qd),
         violation_position=violation[0],
         violation_velocity=violation[1],
         t=t,
@@ -464,6 +466,18 @@ def trajectory_of(scene, table, out, complete, message, stats):
         stats=stats,
         provenance=_provenance(scene, table),
     )
+
+
+def _centroidal_record(model, q, qd):
+    """{com: (K, 3), centroidal_momentum: (K, 6)} of a floating robot's samples (the centre of
+    mass in the world frame, m; h_G = (k_G, l_G), kg m^2/s and kg m/s); {} for a fixed base or
+    a robot without moving mass (a Trajectory's defaults: empty arrays)."""
+    if not model.floating_base or not model._total_mass > 0.0 or not len(q):
+        return {}
+    return {
+        "com": center_of_mass(model, q),
+        "centroidal_momentum": centroidal_momentum(model, q, qd),
+    }
 
 
 def _violation(model, table, q, qd):

@@ -29,6 +29,11 @@ from .._runtime.files import atomic_write
 _ARRAYS = ("t", "q", "qd", "tau", "kinetic", "potential", "work_applied", "work_passive")
 _VIOLATION = ("violation_position", "violation_velocity")  # empty without constraints
 _CONTACT = ("contact_point", "contact_force", "penetration")  # empty without contact
+_CENTROIDAL = ("com", "centroidal_momentum")  # empty without a floating base
+# their CSV columns: the centre of mass, then h_G = (k_G, l_G)
+_CENTROIDAL_COLUMNS = tuple(f"com_{a}" for a in "xyz") + tuple(
+    f"{part}_{a}" for part in ("kG", "lG") for a in "xyz"
+)
 
 
 def saved_paths(path) -> tuple[pathlib.Path, pathlib.Path]:
@@ -62,6 +67,10 @@ class Trajectory:
     contact_force (K, P, 3) N: the force the ground applies to the robot there, world frame;
     penetration (K, P) m: delta = max(0, ground_height - (z - r)); ground_height (m) the plane
     z = ground_height, None without contact. Empty (K, 0, ...) without contact.
+    com (K, 3) m: the centre of mass in the world frame; centroidal_momentum (K, 6): h_G =
+    (k_G, l_G), the angular momentum about the centre of mass (kg m^2/s) and the linear
+    momentum (kg m/s) in world-aligned axes, angular first (opendyn.algorithm.centroidal);
+    recorded for a floating base, empty (0, 3), (0, 6) otherwise.
     provenance: the scene, integrator, versions and timing, as plain JSON types.
     """
 
@@ -87,6 +96,8 @@ class Trajectory:
     contact_force: np.ndarray | None = None
     penetration: np.ndarray | None = None
     ground_height: float | None = None
+    com: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+    centroidal_momentum: np.ndarray = field(default_factory=lambda: np.zeros((0, 6)))
 
     def __post_init__(self):
         # a fixed-base record (nq = nv = the joints) names its columns by the joints
@@ -129,6 +140,8 @@ class Trajectory:
             arrays.update({name: getattr(self, name) for name in _CONTACT})
             arrays["contact_names"] = np.array(self.contact_names, dtype=str)
             arrays["ground_height"] = np.array(self.ground_height)
+        if len(self.com):
+            arrays.update({name: getattr(self, name) for name in _CENTROIDAL})
         with atomic_write(path) as f:
             np.savez_compressed(
                 f,
@@ -163,6 +176,7 @@ class Trajectory:
                 arrays.update({name: data[name] for name in _CONTACT})
                 arrays["contact_names"] = tuple(str(n) for n in data["contact_names"])
                 arrays["ground_height"] = float(data["ground_height"])
+            arrays.update({name: data[name] for name in _CENTROIDAL if name in data})
             names = tuple(str(n) for n in data["joint_names"])
             columns = {
                 key: tuple(str(n) for n in data[key])
@@ -187,8 +201,10 @@ class Trajectory:
         """One row per sample: t, q_<name> for each of q_names, qd_<name> and tau_<name> for
         each of v_names (a floating base's q_base_x ... q_base_qw, qd_base_wx ... qd_base_vz
         first), kinetic, potential, work_applied, work_passive (SI units), with constraints
-        violation_position, violation_velocity, and with contact, for each contact point,
-        fx_<point>, fy_<point>, fz_<point> (N, world frame) and penetration_<point> (m).
+        violation_position, violation_velocity, with a floating base com_x, com_y, com_z (m)
+        and the centroidal momentum kG_x, kG_y, kG_z (kg m^2/s), lG_x, lG_y, lG_z (kg m/s),
+        world frame, and with contact, for each contact point, fx_<point>, fy_<point>,
+        fz_<point> (N, world frame) and penetration_<point> (m).
         Written atomically, like `save`. Returns the path."""
         path = pathlib.Path(path)
         header = ["t", *(f"q_{n}" for n in self.q_names), *(f"qd_{n}" for n in self.v_names)]
@@ -199,6 +215,9 @@ class Trajectory:
         if len(self.violation_position):
             header += list(_VIOLATION)
             columns += [self.violation_position, self.violation_velocity]
+        if len(self.com):
+            header += list(_CENTROIDAL_COLUMNS)
+            columns += [self.com, self.centroidal_momentum]
         for p, name in enumerate(self.contact_names):
             header += [f"fx_{name}", f"fy_{name}", f"fz_{name}", f"penetration_{name}"]
             columns += [self.contact_force[:, p], self.penetration[:, p]]
@@ -212,8 +231,9 @@ class Trajectory:
         quaternion and body twist among them), and the energy
         (E - E(0), the work of the non-conservative forces, and the integration error); with
         constraints a fourth, their violation; with contact one more, the normal force (the z
-        component of contact_force, N) at each contact point and their sum. The format is the
-        suffix's (any matplotlib writes: .png, .pdf, .svg ...; PNG without one). Written
+        component of contact_force, N) at each contact point and their sum; with a floating
+        base one more, the centroidal momentum h_G = (k_G, l_G) (kg m^2/s, kg m/s). The format
+        is the suffix's (any matplotlib writes: .png, .pdf, .svg ...; PNG without one). Written
         atomically, like `save`. Returns the path."""
         import matplotlib
 
@@ -222,7 +242,8 @@ class Trajectory:
 
         path = pathlib.Path(path)
         constrained = len(self.violation_position) > 0
-        panels = 3 + constrained + self.has_contact
+        centroidal = len(self.com) > 0
+        panels = 3 + constrained + self.has_contact + centroidal
         fig, axes = plt.subplots(
             panels, 1, figsize=(9, 3 * panels), sharex=True, constrained_layout=True
         )
@@ -251,13 +272,19 @@ class Trajectory:
             axes[3].set_ylabel("constraint violation")
             axes[3].legend(loc="best", fontsize="small")
         if self.has_contact:
+            ax = axes[3 + constrained]
             normal = self.contact_force[:, :, 2]
             for p, name in enumerate(self.contact_names):
-                axes[-1].plot(self.t, normal[:, p], label=name)
-            axes[-1].plot(self.t, normal.sum(axis=1), label="sum", color="black", linewidth=2)
-            axes[-1].set_ylabel("contact normal force f_z (N)")
+                ax.plot(self.t, normal[:, p], label=name)
+            ax.plot(self.t, normal.sum(axis=1), label="sum", color="black", linewidth=2)
+            ax.set_ylabel("contact normal force f_z (N)")
             if len(self.contact_names) <= 12:
-                axes[-1].legend(loc="upper right", fontsize="small", ncol=2)
+                ax.legend(loc="upper right", fontsize="small", ncol=2)
+        if centroidal:
+            for k, name in enumerate(_CENTROIDAL_COLUMNS[3:]):
+                axes[-1].plot(self.t, self.centroidal_momentum[:, k], label=name)
+            axes[-1].set_ylabel("h_G (kg m^2/s, kg m/s)")
+            axes[-1].legend(loc="upper right", fontsize="small", ncol=2)
         axes[-1].set_xlabel("t (s)")
         title = self.provenance.get("scene", {}).get("name", "")
         if not self.complete:

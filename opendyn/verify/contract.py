@@ -22,12 +22,20 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..algorithm.aba_derivatives import forward_dynamics_derivatives
+from ..algorithm.centroidal import (
+    center_of_mass,
+    center_of_mass_jacobian,
+    centroidal_momentum,
+    centroidal_momentum_matrix,
+    centroidal_momentum_rate_bias,
+)
 from ..algorithm.christoffel import christoffel_symbols, coriolis_matrix
 from ..algorithm.configuration import random_configuration
 from ..algorithm.crba import mass_matrix
 from ..algorithm.energy import kinetic_energy, potential_energy
 from ..algorithm.forward import METHODS, forward_dynamics
 from ..algorithm.kinematics import frame_pose, jacobian
+from ..algorithm.regressor import torque_regressor
 from ..algorithm.rnea import bias_forces, coriolis_forces, gravity_forces, inverse_dynamics
 from ..algorithm.rnea_derivatives import inverse_dynamics_derivatives
 from ..algorithm.task_space import task_space_mass_matrix
@@ -174,9 +182,7 @@ def _load(robot, mimic, check_inertia, floating_base):
                 f"(model.source is {robot.source!r}); pass the URDF path instead"
             )
         return robot
-    return load_urdf(
-        robot, mimic=mimic, check_inertia=check_inertia, floating_base=floating_base
-    )
+    return load_urdf(robot, mimic=mimic, check_inertia=check_inertia, floating_base=floating_base)
 
 
 def verify(
@@ -201,8 +207,9 @@ def verify(
     wrench; q-derivatives in the tangent space, as Pinocchio's), frame_pose and
     jacobian[space], jacobian[body] on every frame, kinetic_energy, potential_energy,
     task_space_mass_matrix on ``tip_frame`` (only where J_b M^-1 J_b^T has a condition number
-    below 1e6). Functions taking a gravity argument are checked with the default and the
-    override.
+    below 1e6), center_of_mass, center_of_mass_jacobian, centroidal_momentum_matrix,
+    centroidal_momentum, centroidal_momentum_rate_bias, torque_regressor. Functions taking a
+    gravity argument are checked with the default and the override.
     Raises PinocchioMissingError (an ImportError) when Pinocchio is not installed, ValueError
     when Pinocchio cannot load the URDF or for bad arguments.
     """
@@ -306,6 +313,7 @@ def verify(
                 k, lambda: potential_energy(model, q, gravity=g), P.potential_energy(q, g)
             )
         _task_space(row("task_space_mass_matrix"), model, P, k, q, tip, singular)
+        _centroidal_and_regressor(row, model, P, k, (q, qd, qdd))
     return [r.check(rtol) for r in rows.values()]
 
 
@@ -337,6 +345,57 @@ def _derivatives(row, model, P, k, state, variants, singular):
                 np.stack(P.aba_derivatives(q, qd, tau, **loads)),
                 where,
             )
+
+
+def _centroidal_and_regressor(row, model, P, k, state):
+    """The centre of mass, its Jacobian, the centroidal momentum, its matrix and Adot_G qd
+    (refused where nothing that moves has mass: no centre of mass), and the torque regressor,
+    at state k = (q, qd, qdd); with coupled mimic joints Pinocchio has no Adot_G qd nor
+    regressor to compare with."""
+    q, qd, qdd = state
+    centroidal = (
+        ("center_of_mass", lambda: center_of_mass(model, q), P.center_of_mass, (q,)),
+        (
+            "center_of_mass_jacobian",
+            lambda: center_of_mass_jacobian(model, q),
+            P.center_of_mass_jacobian,
+            (q,),
+        ),
+        (
+            "centroidal_momentum_matrix",
+            lambda: centroidal_momentum_matrix(model, q),
+            P.centroidal_momentum_matrix,
+            (q,),
+        ),
+        (
+            "centroidal_momentum",
+            lambda: centroidal_momentum(model, q, qd),
+            P.centroidal_momentum,
+            (q, qd),
+        ),
+        (
+            "centroidal_momentum_rate_bias",
+            lambda: centroidal_momentum_rate_bias(model, q, qd),
+            P.centroidal_momentum_rate_bias,
+            (q, qd),
+        ),
+    )
+    massless = not np.sum(model.mass) > 0
+    # Pinocchio's dccrba and joint-torque regressor refuse coupled mimic joints
+    refused = ("centroidal_momentum_rate_bias", "torque_regressor") if P.coupled else ()
+    regressor = (
+        "torque_regressor",
+        lambda: torque_regressor(model, q, qd, qdd),
+        P.torque_regressor,
+        (q, qd, qdd),
+    )
+    for name, ours, reference, arguments in (*centroidal, regressor):
+        if name in refused:
+            row(name).remark(k, "no reference: Pinocchio has none for coupled mimic joints")
+        elif massless and name != "torque_regressor":
+            row(name).expect_raise(k, ours, ValueError, "no moving mass")
+        else:
+            row(name).compare(k, ours, reference(*arguments))
 
 
 def _task_space(r, model, P, k, q, tip, singular):

@@ -337,3 +337,42 @@ class PinocchioOracle:
         if not condition <= max_condition:
             return None, condition
         return np.linalg.inv(Lambda_inv), condition
+
+    # centroidal dynamics and the inertial-parameter regressor ----------------------------
+    def center_of_mass(self, q):
+        """c (3,), world frame, by Pinocchio's centerOfMass."""
+        return np.array(self.pin.centerOfMass(self.model, self.data, self.q(q)))
+
+    def center_of_mass_jacobian(self, q):
+        """J_c (3, nv), by Pinocchio's jacobianCenterOfMass (columns in opendyn's order)."""
+        J_c = self.pin.jacobianCenterOfMass(self.model, self.data, self.q(q))
+        return np.asarray(J_c)[:, self.perm_v]
+
+    def centroidal_momentum_matrix(self, q):
+        """A_G (6, nv), angular rows first, by Pinocchio's ccrba (rows linear first there)."""
+        A_g = self.pin.ccrba(self.model, self.data, self.q(q), np.zeros(self.model.nv))
+        return swap_halves(A_g, axis=0)[:, self.perm_v]
+
+    def centroidal_momentum(self, q, qd):
+        """h_G (6,), angular first, by Pinocchio's computeCentroidalMomentum."""
+        h_g = self.pin.computeCentroidalMomentum(self.model, self.data, self.q(q), self.v(qd))
+        return swap_halves(h_g.vector)
+
+    def centroidal_momentum_rate_bias(self, q, qd):
+        """Adot_G qd (6,), angular first, from Pinocchio's dccrba (the time derivative of A_G)."""
+        v = self.v(qd)
+        dA_g = self.pin.dccrba(self.model, self.data, self.q(q), v)
+        return swap_halves(dA_g @ v)
+
+    def torque_regressor(self, q, qd, qdd, gravity=None):
+        """Y (nv, 10 nb), by Pinocchio's computeJointTorqueRegressor: rows in opendyn's order,
+        columns by opendyn's bodies (each body's joint), 10 per body in Pinocchio's order
+        (m, m c, I about the joint frame's origin: xx, xy, yy, xz, yz, zz)."""
+        self.set_gravity(gravity)
+        Y = self.pin.computeJointTorqueRegressor(
+            self.model, self.data, self.q(q), self.v(qd), self.v(qdd)
+        )
+        self.set_gravity(None)
+        ids = [self.model.getJointId(name) for name in self.od.body_joints]
+        columns = np.array([10 * (j - 1) + k for j in ids for k in range(10)], dtype=int)
+        return np.asarray(Y)[np.ix_(self.perm_v, columns)]

@@ -1,0 +1,396 @@
+"""Centre of mass and centroidal dynamics: the robot's momentum about its centre of mass.
+
+Frame {G}: origin at the centre of mass c, axes those of the world {s}. With every body's pose
+T_{s,i} = (R_i, p_i), mass m_i and first moment h_i = m_i c_i in {i}, M = sum_i m_i:
+
+    c   = (1/M) sum_i (R_i h_i + m_i p_i)                                   (m, world frame)
+    h_G = (k_G, l_G) = sum_i Ad_{T_{i,G}}^T G_i V_i = A_G(q) qd             (angular first)
+    A_G[:, k] = mult_k Ic_{G,j} S_{G,k},  Ic_{G,j} = sum_{i in subtree(j)} Ad_{T_{i,G}}^T G_i Ad_{T_{i,G}}
+    J_c = l_G-rows of A_G / M,   so c_dot = J_c qd
+    dh_G/dt = sum_i Ad_{T_{i,G}}^T (G_i dV_i - ad_{V_i}^T G_i V_i) = A_G qdd + Adot_G qd
+
+S_{G,k} is row k of joint j's motion subspace S_j as a twist of {G} (Ad_{T_{G,j}} s_k), Ic_{G,j}
+the composite inertia of the subtree of j about c in world axes, V_i and dV_i the body twists and
+accelerations of the RNEA forward pass (opendyn.algorithm.rnea) without gravity. {G} moves with
+c but keeps its axes, and c_dot x l_G = c_dot x M c_dot = 0, so the rate of the momentum about
+the moving point c is the rate about a fixed point momentarily at c: the sum of the bodies'
+net wrenches moved to {G}, which the Newton-Euler equations of the whole robot make equal to the
+sum of the external wrenches about c (gravity's (0, M g) and contacts). Adot_G qd is that sum
+at qdd = 0. (Orin, Goswami and Lee, "Centroidal dynamics of a humanoid robot", Autonomous
+Robots 35, 2013; Orin and Goswami, "Centroidal momentum matrix of a humanoid robot", IROS 2008.)
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from .._runtime.arrays import all_finite, fill, result_status, zero_matrix
+from .._runtime.kernel_cache import BATCH, INLINE, JIT
+from .._runtime.status import Status
+from ..multibody.data import (
+    body_motion,
+    composite_inertias,
+    joint_poses,
+    new_work,
+    no_loads,
+    scratch_rows,
+    temp_vectors,
+    world_poses,
+)
+from ..multibody.joints import configuration_status, state_status
+from ..multibody.layout import body_count, dof_count, rigid_inertias, tree
+from ..spatial.compiled import (
+    add_neg_ad_transpose,
+    add_rigid_inertia_to_parent,
+    add_wrench_to_parent,
+    rigid_inertia_times,
+)
+from . import checks
+from .kinematics import forward_kinematics, space_axis, world_pose
+from .rnea import forward_pass
+
+
+@njit(**INLINE)
+def centre_of_mass_of(R_s, p_s, mass, h, c):
+    """c (3,) <- (1/M) sum_i (R_s[i] h_i + m_i p_s[i]), the centre of mass in {s} of bodies at
+    world poses (R_s, p_s); returns M = sum_i m_i (kg). The caller makes sure M > 0."""
+    fill(c, 0.0)
+    total = 0.0
+    for i in range(mass.shape[0]):
+        total += mass[i]
+        for r in range(3):
+            c[r] += (
+                R_s[i, r, 0] * h[i, 0]
+                + R_s[i, r, 1] * h[i, 1]
+                + R_s[i, r, 2] * h[i, 2]
+                + mass[i] * p_s[i, r]
+            )
+    for r in range(3):
+        c[r] /= total
+    return total
+
+
+@njit(**INLINE)
+def relative_to(p_s, c, p_G):
+    """p_G (3,) <- p_s - c: a body's origin in {G}."""
+    for r in range(3):
+        p_G[r] = p_s[r] - c[r]
+
+
+@njit(**JIT)
+def center_of_mass_kernel(ibuf, fbuf, work, q, c):
+    """c (3,) <- the centre of mass at q (m, world frame), in `work` (its R_s, p_s are left as
+    the body poses). Returns a Status: OK, Q_NOT_FINITE, Q_NOT_UNIT_QUATERNION or
+    RESULT_NOT_FINITE."""
+    status = configuration_status(ibuf, q)
+    if status:
+        return status
+    nb = body_count(ibuf)
+    forward_kinematics(tree(ibuf, fbuf), work, q, -1)
+    R_s, p_s = world_poses(work, nb)
+    mass, h, _ = rigid_inertias(ibuf, fbuf)
+    centre_of_mass_of(R_s, p_s, mass, h, c)
+    return result_status(c)
+
+
+@njit(**JIT)
+def centroidal_map_kernel(ibuf, fbuf, work, q, linear_only, A_G):
+    """A_G (6, nv) <- the centroidal momentum matrix at q or, when linear_only, A_G (3, nv) <-
+    J_c, its linear rows over M (the subtrees' rotational inertias are then not formed), in
+    `work` (R_s, p_s are left as the body poses; mass_c, h_c and, unless linear_only, I_c as
+    the subtrees' composite inertias about c in world axes). Returns a Status: OK,
+    Q_NOT_FINITE, Q_NOT_UNIT_QUATERNION or RESULT_NOT_FINITE."""
+    status = configuration_status(ibuf, q)
+    if status:
+        return status
+    body_tree = tree(ibuf, fbuf)
+    parent, nv_j, iv, mult, S = (
+        body_tree.parent,
+        body_tree.nv_j,
+        body_tree.iv,
+        body_tree.mult,
+        body_tree.S,
+    )
+    nb, nv = body_count(ibuf), dof_count(ibuf)
+    forward_kinematics(body_tree, work, q, -1)
+    R_s, p_s = world_poses(work, nb)
+    mass, h, I_o = rigid_inertias(ibuf, fbuf)
+    mass_c, h_c, I_c = composite_inertias(work, nb)
+    scratch = scratch_rows(work, nb, nv)[:3, :3]
+    temp = temp_vectors(work, nb, nv)
+    S_G, F, c = temp[0], temp[1], temp[2, :3]
+    p_G = temp[2, 3:]
+    total = centre_of_mass_of(R_s, p_s, mass, h, c)
+    # Ic_{G,i} <- G_i in {G} (mass and first moment R_i h_i + m_i (p_i - c) alone when
+    # linear_only), then the subtree sums (all in one frame: plain sums), tips first
+    fill(mass_c, 0.0)
+    fill(h_c, 0.0)
+    fill(I_c, 0.0)
+    for i in range(nb):
+        relative_to(p_s[i], c, p_G)
+        if linear_only:
+            mass_c[i] = mass[i]
+            for r in range(3):
+                h_c[i, r] = (
+                    R_s[i, r, 0] * h[i, 0]
+                    + R_s[i, r, 1] * h[i, 1]
+                    + R_s[i, r, 2] * h[i, 2]
+                    + mass[i] * p_G[r]
+                )
+        else:
+            add_rigid_inertia_to_parent(
+                R_s[i], p_G, mass[i], h[i], I_o[i], mass_c[i : i + 1], h_c[i], I_c[i], scratch
+            )
+    for i in range(nb - 1, -1, -1):
+        lam = parent[i]
+        if lam >= 0:
+            mass_c[lam] += mass_c[i]
+            for r in range(3):
+                h_c[lam, r] += h_c[i, r]
+                for k in range(3):
+                    I_c[lam, r, k] += I_c[i, r, k]
+    # A_G[:, iv_i + k] = mult_i Ic_{G,i} S_{G,k}, S_{G,k} = Ad_{T_{G,i}} s_k; its linear rows
+    # are m_c v - h_c x w for S_{G,k} = (w, v)
+    zero_matrix(A_G)
+    for i in range(nb):
+        relative_to(p_s[i], c, p_G)
+        for k in range(nv_j[i]):
+            space_axis(R_s[i], p_G, S[i, k], S_G)
+            rigid_inertia_times(mass_c[i], h_c[i], I_c[i], S_G, F)
+            if linear_only:
+                for r in range(3):
+                    A_G[r, iv[i] + k] += mult[i] * F[3 + r] / total
+            else:
+                for r in range(6):
+                    A_G[r, iv[i] + k] += mult[i] * F[r]
+    return result_status(A_G)
+
+
+@njit(**JIT)
+def centroidal_momentum_kernel(ibuf, fbuf, work, q, qd, qdd, rate, out):
+    """out (2, 6) <- (h_G, dh_G/dt = A_G qdd + Adot_G qd) at (q, qd, qdd), without gravity, or,
+    unless rate, (h_G, 0), in `work` (R, p, R_s, p_s, V and dV are left as this state's).
+    Returns a Status: OK, Q/QD/QDD_NOT_FINITE, Q_NOT_UNIT_QUATERNION or RESULT_NOT_FINITE."""
+    status = state_status(ibuf, q, qd)
+    if status:
+        return status
+    if not all_finite(qdd):
+        return Status.QDD_NOT_FINITE.value
+    body_tree = tree(ibuf, fbuf)
+    parent = body_tree.parent
+    nb, nv = body_count(ibuf), dof_count(ibuf)
+    R, p = joint_poses(work, nb)
+    R_s, p_s = world_poses(work, nb)
+    V, dV, _ = body_motion(work, nb)
+    mass, h, I_o = rigid_inertias(ibuf, fbuf)
+    s = scratch_rows(work, nb, nv)
+    temp = temp_vectors(work, nb, nv)
+    P, F, c = temp[0], temp[1], temp[2, :3]
+    p_G = temp[2, 3:]
+    forward_pass(body_tree, q, qd, qdd, no_loads(work, nb, nv)[0], R, p, V, dV, s)
+    for i in range(nb):
+        world_pose(R_s, p_s, parent[i], R[i], p[i], i)
+    centre_of_mass_of(R_s, p_s, mass, h, c)
+    # h_G = sum_i Ad_{T_{i,G}}^T P_i,  P_i = G_i V_i;
+    # dh_G/dt = sum_i Ad_{T_{i,G}}^T F_i,  F_i = G_i dV_i - ad_{V_i}^T P_i
+    fill(out, 0.0)
+    for i in range(nb):
+        rigid_inertia_times(mass[i], h[i], I_o[i], V[i], P)
+        relative_to(p_s[i], c, p_G)
+        add_wrench_to_parent(R_s[i], p_G, P, out[0])
+        if rate:
+            rigid_inertia_times(mass[i], h[i], I_o[i], dV[i], F)
+            add_neg_ad_transpose(V[i], P, F)
+            add_wrench_to_parent(R_s[i], p_G, F, out[1])
+    return result_status(out)
+
+
+@njit(**BATCH)
+def center_of_mass_batch_kernel(ibuf, fbuf, q, c, status, start, stop):
+    """Centres of mass over rows [start, stop) of a batch (N, nq) -> (N, 3)."""
+    work = new_work(body_count(ibuf), dof_count(ibuf))
+    for n in range(start, stop):
+        status[n] = center_of_mass_kernel(ibuf, fbuf, work, q[n], c[n])
+
+
+@njit(**BATCH)
+def centroidal_map_batch_kernel(ibuf, fbuf, q, linear_only, A_G, status, start, stop):
+    """Centroidal momentum matrices (or, linear_only, J_c) over rows [start, stop) of a batch
+    (N, nq) -> (N, 6, nv) (or (N, 3, nv))."""
+    work = new_work(body_count(ibuf), dof_count(ibuf))
+    for n in range(start, stop):
+        status[n] = centroidal_map_kernel(ibuf, fbuf, work, q[n], linear_only, A_G[n])
+
+
+@njit(**BATCH)
+def centroidal_momentum_batch_kernel(ibuf, fbuf, q, qd, qdd, rate, out, status, start, stop):
+    """(h_G, dh_G/dt or 0) over rows [start, stop) of a batch -> (N, 2, 6)."""
+    work = new_work(body_count(ibuf), dof_count(ibuf))
+    for n in range(start, stop):
+        status[n] = centroidal_momentum_kernel(ibuf, fbuf, work, q[n], qd[n], qdd[n], rate, out[n])
+
+
+def _evaluate(model, what, result, kernels, shape, q, *named, options=()):
+    """The kernel at a single state, or the batch kernel over a batch (N, ...): kernels =
+    (kernel, batch_kernel), shape the result's shape for one state, named the (name, value)
+    velocity-like arguments after q (at most two), options the kernel's arguments after them.
+    Returns the result, (*shape) or (N, *shape). ValueError when nothing that moves has mass:
+    there is no centre of mass. The caller has checked the model."""
+    if not model._total_mass > 0.0:
+        raise ValueError(
+            f"{what}: model {model.name!r} has no moving mass (its bodies' masses sum to "
+            f"{model._total_mass:g} kg), so it has no centre of mass"
+        )
+    kernel, batch_kernel = kernels
+    values = [value for _, value in named]
+    if checks.is_single(model, q, *values):
+        out = np.empty(shape)
+        status = kernel(model._ibuf, model._fbuf, model._work, q, *values, *options, out)
+        if status:
+            arguments = dict(zip(["q"] + [name for name, _ in named], [q, *values]))
+            checks.raise_status(status, model, what, result, arguments)
+        return out
+    if named:
+        arrays, batch = checks.as_states(model, q, *named)
+    else:
+        arrays = [checks.as_q(model, q)]
+        batch = arrays[0].ndim == 2
+    names = ["q"] + [name for name, _ in named]
+    if not batch:
+        single = zip(names[1:], arrays[1:])
+        return _evaluate(model, what, result, kernels, shape, arrays[0], *single, options=options)
+    arguments = dict(zip(names, arrays))
+    out = np.empty((arrays[0].shape[0], *shape))
+    inputs = (*arrays, *options)
+    return checks.run_batch(model, batch_kernel, inputs, out, what, result, arguments)
+
+
+_COM = (center_of_mass_kernel, center_of_mass_batch_kernel)
+_MAP = (centroidal_map_kernel, centroidal_map_batch_kernel)
+_MOMENTUM = (centroidal_momentum_kernel, centroidal_momentum_batch_kernel)
+
+
+def _momentum(model, q, qd, rate):
+    """(h_G, dh_G/dt at qdd = 0 or, unless rate, 0) (2, 6) of a single state that needs no
+    conversion and whose kernel succeeds, else None (then _evaluate converts, raises or runs
+    the batch)."""
+    if model._total_mass > 0.0 and checks.is_single(model, q, qd):
+        out = np.empty((2, 6))
+        status = centroidal_momentum_kernel(
+            model._ibuf, model._fbuf, model._work, q, qd, model._zero_v, rate, out
+        )
+        if not status:
+            return out
+    return None
+
+
+def center_of_mass(model, q):
+    """c(q) = (1/M) sum_i m_i c_i(q): the centre of mass of the moving bodies (m, world frame).
+
+    q: (nq,) configuration, or a batch (N, nq) -> (3,) or (N, 3). M = sum_i m_i is the mass of
+    the moving bodies: links welded to a fixed root are part of the world, as in every dynamics
+    function. ValueError when M is zero.
+    """
+    checks.check_model(model, "center_of_mass")
+    if model._total_mass > 0.0 and checks.is_single(model, q):
+        c = np.empty(3)
+        if not center_of_mass_kernel(model._ibuf, model._fbuf, model._work, q, c):
+            return c
+    return _evaluate(model, "center_of_mass", "c", _COM, (3,), q)
+
+
+def center_of_mass_jacobian(model, q):
+    """J_c(q) (3, nv), so that c_dot = J_c qd: the centre of mass's velocity (m/s, world frame)
+    per velocity coordinate (for a floating base, per component of the base twist (omega_b,
+    v_b) in the base frame, then per joint).
+
+    J_c = the l_G rows of A_G over M (centroidal_momentum_matrix), the linear momentum being
+    M c_dot; the same kernel, without forming the subtrees' rotational inertias.
+    q: (nq,) or (N, nq) -> (3, nv) or (N, 3, nv).
+    """
+    checks.check_model(model, "center_of_mass_jacobian")
+    if model._total_mass > 0.0 and checks.is_single(model, q):
+        J_c = np.empty((3, model.nv))
+        if not centroidal_map_kernel(model._ibuf, model._fbuf, model._work, q, True, J_c):
+            return J_c
+    return _evaluate(
+        model, "center_of_mass_jacobian", "J_c", _MAP, (3, model.nv), q, options=(True,)
+    )
+
+
+def centroidal_momentum_matrix(model, q):
+    """A_G(q) (6, nv), so that h_G = A_G qd: the centroidal momentum matrix (Orin and Goswami
+    2008, 2013; Pinocchio's ccrba, whose rows are linear first).
+
+    h_G = (k_G, l_G), angular first: the angular momentum about the centre of mass (kg m^2/s)
+    and the linear momentum (kg m/s), both in world-aligned axes. Column k is the momentum of
+    everything that moves with velocity coordinate k at unit speed:
+        A_G[:, k] = Ic_{G,j} S_{G,k},
+    Ic_{G,j} the composite inertia of the subtree of k's joint j about the centre of mass in
+    world axes, S_{G,k} its motion axis as a twist there. For a floating base the first six
+    columns are the base twist's (omega_b, v_b) in the base frame, and A_G[:, :6] is the whole
+    robot's spatial inertia moved from the base frame to {G}.
+    q: (nq,) or (N, nq) -> (6, nv) or (N, 6, nv).
+    """
+    checks.check_model(model, "centroidal_momentum_matrix")
+    if model._total_mass > 0.0 and checks.is_single(model, q):
+        A_G = np.empty((6, model.nv))
+        if not centroidal_map_kernel(model._ibuf, model._fbuf, model._work, q, False, A_G):
+            return A_G
+    return _evaluate(
+        model, "centroidal_momentum_matrix", "A_G", _MAP, (6, model.nv), q, options=(False,)
+    )
+
+
+def centroidal_momentum(model, q, qd):
+    """h_G = A_G(q) qd = (k_G, l_G) (6,): the angular momentum about the centre of mass
+    (kg m^2/s) and the linear momentum (kg m/s), world-aligned axes, angular first; summed
+    over the bodies, h_G = sum_i Ad_{T_{i,G}}^T G_i V_i.
+
+    q, qd: (nq,), (nv,), or batches (N, nq), (N, nv) -> (6,) or (N, 6).
+    """
+    checks.check_model(model, "centroidal_momentum")
+    out = _momentum(model, q, qd, False)
+    if out is not None:
+        return out[0]
+    out = _evaluate(
+        model,
+        "centroidal_momentum",
+        "h_G",
+        _MOMENTUM,
+        (2, 6),
+        q,
+        ("qd", qd),
+        ("qdd", model._zero_v),
+        options=(False,),
+    )
+    return out[..., 0, :]
+
+
+def centroidal_momentum_rate_bias(model, q, qd):
+    """Adot_G(q, qd) qd (6,): the part of the centroidal momentum's rate that does not depend on
+    qdd, so that
+
+        dh_G/dt = A_G qdd + Adot_G qd = sum of the external wrenches about the centre of mass
+
+    (gravity's (0, M g) and contacts; angular first, world-aligned axes; N m and N). It is the
+    sum of the bodies' net wrenches G_i dV_i - ad_{V_i}^T G_i V_i at qdd = 0, moved to {G}.
+    q, qd: (nq,), (nv,), or batches -> (6,) or (N, 6).
+    """
+    checks.check_model(model, "centroidal_momentum_rate_bias")
+    out = _momentum(model, q, qd, True)
+    if out is not None:
+        return out[1]
+    out = _evaluate(
+        model,
+        "centroidal_momentum_rate_bias",
+        "Adot_G qd",
+        _MOMENTUM,
+        (2, 6),
+        q,
+        ("qd", qd),
+        ("qdd", model._zero_v),
+        options=(True,),
+    )
+    return out[..., 1, :]
