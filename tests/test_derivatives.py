@@ -249,3 +249,24 @@ def test_a_singular_mass_matrix_is_refused_naming_the_joint(tmp_path):
     # inverse dynamics has an answer: its M is singular, not wrong
     _, _, M = od.inverse_dynamics_derivatives(model, np.zeros(model.nq), v, v)
     assert not M[-1].any()
+
+
+def test_importing_opendyn_compiles_none_of_the_derivative_kernels():
+    """They compile (or load from the cache) on their first call, never at import: the cold
+    start of everything else is unchanged."""
+    import json
+    import subprocess
+    import sys
+
+    code = (
+        "import opendyn, json\n"
+        "from opendyn.algorithm import aba_derivatives, minverse, rnea_derivatives\n"
+        "modules = (aba_derivatives, minverse, rnea_derivatives)\n"
+        "kernels = [getattr(m, n) for m in modules for n in dir(m)\n"
+        "           if hasattr(getattr(m, n), 'signatures')]\n"
+        "print(json.dumps({k.__name__: len(k.signatures) for k in kernels}))\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    signatures = json.loads(out.stdout)
+    assert "rnea_derivatives_kernel" in signatures and "inverse_mass_matrix_kernel" in signatures
+    assert not any(signatures.values()), signatures
