@@ -142,6 +142,8 @@ PUBLIC = {  # every public function that takes a model, called with good other a
     "coriolis_matrix": lambda m: od.coriolis_matrix(m, Q, Q),
     "christoffel_symbols": lambda m: od.christoffel_symbols(m, Q),
     "forward_dynamics": lambda m: od.forward_dynamics(m, Q, Q, Q),
+    "inverse_dynamics_derivatives": lambda m: od.inverse_dynamics_derivatives(m, Q, Q, Q),
+    "forward_dynamics_derivatives": lambda m: od.forward_dynamics_derivatives(m, Q, Q, Q),
     "frame_pose": lambda m: od.frame_pose(m, Q, "tool0"),
     "jacobian": lambda m: od.jacobian(m, Q, "tool0"),
     "kinetic_energy": lambda m: od.kinetic_energy(m, Q, Q),
@@ -282,6 +284,12 @@ ARRAY_ARGUMENTS = {  # (function, argument): (its good value, a call with that a
     ("PointToPoint", "point_b"): (G3, lambda m, x: od.PointToPoint("tool0", "base", point_b=x)),
     ("FixedPose", "T_ab"): (np.eye(4), lambda m, x: od.FixedPose("tool0", "base", T_ab=x)),
     ("JointCoupling", "A"): (A_ROW, lambda m, x: od.JointCoupling(x)),
+    ("inverse_dynamics_derivatives", "qdd"): (
+        Q, lambda m, x: od.inverse_dynamics_derivatives(m, Q, Q, x)
+    ),
+    ("forward_dynamics_derivatives", "tau"): (
+        Q, lambda m, x: od.forward_dynamics_derivatives(m, Q, Q, x)
+    ),
     ("center_of_mass", "q"): (Q, lambda m, x: od.center_of_mass(m, x)),
     ("centroidal_momentum", "qd"): (Q, lambda m, x: od.centroidal_momentum(m, Q, x)),
     ("torque_regressor", "qdd"): (Q, lambda m, x: od.torque_regressor(m, Q, Q, x)),
@@ -354,6 +362,12 @@ OVERFLOWS = {  # finite arguments whose result overflows: (call, result name, li
     ),
     "integrate": (lambda m: od.integrate(m, Q, HUGE, 10.0), "q", "v up to"),
     "difference": (lambda m: od.difference(m, -HUGE, HUGE), "v", "q0 up to 1e+308"),
+    "inverse_dynamics_derivatives": (
+        lambda m: od.inverse_dynamics_derivatives(m, Q, BIG, Q), "dtau_dq", "qd up to"
+    ),
+    "forward_dynamics_derivatives": (
+        lambda m: od.forward_dynamics_derivatives(m, Q, BIG, Q), "ddq_dq", "qd up to"
+    ),
     "centroidal_momentum": (lambda m: od.centroidal_momentum(m, Q, HUGE), "h_G", "qd up to"),
     "centroidal_momentum_rate_bias": (
         lambda m: od.centroidal_momentum_rate_bias(m, Q, BIG), "Adot_G qd", "qd up to"
