@@ -283,7 +283,8 @@ def test_ctrl_c_keeps_the_finished_rows_and_the_same_command_resumes(tmp_path):
                             stderr=subprocess.PIPE, text=True)
     parts = tmp_path / "r.parquet.parts"
     deadline = time.time() + 120
-    while not (parts.is_dir() and len(list(parts.iterdir())) >= 2) and time.time() < deadline:
+    # finished parts only: a part being written is a temporary file beside them until renamed
+    while len(list(parts.glob("part-*.parquet"))) < 2 and time.time() < deadline:
         time.sleep(0.05)
     proc.send_signal(signal.SIGINT)
     out, err = proc.communicate(timeout=120)
