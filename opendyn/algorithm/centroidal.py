@@ -25,9 +25,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .._runtime.arrays import all_finite, fill, result_status, zero_matrix
+from .._runtime.arrays import fill, result_status, zero_matrix
 from .._runtime.kernel_cache import BATCH, INLINE, JIT
-from .._runtime.status import Status
 from ..multibody.data import (
     body_motion,
     composite_inertias,
@@ -38,7 +37,7 @@ from ..multibody.data import (
     temp_vectors,
     world_poses,
 )
-from ..multibody.joints import configuration_status, state_status
+from ..multibody.joints import configuration_status, motion_status
 from ..multibody.layout import body_count, dof_count, rigid_inertias, tree
 from ..spatial.compiled import (
     add_neg_ad_transpose,
@@ -172,11 +171,9 @@ def centroidal_momentum_kernel(ibuf, fbuf, work, q, qd, qdd, rate, out):
     """out (2, 6) <- (h_G, dh_G/dt = A_G qdd + Adot_G qd) at (q, qd, qdd), without gravity, or,
     unless rate, (h_G, 0), in `work` (R, p, R_s, p_s, V and dV are left as this state's).
     Returns a Status: OK, Q/QD/QDD_NOT_FINITE, Q_NOT_UNIT_QUATERNION or RESULT_NOT_FINITE."""
-    status = state_status(ibuf, q, qd)
+    status = motion_status(ibuf, q, qd, qdd)
     if status:
         return status
-    if not all_finite(qdd):
-        return Status.QDD_NOT_FINITE.value
     body_tree = tree(ibuf, fbuf)
     parent = body_tree.parent
     nb, nv = body_count(ibuf), dof_count(ibuf)

@@ -26,11 +26,10 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .._runtime.arrays import all_finite, result_status, zero_matrix
+from .._runtime.arrays import result_status, zero_matrix
 from .._runtime.kernel_cache import BATCH, INLINE, JIT
-from .._runtime.status import Status
 from ..multibody.data import body_motion, joint_poses, new_work, scratch_rows, temp_vectors
-from ..multibody.joints import state_status
+from ..multibody.joints import motion_status
 from ..multibody.layout import body_count, dof_count, tree
 from ..spatial.algebra import linear
 from ..spatial.compiled import dot6, wrench_to_parent
@@ -91,11 +90,9 @@ def regressor_kernel(ibuf, fbuf, work, q, qd, qdd, dV_0, Y):
     """Y (nv, 10 nb) <- the joint-torque regressor at one state under the base acceleration
     dV_0 = (0, -g), in `work` (R, p, V and dV are left as this state's). Returns a Status: OK,
     Q/QD/QDD_NOT_FINITE, Q_NOT_UNIT_QUATERNION or RESULT_NOT_FINITE."""
-    status = state_status(ibuf, q, qd)
+    status = motion_status(ibuf, q, qd, qdd)
     if status:
         return status
-    if not all_finite(qdd):
-        return Status.QDD_NOT_FINITE.value
     body_tree = tree(ibuf, fbuf)
     parent, nv_j, iv, mult, S = (
         body_tree.parent,

@@ -19,15 +19,14 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .._runtime.arrays import all_finite, fill, result_status
+from .._runtime.arrays import fill, result_status
 from .._runtime.kernel_cache import BATCH, INLINE, JIT
-from .._runtime.status import Status
 from ..multibody.data import body_motion, joint_poses, new_work, scratch_rows
 from ..multibody.joints import (
     add_joint_force,
     joint_transform,
+    motion_status,
     prepare_joint_transforms,
-    state_status,
 )
 from ..multibody.layout import body_count, dof_count, rigid_inertias, tree
 from ..spatial.compiled import (
@@ -84,11 +83,9 @@ def rnea_kernel(ibuf, fbuf, work, q, qd, qdd, loads, tau):
     F are left as this state's). loads[0] = dV_0 = (0, -g); loads[1 + i], when present,
     the wrench body i applies to the environment. Returns a Status: OK, Q/QD/QDD_NOT_FINITE,
     Q_NOT_UNIT_QUATERNION or RESULT_NOT_FINITE (tau overflowed)."""
-    status = state_status(ibuf, q, qd)
+    status = motion_status(ibuf, q, qd, qdd)
     if status:
         return status
-    if not all_finite(qdd):
-        return Status.QDD_NOT_FINITE.value
     body_tree = tree(ibuf, fbuf)
     parent, nv_j, iv = body_tree.parent, body_tree.nv_j, body_tree.iv
     mult, S = body_tree.mult, body_tree.S

@@ -45,9 +45,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .._runtime.arrays import all_finite, result_status, zero_matrix
+from .._runtime.arrays import result_status, zero_matrix
 from .._runtime.kernel_cache import BATCH, INLINE, JIT
-from .._runtime.status import Status
 from ..multibody.data import (
     axis_rates,
     coriolis_terms,
@@ -56,7 +55,7 @@ from ..multibody.data import (
     temp_vectors,
     world_poses,
 )
-from ..multibody.joints import state_status
+from ..multibody.joints import motion_status
 from ..multibody.layout import body_count, dof_count, tree
 from ..spatial.compiled import (
     ad_twist,
@@ -200,11 +199,9 @@ def rnea_derivatives_kernel(ibuf, fbuf, work, state, loads, dtau_dq, dtau_dqd, M
     as rnea_kernel's. Returns a Status: OK, Q/QD/QDD_NOT_FINITE, Q_NOT_UNIT_QUATERNION or
     RESULT_NOT_FINITE."""
     q, qd, qdd = state
-    status = state_status(ibuf, q, qd)
+    status = motion_status(ibuf, q, qd, qdd)
     if status:
         return status
-    if not all_finite(qdd):
-        return Status.QDD_NOT_FINITE.value
     space_axes_and_inertias(ibuf, fbuf, work, q)
     velocity_terms(ibuf, fbuf, work, qd)
     accelerations_and_wrenches(ibuf, fbuf, work, qd, qdd, loads)

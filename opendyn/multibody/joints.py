@@ -223,6 +223,16 @@ def state_status(ibuf, q, qd):
     return Status.OK.value if all_finite(qd) else Status.QD_NOT_FINITE.value
 
 
+@njit(**INLINE)
+def motion_status(ibuf, q, qd, qdd):
+    """Status of a state with accelerations (q, qd, qdd): state_status(q, qd), then
+    QDD_NOT_FINITE if qdd has NaN or inf, else OK: the checks of every kernel taking qdd."""
+    status = state_status(ibuf, q, qd)
+    if status:
+        return status
+    return Status.OK.value if all_finite(qdd) else Status.QDD_NOT_FINITE.value
+
+
 # ---- the configuration space: q (+) v and its inverse, per joint ----------------------------
 
 
