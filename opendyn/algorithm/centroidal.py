@@ -347,22 +347,7 @@ def centroidal_momentum(model, q, qd):
 
     q, qd: (nq,), (nv,), or batches (N, nq), (N, nv) -> (6,) or (N, 6).
     """
-    checks.check_model(model, "centroidal_momentum")
-    out = _momentum(model, q, qd, False)
-    if out is not None:
-        return out[0]
-    out = _evaluate(
-        model,
-        "centroidal_momentum",
-        "h_G",
-        _MOMENTUM,
-        (2, 6),
-        q,
-        ("qd", qd),
-        ("qdd", model._zero_v),
-        options=(False,),
-    )
-    return out[..., 0, :]
+    return _momentum_or_rate(model, q, qd, False, "centroidal_momentum", "h_G")
 
 
 def centroidal_momentum_rate_bias(model, q, qd):
@@ -375,19 +360,19 @@ def centroidal_momentum_rate_bias(model, q, qd):
     sum of the bodies' net wrenches G_i dV_i - ad_{V_i}^T G_i V_i at qdd = 0, moved to {G}.
     q, qd: (nq,), (nv,), or batches -> (6,) or (N, 6).
     """
-    checks.check_model(model, "centroidal_momentum_rate_bias")
-    out = _momentum(model, q, qd, True)
+    return _momentum_or_rate(model, q, qd, True, "centroidal_momentum_rate_bias", "Adot_G qd")
+
+
+def _momentum_or_rate(model, q, qd, rate, what, result):
+    """h_G (rate False) or Adot_G qd (rate True) for a single state or a batch: what and
+    result name the function and its result in errors."""
+    checks.check_model(model, what)
+    k = 1 if rate else 0
+    out = _momentum(model, q, qd, rate)
     if out is not None:
-        return out[1]
+        return out[k]
     out = _evaluate(
-        model,
-        "centroidal_momentum_rate_bias",
-        "Adot_G qd",
-        _MOMENTUM,
-        (2, 6),
-        q,
-        ("qd", qd),
-        ("qdd", model._zero_v),
-        options=(True,),
+        model, what, result, _MOMENTUM, (2, 6), q, ("qd", qd), ("qdd", model._zero_v),
+        options=(rate,),
     )
-    return out[..., 1, :]
+    return out[..., k, :]
