@@ -306,14 +306,7 @@ def center_of_mass_jacobian(model, q):
     M c_dot; the same kernel, without forming the subtrees' rotational inertias.
     q: (nq,) or (N, nq) -> (3, nv) or (N, 3, nv).
     """
-    checks.check_model(model, "center_of_mass_jacobian")
-    if model._total_mass > 0.0 and checks.is_single(model, q):
-        J_c = np.empty((3, model.nv))
-        if not centroidal_map_kernel(model._ibuf, model._fbuf, model._work, q, True, J_c):
-            return J_c
-    return _evaluate(
-        model, "center_of_mass_jacobian", "J_c", _MAP, (3, model.nv), q, options=(True,)
-    )
+    return _centroidal_map(model, q, True, "center_of_mass_jacobian", "J_c")
 
 
 def centroidal_momentum_matrix(model, q):
@@ -330,14 +323,20 @@ def centroidal_momentum_matrix(model, q):
     robot's spatial inertia moved from the base frame to {G}.
     q: (nq,) or (N, nq) -> (6, nv) or (N, 6, nv).
     """
-    checks.check_model(model, "centroidal_momentum_matrix")
+    return _centroidal_map(model, q, False, "centroidal_momentum_matrix", "A_G")
+
+
+def _centroidal_map(model, q, linear_only, what, result):
+    """A_G (6, nv), or J_c (3, nv) when linear_only, of a single configuration or a batch: a
+    single float64 q goes straight to the kernel, anything else through _evaluate (which
+    converts, raises or runs the batch)."""
+    checks.check_model(model, what)
+    shape = (3 if linear_only else 6, model.nv)
     if model._total_mass > 0.0 and checks.is_single(model, q):
-        A_G = np.empty((6, model.nv))
-        if not centroidal_map_kernel(model._ibuf, model._fbuf, model._work, q, False, A_G):
-            return A_G
-    return _evaluate(
-        model, "centroidal_momentum_matrix", "A_G", _MAP, (6, model.nv), q, options=(False,)
-    )
+        out = np.empty(shape)
+        if not centroidal_map_kernel(model._ibuf, model._fbuf, model._work, q, linear_only, out):
+            return out
+    return _evaluate(model, what, result, _MAP, shape, q, options=(linear_only,))
 
 
 def centroidal_momentum(model, q, qd):
