@@ -54,6 +54,15 @@ def swap_halves(x, axis=0):
     )
 
 
+def symmetric(X):
+    """A symmetric matrix of which Pinocchio may have filled only the upper triangle (releases
+    differ): the upper one mirrored where the lower one is all zero, else X as it is."""
+    X = np.array(X)
+    if X[np.tril_indices_from(X, -1)].any():
+        return X
+    return np.triu(X) + np.triu(X, 1).T
+
+
 class PinocchioOracle:
     """A Pinocchio model of the same URDF, with opendyn-ordered inputs and outputs.
 
@@ -205,11 +214,7 @@ class PinocchioOracle:
             dq, dv, da = pin.computeRNEADerivatives(*args, self.fext(q, f_tip))
         else:
             dq, dv, da = pin.computeRNEADerivatives(*args)
-        da = np.array(da)
-        lower = np.tril_indices_from(da, -1)
-        if not da[lower].any():
-            da = np.triu(da) + np.triu(da, 1).T
-        return self.back_matrix(dq), self.back_matrix(dv), self.back_matrix(da)
+        return self.back_matrix(dq), self.back_matrix(dv), self.back_matrix(symmetric(da))
 
     def aba_derivatives(self, q, qd, tau, f_tip=None, gravity=None):
         """(dqdd_dq, dqdd_dqd, M^-1) (nv, nv) each by computeABADerivatives (M^-1's lower
@@ -231,10 +236,7 @@ class PinocchioOracle:
             dq, dv, Minv = pin.computeABADerivatives(*args, self.fext(q, f_tip))
         else:
             dq, dv, Minv = pin.computeABADerivatives(*args)
-        Minv = np.array(Minv)
-        if not Minv[np.tril_indices_from(Minv, -1)].any():
-            Minv = np.triu(Minv) + np.triu(Minv, 1).T
-        return self.back_matrix(dq), self.back_matrix(dv), self.back_matrix(Minv)
+        return self.back_matrix(dq), self.back_matrix(dv), self.back_matrix(symmetric(Minv))
 
     def _rnea_differences(self, q, qd, qdd, f_tip, gravity):
         """Central differences of Pinocchio's RNEA in q (along opendyn's integrate), qd and
