@@ -9,6 +9,7 @@ from ._runtime.kernel_cache import kernel_cache
 from ._runtime.version import __version__  # noqa: F401  (opendyn.__version__)
 from .errors import (
     NonFiniteResultError,
+    RolloutInterrupted,
     SceneError,
     SceneWarning,
     SimulationError,
@@ -71,6 +72,8 @@ with kernel_cache():
     from .multibody.data import Data
     from .multibody.model import CollisionSphere, Frame, Model
     from .sim.linearize import linearize
+    from .sim.rollout import rollout
+    from .sim.rollout_result import RolloutResult
     from .sim.simulate import simulate
     from .sim.simulator import Simulator
     from .sim.trajectory import Trajectory
@@ -94,6 +97,9 @@ __all__ = [
     "linearize",
     "simulate",
     "Simulator",
+    "rollout",
+    "RolloutResult",
+    "RolloutInterrupted",
     "sweep",
     "SweepError",
     "SweepInterrupted",

@@ -89,3 +89,12 @@ class SweepInterrupted(KeyboardInterrupt):
     def __init__(self, table):
         super().__init__("the sweep was interrupted")
         self.table = table
+
+
+class RolloutInterrupted(KeyboardInterrupt):
+    """Ctrl-C stopped a rollout after the runs under way finished; `result` (a RolloutResult)
+    holds every run done, and the runs never started have status 'interrupted'."""
+
+    def __init__(self, result):
+        super().__init__("the rollout was interrupted")
+        self.result = result

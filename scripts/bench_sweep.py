@@ -18,7 +18,8 @@ import logging
 import time
 
 import opendyn as od
-from opendyn.sweep.engine import Base, combinations, parse_axis
+from opendyn.io.scene.variants import Variants
+from opendyn.sweep.engine import combinations, parse_axis
 
 
 def scene():
@@ -58,7 +59,7 @@ def main():
     parser.add_argument("--runs", type=int, default=1000)
     args = parser.parse_args()
     n = args.runs
-    base = Base.of(scene())
+    base = Variants.of(scene())
     runs = combinations([parse_axis(k, v) for k, v in VARY.items()], samples=n, seed=0)
     od.simulate(base.scene_for(runs[0]))  # compile or load the step before any clock starts
     t_loop, finals = loop(base, runs)

@@ -152,7 +152,8 @@ def test_verify_prints_a_table_against_pinocchio(capsys):
 
 def test_compile_ahead_runs_every_core_call_and_the_scenes_named(capsys):
     """`opendyn compile` runs the list of core calls (each must accept its arguments on any
-    robot: a wrong call would only show on a user's machine) and simulates each named scene."""
+    robot: a wrong call would only show on a user's machine) and simulates and rolls out each
+    named scene (a sweep's workers roll its runs out)."""
     from opendyn._runtime.compile_notice import core_calls
 
     model = od.load_urdf("double_pendulum")
@@ -162,7 +163,7 @@ def test_compile_ahead_runs_every_core_call_and_the_scenes_named(capsys):
         names.append(name)
     assert "forward_dynamics newton_euler" in names and "constrained_forward_dynamics" in names
     assert main(["compile", "double_pendulum_swing"]) == 0
-    assert "compiled 1 items" in capsys.readouterr().out
+    assert "compiled 2 items" in capsys.readouterr().out
 
 
 def test_info_cache_names_the_cache_folder(capsys):

@@ -18,7 +18,7 @@ from scipy.special import ellipk, ellipkinc
 
 import opendyn as od
 from opendyn.errors import SceneError
-from opendyn.sim.simulate import QUATERNION_NORM_BOUND
+from opendyn.sim.record import QUATERNION_NORM_BOUND
 
 pin = pytest.importorskip("pinocchio")
 from pin_adapter import PinOracle  # noqa: E402

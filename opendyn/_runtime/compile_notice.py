@@ -226,13 +226,16 @@ def core_calls(model, batch=64):
     return calls
 
 
-def compile_ahead(scenes, functions, out=sys.stderr):
-    """Compile (or load from the cache) what `scenes` (opendyn.Scene objects) need and, with
-    `functions`, every public core function, with one bar over the items. Returns
-    [(item, seconds)]."""
+def compile_ahead(scenes, functions, out=sys.stderr, simulations=True):
+    """Compile (or load from the cache) what `scenes` (opendyn.Scene objects) need, their
+    rollouts and, with `simulations`, their simulate() (a scene with a Python controller has
+    only that), and with `functions` every public core function, with one bar over the items.
+    Returns [(item, seconds)]."""
     from tqdm import tqdm
 
     from ..io.urdf import load_urdf
+    from ..sim.effects import python_control
+    from ..sim.rollout import rollout
     from ..sim.simulate import simulate
 
     items = []
@@ -241,7 +244,13 @@ def compile_ahead(scenes, functions, out=sys.stderr):
     for scene in scenes:
         run = scene.run
         short = scene.replace_run(duration=run.dt, output_dt=run.dt)
-        items.append((f"scene {scene.name}", lambda s=short: simulate(s)))
+        compiled = python_control.record(scene) is None  # else it runs with simulate only
+        if simulations or not compiled:
+            items.append((f"scene {scene.name}", lambda s=short: simulate(s)))
+        if compiled:  # a sweep's workers roll its runs out
+            items.append(
+                (f"rollout {scene.name}", lambda s=short: rollout(s, threads=1).trajectory(0))
+            )
     where = CACHE_DIR or "nowhere (no writable cache folder: set NUMBA_CACHE_DIR)"
     print(f"opendyn: compiling {len(items)} items ahead of time into {where}", file=out)
     done = []

@@ -227,7 +227,7 @@ def summary(scene, traj):
                 f"({error.max() / scale:.2g} of max |E|): the integration error"
             )
     if "quaternion_norm_error" in stats:
-        from ..sim.simulate import QUATERNION_NORM_BOUND
+        from ..sim.record import QUATERNION_NORM_BOUND
 
         lines.append(
             f"base        max | |quat| - 1 | = {stats['quaternion_norm_error']:.2g} over the "

@@ -294,7 +294,10 @@ def rk_combine(ibuf, weights, dt, x, work, x1):
 
 @njit(**JIT)
 def record(out, r, t, x, tau):
-    """Row r of the Record out <- the time t, the State x and the control torque tau there."""
+    """Row r of the Record out <- the time t, the State x and the control torque tau there. A
+    Record of K rows takes row r in row r mod K: one of a single row keeps the latest (a
+    rollout that keeps only final states)."""
+    r = r % out.t.shape[0]
     out.t[r] = t
     copy_into(x.q, out.q[r])
     copy_into(x.qd, out.qd[r])

@@ -31,7 +31,8 @@ from ..spatial.algebra import ad
 from .effects import registry
 from .effects.interface import CONTROL
 from .effects.tangent import LinearAt, space_axes
-from .simulate import as_scene, gravity_of
+from .record import gravity_of
+from .simulate import as_scene
 from .simulator import checked_configuration, checked_torque, checked_vector
 
 

@@ -33,14 +33,23 @@ def preflight(scene, integ):
     """Check `scene` (opendyn.io.scene.schema.Scene) can run with `integ` (its Integrator). Returns
     (nsteps, every, rows): the fixed steps (0 for adaptive methods), the steps between samples
     and the number of samples. Raises SceneError naming the key to change; warns SceneWarning."""
-    nsteps, every, rows = _run_size(scene, integ)
+    nsteps, every, rows = run_size(scene, integ)
     _check_memory(scene, rows)
-    _check_start(scene)
-    _check_energy(scene)
+    check_start(scene)
     return nsteps, every, rows
 
 
-def _run_size(scene, integ):
+def check_start(scene):
+    """The initial state's checks: its velocities within max_speed, its positions within the
+    joint limits, its energy finite (SceneError naming the key to change; SceneWarning)."""
+    _check_start(scene)
+    _check_energy(scene)
+
+
+def run_size(scene, integ):
+    """(nsteps, every, rows): the fixed steps (0 for adaptive methods), the steps between
+    samples and the number of samples of a run of `scene` by `integ` (SceneError where they do
+    not fit)."""
     run = scene.run
     if integ.adaptive:
         samples = run.duration / run.output_dt
@@ -121,7 +130,7 @@ def _check_start(scene):
             f"{scene.source}: initial.q.{name}: {what}; the scene does not enforce them, so it "
             "runs as given",
             SceneWarning,
-            stacklevel=4,  # the caller of simulate
+            stacklevel=5,  # the caller of simulate
         )
 
 

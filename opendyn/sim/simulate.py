@@ -17,9 +17,7 @@ is the run's `quaternion_norm_error` (bound QUATERNION_NORM_BOUND).
 
 from __future__ import annotations
 
-import datetime
 import os
-import platform
 import signal
 import sys
 import threading
@@ -27,30 +25,30 @@ import time
 
 import numpy as np
 
-from .._runtime.batch import run_rows
 from .._runtime.compile_notice import compile_seconds, compiling
 from .._runtime.signals import signal_name
 from .._runtime.status import Status
-from .._runtime.version import __version__
-from ..algorithm.centroidal import center_of_mass, centroidal_momentum
-from ..algorithm.constraints import ROW_COUNT, constraint_terms_kernel
-from ..algorithm.contact import contact_record_kernel
 from ..algorithm.energy import energies
 from ..errors import SceneError, SimulationError
 from ..io.scene.files import load_scene
-from ..io.scene.schema import Scene, thaw
+from ..io.scene.schema import Scene
 from ..multibody.joints import FREE
 from ..multibody.model import Model
 from . import effects, integrators, step
 from .effects import python_control
 from .diagnostics import check_contact_step, failure_message
 from .preflight import preflight
+from .record import (
+    Samples,
+    contact_record,
+    gravity_of,
+    quaternion_norm_error,
+    trajectory_of,
+    violation,
+)
 
 _CHUNK_SECONDS = 0.1  # wall time of one compiled chunk: progress and Ctrl-C granularity
 _FIRST_CHUNK = 64  # steps in the first chunk
-# integrate renormalises the quaternion at every step, so a recorded one is a product of unit
-# quaternions rounded a few times: its norm is 1 within a few units of float64 rounding (2.2e-16)
-QUATERNION_NORM_BOUND = 1e-14
 # what compiling a scene's pieces takes on a 2-core machine, by integrator (measured by
 # scripts/bench_coldstart.py; constraints add about half again)
 _COMPILE_ESTIMATE = {
@@ -169,7 +167,7 @@ def simulate(scene, *, progress=False, raise_on_failure=True, controller=None, c
         stats["quaternion_norm_error"] = float(
             quaternion_norm_error(model, out.q[: out.filled]).max(initial=0.0)
         )
-    traj = trajectory_of(scene, table, out, status == 0, message, stats)
+    traj = trajectory_of(scene, table, out.arrays(), out.filled, status == 0, message, stats)
     if status and raise_on_failure:
         raise SimulationError(message, traj)
     return traj
@@ -209,19 +207,14 @@ def load_kernels(scene, integ, table, data, x, loop):
         lambda: energies(model, *state, gravity_of(scene)),
     ]
     if scene.constraints:
-        pieces.append(lambda: _violation(model, table, *state))
+        pieces.append(lambda: violation(model, table, *state))
     if scene.contact is not None:
-        pieces.append(lambda: _contact_record(model, table, *state))
+        pieces.append(lambda: contact_record(model, table, *state))
     what = f"the simulation step for {integ.name} with {', '.join(table.names) or 'no effects'}"
     with compiling(what, len(pieces), _COMPILE_ESTIMATE[integ.kind]) as done:
         for piece in pieces:
             piece()
             done()
-
-
-def gravity_of(scene):
-    """The scene's gravity (3,), or zeros when it names none (then U = 0)."""
-    return np.zeros(3) if scene.gravity is None else np.asarray(scene.gravity, float)
 
 
 def _fixed_chunk(scene, integ, table, step0, nsteps, every, x, out, counters):
@@ -275,47 +268,6 @@ def error_size_index(model):
     for i in np.flatnonzero(model.jtype == FREE):
         index[model.iv[i] + 3 : model.iv[i] + 6] = model.iq[i] + np.arange(3)
     return index
-
-
-class Samples:
-    """The recorded rows: t, q, qd, tau and the work (applied, passive) of each sample."""
-
-    def __init__(self, rows, nq, nv):
-        self.t = np.full(rows, np.nan)
-        self.q = np.full((rows, nq), np.nan)
-        self.qd = np.full((rows, nv), np.nan)
-        self.tau = np.full((rows, nv), np.nan)
-        self.w = np.full((rows, 2), np.nan)
-        self.filled = 0
-
-    def arrays(self):
-        """The integrators.Record (t, q, qd, tau, w) that the compiled loops write."""
-        return integrators.Record(self.t, self.q, self.qd, self.tau, self.w)
-
-    def put(self, r, t, x, tau):
-        """Row r <- the time t, the State x and the control torque tau there."""
-        self.t[r] = t
-        self.q[r], self.qd[r], self.w[r] = x.q, x.qd, x.w
-        self.tau[r] = tau
-
-    def grow(self, rows):
-        """Room for at least `rows` rows, the new ones NaN (the arrays are replaced: take
-        arrays() again)."""
-        for name in ("t", "q", "qd", "tau", "w"):
-            old = getattr(self, name)
-            if len(old) < rows:
-                new = np.full((rows, *old.shape[1:]), np.nan)
-                new[: len(old)] = old
-                setattr(self, name, new)
-
-    def copy(self):
-        """A copy of the filled rows."""
-        n = self.filled
-        out = Samples(n, self.q.shape[1], self.qd.shape[1])
-        for name in ("t", "q", "qd", "tau", "w"):
-            getattr(out, name)[:] = getattr(self, name)[:n]
-        out.filled = n
-        return out
 
 
 def progress_bar(duration):
@@ -413,139 +365,6 @@ def record_state(scene, table, t, x, out):
     out.grow(r + 1)
     out.put(r, t, x, tau)
     out.filled = r + 1
-
-
-def quaternion_norm_error(model, q):
-    """(K,) max over the free joints of | |quat| - 1 | at each configuration of q (K, nq)."""
-    error = np.zeros(len(q))
-    for i in np.flatnonzero(model.jtype == FREE):
-        k = int(model.iq[i]) + 3
-        error = np.maximum(error, np.abs(np.linalg.norm(q[:, k : k + 4], axis=1) - 1.0))
-    return error
-
-
-def trajectory_of(scene, table, out, complete, message, stats):
-    from .trajectory import Trajectory
-
-    model = scene.model
-    n = out.filled
-    t, q, qd, tau, w = out.t[:n], out.q[:n], out.qd[:n], out.tau[:n], out.w[:n]
-    kinetic, potential = energies(model, q, qd, gravity_of(scene)) if n else (np.zeros(0),) * 2
-    if scene.armature is not None and n:
-        kinetic = kinetic + 0.5 * (qd[:, model.v_index] ** 2) @ scene.armature
-    violation = _violation(model, table, q, qd) if scene.constraints else (np.zeros(0),) * 2
-    contact = {}
-    if scene.contact is not None:
-        points, forces, depth = _contact_record(model, table, q, qd)
-        potential = potential + 0.5 * scene.contact.stiffness * (depth**2).sum(axis=1)
-        contact = dict(
-            contact_names=tuple(p.name for p in scene.contact.points),
-            contact_point=points,
-            contact_force=forces,
-            penetration=depth,
-            ground_height=scene.contact.ground_height,
-        )
-    return Trajectory(
-        **contact,
-        **_centroidal_record(model, q, qd),
-        violation_position=violation[0],
-        violation_velocity=violation[1],
-        t=t,
-        q=q,
-        qd=qd,
-        tau=tau,
-        kinetic=np.atleast_1d(kinetic),
-        potential=np.atleast_1d(potential),
-        work_applied=w[:, 0].copy(),
-        work_passive=w[:, 1].copy(),
-        joint_names=tuple(model.joint_names),
-        q_names=tuple(model.q_names),
-        v_names=tuple(model.v_names),
-        complete=complete,
-        message=message,
-        stats=stats,
-        provenance=_provenance(scene, table),
-    )
-
-
-def _centroidal_record(model, q, qd):
-    """{com: (K, 3), centroidal_momentum: (K, 6)} of a floating robot's samples (the centre of
-    mass in the world frame, m; h_G = (k_G, l_G), kg m^2/s and kg m/s); {} for a fixed base or
-    a robot without moving mass (a Trajectory's defaults: empty arrays)."""
-    if not model.floating_base or not model._total_mass > 0.0 or not len(q):
-        return {}
-    return {
-        "com": center_of_mass(model, q),
-        "centroidal_momentum": centroidal_momentum(model, q, qd),
-    }
-
-
-def _violation(model, table, q, qd):
-    """(max_i |phi_i|, max_i |(A qd)_i|) at each sample (K,): how far the samples are off the
-    constraints, in position (m or rad) and velocity (m/s or rad/s)."""
-    rows, params = table.constraints.rows, table.constraints.params
-    k = int(rows[:, ROW_COUNT].sum())
-    A, Adot_qd, phi = np.empty((k, model.nv)), np.empty(k), np.empty(k)
-    position, velocity = np.empty(len(q)), np.empty(len(q))
-    for i in range(len(q)):
-        constraint_terms_kernel(
-            model._ibuf, model._fbuf, rows, params, q[i], qd[i], A, Adot_qd, phi
-        )
-        position[i] = np.abs(phi).max()
-        velocity[i] = np.abs(A @ qd[i]).max()
-    return position, velocity
-
-
-def _contact_record(model, table, q, qd):
-    """(points (K, P, 3) m, forces (K, P, 3) N, penetrations (K, P) m) of the scene's contact
-    spheres at the samples (q (K, nq), qd (K, nv)), world frame (opendyn.algorithm.contact)."""
-    bodies, params = table.params(effects.contact)
-    shape = (len(q), len(bodies))
-    points, forces, depth = np.empty(shape + (3,)), np.empty(shape + (3,)), np.empty(shape)
-    run_rows(
-        contact_record_kernel, len(q), model._ibuf, model._fbuf, (bodies, params), (q, qd),
-        (points, forces, depth),
-    )
-    return points, forces, depth
-
-
-def _provenance(scene, table):
-    import numba
-
-    run = scene.run
-    return {
-        "scene": {
-            "name": scene.name,
-            "source": scene.source,
-            "settings": thaw(scene.settings),
-            "effects": list(scene.effects),
-            "stages": list(table.names) + (["armature"] if scene.armature is not None else []),
-        },
-        "robot": {
-            "name": scene.model.name,
-            "urdf": scene.model.source,
-            "floating_base": scene.model.floating_base,
-            "nq": scene.model.nq,
-            "nv": scene.model.nv,
-        },
-        "run": {
-            "integrator": run.integrator,
-            "duration": run.duration,
-            "dt": run.dt,
-            "output_dt": run.output_dt,
-            "rtol": run.rtol,
-            "atol": run.atol,
-            "max_speed": run.max_speed,
-        },
-        "versions": {
-            "opendyn": __version__,
-            "python": platform.python_version(),
-            "numpy": np.__version__,
-            "numba": numba.__version__,
-        },
-        "platform": platform.platform(),
-        "created": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
-    }
 
 
 def as_scene(scene, what="simulate"):

@@ -41,16 +41,15 @@ from . import effects, integrators, step
 from .diagnostics import check_contact_step, failure_message
 from .effects import python_control
 from .preflight import preflight
+from .record import Samples, trajectory_of
 from .simulate import (
     Interrupt,
-    Samples,
     as_scene,
     error_size_index,
     free_joints,
     integrator_of,
     load_kernels,
     progress_bar,
-    trajectory_of,
 )
 
 
@@ -325,7 +324,10 @@ class Simulator:
             "simulated_s": self._t - self._t0,
         }
         complete = not self._stopped
-        return trajectory_of(self.scene, self._table, samples, complete, self._stopped, stats)
+        return trajectory_of(
+            self.scene, self._table, samples.arrays(), samples.filled, complete, self._stopped,
+            stats,
+        )
 
     # -- torques -----------------------------------------------------------------------------
 

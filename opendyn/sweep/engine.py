@@ -8,10 +8,7 @@
                state, metrics (opendyn.sim.metrics)
 
 A key is a dotted scene key (`control.kp`, `initial.q.shoulder_pan_joint`, `run.dt`,
-`effects.damping.coefficients`, `robot.payload.mass`); a value replaces what the scene file
-says there, or adds it (`effects.damping.coefficients` switches damping on). A per-joint list or
-number in the scene (`initial.q = [...]`) takes a joint's name after it (`initial.q.JOINT`) and
-keeps its other joints' values; a list of tables takes an index (`effects.contact.points.0.radius`).
+`robot.payload.mass`), set in the base scene as opendyn.io.scene.variants describes.
 
 Every run's scene is read (and so checked) before anything runs: a bad key or value is a
 SweepError naming the run, its values and the key, with the valid keys. What simulate itself
@@ -49,9 +46,12 @@ import numpy as np
 
 from .._runtime.version import __version__
 from ..errors import SceneError, SceneWarning, SweepError, SweepInterrupted
-from ..io.scene.reader import _build, _Reader
-from ..io.scene.schema import Scene, thaw
+from ..io.scene.variants import Variants
+from ..io.scene.schema import Scene
+from ..sim import effects
+from ..sim.effects import python_control
 from ..sim.metrics import METRICS, applicable, run_metrics
+from ..sim.rollout import Runs, run_batch, run_data, signature
 from ..sim.simulate import as_scene, simulate
 
 # more runs than this is a mistake in a spec (a grid of 1e3 points on each of 4 keys), not a sweep
@@ -71,8 +71,6 @@ _MAIN_GUARD = (
     "a script that calls od.sweep must do it under `if __name__ == \"__main__\":`, since each "
     "worker process of the local cluster imports the script"
 )
-_MODELS: dict = {}  # each process's robots, by their [robot] table (payload apart) and folder
-_MAX_MODELS = 16
 
 
 EXTRA_HINT = "pip install 'opendyn[sweep]' (dask[distributed] and pyarrow)"
@@ -209,97 +207,7 @@ def combinations(axes, samples=None, seed=0) -> list[dict]:
     return [dict(zip((a.key for a in axes), row)) for row in zip(*columns)]
 
 
-# --- a run's scene ----------------------------------------------------------------------------
-
-
-@dataclasses.dataclass(frozen=True)
-class Base:
-    """What a worker needs to rebuild any run's scene: the base scene's settings (a plain
-    dict), its source (for messages), the folder a relative robot.urdf is found from, and its
-    robot's joint names (for per-joint keys)."""
-
-    settings: dict
-    source: str
-    base_dir: str | None
-    joints: tuple[str, ...]
-
-    @classmethod
-    def of(cls, scene: Scene) -> Base:
-        folder = os.path.dirname(scene.source) if os.path.isfile(scene.source) else None
-        return cls(thaw(scene.settings), scene.source, folder, tuple(scene.model.joint_names))
-
-    def settings_for(self, values: dict) -> dict:
-        """The base settings with each dotted key of `values` set to its value."""
-        settings = thaw(self.settings)
-        for key, value in values.items():
-            _assign(settings, key, value, self.joints)
-        return settings
-
-    def scene_for(self, values: dict) -> Scene:
-        """The run's scene, read (and checked) as a scene file with these values would be; the
-        robot is loaded once per process and [robot] table (a payload is added to it)."""
-        settings = self.settings_for(values)
-        return _build(settings, self.source, self.base_dir, model=self._model(settings))
-
-    def _model(self, settings):
-        robot = settings.get("robot")
-        if not isinstance(robot, dict):
-            return None  # the reader names what is missing
-        table = {k: v for k, v in robot.items() if k != "payload"}
-        key = json.dumps([table, self.base_dir], sort_keys=True, default=str)
-        if key not in _MODELS:
-            if len(_MODELS) >= _MAX_MODELS:
-                _MODELS.clear()
-            _MODELS[key] = _Reader(self.source).robot(table, self.base_dir)
-        return _MODELS[key]
-
-
-def _assign(settings, key, value, joints):
-    """settings[k1][k2]...[kn] = value for key = 'k1.k2...kn', making missing tables; a joint's
-    name in a per-joint list or number turns it into a table {joint: value}, an index in a list
-    picks its entry."""
-    parts = key.split(".")
-    node = settings
-    for depth, part in enumerate(parts):
-        last = depth == len(parts) - 1
-        if isinstance(node, list) and part.isdigit():
-            index = int(part)
-            if index >= len(node):
-                raise SweepError(
-                    f"vary {key}: {'.'.join(parts[:depth])} has {len(node)} entries, no entry "
-                    f"{index}"
-                )
-            if last:
-                node[index] = value
-                return
-            node = node[index]
-            continue
-        if not isinstance(node, dict):
-            where = ".".join(parts[:depth])
-            if isinstance(node, list) and len(node) == len(joints):
-                raise SweepError(
-                    f"vary {key}: {where} is a list of one value per joint in the scene, and "
-                    f"{part!r} is not a joint; joints: {', '.join(joints)}"
-                )
-            raise SweepError(
-                f"vary {key}: {where} is {node!r} in the scene, not a table, so it has no key "
-                f"{part!r}"
-            )
-        if last:
-            node[part] = value
-            return
-        child = node.get(part)
-        following = parts[depth + 1]
-        if child is None:
-            child = node[part] = {}
-        elif following in joints and isinstance(child, list) and len(child) == len(joints):
-            child = node[part] = dict(zip(joints, child))
-        elif following in joints and isinstance(child, numbers.Real):
-            child = node[part] = {joint: child for joint in joints}
-        node = child
-
-
-def check_runs(base: Base, runs) -> list[Scene]:
+def check_runs(base: Variants, runs) -> list[Scene]:
     """Read every run's scene (SceneError -> SweepError naming the run and its values), the
     first scene of each distinct step (integrator, effects, constraints, base) returned, in
     order, for compiling ahead; and the union of the metrics that apply, in METRICS order."""
@@ -322,30 +230,79 @@ def _describe(values) -> str:
 # --- on a worker -------------------------------------------------------------------------------
 
 
-def run_chunk(base: Base, runs, outputs, keep_trajectories, version):
-    """[(row, trajectory or None)] of the runs [(run, values)]: a worker's task. Each run is
-    simulated with simulate(); anything a run raises is its failed row."""
+def run_chunk(base: Variants, runs, outputs, keep_trajectories, version):
+    """[(row, trajectory or None)] of the runs [(run, values)]: a worker's task. The runs whose
+    compiled step is the same go together as one rollout (opendyn.sim.rollout), which gives
+    each run what simulate() gives it; a scene with a Python controller runs with simulate().
+    Anything a run raises is its failed row."""
     if version != __version__:
         message = f"the worker has opendyn {__version__}, the client {version}"
         return [(failed_row(run, values, message), None) for run, values in runs]
-    return [_run_one(base, run, values, outputs, keep_trajectories) for run, values in runs]
+    pairs, groups = {}, {}
+    for run, values in runs:
+        try:
+            scene = base.scene_for(values)
+            if python_control.record(scene) is not None:
+                pairs[run] = _simulated(run, values, scene, outputs, keep_trajectories)
+                continue
+            table = effects.stage_table(scene)
+        except Exception as e:  # a run's failure is its row; the sweep goes on
+            pairs[run] = failed_row(run, values, str(e) or type(e).__name__), None
+            continue
+        groups.setdefault(step_key(scene, table), []).append((run, values, scene, table))
+    for group in groups.values():
+        pairs.update(_rolled_out(group, outputs, keep_trajectories))
+    return [pairs[run] for run, _ in runs]
 
 
-def _run_one(base, run, values, outputs, keep):
+def step_key(scene, table):
+    """What must be the same for runs to go in one rollout: the run settings, the robot's
+    structure and what the compiled step is made of."""
+    return scene.run, scene.model._ibuf.tobytes(), signature(run_data(scene, table))
+
+
+def _rolled_out(group, outputs, keep):
+    """{run: (row, trajectory or None)} of a group [(run, values, scene, table)] of one step,
+    in one rollout on this worker's thread."""
+    scenes = [scene for _, _, scene, _ in group]
+    tables = [table for _, _, _, table in group]
+    values = [v for _, v, _, _ in group]
     try:
-        scene = base.scene_for(values)
+        result = run_batch(Runs.of_scenes(scenes, tables, values), 1, "samples")
+    except Exception as e:  # what simulate refuses for every run of the group
+        return {run: (failed_row(run, v, str(e) or type(e).__name__), None) for run, v, *_ in group}
+    pairs = {}
+    for k, (run, v, scene, _) in enumerate(group):
+        if not result.rows[k]:  # refused before it started, as simulate refuses it
+            pairs[run] = failed_row(run, v, result.message[k]), None
+            continue
+        traj = result.trajectory(k)
+        row = _row(run, v, scene, traj, result.warnings[k], outputs)
+        pairs[run] = row, (traj if keep else None)
+    return pairs
+
+
+def _simulated(run, values, scene, outputs, keep):
+    """(row, trajectory or None) of a run done by simulate()."""
+    try:
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always", SceneWarning)
             traj = simulate(scene, raise_on_failure=False)
     except Exception as e:  # a run's failure is its row; the sweep goes on
         return failed_row(run, values, str(e) or type(e).__name__), None
+    row = _row(run, values, scene, traj, "; ".join(str(w.message) for w in caught), outputs)
+    return row, (traj if keep else None)
+
+
+def _row(run, values, scene, traj, warned, outputs) -> dict:
+    """The table row of a run that produced a trajectory."""
     stats = traj.stats
-    row = {
+    return {
         "run": run,
         **values,
         "status": "complete" if traj.complete else "failed",
         "message": traj.message,
-        "warnings": "; ".join(str(w.message) for w in caught),
+        "warnings": warned,
         "simulated_s": stats["simulated_s"],
         "wall_s": stats["wall_s"],
         "steps": stats["steps"],
@@ -355,7 +312,6 @@ def _run_one(base, run, values, outputs, keep):
         "q_final": traj.q[-1].tolist() if len(traj.t) else None,
         "qd_final": traj.qd[-1].tolist() if len(traj.t) else None,
     }
-    return row, (traj if keep else None)
 
 
 def failed_row(run, values, message) -> dict:
@@ -417,7 +373,7 @@ def sweep(
         raise SweepError("vary: expected a dict {dotted scene key: spec} with at least one key")
     axes = [parse_axis(key, spec) for key, spec in vary.items()]
     runs = combinations(axes, samples, seed)
-    base = Base.of(scene)
+    base = Variants.of(scene)
     firsts, metrics = check_runs(base, runs)
     outputs = _outputs(outputs, metrics)
     record = {
@@ -481,7 +437,9 @@ def _compile(scenes, progress):
     from .._runtime.compile_notice import compile_ahead
 
     with open(os.devnull, "w") as devnull:
-        compile_ahead(scenes, functions=False, out=sys.stderr if progress else devnull)
+        compile_ahead(
+            scenes, functions=False, out=sys.stderr if progress else devnull, simulations=False
+        )
 
 
 class _cluster:

@@ -1,0 +1,501 @@
+"""od.rollout: N runs of one scene in compiled loops spread over the cores, no Python per run or
+per step.
+
+    rollout(scene, q0 (N, nq), qd0 (N, nv), params {key: (N,) or (N, k)}) -> RolloutResult
+
+Run i is simulate(scene_i), bit for bit, where scene_i is the scene with run i's params set (as
+a scene file with those values would be read: opendyn.io.scene.variants) and its initial state
+replaced by q0[i], qd0[i]. Only the state: a PD setpoint that the scene takes from its
+initial.q stays the scene's.
+
+How it runs:
+  - each run's scene is read and checked in Python, as simulate checks one before it starts
+    (its initial state, its contact step: a run simulate would refuse is a failed run); what it
+    changes in the compiled step (the model's inertias, the effects' parameters, armature,
+    constraints) is packed into a RunData, one shared by all runs when nothing but the initial
+    states varies;
+  - the runs go in blocks to `threads` threads, each calling one compiled loop
+    (opendyn.sim.rollout_loops) on a slice of the block; the loops release the GIL, and the
+    next block is read while one runs;
+  - every run has the same compiled step (the same integrator, run settings and kinds of
+    effects: params may not change them; a sweep groups runs that do) and its own steps.
+"""
+
+from __future__ import annotations
+
+import collections
+import dataclasses
+import math
+import numbers
+import os
+import sys
+import time
+import warnings
+from collections.abc import Mapping
+from concurrent.futures import ThreadPoolExecutor
+
+import numpy as np
+from numba import typed
+
+from .._runtime.compile_notice import compile_seconds, compiling
+from .._runtime.signals import signal_name
+from ..algorithm.checks import as_float_array, quaternion_problem
+from ..errors import RolloutInterrupted, SceneError, SceneWarning
+from ..io.scene.variants import Variants
+from ..multibody.joints import FREE, QUATERNION_TOLERANCE
+from . import effects, integrators
+from .diagnostics import check_contact_step, failure_message
+from .effects import python_control
+from .preflight import _bytes, available_memory, check_start, run_size
+from .rollout_loops import Batch, Outcome, RunData, rollout_adaptive, rollout_fixed
+from .rollout_result import COMPLETE, FAILED, INTERRUPTED, RolloutResult
+from .simulate import Interrupt, as_scene, error_size_index, free_joints, integrator_of
+from .step import scene_data
+
+RECORDS = ("samples", "final")
+_BLOCK_SECONDS = 0.5  # wall time of a block of runs: progress and Ctrl-C granularity
+_MAX_BLOCK = 4096  # runs read ahead at most (their RunData stay in memory while they run)
+_SLICES_PER_THREAD = 4  # a block's slices per thread, so that a thread that ends early helps
+
+
+def rollout(scene, q0=None, qd0=None, params=None, threads=None, record="samples", *,
+            progress=False):
+    """N runs of `scene` in compiled loops over the cores; returns a RolloutResult.
+
+    scene: a Scene, or a scene file or shipped scene's name.
+    q0 (N, nq), qd0 (N, nv): the initial states (rad or m, rad/s or m/s; a floating base's
+      q as simulate takes it, its quaternion of unit norm); default: the scene's, repeated.
+    params: {dotted scene key: values (N,) or (N, k)}: run i sets the key to values[i] (a
+      number, or a list of k) as a scene file would, e.g. "control.kp", "effects.damping.
+      coefficients", "effects.contact.stiffness", "robot.payload.mass",
+      "robot.payload.com", "initial.q.shoulder_lift_joint". Keys that change what is compiled
+      or how long a run is (run.*, an effect switched on in some runs only) are refused:
+      od.sweep runs such variations.
+    threads: threads to run on (default: one per core).
+    record: "samples" keeps every run's rows at the scene's output_dt, (N, K, ...) arrays;
+      "final" only each run's last state, (N, 1, ...): memory does not grow with duration.
+    progress: a progress bar over the runs (tqdm, on stderr) after a second.
+    N is the length of q0, qd0 and params (which must agree), 1 when none is given. A run that
+    fails keeps its rows up to the failure (status "failed", message the cause, as simulate
+    states it) and the others go on. Ctrl-C stops after the runs under way and raises
+    RolloutInterrupted carrying the result so far.
+    """
+    scene = as_scene(scene, "rollout")
+    if python_control.record(scene) is not None:
+        raise SceneError(
+            f"{scene.source}: control.type: a Python controller runs in Python at every control "
+            "period; rollout runs compiled scenes only (use od.simulate or od.Simulator)"
+        )
+    if record not in RECORDS:
+        raise ValueError(f"rollout: record must be 'samples' or 'final', got {record!r}")
+    return run_batch(Runs.of(scene, q0, qd0, params), _threads(threads), record, progress)
+
+
+class Runs:
+    """The runs of a batch: how many, run i's values, its scene and stage table, and whether
+    they share one RunData (only their initial states differ)."""
+
+    def __init__(self, scene, n, values, scene_and_table, shared):
+        self.scene, self.n, self.shared = scene, n, shared
+        self._values, self._scene_and_table = values, scene_and_table
+
+    @classmethod
+    def of(cls, scene, q0=None, qd0=None, params=None):
+        """The runs od.rollout describes (arguments checked: TypeError or ValueError naming the
+        argument, SceneError naming a key that does not fit the scene)."""
+        model = scene.model
+        params = _params(params)
+        n = _count(q0, qd0, params)
+        q0 = None if q0 is None else _states(model, q0, "q0", model.nq)
+        qd0 = None if qd0 is None else _states(model, qd0, "qd0", model.nv)
+        variants = Variants.of(scene) if params else None
+        shared = not params and not scene.constraints
+        table = effects.stage_table(scene) if shared else None
+
+        def values(i):
+            return {key: _plain(v[i]) for key, v in params.items()}
+
+        def scene_of(i):
+            run_scene = variants.scene_for(values(i)) if params else scene
+            changes = {}
+            if q0 is not None:
+                changes["q0"] = _frozen(q0[i])
+            if qd0 is not None:
+                changes["qd0"] = _frozen(qd0[i])
+            return dataclasses.replace(run_scene, **changes) if changes else run_scene
+
+        def scene_and_table(i):
+            run_scene = scene_of(i)
+            return run_scene, table if shared else effects.stage_table(run_scene)
+
+        # with params, run 0's scene stands for the batch's step (and a key that does not fit
+        # the scene is a SceneError now, not N times)
+        first = scene_of(0) if params else scene
+        return cls(first, n, values, scene_and_table, shared)
+
+    @classmethod
+    def of_scenes(cls, scenes, tables, values):
+        """Runs of given scenes with their stage tables (one compiled step) and their values
+        [{key: value}]."""
+        return cls(
+            scenes[0], len(scenes), values.__getitem__, lambda i: (scenes[i], tables[i]), False
+        )
+
+    def values(self, i):
+        """Run i's values {key: value}."""
+        return self._values(i)
+
+    def scene_for(self, i):
+        """Run i's scene."""
+        return self._scene_and_table(i)[0]
+
+    def scene_and_table(self, i):
+        """(scene, stage table) of run i."""
+        return self._scene_and_table(i)
+
+
+def run_batch(runs, threads, keep, progress=False):
+    """Run every run of `runs` (Runs) on `threads` threads, keeping "samples" or "final";
+    returns the RolloutResult (RolloutInterrupted on Ctrl-C)."""
+    scene = runs.scene
+    model = scene.model
+    integ = integrator_of(scene)
+    nsteps, every, rows = run_size(scene, integ)
+    n, K = runs.n, rows if keep == "samples" else 1
+    _check_memory(scene, n, K)
+    x = integrators.State(np.zeros((n, model.nq)), np.zeros((n, model.nv)), np.zeros((n, 2)))
+    out = integrators.Record(
+        np.full((n, K), np.nan), np.full((n, K, model.nq), np.nan),
+        np.full((n, K, model.nv), np.nan), np.full((n, K, model.nv), np.nan),
+        np.full((n, K, 2), np.nan),
+    )
+    counters = np.zeros((n, 3), dtype=np.int64)
+    outcome = Outcome(
+        np.zeros(n, np.int64), np.zeros(n, np.int64), np.full(n, np.nan), np.full((n, model.nv), np.nan)
+    )
+    notes = (np.full(n, INTERRUPTED, dtype="<U11"), [""] * n, [""] * n)
+    which = np.full(n, -1, dtype=np.int64)
+    arrays = (x, out, counters, outcome)
+    loop = _Loop(runs, integ, every if keep == "samples" else max(1, nsteps), nsteps, arrays)
+    kind = signature(loop.first)
+    tic = time.perf_counter()
+    compiled_before = compile_seconds()
+    size = min(n, threads * _SLICES_PER_THREAD)
+    block = _prepare(runs, range(size), which, x, notes, kind)
+    loop.load(block)
+    compile_s = compile_seconds() - compiled_before
+    load_s = time.perf_counter() - tic - compile_s
+    bar = _bar(n) if progress else None
+    prepare_s, start = 0.0, time.perf_counter()
+    with Interrupt() as stop, ThreadPoolExecutor(threads, "opendyn-rollout") as pool:
+        # two blocks in flight: the next block's slices queue behind this one's, so that no
+        # thread waits at a block's end; a block is read while the one before it runs
+        pending, last_done = collections.deque(), start
+        while block is not None or pending:
+            if block is not None:
+                step = max(1, len(block.range) // (threads * _SLICES_PER_THREAD))
+                futures = [
+                    pool.submit(loop, block, a, min(a + step, block.range.stop))
+                    for a in range(block.range.start, block.range.stop, step)
+                ]
+                pending.append((block, futures, time.perf_counter()))
+                end, block = block.range.stop, None
+                if end < n and not stop.requested:
+                    tic = time.perf_counter()
+                    block = _prepare(
+                        runs, range(end, min(n, end + size)), which, x, notes, kind
+                    )
+                    prepare_s += time.perf_counter() - tic
+            if block is None or len(pending) > 1:
+                done, futures, submitted = pending.popleft()
+                for f in futures:
+                    f.result()
+                _close(done, keep, x, out, outcome, counters, notes)
+                if bar is not None:
+                    bar.update(len(done.range))
+                now = time.perf_counter()
+                size = _next_size(size, len(done.range), now - max(submitted, last_done), threads)
+                last_done = now
+            if stop.requested:
+                block = None
+    wall = time.perf_counter() - start
+    if bar is not None:
+        bar.close()
+    result = RolloutResult(
+        runs, integ, keep, (x, out), outcome, counters, notes,
+        _stats(integ, n, threads, wall, prepare_s, compile_s, load_s),
+    )
+    if stop.requested:
+        reason = f"interrupted ({signal_name(stop.signum)}) before it started"
+        for i in np.flatnonzero(notes[0] == INTERRUPTED):
+            notes[1][i] = reason
+        raise RolloutInterrupted(result)
+    return result
+
+
+class _Loop:
+    """The compiled loop of a batch's integrator, called on slices of a block's runs:
+    loop(block, start, stop), each call with its own scratch (a SceneData of the scene)."""
+
+    def __init__(self, runs, integ, every, nsteps, arrays):
+        scene = runs.scene
+        run = scene.run
+        self.scene, self.integ, self.arrays = scene, integ, arrays
+        self.table = table = effects.stage_table(scene)
+        self.first = run_data(scene, table)
+        free = free_joints(scene.model)
+        if integ.adaptive:
+            settings = integrators.AdaptiveSettings(
+                t0=0.0, t_end=run.duration, rtol=run.rtol, atol=run.atol,
+                output_dt=run.output_dt, max_speed=run.max_speed,
+                size_index=error_size_index(scene.model), land=False,
+            )
+            at = integrators.Progress(0.0, run.dt, 1)
+            self.kernel, self.head = rollout_adaptive, (integ.tableau(), settings, at)
+        else:
+            settings = integrators.FixedSettings(0.0, run.dt, every, run.max_speed)
+            self.kernel, self.head = rollout_fixed, (integ.switches(), settings, nsteps)
+        self.free = free
+
+    def __call__(self, block, start, stop):
+        """Runs start..stop-1 of the block. Every array the runs read is the call's own copy:
+        threads that share an array contend for its reference count at every compiled call
+        (measured on the UR5, 2 threads ran 1.4x one thread's runs per second sharing them,
+        1.8x with copies)."""
+        entries, which, index = typed.List(), np.full(stop - start, -1, np.int64), {}
+        for k, e in enumerate(block.which[start:stop]):
+            if e >= 0:
+                if e not in index:
+                    index[e] = len(entries)
+                    entries.append(_private(block.data[e]))
+                which[k] = index[e]
+        if not entries:  # no run to do: numba still wants the List's type
+            entries.append(_private(self.first))
+        switch, settings, last = _private(self.head)
+        base = scene_data(self.scene.model, self.table)
+        base = base._replace(ibuf=base.ibuf.copy())
+        batch = Batch(entries, which, *self.arrays)
+        self.kernel(switch, base, settings, last, batch, _private(self.free), start, stop)
+
+    def load(self, block):
+        """Compile or load the loop for the block's RunData type before the clock starts."""
+        what = f"the rollout loop for {self.integ.name} with " + (
+            ", ".join(self.table.names) or "no effects"
+        )
+        with compiling(what, 1, "about 15 s") as done:
+            self(block, 0, 0)
+            done()
+
+
+@dataclasses.dataclass
+class _Block:
+    """A block of runs read ahead: their range, the RunData of its runs (data) and each run's
+    index in it (which (N,) int64, the batch's; -1 for a run refused), and each run's (scene,
+    table) while it runs (for a failure's message)."""
+
+    range: range
+    data: list
+    which: np.ndarray
+    scenes: dict
+
+
+def _prepare(runs, block, which, x, notes, kind):
+    """Read and check the runs of `block` (a range): each run's initial state into x, its
+    RunData into the block's data (which[i] its index), or, for a run simulate would refuse,
+    status failed with the reason (which[i] = -1). kind: the batch's RunData signature, which
+    every run's must match."""
+    data, scenes = [], {}
+    for i in block:
+        try:
+            with warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter("always", SceneWarning)
+                scene, table = runs.scene_and_table(i)
+                check_start(scene)
+                check_contact_step(scene, table)
+            notes[2][i] = "; ".join(str(w.message) for w in caught)
+            if not runs.shared or not data:
+                data.append(_checked_run_data(runs.scene, scene, table, kind))
+        except SceneError as e:
+            notes[0][i], notes[1][i] = FAILED, str(e)
+            continue
+        which[i] = len(data) - 1
+        x.q[i], x.qd[i] = scene.q0, scene.qd0
+        scenes[i] = (scene, table)
+    return _Block(block, data, which, scenes)
+
+
+def run_data(scene, table):
+    """The RunData of a run's scene and its stage table."""
+    return RunData(scene.model._fbuf, table.effects, table.armature, table.constraints)
+
+
+def _checked_run_data(first, scene, table, kind):
+    """The RunData of a run's scene; SceneError when its compiled step differs from the
+    batch's (the first run's scene, whose RunData has the signature `kind`)."""
+    entry = run_data(scene, table)
+    if not np.array_equal(scene.model._ibuf, first.model._ibuf) or signature(entry) != kind:
+        raise SceneError(
+            f"{scene.source}: its step compiles differently from the batch's first run (its "
+            "robot's structure or the kinds of its effects differ); vary such keys with "
+            "od.sweep"
+        )
+    return entry
+
+
+def signature(x):
+    """What numba compiles for x, in brief: each array's dtype, dimensions and flags, the
+    structure of the tuples, None and the other values' types."""
+    if isinstance(x, np.ndarray):
+        return (x.dtype.str, x.ndim, x.flags.c_contiguous, x.flags.writeable)
+    if isinstance(x, tuple):
+        return (type(x).__name__, tuple(signature(v) for v in x))
+    return None if x is None else type(x).__name__
+
+
+def _private(x):
+    """x with every array in it (through tuples and namedtuples) copied."""
+    if isinstance(x, np.ndarray):
+        return x.copy()
+    if isinstance(x, tuple):
+        items = [_private(v) for v in x]
+        return type(x)(*items) if hasattr(x, "_fields") else tuple(items)
+    return x
+
+
+def _close(block, keep, x, out, outcome, counters, notes):
+    """The block's runs done: their status and message (failure_message for a failed run); with
+    keep "final" their last state as their one row."""
+    for i, (scene, table) in block.scenes.items():
+        status = int(outcome.status[i])
+        notes[0][i] = COMPLETE if status == 0 else FAILED
+        if status:
+            t, steps = float(outcome.t[i]), int(counters[i, 1])
+            notes[1][i] = failure_message(scene, table, status, t, steps, x.q[i], x.qd[i])
+    if keep == "final":
+        ran = np.array(sorted(block.scenes), dtype=np.int64)
+        out.t[ran, 0], out.q[ran, 0], out.qd[ran, 0] = outcome.t[ran], x.q[ran], x.qd[ran]
+        out.tau[ran, 0], out.w[ran, 0] = outcome.tau[ran], x.w[ran]
+        outcome.rows[ran] = 1
+
+
+def _next_size(size, done, seconds, threads):
+    """Runs in the next block: about _BLOCK_SECONDS of work at the rate just measured."""
+    rate = done / seconds if seconds > 0 else math.inf
+    target = rate * _BLOCK_SECONDS
+    return int(min(_MAX_BLOCK, max(threads * _SLICES_PER_THREAD, min(size * 8, target))))
+
+
+def _stats(integ, n, threads, wall, prepare_s, compile_s, load_s):
+    return {
+        "integrator": integ.name,
+        "runs": n,
+        "threads": threads,
+        "wall_s": wall,
+        "prepare_s": prepare_s,
+        "compile_s": compile_s,
+        "load_s": load_s,
+    }
+
+
+def _check_memory(scene, n, rows):
+    """Refuse a batch whose arrays would not fit in the memory available now."""
+    model = scene.model
+    per_row = 3 + model.nq + 2 * model.nv + 2 + 2  # t, q, qd, tau, w, the two energies
+    need = 8.0 * n * (rows * per_row + 2 * model.nq + 3 * model.nv + 8)
+    have = available_memory()
+    if have is not None and need > have:
+        raise ValueError(
+            f"rollout: {n} runs of {rows} rows of {per_row} numbers need about {_bytes(need)}, "
+            f"more than the {_bytes(have)} of memory available; record='final' keeps only "
+            "each run's last state, or raise run.output_dt, or roll out fewer runs at a time"
+        )
+
+
+def _bar(n):
+    from tqdm import tqdm
+
+    return tqdm(total=n, unit="run", delay=1.0, desc="rolling out", file=sys.stderr)
+
+
+def _threads(threads):
+    if threads is None:
+        return os.cpu_count() or 1
+    if isinstance(threads, bool) or not isinstance(threads, numbers.Integral):
+        raise TypeError(f"rollout: threads must be a whole number, got {threads!r}")
+    if threads < 1:
+        raise ValueError(f"rollout: threads must be at least 1, got {threads}")
+    return int(threads)
+
+
+def _params(params):
+    """params as {key: float64 array (N,) or (N, k)}, checked."""
+    if params is None:
+        return {}
+    if not isinstance(params, Mapping):
+        raise TypeError(
+            f"rollout: params must be a mapping {{dotted scene key: values}}, got "
+            f"{type(params).__name__}"
+        )
+    checked = {}
+    for key, values in params.items():
+        if not isinstance(key, str):
+            raise TypeError(f"rollout: params keys must be dotted scene keys, got {key!r}")
+        if key.split(".")[0] == "run":
+            raise ValueError(
+                f"rollout: params[{key!r}]: the run settings are one for the whole batch (the "
+                "steps and records of its runs); od.sweep varies them"
+            )
+        a = as_float_array(values, f"rollout: params[{key!r}]")
+        if a.ndim not in (1, 2) or not len(a):
+            raise ValueError(
+                f"rollout: params[{key!r}] must have shape (N,) or (N, k), got {a.shape}"
+            )
+        if not np.isfinite(a).all():
+            run = int(np.flatnonzero(~np.isfinite(a.reshape(len(a), -1)).all(axis=1))[0])
+            raise ValueError(f"rollout: params[{key!r}] of run {run} is not finite: {a[run]}")
+        checked[key] = a
+    return checked
+
+
+def _count(q0, qd0, params):
+    """N from the arguments' lengths (ValueError when they disagree), 1 when none is given."""
+    lengths = {
+        name: len(np.asarray(a)) if np.ndim(a) else 1
+        for name, a in [("q0", q0), ("qd0", qd0)] if a is not None
+    }
+    lengths.update({f"params[{key!r}]": len(a) for key, a in params.items()})
+    if len(set(lengths.values())) > 1:
+        told = ", ".join(f"{name} has {k}" for name, k in lengths.items())
+        raise ValueError(f"rollout: the runs' arguments disagree on N: {told}")
+    return next(iter(lengths.values()), 1)
+
+
+def _states(model, states, name, width):
+    """(N, width) float64 initial states, finite, a floating base's quaternions unit ones."""
+    a = np.ascontiguousarray(as_float_array(states, f"rollout: {name}"))
+    if a.ndim != 2 or a.shape[1] != width:
+        raise ValueError(
+            f"rollout: {name} must have shape (N, {width}) for {model.name!r}, got {a.shape}"
+        )
+    bad = np.flatnonzero(~np.isfinite(a).all(axis=1))
+    if bad.size:
+        raise ValueError(f"rollout: {name}[{bad[0]}] is not finite: {a[bad[0]]}")
+    if name == "q0":
+        for b in np.flatnonzero(model.jtype == FREE):
+            k = int(model.iq[b]) + 3
+            off = np.abs(np.linalg.norm(a[:, k : k + 4], axis=1) - 1.0)
+            if (off > QUATERNION_TOLERANCE).any():
+                run = int(np.argmax(off > QUATERNION_TOLERANCE))
+                raise ValueError(f"rollout: {quaternion_problem(model, f'q0[{run}]')}")
+    return a
+
+
+def _plain(v):
+    """A run's value as a scene file holds it: a float, or a list of floats."""
+    return float(v) if np.ndim(v) == 0 else [float(x) for x in v]
+
+
+def _frozen(x):
+    a = np.array(x, dtype=np.float64)
+    a.flags.writeable = False
+    return a

@@ -1,0 +1,157 @@
+"""The compiled loops of a rollout: runs start..stop-1 of a batch, each integrated whole by the
+loops of opendyn.sim.integrators, one after another in one compiled call. The calls release the
+GIL, so threads run disjoint slices of a batch at once (opendyn.sim.rollout).
+
+Run i is what simulate does with its scene, operation for operation, so that it gives the same
+numbers bit for bit:
+
+    fixed:     run_fixed(0 -> N steps), recording every `every`-th step's start; then the last
+               state (t = steps done * dt) appended with the control torque there
+    adaptive:  the FSAL stage at t = 0 (recorded as row 0), run_adaptive(0 -> t_end) landing on
+               the output times; after a failure the last good state appended
+
+A failed run (a state not finite or faster than max_speed, a singular mass matrix, a step that
+underflows) keeps its rows up to the failure and its last good state, and the other runs go on.
+What varies between runs (the model's inertias, the effects' parameters, the armature and the
+constraints: a RunData each, several runs may share one) is read per run; the step's scratch
+(forces, loads, K and D, the Data buffer) is the caller's SceneData, one per thread.
+"""
+
+from __future__ import annotations
+
+from collections import namedtuple
+
+import numpy as np
+from numba import njit
+
+from .._runtime.arrays import copy_into, fill
+from .._runtime.kernel_cache import BATCH, JIT
+from .._runtime.status import Status
+from .integrators import Counters, Record, Stage, State, record, run_adaptive, run_fixed
+from .step import SceneData, evaluate
+
+# What one run of a batch may change in the step: the model's fbuf (its inertias: a payload per
+# run), the stage table's effects tuple, armature and constraints (ConstraintTable or None).
+# Every run of a batch has the same types here, so one compiled loop runs them all.
+RunData = namedtuple("RunData", ("fbuf", "effects", "armature", "constraints"))
+# A batch of N runs, run i's row of every array its own:
+#   runs: a numba typed List of RunData; which (stop - start,) int64: the entry of each run
+#      of the slice start..stop-1 in it, -1 for a run refused before it started;
+#   x: a State of arrays q (N, nq), qd (N, nv), w (N, 2): the initial states, then the last
+#      (the final state; after a failure, the last good one);
+#   out: a Record of arrays t (N, K), q (N, K, nq), qd (N, K, nv), tau (N, K, nv), w (N, K, 2):
+#      the recorded rows (K = 1 keeps only the latest);
+#   counters (N, 3) int64: dynamics evaluations, steps done (a fixed-step run's too) and
+#      rejected steps;
+#   outcome: an Outcome of the runs.
+Batch = namedtuple("Batch", ("runs", "which", "x", "out", "counters", "outcome"))
+# How each run ended: status (N,) int64 (Status; 0 complete), rows (N,) int64 the rows it
+# recorded, t (N,) s the time it reached, tau (N, nv) the control torque at its last state
+# (NaN where the dynamics fail there).
+Outcome = namedtuple("Outcome", ("status", "rows", "t", "tau"))
+
+
+@njit(**JIT)
+def run_scene(base, run):
+    """The SceneData of one run: base (a SceneData: the model's ibuf, the method, the scratch)
+    with the RunData run's fbuf, effects, armature and constraints."""
+    return SceneData(
+        base.ibuf, run.fbuf, run.effects, run.armature, base.method, run.constraints,
+        base.forces, base.loads, base.KD, base.work, base.held,
+    )
+
+
+@njit(**JIT)
+def run_views(batch, i):
+    """(State, Record, Counters) of run i of the Batch: its state and counters copied out (the
+    loops write them at every step, and neighbouring runs' rows share cache lines across
+    threads), its record a view of its rows. end_run copies them back."""
+    x, out, c = batch.x, batch.out, batch.counters
+    return (
+        State(x.q[i].copy(), x.qd[i].copy(), x.w[i].copy()),
+        Record(out.t[i], out.q[i], out.qd[i], out.tau[i], out.w[i]),
+        Counters(c[i, 0:1].copy(), c[i, 1:2].copy(), c[i, 2:3].copy()),
+    )
+
+
+@njit(**JIT)
+def end_run(scene, batch, i, status, rows, t, x, counters, tau):
+    """Close run i as simulate closes a run: its last State x and Counters into the batch's
+    rows, outcome <- (status, rows, t, tau), tau (nv,) the
+    control torque at the last state x: the given one, or (tau None: numba drops the other
+    branch) the dynamics evaluated there, NaN where they fail. The last state is appended to the record when a complete run's record
+    has room for it (a fixed-step run's end) or a failed run's last row is earlier."""
+    out = Record(
+        batch.out.t[i], batch.out.q[i], batch.out.qd[i], batch.out.tau[i], batch.out.w[i]
+    )
+    tau_end = batch.outcome.tau[i]
+    if tau is None:
+        qdd, power = np.empty(x.qd.shape[0]), np.empty(2)
+        if evaluate(scene, t, x.q, x.qd, qdd, tau_end, power):
+            fill(tau_end, np.nan)
+    else:
+        copy_into(tau, tau_end)
+    K = out.t.shape[0]
+    if status == 0:
+        append = rows < K
+    else:
+        append = rows == 0 or out.t[(rows - 1) % K] < t
+    if append:
+        record(out, rows, t, x, tau_end)
+        rows += 1
+    batch.outcome.status[i] = status
+    batch.outcome.rows[i] = rows
+    batch.outcome.t[i] = t
+    copy_into(x.q, batch.x.q[i])
+    copy_into(x.qd, batch.x.qd[i])
+    copy_into(x.w, batch.x.w[i])
+    batch.counters[i, 0] = counters.evaluations[0]
+    batch.counters[i, 1] = counters.accepted[0]
+    batch.counters[i, 2] = counters.rejected[0]
+
+
+@njit(**BATCH)
+def rollout_fixed(switches, base, settings, nsteps, batch, free, start, stop):
+    """Runs start..stop-1 of the Batch, nsteps fixed steps each from t0 by the integrator the
+    Switches name (integrators.run_fixed with the FixedSettings settings). base: the SceneData
+    whose scratch the runs use; free: None, or the free joints' first v indices."""
+    every, dt = settings.every, settings.dt
+    for i in range(start, stop):
+        entry = batch.which[i - start]
+        if entry < 0:
+            continue  # a run refused before it started
+        scene = run_scene(base, batch.runs[entry])
+        x, out, counters = run_views(batch, i)
+        status, done = run_fixed(switches, scene, settings, 0, nsteps, x, out, counters, free)
+        counters.accepted[0] += done
+        rows = (done - 1) // every + 1 if done else 0
+        end_run(scene, batch, i, status, rows, settings.t0 + done * dt, x, counters, None)
+
+
+@njit(**BATCH)
+def rollout_adaptive(tableau, base, settings, at, batch, free, start, stop):
+    """Runs start..stop-1 of the Batch by the embedded pair `tableau` (integrators.run_adaptive
+    with the AdaptiveSettings settings, from the Progress at: t0, the first trial step, row 1),
+    each from its FSAL stage at t0, recorded as row 0. base, free: as rollout_fixed."""
+    nv = batch.x.qd.shape[1]
+    first = Stage(np.empty((2, nv)), np.empty(2), np.empty(nv))
+    for i in range(start, stop):
+        entry = batch.which[i - start]
+        if entry < 0:
+            continue  # a run refused before it started
+        scene = run_scene(base, batch.runs[entry])
+        x, out, counters = run_views(batch, i)
+        copy_into(x.qd, first.k[0])
+        status = evaluate(scene, at.t, x.q, x.qd, first.k[1], first.tau, first.power)
+        counters.evaluations[0] += 1
+        t, rows = at.t, 0
+        if status == Status.OK.value:
+            record(out, 0, at.t, x, first.tau)
+            status, reached = run_adaptive(
+                tableau, scene, settings, at, settings.t_end, x, first, out, counters, free
+            )
+            t, rows = reached.t, reached.row
+        if status == Status.OK.value:
+            end_run(scene, batch, i, status, rows, t, x, counters, first.tau)
+        else:
+            end_run(scene, batch, i, status, rows, t, x, counters, None)
