@@ -15,9 +15,11 @@ SweepError naming the run, its values and the key, with the valid keys. What sim
 refuses or stops on (a step too large for contact, an initial state outside enforced limits, a
 state that blows up) is a failed row, and the other runs go on.
 
-The runs go to the workers of a Dask cluster in chunks (tasks of several runs, not one tiny task
-per short run): a local cluster of worker processes by default, or any cluster through its
-Client. A worker that dies has its chunk rerun elsewhere (Dask's retries); a chunk that keeps
+The runs go to the workers of a Dask cluster in chunks (tasks of at least TASK_MIN_S of work,
+not one tiny task per short run): a local cluster of worker processes by default, or any cluster
+through its Client. On a worker, a chunk's runs of one compiled step go as one rollout
+(opendyn.sim.rollout: one compiled loop, each run what simulate gives it, bit for bit), so that
+the worker spends its time integrating. A worker that dies has its chunk rerun elsewhere (Dask's retries); a chunk that keeps
 killing workers is split and each of its runs retried alone, and a run that still kills its
 worker is a failed row. The workers rebuild each run's scene from the base scene's settings and
 the run's values (each worker loads a robot's URDF once), and load the compiled kernels from
@@ -46,8 +48,8 @@ import numpy as np
 
 from .._runtime.version import __version__
 from ..errors import SceneError, SceneWarning, SweepError, SweepInterrupted
-from ..io.scene.variants import Variants
 from ..io.scene.schema import Scene
+from ..io.scene.variants import Variants
 from ..sim import effects
 from ..sim.effects import python_control
 from ..sim.metrics import METRICS, applicable, run_metrics
@@ -56,10 +58,15 @@ from ..sim.simulate import as_scene, simulate
 
 # more runs than this is a mistake in a spec (a grid of 1e3 points on each of 4 keys), not a sweep
 MAX_RUNS = 10_000_000
-# a chunk holds at most this many runs, and the runs are cut into at least this many chunks per
-# worker, so that progress, Ctrl-C and a lost worker cost little
-MAX_CHUNK = 50
-CHUNKS_PER_WORKER = 4
+# A task is a chunk of runs rolled out together on a worker. Chunks are cut into about
+# CHUNKS_PER_WORKER per worker, each of at least TASK_MIN_S of work (estimated from a short run
+# on the client), so that the scheduler is never what limits a large cluster (64 workers need
+# at most 640 tasks a second), and at most TASK_MAX_S and MAX_CHUNK runs, so that progress,
+# Ctrl-C, a lost worker and the last task's wait cost little.
+MAX_CHUNK = 1000
+CHUNKS_PER_WORKER = 8
+TASK_MIN_S = 0.1
+TASK_MAX_S = 0.5
 # the distributions a spec can name, with their parameters
 DISTRIBUTIONS = {"uniform": ("lo", "hi"), "normal": ("mu", "sigma")}
 SPEC_FORMS = (
@@ -354,13 +361,15 @@ def sweep(
       those runs are skipped (a sweep stopped by Ctrl-C or a lost client resumes), and if it
       holds another sweep's rows, SweepError. None: rows only in the returned table.
     trajectories: a folder to save each run's trajectory in (run-NNNNNN.npz and .json).
-    chunk_size: runs per task; default: up to MAX_CHUNK, at least CHUNKS_PER_WORKER tasks a
-      worker.
+    chunk_size: runs per task; default: about CHUNKS_PER_WORKER tasks a worker, each of
+      TASK_MIN_S to TASK_MAX_S of work as a short run on this machine estimates it, at most
+      MAX_CHUNK runs.
     progress: show a progress bar (on stderr) with the complete and failed counts.
 
     Columns: run (its index), one per varied key (named by the key), status ('complete' or
     'failed'), message (the failure's cause as simulate states it), warnings (the scene's
-    warnings), simulated_s and wall_s (s), steps, rejected_steps, evaluations, one column per
+    warnings), simulated_s and wall_s (s; the run's share of its chunk's rollout, by its
+    dynamics evaluations), steps, rejected_steps, evaluations, one column per
     metric, q_final (nq,) and qd_final (nv,), the last sample. A Ctrl-C stops the sweep after
     saving the rows that arrived, raising SweepInterrupted (a KeyboardInterrupt) with the
     table of every row saved.
@@ -395,12 +404,13 @@ def sweep(
     try:
         if todo:
             _compile(firsts, progress)
+            run_s = _run_seconds(firsts)
             if trajectories is not None:
                 os.makedirs(trajectories, exist_ok=True)
             with cluster as dask_client:
-                _execute(
-                    dask_client, base, todo, outputs, trajectories, results, chunk_size, progress
-                )
+                workers = max(1, len(dask_client.scheduler_info(n_workers=-1)["workers"]))
+                size = chunk_size or chunk_runs(len(todo), workers, run_s)
+                _execute(dask_client, base, todo, outputs, trajectories, results, size, progress)
     except KeyboardInterrupt:
         raise SweepInterrupted(results.close()) from None
     return results.close()
@@ -494,15 +504,48 @@ class _cluster:
             cluster.close()
 
 
-def _execute(client, base, todo, outputs, folder, results, chunk_size, progress):
-    """Send `todo` [(run, values)] to the cluster in chunks and hand each chunk's rows to
-    `results` as it arrives; a chunk lost with its workers is split and its runs retried
-    alone."""
+def _run_seconds(scenes):
+    """The estimated wall time (s) of one run on one core: each distinct step's wall time per
+    simulated second, the difference of two short rollouts on this machine (100 and 500 steps,
+    or at most the run), times its duration; their mean."""
+    from ..sim.rollout import rollout
+
+    estimates = []
+    for scene in scenes:
+        run = scene.run
+        if python_control.record(scene) is not None:
+            continue
+        spans = sorted({min(run.duration, 100 * run.dt), min(run.duration, 500 * run.dt)})
+        walls = []
+        for span in spans:
+            result = rollout(scene.replace_run(duration=span, output_dt=span), threads=1,
+                             record="final")
+            walls.append(result.stats["wall_s"] if result.complete[0] else 0.0)
+        if len(spans) == 2 and walls[1] > walls[0]:
+            estimates.append((walls[1] - walls[0]) / (spans[1] - spans[0]) * run.duration)
+        elif walls[-1] > 0:
+            estimates.append(walls[-1] / spans[-1] * run.duration)
+    return float(np.mean(estimates)) if estimates else 0.0
+
+
+def chunk_runs(n, workers, run_s):
+    """Runs per task for n runs on `workers` workers, each run about run_s seconds: about
+    CHUNKS_PER_WORKER tasks a worker, each of TASK_MIN_S to TASK_MAX_S of work, at most
+    MAX_CHUNK runs."""
+    balanced = -(-n // (workers * CHUNKS_PER_WORKER))
+    if run_s <= 0:
+        return max(1, min(MAX_CHUNK, balanced))
+    least, most = math.ceil(TASK_MIN_S / run_s), max(1, math.floor(TASK_MAX_S / run_s))
+    return max(1, min(MAX_CHUNK, max(least, min(balanced, most))))
+
+
+def _execute(client, base, todo, outputs, folder, results, size, progress):
+    """Send `todo` [(run, values)] to the cluster in chunks of `size` runs and hand each
+    chunk's rows to `results` as it arrives; a chunk lost with its workers is split and its
+    runs retried alone."""
     from dask.distributed import as_completed
     from tqdm import tqdm
 
-    workers = max(1, len(client.scheduler_info(n_workers=-1)["workers"]))
-    size = chunk_size or max(1, min(MAX_CHUNK, -(-len(todo) // (workers * CHUNKS_PER_WORKER))))
     keep = folder is not None
 
     def submit(chunk):
