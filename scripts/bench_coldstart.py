@@ -5,7 +5,7 @@ same run once the on-disk cache is warm.
 
 Measures, each in fresh processes (wall time of the whole process, import included):
   - `opendyn simulate` on the default scene, cold (empty NUMBA_CACHE_DIR) and warm (again, in
-    that cache);
+    that cache), and `od.rollout` of the default scene (one run) the same way;
   - `opendyn simulate SCENE` for every shipped scene, each cold in its own empty cache, then
     warm (skipped with --quick);
   - the first call of every public core function on the UR5 (example-robot-data), single
@@ -90,6 +90,18 @@ def simulate_cold_warm(scene):
     return cold, warm
 
 
+ROLLOUT = "import opendyn as od; od.rollout('double_pendulum_swing', threads=1)"
+
+
+def rollout_cold_warm():
+    """(cold, warm) wall seconds of a process that rolls the default scene out once."""
+    cmd = [sys.executable, "-c", ROLLOUT]
+    with tempfile.TemporaryDirectory() as cache:
+        cold, _ = timed(cmd, cache)
+        warm, _ = timed(cmd, cache)
+    return cold, warm
+
+
 def first_calls():
     """({call: cold s}, {call: warm s}) of the first call of every core function on a UR5."""
     cmd = [sys.executable, "-c", FIRST_CALLS]
@@ -112,6 +124,9 @@ def main():
     print("| command | cold (empty cache) | warm |")
     print("|---|---:|---:|")
     print(f"| `opendyn simulate` (default scene) | {cold:.1f} | {warm:.2f} |")
+    cold, warm = rollout_cold_warm()
+    results["rollout (default scene)"] = (cold, warm)
+    print(f"| `od.rollout` of the default scene, one run | {cold:.1f} | {warm:.2f} |")
     if not args.quick:
         for scene in SCENES:
             cold, warm = simulate_cold_warm(scene)
