@@ -52,22 +52,20 @@ Outcome = namedtuple("Outcome", ("status", "rows", "t", "tau"))
 
 
 @njit(**JIT)
-def run_scene(base, run):
-    """The SceneData of one run: base (a SceneData: the model's ibuf, the method, the scratch)
-    with the RunData run's fbuf, effects, armature and constraints."""
-    return SceneData(
+def run_views(base, batch, i, start):
+    """(SceneData, State, Record, Counters) of run i of the Batch, which a slice from `start`
+    runs: base (a SceneData: the model's ibuf, the method, the scratch) with the run's RunData
+    (fbuf, effects, armature, constraints); its state and counters copied out (the loops write
+    them at every step, and neighbouring runs' rows share cache lines across threads), its
+    record a view of its rows. end_run copies them back."""
+    run = batch.runs[batch.which[i - start]]
+    scene = SceneData(
         base.ibuf, run.fbuf, run.effects, run.armature, base.method, run.constraints,
         base.forces, base.loads, base.KD, base.work, base.held,
     )
-
-
-@njit(**JIT)
-def run_views(batch, i):
-    """(State, Record, Counters) of run i of the Batch: its state and counters copied out (the
-    loops write them at every step, and neighbouring runs' rows share cache lines across
-    threads), its record a view of its rows. end_run copies them back."""
     x, out, c = batch.x, batch.out, batch.counters
     return (
+        scene,
         State(x.q[i].copy(), x.qd[i].copy(), x.w[i].copy()),
         Record(out.t[i], out.q[i], out.qd[i], out.tau[i], out.w[i]),
         Counters(c[i, 0:1].copy(), c[i, 1:2].copy(), c[i, 2:3].copy()),
@@ -117,11 +115,9 @@ def rollout_fixed(switches, base, settings, nsteps, batch, free, start, stop):
     whose scratch the runs use; free: None, or the free joints' first v indices."""
     every, dt = settings.every, settings.dt
     for i in range(start, stop):
-        entry = batch.which[i - start]
-        if entry < 0:
+        if batch.which[i - start] < 0:
             continue  # a run refused before it started
-        scene = run_scene(base, batch.runs[entry])
-        x, out, counters = run_views(batch, i)
+        scene, x, out, counters = run_views(base, batch, i, start)
         status, done = run_fixed(switches, scene, settings, 0, nsteps, x, out, counters, free)
         counters.accepted[0] += done
         rows = (done - 1) // every + 1 if done else 0
@@ -136,11 +132,9 @@ def rollout_adaptive(tableau, base, settings, at, batch, free, start, stop):
     nv = batch.x.qd.shape[1]
     first = Stage(np.empty((2, nv)), np.empty(2), np.empty(nv))
     for i in range(start, stop):
-        entry = batch.which[i - start]
-        if entry < 0:
+        if batch.which[i - start] < 0:
             continue  # a run refused before it started
-        scene = run_scene(base, batch.runs[entry])
-        x, out, counters = run_views(batch, i)
+        scene, x, out, counters = run_views(base, batch, i, start)
         copy_into(x.qd, first.k[0])
         status = evaluate(scene, at.t, x.q, x.qd, first.k[1], first.tau, first.power)
         counters.evaluations[0] += 1
