@@ -147,9 +147,18 @@ def test_quaternions_are_checked_and_normalised(ur5):
         lambda: od.mass_matrix(ur5, far),
         lambda: od.forward_dynamics(ur5, far, v, v),
         lambda: od.jacobian(ur5, far, "tool0"),
+        lambda: od.integrate(ur5, far, v, 0.1),
     ):
         with pytest.raises(ValueError, match=r"quaternion q\[3:7\].*unit norm"):
             call()
+    # the configuration functions keep the same rule: a norm of 5 is refused, not used
+    five = q.copy()
+    five[3:7] *= 5.0
+    with pytest.raises(ValueError, match=r"difference: the quaternion q1\[3:7\].*unit norm"):
+        od.difference(ur5, q, five)
+    with pytest.raises(ValueError, match=r"integrate: the quaternion q\[1\]\[3:7\].*unit norm"):
+        od.integrate(ur5, np.stack([q, five]), np.zeros((2, 12)), 0.1)
+    np.testing.assert_allclose(od.normalize(ur5, five), q, rtol=1e-15)
     np.testing.assert_allclose(
         od.mass_matrix(ur5, od.normalize(ur5, far)), od.mass_matrix(ur5, q), rtol=1e-13
     )

@@ -18,6 +18,7 @@ from .._runtime.kernel_cache import INLINE, JIT
 from ..multibody.joints import (
     FREE,
     PRISMATIC,
+    QUATERNION_TOLERANCE,
     joint_difference,
     joint_integrate,
     normalize_quaternion,
@@ -66,8 +67,9 @@ def _quaternions(model):
     return [(i, int(model.iq[i]) + 3) for i in range(model.nb) if model.jtype[i] == FREE]
 
 
-def _checked_q(model, q, name, what):
-    """q as a float64 (nq,) or (N, nq) array, finite, every quaternion non-zero."""
+def _checked_q(model, q, name, what, unit=True):
+    """q as a float64 (nq,) or (N, nq) array, finite, every quaternion non-zero and, with unit,
+    of unit norm within QUATERNION_TOLERANCE, as every dynamics function takes it."""
     q = checks.as_q(model, q, name)
     if not np.all(np.isfinite(q)):
         raise ValueError(f"{what}: {name} must be finite (it has NaN or inf)")
@@ -78,7 +80,20 @@ def _checked_q(model, q, name, what):
                 f"{what}: the quaternion {name}[{k}:{k + 4}] of {model.body_names[i]!r} is zero; "
                 f"a rotation needs a unit quaternion (x, y, z, w)"
             )
+    if unit:
+        check_unit_quaternions(model, q, name, what)
     return q
+
+
+def check_unit_quaternions(model, q, name, what):
+    """ValueError naming `what`, the state (for a batch) and the slice of `name` where a free
+    joint's quaternion in q (nq,) or (N, nq) is further than QUATERNION_TOLERANCE from unit
+    norm."""
+    for _, k in _quaternions(model):
+        off = np.abs(np.linalg.norm(q[..., k : k + 4], axis=-1) - 1.0)
+        if np.any(off > QUATERNION_TOLERANCE):
+            row = f"{name}[{int(np.argmax(off > QUATERNION_TOLERANCE))}]" if q.ndim == 2 else name
+            raise ValueError(f"{what}: {checks.quaternion_problem(model, row)}")
 
 
 def integrate(model, q, v, dt):
@@ -139,7 +154,7 @@ def normalize(model, q):
     """q with each free joint's quaternion divided by its norm (a copy): (nq,) or (N, nq).
     A zero or non-finite quaternion is a ValueError naming its slice of q."""
     checks.check_model(model, "normalize")
-    q = _checked_q(model, q, "q", "normalize").copy()
+    q = _checked_q(model, q, "q", "normalize", unit=False).copy()
     for row in q if q.ndim == 2 else [q]:
         normalize_kernel(model._ibuf, row)
     return q

@@ -39,10 +39,10 @@ from numba import typed
 
 from .._runtime.compile_notice import compile_seconds, compiling
 from .._runtime.signals import signal_name
-from ..algorithm.checks import as_float_array, quaternion_problem
+from ..algorithm.checks import as_float_array
+from ..algorithm.configuration import check_unit_quaternions
 from ..errors import RolloutInterrupted, SceneError, SceneWarning
 from ..io.scene.variants import Variants
-from ..multibody.joints import FREE, QUATERNION_TOLERANCE
 from . import effects, integrators
 from .diagnostics import check_contact_step, failure_message
 from .effects import python_control
@@ -481,12 +481,7 @@ def _states(model, states, name, width):
     if bad.size:
         raise ValueError(f"rollout: {name}[{bad[0]}] is not finite: {a[bad[0]]}")
     if name == "q0":
-        for b in np.flatnonzero(model.jtype == FREE):
-            k = int(model.iq[b]) + 3
-            off = np.abs(np.linalg.norm(a[:, k : k + 4], axis=1) - 1.0)
-            if (off > QUATERNION_TOLERANCE).any():
-                run = int(np.argmax(off > QUATERNION_TOLERANCE))
-                raise ValueError(f"rollout: {quaternion_problem(model, f'q0[{run}]')}")
+        check_unit_quaternions(model, a, "q0", "rollout")
     return a
 
 
