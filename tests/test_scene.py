@@ -10,6 +10,7 @@ friction 0.05, 0.02; limits +-3.14; effort limits 50, 20).
 from __future__ import annotations
 
 import math
+import os
 
 import numpy as np
 import pytest
@@ -780,3 +781,26 @@ def test_replace_run_none_restores_the_default_that_follows_dt():
     coarse = scene.replace_run(dt=0.05, output_dt=None)
     assert coarse.run.output_dt == 0.05
     assert math.isclose(scene.replace_run(integrator="dopri5", dt=0.003).run.dt, 0.003)
+
+
+@pytest.mark.parametrize(
+    "section, words",
+    [
+        ({"effects": {"damping": {"coefficients": 1.0}}}, "effects.damping: 't_handle' has no joints"),
+        ({"effects": {"friction": {"coefficients": 1.0}}}, "effects.friction: 't_handle' has no"),
+        ({"effects": {"armature": {"values": 0.1}}}, "effects.armature: 't_handle' has no joints"),
+        ({"effects": {"limits": {"stiffness": 1e3}}}, "effects.limits: 't_handle' has no joints"),
+        ({"control": {"type": "pd", "kp": 1.0, "kd": 0.1}}, "a 'pd' controller of the joints"),
+        ({"control": {"type": "computed_torque", "kp": 1.0, "kd": 0.1}}, "'computed_torque'"),
+        ({"control": {"type": "constant", "tau": 1.0}}, "a 'constant' controller of the joints"),
+    ],
+)
+def test_a_robot_without_joints_refuses_what_acts_on_joints(section, words):
+    """The free T-handle has no joints: a per-joint effect or a controller would act on nothing,
+    so the scene is refused (it was accepted, listed in the run's header, and did nothing)."""
+    urdf = os.path.join(os.path.dirname(__file__), "..", "robots", "t_handle.urdf")
+    settings = {"robot": {"urdf": urdf, "floating_base": True}, **section}
+    with pytest.raises(SceneError) as refused:
+        od.scene_from_dict(settings)
+    assert words in str(refused.value) and "would act on nothing" in str(refused.value)
+    od.scene_from_dict({"robot": settings["robot"], "effects": {"gravity": True}})  # the rest runs

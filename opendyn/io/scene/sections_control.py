@@ -43,5 +43,6 @@ class ControlSection(ValueReader):
         self.keys(table, "control", keys[kind])
         if kind == "none":
             return None
+        self.joints_needed("control.type", f"a {kind!r} controller of the joints")
         settings = {effect.KEYS[0]: effect.read(self, table) for effect in shared}
         return dataclasses.replace(laws[kind].read(self, table, q0), **settings)

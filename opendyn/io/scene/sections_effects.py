@@ -18,4 +18,18 @@ class EffectsSection(ValueReader):
         table = self.table(value, "effects")
         in_effects = registry.in_section("effects")
         self.keys(table, "effects", tuple(effect.NAME for effect in in_effects))
+        for effect in in_effects:
+            if getattr(effect, "JOINTS", False) and effect.NAME in table:
+                self.joints_needed(f"effects.{effect.NAME}", f"[effects.{effect.NAME}]")
         return {effect.NAME: effect.read(self, table.get(effect.NAME)) for effect in in_effects}
+
+    def joints_needed(self, key, what):
+        """SceneError naming key when the robot has no joints: `what` would act on nothing."""
+        model = self.model
+        if not model.joint_names:
+            moves = "only its free base moves" if model.floating_base else "nothing in it moves"
+            self.fail(
+                key,
+                f"{model.name!r} has no joints ({moves}), so {what} would act on nothing; "
+                "remove it",
+            )

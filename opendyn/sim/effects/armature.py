@@ -15,6 +15,7 @@ from .interface import CONSERVATIVE
 
 NAME = "armature"
 SECTION = "effects"
+JOINTS = True  # acts on the joint coordinates only: a robot without joints refuses it
 KEYS = ("values",)
 FIELD = "armature"
 OFF = None

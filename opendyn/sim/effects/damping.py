@@ -17,6 +17,7 @@ from .interface import OK, PASSIVE, floats, joint_labels, v_indices
 
 NAME = "damping"
 SECTION = "effects"
+JOINTS = True  # acts on the joint coordinates only: a robot without joints refuses it
 KEYS = ("coefficients",)
 FIELD = "damping"
 OFF = None

@@ -19,6 +19,7 @@ from .interface import OK, PASSIVE, floats, joint_labels, v_indices
 
 NAME = "friction"
 SECTION = "effects"
+JOINTS = True  # acts on the joint coordinates only: a robot without joints refuses it
 KEYS = ("coefficients", "smoothing")
 FIELD = "friction"
 OFF = None

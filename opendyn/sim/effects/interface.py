@@ -8,6 +8,8 @@ An effect is one module of this package, listed once in registry.EFFECTS. The mo
                (keys of [control]; a control module also declares CONTROL_TYPE, the type it
                implements, or None for a key that every type takes, as clip)
   KEYS         the keys of its table, or () when its setting is one value (gravity = true)
+  JOINTS       (optional, default False) True when it acts on the joint coordinates only:
+               a scene whose robot has no joints refuses it (it would act on nothing)
   read         read(r, value) -> its record, checked (r: the scene's ValueReader, with r.model;
                value: its setting, None when absent, which gives OFF); a control law's is
                read(r, table, q0) -> a Control, and clip's read(r, table) -> the value of its key

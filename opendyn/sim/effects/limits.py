@@ -23,6 +23,7 @@ from .interface import OK, PASSIVE, floats, joint_labels, q_indices, v_indices
 
 NAME = "limits"
 SECTION = "effects"
+JOINTS = True  # acts on the joint coordinates only: a robot without joints refuses it
 KEYS = ("stiffness", "damping")
 FIELD = "limits"
 OFF = None
