@@ -189,3 +189,22 @@ def test_simulate_reports_contact_and_draws_the_ground_and_its_forces(tmp_path, 
     assert 9.9 < depth < 10.1 and 0.32 < t < 0.34 and force == pytest.approx(depth * 100, rel=1e-3)
     html = page.read_text()
     assert re.search(r"<title>ball - opendyn \(red arrows: contact forces, ", html)
+
+
+def test_simulate_warns_on_a_welded_mobile_robot_and_floating_base_frees_it(capsys):
+    """`opendyn simulate solo12` ran welded in mid-air without a word: it warns as `opendyn info`
+    does, and --floating-base (for a robot and for a scene alike) makes the root link free."""
+    assert main(["simulate", "solo12", "--duration", "0.01", "--no-save", "-q"]) == 0
+    err = capsys.readouterr().err
+    assert "looks like a mobile robot" in err and "--floating-base" in err
+    assert main(["simulate", "solo12", "--floating-base", "--duration", "0.01", "--no-save"]) == 0
+    out, err = capsys.readouterr()
+    assert "floating base, nq = 19, nv = 18" in out and "looks like a mobile robot" not in err
+    from opendyn.cli.simulate import scene_for
+
+    freed = scene_for("double_pendulum_swing", floating_base=True)
+    assert freed.model.floating_base and freed.model.nv == 8
+    assert freed.settings["robot"]["floating_base"] is True
+    assert not scene_for("double_pendulum_swing").model.floating_base
+    with pytest.warns(od.SceneWarning, match="'solo' looks like a mobile robot"):
+        od.default_scene("solo12")

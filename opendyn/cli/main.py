@@ -50,6 +50,11 @@ def main(argv=None) -> int:
         help=f"scene file (.toml), shipped scene ({', '.join(shipped_scenes())}), URDF file or "
         f"robot name; default: {DEFAULT_SCENE}",
     )
+    sim.add_argument(
+        "--floating-base",
+        action="store_true",
+        help="make the robot's root link a free body (robot.floating_base = true)",
+    )
     sim.add_argument("--duration", type=float, help="simulated time (s)")
     sim.add_argument("--dt", type=float, help="step (s); the first trial step of dopri5")
     sim.add_argument("--integrator", choices=INTEGRATORS)
@@ -143,6 +148,11 @@ def main(argv=None) -> int:
         "runs finish; the same command resumes a stopped sweep.",
     )
     sw.add_argument("target", help="scene file, shipped scene, URDF file or robot name")
+    sw.add_argument(
+        "--floating-base",
+        action="store_true",
+        help="make the robot's root link a free body (robot.floating_base = true)",
+    )
     sw.add_argument(
         "--vary",
         action="append",

@@ -11,7 +11,7 @@ import numpy as np
 from ..algorithm.crba import mass_matrix
 from ..algorithm.forward import forward_dynamics
 from ..algorithm.rnea import gravity_forces, inverse_dynamics
-from ..io.urdf import load_urdf, looks_mobile
+from ..io.urdf import load_urdf, welded_mobile_warning
 from .cache import _cache_info
 
 DEFAULT_ROBOT = "double_pendulum"
@@ -62,14 +62,11 @@ def _info(args) -> int:
         )
     else:
         print("base: fixed (the root link is welded to the world)")
-        if looks_mobile(model):
-            print(
-                f"warning: {model.name!r} looks like a mobile robot (its root link carries "
-                f"{model.report.welded_mass:.4g} kg and nothing attaches it to a world link), "
-                f"but its base is welded to the world; load it with --floating-base "
-                f"(load_urdf(..., floating_base=True)) to let it move",
-                file=sys.stderr,
-            )
+        warning = welded_mobile_warning(
+            model, "load it with --floating-base (load_urdf(..., floating_base=True))"
+        )
+        if warning:
+            print(f"warning: {warning}", file=sys.stderr)
     print()
     print(model.report)
     return 0

@@ -20,8 +20,9 @@ from ..io.scene.files import (
     scene_from_dict,
     shipped_scenes,
 )
-from ..errors import SceneError
+from ..errors import SceneError, URDFError
 from ..io.scene.schema import thaw
+from ..io.urdf import load_urdf
 from ..sim.effects import registry
 from ..sim.trajectory import saved_paths
 from .interrupts import _doing
@@ -41,17 +42,40 @@ ENABLE_FROM_URDF = registry.enable_settings()
 WRITE_FAILED = 3  # exit status: an output could not be written after the run
 
 
-def scene_for(target):
+def scene_for(target, floating_base=False):
     """The scene a `simulate` target names: a scene file, a shipped scene's name, a URDF file or
-    a robot name (the robot's default scene: gravity only)."""
+    a robot name (the robot's default scene: gravity only); with floating_base, its robot's
+    root link a free body (robot.floating_base = true)."""
     if target is None:
-        return load_scene(DEFAULT_SCENE)
-    path = pathlib.Path(target)
-    if path.is_file():
-        return load_scene(path) if is_scene_file(path) else default_scene(target)
-    if path.suffix.lower() == ".toml" or target in shipped_scenes():
-        return load_scene(target)
-    return default_scene(target)
+        scene = load_scene(DEFAULT_SCENE)
+    else:
+        path = pathlib.Path(target)
+        if path.is_file() and not is_scene_file(path):
+            scene = None
+        elif path.is_file() or path.suffix.lower() == ".toml" or target in shipped_scenes():
+            scene = load_scene(target)
+        else:
+            scene = None
+        if scene is None:  # a URDF or a robot
+            if floating_base:
+                return default_scene(_floating_robot(target))
+            return default_scene(target)
+    if not floating_base or scene.model.floating_base:
+        return scene
+    settings = thaw(scene.settings)
+    settings["robot"]["floating_base"] = True
+    source = pathlib.Path(scene.source)
+    return scene_from_dict(
+        settings, source=scene.source, base_dir=source.parent if source.is_file() else None
+    )
+
+
+def _floating_robot(target):
+    """The Model of a URDF file or robot name with a free root link (SceneError if neither)."""
+    try:
+        return load_urdf(target, floating_base=True)
+    except (URDFError, TypeError) as e:
+        raise SceneError(f"<robot {target}>: robot: {e}") from None
 
 
 def _with_effects(scene, enable, disable):
@@ -122,7 +146,7 @@ def _simulate(args) -> int:
 
 def _scene_to_run(args):
     """The scene the arguments name, with their run settings and effects."""
-    scene = scene_for(args.target)
+    scene = scene_for(args.target, args.floating_base)
     run = {
         "duration": args.duration,
         "dt": args.dt,

@@ -29,7 +29,7 @@ def _sweep(args) -> int:
             raise ValueError(f"--vary {key.strip()}: given twice")
         vary[key.strip()] = spec.strip()
     with _doing("loading the scene and its robot; nothing was run"):
-        scene = scene_for(args.target)
+        scene = scene_for(args.target, args.floating_base)
     output = args.output or f"{_slug(scene.name)}-sweep.parquet"
     named = [("-o", output, pathlib.Path(output))]
     if args.plot is not None:

@@ -62,6 +62,18 @@ def looks_mobile(model) -> bool:
     return model.nb == 0 or int(np.sum(model.parent < 0)) >= 2
 
 
+def welded_mobile_warning(model, how) -> str | None:
+    """The warning for a model that looks_mobile (None otherwise): it is welded to the world,
+    and `how` lets it move (e.g. "--floating-base")."""
+    if not looks_mobile(model):
+        return None
+    return (
+        f"{model.name!r} looks like a mobile robot (its root link carries "
+        f"{model.report.welded_mass:.4g} kg and nothing attaches it to a world link), but its "
+        f"base is welded to the world; {how} to let it move"
+    )
+
+
 def resolve_robot(path) -> str:
     """The URDF file for a path or a robot name; URDFError listing known names if neither."""
     if isinstance(path, os.PathLike) or (

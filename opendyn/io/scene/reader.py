@@ -136,7 +136,11 @@ actuated directly.
 
 from __future__ import annotations
 
+import warnings
+
+from ...errors import SceneWarning
 from ...sim.effects.registry import scene_fields
+from ..urdf import welded_mobile_warning
 from .schema import Scene
 from .sections_constraints import ConstraintsSection
 from .sections_control import ControlSection
@@ -167,6 +171,11 @@ def _build(data, source, base_dir, default_name=None, model=None) -> Scene:
     # after the robot is loaded or given, so that a given model (a sweep's, loaded once) gets
     # the payload its scene names
     model = r.model = r.payload((data.get("robot") or {}).get("payload"))
+    warning = welded_mobile_warning(
+        model, "set robot.floating_base = true (opendyn simulate --floating-base)"
+    )
+    if warning:
+        warnings.warn(f"{source}: robot: {warning}", SceneWarning, stacklevel=3)
     name = data.get("name", default_name if default_name is not None else model.name)
     r.string(name, "name")
     if "description" in data:
