@@ -6,6 +6,7 @@ where it stopped."""
 from __future__ import annotations
 
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -380,3 +381,68 @@ def test_the_command_runs_on_an_existing_scheduler(client, tmp_path, monkeypatch
                    "tcp://127.0.0.1:9"]
     assert main(unreachable) == 2
     assert "--scheduler tcp://127.0.0.1:9: cannot connect" in capsys.readouterr().err
+
+
+def test_outputs_that_cannot_be_written_are_refused_before_anything_runs(tmp_path):
+    """od.sweep checks its results file and trajectories' folder first, as the command does
+    (it ran chunks and then failed, dropping them or naming a temporary file)."""
+    scene = limits_scene(duration=0.1)
+    vary = {"effects.limits.stiffness": "1e3"}
+    read_only = tmp_path / "read-only"
+    read_only.mkdir()
+    read_only.chmod(0o500)
+    a_file = tmp_path / "a-file"
+    a_file.write_text("")
+    cases = [
+        (dict(parquet=tmp_path), "parquet", "is a folder, not a file"),
+        (dict(parquet=tmp_path / "missing" / "r.parquet"), "parquet", "does not exist"),
+        (dict(trajectories=a_file), "trajectories", "is a file, not a folder"),
+    ]
+    if os.geteuid() != 0:  # root writes anywhere
+        cases.append((dict(parquet=read_only / "r.parquet"), "parquet", "no file can be"))
+    for kwargs, argument, words in cases:
+        with pytest.raises(SweepError) as refused:
+            od.sweep(scene, vary, **kwargs)
+        assert str(refused.value).startswith(argument) and words in str(refused.value)
+
+
+def test_a_trajectories_folder_of_another_sweep_is_refused(client, tmp_path):
+    """Two sweeps, one --trajectories folder: the second overwrote the first's run files and
+    left its others. Now the folder is marked by its sweep, and another sweep is refused; the
+    same sweep again (a resume) is not."""
+    scene = limits_scene(duration=0.1)
+    runs = tmp_path / "runs"
+    od.sweep(scene, {"effects.limits.stiffness": "1e3,1e4"}, client=client, trajectories=runs)
+    assert sorted(p.name for p in runs.iterdir()) == [
+        "run-000000.json", "run-000000.npz", "run-000001.json", "run-000001.npz", "sweep.json"
+    ]
+    od.sweep(scene, {"effects.limits.stiffness": "1e3,1e4"}, client=client, trajectories=runs)
+    with pytest.raises(SweepError, match="holds the runs of another sweep"):
+        od.sweep(scene, {"effects.limits.damping": "1,2"}, client=client, trajectories=runs)
+    unmarked = tmp_path / "unmarked"
+    unmarked.mkdir()
+    (unmarked / "run-000000.npz").write_bytes(b"")
+    with pytest.raises(SweepError, match="run files of a sweep that did not mark it"):
+        od.sweep(scene, {"effects.limits.damping": "1,2"}, client=client, trajectories=unmarked)
+
+
+def test_a_changed_robot_is_another_sweep_not_a_resume(client, tmp_path):
+    """The fingerprint covers the robot: a link's mass edited between a stopped sweep and its
+    resume made the table mix two robots; now the resume is refused, naming the robot."""
+    import shutil
+
+    folder = tmp_path / "robot"
+    folder.mkdir()
+    shutil.copy(os.path.join(ROBOTS, "planar_3r.urdf"), folder / "planar_3r.urdf")
+    shutil.copy(os.path.join(ROBOTS, "planar_3r_limits.toml"), folder / "scene.toml")
+    table = tmp_path / "r.parquet"
+    vary = {"effects.limits.stiffness": "1e3,1e4"}
+    scene = od.load_scene(folder / "scene.toml").replace_run(duration=0.1)
+    od.sweep(scene, vary, client=client, parquet=table)
+    urdf = (folder / "planar_3r.urdf").read_text()
+    first_mass = re.search(r'<mass value="([^"]+)"', urdf)
+    edited = urdf.replace(first_mass.group(0), f'<mass value="{float(first_mass.group(1)) * 2}"', 1)
+    (folder / "planar_3r.urdf").write_text(edited)
+    changed = od.load_scene(folder / "scene.toml").replace_run(duration=0.1)
+    with pytest.raises(SweepError, match=r"another sweep \(its robot differ"):
+        od.sweep(changed, vary, client=client, parquet=table)

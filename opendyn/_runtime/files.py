@@ -6,6 +6,7 @@ import contextlib
 import os
 import pathlib
 import secrets
+import tempfile
 
 
 @contextlib.contextmanager
@@ -47,3 +48,31 @@ def _create_beside(target):
             return open(tmp, "xb"), tmp
         except FileExistsError:
             continue
+
+
+def unwritable(name, path):
+    """Why a file cannot be written at `path` (`name` as the user wrote it), or None: a name
+    that ends like a folder's, a folder in its place, a folder that is missing or is a file, a
+    read-only file, a folder where no file can be created (tried: a temporary file is created
+    there and removed)."""
+    if name.endswith(tuple(sep for sep in (os.sep, os.altsep) if sep)):
+        return "names a folder, not a file"
+    if path.is_dir():
+        return "is a folder, not a file"
+    if path.exists() and not path.is_file():  # a device or a pipe: written in place
+        return None if os.access(path, os.W_OK) else "cannot be written (permission denied)"
+    folder = path.parent
+    if not folder.is_dir():
+        blocking = next((p for p in (folder, *folder.parents) if p.exists()), None)
+        if blocking is not None and not blocking.is_dir():
+            return f"{blocking} is a file, not a folder"
+        return f"the folder {folder} does not exist"
+    if path.exists() and not os.access(path, os.W_OK):
+        return "the file is read-only"
+    real_folder = os.path.dirname(os.path.realpath(path))  # where atomic_write writes
+    try:
+        with tempfile.NamedTemporaryFile(dir=real_folder, prefix=".opendyn-check-"):
+            pass
+    except OSError as e:
+        return f"no file can be written in the folder {folder} ({e.strerror})"
+    return None

@@ -15,6 +15,7 @@ import pathlib
 import sys
 import tempfile
 
+from .._runtime.files import unwritable
 from .._runtime.signals import held_interrupt
 from ..sim.trajectory import saved_paths
 from .interrupts import _doing
@@ -50,13 +51,13 @@ def _named_outputs(args):
 
 def _check_outputs(outputs, others=()):
     """Raise ValueError naming the option and the file for the first of `outputs` (option,
-    name, path) that cannot be written (`_unwritable`), that is also the file of another
+    name, path) that cannot be written (`unwritable`), that is also the file of another
     output (of `outputs` or `others`), or, for --plot, whose format matplotlib does not write.
     Quick: nothing is loaded or run."""
     seen = {os.path.realpath(path): (option, name) for option, name, path in others}
     for option, name, path in outputs:
         real = os.path.realpath(path)
-        problem = _unwritable(name, path)
+        problem = unwritable(name, path)
         if problem is None and seen.get(real, (option, name)) != (option, name):
             problem = "is also the file of {} {!r}".format(*seen[real])
         if problem is None and option == "--plot":
@@ -66,34 +67,6 @@ def _check_outputs(outputs, others=()):
             hint = f" ({DEFAULT_SAVE_HINT})" if option == DEFAULT_SAVE else ""
             raise ValueError(f"{option} {name!r}:{which} {problem}{hint}")
         seen.setdefault(real, (option, name))
-
-
-def _unwritable(name, path):
-    """Why a file cannot be written at `path` (`name` as the user wrote it), or None: a name
-    that ends like a folder's, a folder in its place, a folder that is missing or is a file, a
-    read-only file, a folder where no file can be created (tried: a temporary file is created
-    there and removed)."""
-    if name.endswith(tuple(sep for sep in (os.sep, os.altsep) if sep)):
-        return "names a folder, not a file"
-    if path.is_dir():
-        return "is a folder, not a file"
-    if path.exists() and not path.is_file():  # a device or a pipe: written in place
-        return None if os.access(path, os.W_OK) else "cannot be written (permission denied)"
-    folder = path.parent
-    if not folder.is_dir():
-        blocking = next((p for p in (folder, *folder.parents) if p.exists()), None)
-        if blocking is not None and not blocking.is_dir():
-            return f"{blocking} is a file, not a folder"
-        return f"the folder {folder} does not exist"
-    if path.exists() and not os.access(path, os.W_OK):
-        return "the file is read-only"
-    real_folder = os.path.dirname(os.path.realpath(path))  # where atomic_write writes
-    try:
-        with tempfile.NamedTemporaryFile(dir=real_folder, prefix=".opendyn-check-"):
-            pass
-    except OSError as e:
-        return f"no file can be written in the folder {folder} ({e.strerror})"
-    return None
 
 
 def _unplottable(path):

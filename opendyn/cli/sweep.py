@@ -3,7 +3,6 @@ Parquet row per run."""
 
 from __future__ import annotations
 
-import os
 import pathlib
 import sys
 import time
@@ -40,9 +39,6 @@ def _sweep(args) -> int:
         from ..sweep.plot import check_plan
 
         check_plan([parse_axis(key, spec) for key, spec in vary.items()], args.metric)
-    if args.trajectories is not None and os.path.exists(args.trajectories):
-        if not os.path.isdir(args.trajectories):
-            raise ValueError(f"--trajectories {args.trajectories}: is a file, not a folder")
     client = None
     if args.scheduler is not None:
         from dask.distributed import Client

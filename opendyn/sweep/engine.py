@@ -38,23 +38,23 @@ import math
 import multiprocessing
 import numbers
 import os
+import pathlib
 import signal
 import sys
 import threading
 import time
-import warnings
 
 import numpy as np
 
+from .._runtime.files import atomic_write, unwritable
 from .._runtime.version import __version__
-from ..errors import SceneError, SceneWarning, SweepError, SweepInterrupted
+from ..errors import SceneError, SweepError, SweepInterrupted
 from ..io.scene.schema import Scene
 from ..io.scene.variants import Variants
-from ..sim import effects
 from ..sim.effects import python_control
-from ..sim.metrics import METRICS, applicable, run_metrics
-from ..sim.rollout import Runs, run_batch, run_data, signature
-from ..sim.simulate import as_scene, simulate
+from ..sim.metrics import METRICS, applicable
+from ..sim.simulate import as_scene
+from .worker import failed_row, run_chunk
 
 # more runs than this is a mistake in a spec (a grid of 1e3 points on each of 4 keys), not a sweep
 MAX_RUNS = 10_000_000
@@ -234,98 +234,6 @@ def _describe(values) -> str:
     return ", ".join(f"{k} = {v!r}" for k, v in values.items())
 
 
-# --- on a worker -------------------------------------------------------------------------------
-
-
-def run_chunk(base: Variants, runs, outputs, keep_trajectories, version):
-    """[(row, trajectory or None)] of the runs [(run, values)]: a worker's task. The runs whose
-    compiled step is the same go together as one rollout (opendyn.sim.rollout), which gives
-    each run what simulate() gives it; a scene with a Python controller runs with simulate().
-    Anything a run raises is its failed row."""
-    if version != __version__:
-        message = f"the worker has opendyn {__version__}, the client {version}"
-        return [(failed_row(run, values, message), None) for run, values in runs]
-    pairs, groups = {}, {}
-    for run, values in runs:
-        try:
-            scene = base.scene_for(values)
-            if python_control.record(scene) is not None:
-                pairs[run] = _simulated(run, values, scene, outputs, keep_trajectories)
-                continue
-            table = effects.stage_table(scene)
-        except Exception as e:  # a run's failure is its row; the sweep goes on
-            pairs[run] = failed_row(run, values, str(e) or type(e).__name__), None
-            continue
-        groups.setdefault(step_key(scene, table), []).append((run, values, scene, table))
-    for group in groups.values():
-        pairs.update(_rolled_out(group, outputs, keep_trajectories))
-    return [pairs[run] for run, _ in runs]
-
-
-def step_key(scene, table):
-    """What must be the same for runs to go in one rollout: the run settings, the robot's
-    structure and what the compiled step is made of."""
-    return scene.run, scene.model._ibuf.tobytes(), signature(run_data(scene, table))
-
-
-def _rolled_out(group, outputs, keep):
-    """{run: (row, trajectory or None)} of a group [(run, values, scene, table)] of one step,
-    in one rollout on this worker's thread."""
-    scenes = [scene for _, _, scene, _ in group]
-    tables = [table for _, _, _, table in group]
-    values = [v for _, v, _, _ in group]
-    try:
-        result = run_batch(Runs.of_scenes(scenes, tables, values), 1, "samples")
-    except Exception as e:  # what simulate refuses for every run of the group
-        return {run: (failed_row(run, v, str(e) or type(e).__name__), None) for run, v, *_ in group}
-    pairs = {}
-    for k, (run, v, scene, _) in enumerate(group):
-        if not result.rows[k]:  # refused before it started, as simulate refuses it
-            pairs[run] = failed_row(run, v, result.message[k]), None
-            continue
-        traj = result.trajectory(k)
-        row = _row(run, v, scene, traj, result.warnings[k], outputs)
-        pairs[run] = row, (traj if keep else None)
-    return pairs
-
-
-def _simulated(run, values, scene, outputs, keep):
-    """(row, trajectory or None) of a run done by simulate()."""
-    try:
-        with warnings.catch_warnings(record=True) as caught:
-            warnings.simplefilter("always", SceneWarning)
-            traj = simulate(scene, raise_on_failure=False)
-    except Exception as e:  # a run's failure is its row; the sweep goes on
-        return failed_row(run, values, str(e) or type(e).__name__), None
-    row = _row(run, values, scene, traj, "; ".join(str(w.message) for w in caught), outputs)
-    return row, (traj if keep else None)
-
-
-def _row(run, values, scene, traj, warned, outputs) -> dict:
-    """The table row of a run that produced a trajectory."""
-    stats = traj.stats
-    return {
-        "run": run,
-        **values,
-        "status": "complete" if traj.complete else "failed",
-        "message": traj.message,
-        "warnings": warned,
-        "simulated_s": stats["simulated_s"],
-        "wall_s": stats["wall_s"],
-        "steps": stats["steps"],
-        "rejected_steps": stats["rejected_steps"],
-        "evaluations": stats["evaluations"],
-        **run_metrics(scene, traj, outputs),
-        "q_final": traj.q[-1].tolist() if len(traj.t) else None,
-        "qd_final": traj.qd[-1].tolist() if len(traj.t) else None,
-    }
-
-
-def failed_row(run, values, message) -> dict:
-    """The row of a run that produced no trajectory: its values, status 'failed', the cause."""
-    return {"run": run, **values, "status": "failed", "message": message}
-
-
 # --- the sweep ----------------------------------------------------------------------------------
 
 
@@ -380,6 +288,7 @@ def sweep(
     scene = as_scene(scene)
     if not isinstance(vary, dict) or not vary:
         raise SweepError("vary: expected a dict {dotted scene key: spec} with at least one key")
+    _check_outputs(parquet, trajectories)
     axes = [parse_axis(key, spec) for key, spec in vary.items()]
     runs = combinations(axes, samples, seed)
     base = Variants.of(scene)
@@ -393,6 +302,11 @@ def sweep(
         "samples": samples,
         "seed": seed,
         "outputs": list(outputs),
+        # the robot itself: a URDF edited between a stopped sweep and its resume is another
+        # sweep, not rows of two robots in one table
+        "robot": hashlib.sha1(
+            scene.model._ibuf.tobytes() + scene.model._fbuf.tobytes()
+        ).hexdigest()[:16],
     }
     record["fingerprint"] = hashlib.sha1(
         json.dumps(record, sort_keys=True, default=str).encode()
@@ -406,7 +320,7 @@ def sweep(
             _compile(firsts, progress)
             run_s = _run_seconds(firsts)
             if trajectories is not None:
-                os.makedirs(trajectories, exist_ok=True)
+                _claim(trajectories, record)
             with cluster as dask_client:
                 workers = max(1, len(dask_client.scheduler_info(n_workers=-1)["workers"]))
                 size = chunk_size or chunk_runs(len(todo), workers, run_s)
@@ -414,6 +328,57 @@ def sweep(
     except KeyboardInterrupt:
         raise SweepInterrupted(results.close()) from None
     return results.close()
+
+
+def _check_outputs(parquet, trajectories):
+    """SweepError naming the argument when the results file or the trajectories' folder cannot
+    be written, before anything runs."""
+    if parquet is not None:
+        problem = unwritable(str(parquet), pathlib.Path(parquet))
+        if problem is not None:
+            raise SweepError(f"parquet {str(parquet)!r}: {problem}")
+    if trajectories is not None:
+        folder = pathlib.Path(trajectories)
+        if folder.exists() and not folder.is_dir():
+            raise SweepError(f"trajectories {str(trajectories)!r}: is a file, not a folder")
+        try:
+            folder.mkdir(parents=True, exist_ok=True)
+        except OSError as e:
+            raise SweepError(
+                f"trajectories {str(trajectories)!r}: the folder cannot be made ({e.strerror})"
+            ) from None
+        probe = folder / "run-000000.npz"
+        problem = unwritable(str(probe), probe)
+        if problem is not None:
+            raise SweepError(f"trajectories {str(trajectories)!r}: {problem}")
+
+
+def _claim(trajectories, record):
+    """Mark the trajectories' folder as this sweep's (its sweep.json: name, source and
+    fingerprint); SweepError when it holds another sweep's runs, whose files would be
+    overwritten and mixed with these."""
+    folder = pathlib.Path(trajectories)
+    mark = folder / "sweep.json"
+    ours = {k: record[k] for k in ("name", "source", "fingerprint")}
+    if mark.is_file():
+        try:
+            theirs = json.loads(mark.read_text())
+        except (OSError, ValueError):
+            theirs = {}
+        if theirs.get("fingerprint") == record["fingerprint"]:
+            return  # the same sweep, resumed
+        raise SweepError(
+            f"trajectories {str(trajectories)!r}: the folder holds the runs of another sweep "
+            f"({theirs.get('name', 'unnamed')!r}, see its sweep.json); choose another folder, "
+            "or empty it"
+        )
+    if any(folder.glob("run-*.npz")):
+        raise SweepError(
+            f"trajectories {str(trajectories)!r}: the folder holds run files of a sweep that "
+            "did not mark it; choose another folder, or empty it"
+        )
+    with atomic_write(mark) as f:
+        f.write(json.dumps(ours, indent=1).encode())
 
 
 def _spans_decades(values) -> bool:

@@ -104,7 +104,7 @@ class Results:
             raise _foreign(file, "it holds no opendyn sweep")
         theirs, ours = json.loads(raw), json.loads(self.schema.metadata[METADATA_KEY])
         if theirs.get("fingerprint") != ours["fingerprint"]:
-            differ = [k for k in ("scene", "vary", "samples", "seed", "outputs")
+            differ = [k for k in ("scene", "robot", "vary", "samples", "seed", "outputs")
                       if theirs.get(k) != ours[k]]
             raise _foreign(
                 file, f"it holds another sweep (its {', '.join(differ) or 'record'} differ)"
