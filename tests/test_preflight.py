@@ -199,3 +199,33 @@ def test_an_adaptive_step_underflow_names_the_stiff_effect():
     traj = od.simulate(pd, raise_on_failure=False)
     assert not traj.complete and "adaptive step underflow" in traj.message
     assert "PD stiffness on joint" in traj.message and "above 3.3" in traj.message
+
+
+@pytest.mark.parametrize(
+    "change, words",
+    [
+        ({"initial": {"base_position": [0.0, 0.0, 0.05]}}, "starts 0.05 m inside the ground"),
+        ({"points": [{"frame": "ball", "radius": 1000.0}]}, "starts 999 m inside the ground"),
+    ],
+)
+def test_a_contact_point_that_starts_inside_the_ground_is_refused(change, words):
+    """A ball 5 cm into the ground got 125 J from its spring and was shot 13 m up, exit 0; with a
+    1000 m radius the failure blamed the integrator's step. Both are refused at the start,
+    naming the point, its depth, the energy and the keys to change."""
+    scene = od.load_scene("ball_drop")
+    settings = thaw(scene.settings)
+    if "points" in change:
+        settings["effects"]["contact"]["points"] = change["points"]
+    else:
+        settings["initial"].update(change["initial"])
+    moved = od.scene_from_dict(settings, source=scene.source, base_dir=shipped_robots_dir())
+    with pytest.raises(od.SceneError) as refused:
+        od.simulate(moved)
+    message = str(refused.value)
+    assert words in message and "contact point 'ball'" in message
+    assert "initial.base_position" in message and "effects.contact.ground_height" in message
+    if "initial" in change:
+        assert "hold 125 J" in message
+    # resting in the ground as deep as its weight presses it is a start, not a mistake
+    box = od.load_scene("box_slide")
+    assert od.simulate(box.replace_run(duration=0.01)).complete

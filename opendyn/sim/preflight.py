@@ -24,9 +24,14 @@ from ..algorithm.energy import energies
 from ..errors import SceneError, SceneWarning
 from ..io.scene.sections_run import MAX_STEPS, check_fixed_steps
 from ..multibody.joints import FREE
+from . import effects
+from .record import contact_record
 
 # the record's arrays are built, then energies, contact and copies: room for the record twice
 _RECORD_COPIES = 2
+# how deep a contact point may start in the ground (m), beyond the depth the robot's weight
+# would press it to
+START_DEPTH = 1e-3
 
 
 def preflight(scene, integ):
@@ -41,9 +46,40 @@ def preflight(scene, integ):
 
 def check_start(scene):
     """The initial state's checks: its velocities within max_speed, its positions within the
-    joint limits, its energy finite (SceneError naming the key to change; SceneWarning)."""
+    joint limits, its contact points not inside the ground, its energy finite (SceneError
+    naming the key to change; SceneWarning)."""
     _check_start(scene)
+    _check_contact_start(scene)
     _check_energy(scene)
+
+
+def _check_contact_start(scene):
+    """Refuse a start with a contact point deeper in the ground than START_DEPTH or, when its
+    weight alone would press the robot deeper, than twice that depth m g / k: the spring would
+    hold energy the scene never meant to give, and throw the robot (a ball 5 cm deep in a
+    1e5 N/m ground got 125 J and flew 13 m up)."""
+    contact = scene.contact
+    if contact is None:
+        return
+    model = scene.model
+    q, qd = np.array(scene.q0)[None], np.array(scene.qd0)[None]
+    _, _, depth = contact_record(model, effects.contact.pack(contact, model), q, qd)
+    weight = model._total_mass * np.linalg.norm(scene.gravity if scene.gravity is not None else 0)
+    allowed = max(START_DEPTH, 2.0 * weight / contact.stiffness)
+    k = int(np.argmax(depth[0]))
+    d = float(depth[0, k])
+    if not d > allowed:
+        return
+    raise_by = "initial.base_position (its z)" if model.floating_base else "initial.q"
+    _fail(
+        scene,
+        "initial",
+        f"the contact point {contact.points[k].name!r} starts {d:.3g} m inside the ground "
+        f"(z = {contact.ground_height:g} m), where its spring (effects.contact.stiffness = "
+        f"{contact.stiffness:g} N/m) would hold {0.5 * contact.stiffness * d * d:.3g} J and "
+        f"throw the robot; start it above the ground (raise {raise_by}, or lower "
+        "effects.contact.ground_height), or check the point's radius",
+    )
 
 
 def run_size(scene, integ):

@@ -93,7 +93,7 @@ def energies_of(scene, table, q, qd):
         kinetic = kinetic + 0.5 * (qd[:, model.v_index] ** 2) @ scene.armature
     contact = None
     if scene.contact is not None:
-        contact = contact_record(model, table, q, qd)
+        contact = contact_record(model, table.params(effects.contact), q, qd)
         potential = potential + 0.5 * scene.contact.stiffness * (contact[2] ** 2).sum(axis=1)
     return kinetic, potential, contact
 
@@ -111,7 +111,7 @@ def trajectory_of(scene, table, out, n, complete, message, stats):
     contact = {}
     if scene.contact is not None:
         points, forces, depth = spheres if spheres is not None else contact_record(
-            model, table, q, qd
+            model, table.params(effects.contact), q, qd
         )
         contact = dict(
             contact_names=tuple(p.name for p in scene.contact.points),
@@ -171,10 +171,11 @@ def violation(model, table, q, qd):
     return position, velocity
 
 
-def contact_record(model, table, q, qd):
-    """(points (K, P, 3) m, forces (K, P, 3) N, penetrations (K, P) m) of the scene's contact
-    spheres at the samples (q (K, nq), qd (K, nv)), world frame (opendyn.algorithm.contact)."""
-    bodies, params = table.params(effects.contact)
+def contact_record(model, contacts, q, qd):
+    """(points (K, P, 3) m, forces (K, P, 3) N, penetrations (K, P) m) of the contact spheres
+    contacts = (bodies, params) (a stage table's contact parameters, effects.contact.pack) at the
+    samples (q (K, nq), qd (K, nv)), world frame (opendyn.algorithm.contact)."""
+    bodies, params = contacts
     shape = (len(q), len(bodies))
     points, forces, depth = np.empty(shape + (3,)), np.empty(shape + (3,)), np.empty(shape)
     run_rows(

@@ -209,7 +209,7 @@ def load_kernels(scene, integ, table, data, x, loop):
     if scene.constraints:
         pieces.append(lambda: violation(model, table, *state))
     if scene.contact is not None:
-        pieces.append(lambda: contact_record(model, table, *state))
+        pieces.append(lambda: contact_record(model, table.params(effects.contact), *state))
     what = f"the simulation step for {integ.name} with {', '.join(table.names) or 'no effects'}"
     with compiling(what, len(pieces), _COMPILE_ESTIMATE[integ.kind]) as done:
         for piece in pieces:
