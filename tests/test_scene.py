@@ -804,3 +804,19 @@ def test_a_robot_without_joints_refuses_what_acts_on_joints(section, words):
         od.scene_from_dict(settings)
     assert words in str(refused.value) and "would act on nothing" in str(refused.value)
     od.scene_from_dict({"robot": settings["robot"], "effects": {"gravity": True}})  # the rest runs
+
+
+@pytest.mark.parametrize(
+    "section, key",
+    [
+        ({"run": {"duration": 10**400}}, "run.duration"),
+        ({"run": {"dt": -(10**400)}}, "run.dt"),
+        ({"initial": {"q": {"shoulder_pan_joint": 10**400}}}, "initial.q.shoulder_pan_joint"),
+        ({"effects": {"damping": {"coefficients": 10**400}}}, "effects.damping.coefficients"),
+    ],
+)
+def test_an_integer_too_large_for_a_float_is_a_scene_error(section, key):
+    """A TOML integer of 400 digits was an OverflowError traceback from float()."""
+    with pytest.raises(SceneError) as refused:
+        od.scene_from_dict({"robot": {"name": "ur5"}, **section})
+    assert f"{key}: expected a finite number, found an integer of 401 digits" in str(refused.value)

@@ -64,7 +64,14 @@ class ValueReader:
     def number(self, value, key, minimum=None, positive=False) -> float:
         if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
             self.fail(key, f"expected a number, found {_found(value)}")
-        x = float(value)
+        try:
+            x = float(value)
+        except OverflowError:  # an integer of hundreds of digits
+            self.fail(
+                key,
+                f"expected a finite number, found an integer of {len(str(abs(value)))} digits, "
+                "beyond any float",
+            )
         if not math.isfinite(x):
             self.fail(key, f"expected a finite number, found {x!r}")
         if positive and not x > 0:
