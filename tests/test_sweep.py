@@ -446,3 +446,12 @@ def test_a_changed_robot_is_another_sweep_not_a_resume(client, tmp_path):
     changed = od.load_scene(folder / "scene.toml").replace_run(duration=0.1)
     with pytest.raises(SweepError, match=r"another sweep \(its robot differ"):
         od.sweep(changed, vary, client=client, parquet=table)
+
+
+def test_a_swept_integrator_that_simulate_refuses_is_a_failed_row(client):
+    """Semi-implicit Euler takes no constraints: among the swept integrators it refused the
+    whole sweep, where the README says a run simulate refuses is a failed row."""
+    scene = od.load_scene("four_bar").replace_run(duration=0.05)
+    rows = od.sweep(scene, {"run.integrator": "rk4,semi_implicit_euler"}, client=client).to_pylist()
+    assert [r["status"] for r in rows] == ["complete", "failed"]
+    assert "semi_implicit_euler" in rows[1]["message"] and "constraints" in rows[1]["message"]

@@ -4,10 +4,9 @@ Parquet row per run."""
 from __future__ import annotations
 
 import pathlib
-import sys
 import time
 
-from .interrupts import _doing
+from .interrupts import _doing, _Interrupted
 from .outputs import _check_outputs, _slug
 from .simulate import scene_for
 
@@ -56,9 +55,10 @@ def _sweep(args) -> int:
             chunk_size=args.chunk, progress=not args.quiet,
         )
     except SweepInterrupted as e:
-        print(f"opendyn sweep: interrupted; {_counts(e.table)} are saved in {output}: the same "
-              f"command resumes", file=sys.stderr)
-        return 130
+        # one line, naming Ctrl-C or SIGTERM, and the exit status 130 or 143, as every command
+        raise _Interrupted(
+            f"sweeping; {_counts(e.table)} are saved in {output}: the same command resumes"
+        ) from None
     finally:
         if client is not None:
             client.close()

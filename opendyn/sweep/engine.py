@@ -53,7 +53,7 @@ from ..io.scene.schema import Scene
 from ..io.scene.variants import Variants
 from ..sim.effects import python_control
 from ..sim.metrics import METRICS, applicable
-from ..sim.simulate import as_scene
+from ..sim.simulate import as_scene, integrator_of
 from .worker import failed_row, run_chunk
 
 # more runs than this is a mistake in a spec (a grid of 1e3 points on each of 4 keys), not a sweep
@@ -317,8 +317,9 @@ def sweep(
     cluster = _cluster(client, workers)
     try:
         if todo:
-            _compile(firsts, progress)
-            run_s = _run_seconds(firsts)
+            runnable = _runnable(firsts)
+            _compile(runnable, progress)
+            run_s = _run_seconds(runnable)
             if trajectories is not None:
                 _claim(trajectories, record)
             with cluster as dask_client:
@@ -404,6 +405,19 @@ def _outputs(outputs, metrics) -> tuple[str, ...]:
                 f"those that apply: {', '.join(metrics)}"
             )
     return names
+
+
+def _runnable(scenes):
+    """The scenes whose step simulate takes: a step it refuses (semi-implicit Euler with
+    constraints) compiles nothing, and its runs are failed rows."""
+    runnable = []
+    for scene in scenes:
+        try:
+            integrator_of(scene)
+        except SceneError:
+            continue
+        runnable.append(scene)
+    return runnable
 
 
 def _compile(scenes, progress):
