@@ -77,6 +77,10 @@ def test_a_failing_run_keeps_its_rows_and_the_others_go_on():
         od.simulate(dataclasses.replace(scene, q0=q0[2], qd0=qd0[2]))
     assert result.message[2] == str(refused.value) and result.rows[2] == 0
     assert np.isnan(result.q[2]).all() and result.steps[2] == 0
+    assert np.isnan(result.q_final[2]).all() and np.isnan(result.t_final[2])  # no last state
+    with pytest.raises(SceneError) as again:
+        result.trajectory(2)
+    assert str(again.value) == str(refused.value)
     for i in (0, 3):
         assert_same_run(result, i, dataclasses.replace(scene, q0=q0[i], qd0=qd0[i]))
 
@@ -160,6 +164,9 @@ def test_defaults_repeat_the_scenes_state():
         (dict(params=[("control.kp", [1.0])]), TypeError, "params must be a mapping"),
         (dict(params={"initial.q.shoulder": [[[1.0]]]}), ValueError, "shape (N,) or (N, k)"),
         (dict(params={"initial.q.elbw": [1.0]}), SceneError, "initial.q"),
+        (dict(params={"effects.gravity": [True]}), TypeError, "od.sweep varies words and true"),
+        (dict(params={"control.type": ["pd"]}), TypeError, "rollout varies numbers only"),
+        (dict(q0=np.zeros((0, 2))), ValueError, "no runs: q0 has no rows"),
     ],
 )
 def test_bad_arguments_are_refused_naming_them(kwargs, error, words):
@@ -216,5 +223,6 @@ def test_ctrl_c_stops_after_the_runs_under_way_and_keeps_them(monkeypatch):
     sent = calls[0]
     assert result.complete[:sent].all() and (result.status[sent:] == "interrupted").all()
     assert 0 < sent < 200 and (result.rows[sent:] == 0).all()
+    assert np.isnan(result.q_final[sent:]).all() and not np.isnan(result.q_final[:sent]).any()
     assert all(m == "interrupted (Ctrl-C) before it started" for m in result.message[sent:])
     assert_same_run(result, sent - 1, dataclasses.replace(scene, q0=q0[sent - 1], qd0=qd0[sent - 1]))

@@ -92,10 +92,18 @@ def resolve_robot(path) -> str:
         return robots[path]
     close = difflib.get_close_matches(path, robots, n=5)
     known = ", ".join(sorted(robots)[:40])
+    try:
+        importlib.metadata.distribution("example-robot-data")
+        more = ""
+    except importlib.metadata.PackageNotFoundError:
+        more = (
+            "; the UR5, Panda, Solo12, Talos and the other robots of example-robot-data need "
+            "`pip install example-robot-data` (opendyn's test extra installs it)"
+        )
     raise URDFError(
         f"{path!r} is neither a URDF file nor a known robot name"
         + (f"; closest names: {', '.join(close)}" if close else "")
-        + f"; known robots: {known}{', ...' if len(robots) > 40 else ''}"
+        + f"; known robots: {known}{', ...' if len(robots) > 40 else ''}{more}"
     )
 
 

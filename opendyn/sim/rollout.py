@@ -75,9 +75,11 @@ def rollout(scene, q0=None, qd0=None, params=None, threads=None, record="samples
     record: "samples" keeps every run's rows at the scene's output_dt, (N, K, ...) arrays;
       "final" only each run's last state, (N, 1, ...): memory does not grow with duration.
     progress: a progress bar over the runs (tqdm, on stderr) after a second.
-    N is the length of q0, qd0 and params (which must agree), 1 when none is given. A run that
-    fails keeps its rows up to the failure (status "failed", message the cause, as simulate
-    states it) and the others go on. Ctrl-C stops after the runs under way and raises
+    N is the length of q0, qd0 and params (which must agree), 1 when none is given. Values that
+    are not finite numbers are refused before anything runs (ValueError or TypeError naming the
+    argument and the run); a value the scene refuses (a negative mass) or a start simulate
+    refuses fails its run only. A run that fails keeps its rows up to the failure (status
+    "failed", message the cause, as simulate states it) and the others go on. Ctrl-C stops after the runs under way and raises
     RolloutInterrupted carrying the result so far.
     """
     scene = as_scene(scene, "rollout")
@@ -163,7 +165,10 @@ def run_batch(runs, threads, keep, progress=False):
     nsteps, every, rows = run_size(scene, integ)
     n, K = runs.n, rows if keep == "samples" else 1
     _check_memory(scene, n, K)
-    x = integrators.State(np.zeros((n, model.nq)), np.zeros((n, model.nv)), np.zeros((n, 2)))
+    # NaN until a run starts: a run refused or never started has no last state
+    x = integrators.State(
+        np.full((n, model.nq), np.nan), np.full((n, model.nv), np.nan), np.full((n, 2), np.nan)
+    )
     out = integrators.Record(
         np.full((n, K), np.nan), np.full((n, K, model.nq), np.nan),
         np.full((n, K, model.nv), np.nan), np.full((n, K, model.nv), np.nan),
@@ -227,8 +232,10 @@ def run_batch(runs, threads, keep, progress=False):
     )
     if stop.requested:
         reason = f"interrupted ({signal_name(stop.signum)}) before it started"
-        for i in np.flatnonzero(notes[0] == INTERRUPTED):
+        never = np.flatnonzero(notes[0] == INTERRUPTED)
+        for i in never:
             notes[1][i] = reason
+        x.q[never], x.qd[never], x.w[never] = np.nan, np.nan, np.nan  # read, but not run
         raise RolloutInterrupted(result)
     return result
 
@@ -319,7 +326,7 @@ def _prepare(runs, block, which, x, notes, kind):
             notes[0][i], notes[1][i] = FAILED, str(e)
             continue
         which[i] = len(data) - 1
-        x.q[i], x.qd[i] = scene.q0, scene.qd0
+        x.q[i], x.qd[i], x.w[i] = scene.q0, scene.qd0, 0.0
         scenes[i] = (scene, table)
     return _Block(block, data, which, scenes)
 
@@ -445,6 +452,11 @@ def _params(params):
                 f"rollout: params[{key!r}]: the run settings are one for the whole batch (the "
                 "steps and records of its runs); od.sweep varies them"
             )
+        if np.asarray(values).dtype.kind in "bUSO":
+            raise TypeError(
+                f"rollout: params[{key!r}]: rollout varies numbers only (the keys that leave "
+                "what is compiled as it is); od.sweep varies words and true/false"
+            )
         a = as_float_array(values, f"rollout: params[{key!r}]")
         if a.ndim not in (1, 2) or not len(a):
             raise ValueError(
@@ -467,7 +479,10 @@ def _count(q0, qd0, params):
     if len(set(lengths.values())) > 1:
         told = ", ".join(f"{name} has {k}" for name, k in lengths.items())
         raise ValueError(f"rollout: the runs' arguments disagree on N: {told}")
-    return next(iter(lengths.values()), 1)
+    n = next(iter(lengths.values()), 1)
+    if n < 1:
+        raise ValueError(f"rollout: no runs: {next(iter(lengths))} has no rows")
+    return n
 
 
 def _states(model, states, name, width):

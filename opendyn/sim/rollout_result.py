@@ -7,6 +7,7 @@ import functools
 
 import numpy as np
 
+from ..errors import SceneError
 from ..multibody.joints import FREE
 from .integrators import Record
 from .record import energies_of, quaternion_norm_error, trajectory_of
@@ -25,7 +26,8 @@ class RolloutResult:
       grow with the duration.
     Every run, either way:
       rows (N,) int64 the rows filled; t_final (N,), q_final (N, nq), qd_final (N, nv),
-      tau_final (N, nv): the last state (the final one; after a failure, the last good one);
+      tau_final (N, nv): the last state (the final one; after a failure, the last good one;
+      NaN for a run refused or never started);
       status (N,) "complete", "failed" (a failure, or a run that simulate would refuse: its
       initial state, its contact step) or "interrupted" (never started: Ctrl-C); complete
       (N,) bool; message [N] the cause ("" when complete); warnings [N] the scene's warnings;
@@ -95,13 +97,16 @@ class RolloutResult:
 
     def trajectory(self, i):
         """Run i as a Trajectory: what simulate(scene_for(i)) returns (with
-        raise_on_failure=False), its samples bit for bit. Needs record="samples"."""
+        raise_on_failure=False), its samples bit for bit; for a run refused before it started,
+        the SceneError simulate raises (its message). Needs record="samples"."""
         i = self._index(i)
         if self.record != "samples":
             raise ValueError(
                 "trajectory: this rollout kept only the final states (record='final'); roll "
                 "out with record='samples' for each run's samples"
             )
+        if not self.rows[i]:  # refused before it started, as simulate refuses it
+            raise SceneError(self.message[i])
         scene, table = self._runs.scene_and_table(i)
         stats = {
             "integrator": self.integrator,

@@ -101,7 +101,10 @@ class ValueReader:
                     self.fail(
                         f"{key}.{joint}",
                         f"{joint!r} is not a joint of {self.model.name!r}"
-                        f"{_suggest(str(joint), names)}; joints: {', '.join(names)}",
+                        + (
+                            f"{_suggest(str(joint), names)}; joints: {', '.join(names)}"
+                            if names else ", which has no joints"
+                        ),
                     )
                 out[names.index(joint)] = self.number(v, f"{key}.{joint}", minimum)
             return immutable(out)
