@@ -68,9 +68,9 @@ def rollout(scene, q0=None, qd0=None, params=None, threads=None, record="samples
     params: {dotted scene key: values (N,) or (N, k)}: run i sets the key to values[i] (a
       number, or a list of k) as a scene file would, e.g. "control.kp", "effects.damping.
       coefficients", "effects.contact.stiffness", "robot.payload.mass",
-      "robot.payload.com", "initial.q.shoulder_lift_joint". Keys that change what is compiled
-      or how long a run is (run.*, an effect switched on in some runs only) are refused:
-      od.sweep runs such variations.
+      "robot.payload.com", "initial.q.shoulder_lift_joint". run.* keys and words or true/false
+      are refused (od.sweep varies them); a run whose step would compile differently from
+      run 0's fails, saying so.
     threads: threads to run on (default: one per core).
     record: "samples" keeps every run's rows at the scene's output_dt, (N, K, ...) arrays;
       "final" only each run's last state, (N, 1, ...): memory does not grow with duration.
