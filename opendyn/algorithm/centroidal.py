@@ -104,13 +104,8 @@ def centroidal_map_kernel(ibuf, fbuf, work, q, linear_only, A_G):
     if status:
         return status
     body_tree = tree(ibuf, fbuf)
-    parent, nv_j, iv, mult, S = (
-        body_tree.parent,
-        body_tree.nv_j,
-        body_tree.iv,
-        body_tree.mult,
-        body_tree.S,
-    )
+    parent, nv_j, iv = body_tree.parent, body_tree.nv_j, body_tree.iv
+    mult, S = body_tree.mult, body_tree.S
     nb, nv = body_count(ibuf), dof_count(ibuf)
     forward_kinematics(body_tree, work, q, -1)
     R_s, p_s = world_poses(work, nb)

@@ -94,13 +94,8 @@ def regressor_kernel(ibuf, fbuf, work, q, qd, qdd, dV_0, Y):
     if status:
         return status
     body_tree = tree(ibuf, fbuf)
-    parent, nv_j, iv, mult, S = (
-        body_tree.parent,
-        body_tree.nv_j,
-        body_tree.iv,
-        body_tree.mult,
-        body_tree.S,
-    )
+    parent, nv_j, iv = body_tree.parent, body_tree.nv_j, body_tree.iv
+    mult, S = body_tree.mult, body_tree.S
     nb, nv = body_count(ibuf), dof_count(ibuf)
     R, p = joint_poses(work, nb)
     V, dV, _ = body_motion(work, nb)

@@ -99,11 +99,18 @@ def run_size(scene, integ):
     return nsteps, every, nsteps // every + 1 + (nsteps % every != 0)
 
 
-def _check_memory(scene, rows):
-    """Refuse a record that would not fit in the memory available now."""
+def sample_numbers(scene) -> int:
+    """The float64 numbers of one recorded sample of `scene` and its post-processing: t, q, qd,
+    tau, the work (2), the energies (2), each contact point's position, force and depth (7) and
+    the constraint violation (2)."""
     model = scene.model
     points = len(scene.contact.points) if scene.contact is not None else 0
-    per_sample = 3 + model.nq + 2 * model.nv + 2 + 7 * points + 2 * bool(scene.constraints)
+    return 3 + model.nq + 2 * model.nv + 2 + 7 * points + 2 * bool(scene.constraints)
+
+
+def _check_memory(scene, rows):
+    """Refuse a record that would not fit in the memory available now."""
+    per_sample = sample_numbers(scene)
     need = 8.0 * rows * per_sample * _RECORD_COPIES
     have = available_memory()
     if have is not None and need > have:
@@ -111,7 +118,7 @@ def _check_memory(scene, rows):
             scene,
             "run.output_dt",
             f"the record would hold {rows:.4g} samples of {per_sample} numbers, about "
-            f"{_bytes(need)} with its post-processing, more than the {_bytes(have)} of memory "
+            f"{byte_size(need)} with its post-processing, more than the {byte_size(have)} of memory "
             f"available; raise run.output_dt (now {scene.run.output_dt:g} s) or shorten "
             f"run.duration (now {scene.run.duration:g} s)",
         )
@@ -208,7 +215,7 @@ def _beyond(q, lower, upper):
     return lower - q if q < lower else q - upper
 
 
-def _bytes(n):
+def byte_size(n):
     """n bytes in the largest decimal unit up to PB that keeps the number at least 1."""
     units = ("B", "kB", "MB", "GB", "TB", "PB")
     k = min(len(units) - 1, max(0, int(np.log10(max(n, 1.0)) // 3)))

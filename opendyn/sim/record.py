@@ -84,16 +84,17 @@ def energies_of(scene, table, q, qd):
     """(kinetic (K,), potential (K,), contact) at the samples q (K, nq), qd (K, nv) of a run of
     `scene` (its stage table `table`): T = 1/2 qd^T (M + diag(armature)) qd and U = the gravity
     potential plus the contact springs' sum_p 1/2 k delta_p^2 (J); contact: the contact record
-    (points, forces, penetrations; _contact_record) or None without contact."""
+    (points, forces, penetrations; contact_record) or None without contact."""
     model = scene.model
-    if not len(q):
-        return np.zeros(0), np.zeros(0), None
-    kinetic, potential = energies(model, q, qd, gravity_of(scene))
-    if scene.armature is not None:
-        kinetic = kinetic + 0.5 * (qd[:, model.v_index] ** 2) @ scene.armature
     contact = None
     if scene.contact is not None:
         contact = contact_record(model, table.params(effects.contact), q, qd)
+    if not len(q):
+        return np.zeros(0), np.zeros(0), contact
+    kinetic, potential = energies(model, q, qd, gravity_of(scene))
+    if scene.armature is not None:
+        kinetic = kinetic + 0.5 * (qd[:, model.v_index] ** 2) @ scene.armature
+    if contact is not None:
         potential = potential + 0.5 * scene.contact.stiffness * (contact[2] ** 2).sum(axis=1)
     return kinetic, potential, contact
 
@@ -110,9 +111,7 @@ def trajectory_of(scene, table, out, n, complete, message, stats):
     off = violation(model, table, q, qd) if scene.constraints else (np.zeros(0),) * 2
     contact = {}
     if scene.contact is not None:
-        points, forces, depth = spheres if spheres is not None else contact_record(
-            model, table.params(effects.contact), q, qd
-        )
+        points, forces, depth = spheres
         contact = dict(
             contact_names=tuple(p.name for p in scene.contact.points),
             contact_point=points,

@@ -37,6 +37,7 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 from numba import typed
 
+from .._runtime.arrays import immutable
 from .._runtime.compile_notice import compile_seconds, compiling
 from .._runtime.signals import signal_name
 from ..algorithm.checks import as_float_array
@@ -46,7 +47,7 @@ from ..io.scene.variants import Variants
 from . import effects, integrators
 from .diagnostics import check_contact_step, failure_message
 from .effects import python_control
-from .preflight import _bytes, available_memory, check_start, run_size
+from .preflight import available_memory, byte_size, check_start, run_size, sample_numbers
 from .rollout_loops import Batch, Outcome, RunData, rollout_adaptive, rollout_fixed
 from .rollout_result import COMPLETE, FAILED, INTERRUPTED, RolloutResult
 from .simulate import Interrupt, as_scene, error_size_index, free_joints, integrator_of
@@ -121,9 +122,9 @@ class Runs:
             run_scene = variants.scene_for(values(i)) if params else scene
             changes = {}
             if q0 is not None:
-                changes["q0"] = _frozen(q0[i])
+                changes["q0"] = immutable(q0[i])
             if qd0 is not None:
-                changes["qd0"] = _frozen(qd0[i])
+                changes["qd0"] = immutable(qd0[i])
             return dataclasses.replace(run_scene, **changes) if changes else run_scene
 
         def scene_and_table(i):
@@ -407,13 +408,13 @@ def _stats(integ, n, threads, wall, prepare_s, compile_s, load_s):
 def _check_memory(scene, n, rows):
     """Refuse a batch whose arrays would not fit in the memory available now."""
     model = scene.model
-    per_row = 3 + model.nq + 2 * model.nv + 2 + 2  # t, q, qd, tau, w, the two energies
+    per_row = sample_numbers(scene)
     need = 8.0 * n * (rows * per_row + 2 * model.nq + 3 * model.nv + 8)
     have = available_memory()
     if have is not None and need > have:
         raise ValueError(
-            f"rollout: {n} runs of {rows} rows of {per_row} numbers need about {_bytes(need)}, "
-            f"more than the {_bytes(have)} of memory available; record='final' keeps only "
+            f"rollout: {n} runs of {rows} rows of {per_row} numbers need about {byte_size(need)}, "
+            f"more than the {byte_size(have)} of memory available; record='final' keeps only "
             "each run's last state, or raise run.output_dt, or roll out fewer runs at a time"
         )
 
@@ -503,9 +504,3 @@ def _states(model, states, name, width):
 def _plain(v):
     """A run's value as a scene file holds it: a float, or a list of floats."""
     return float(v) if np.ndim(v) == 0 else [float(x) for x in v]
-
-
-def _frozen(x):
-    a = np.array(x, dtype=np.float64)
-    a.flags.writeable = False
-    return a
