@@ -28,6 +28,9 @@ class Status(IntEnum):
     Q_NOT_UNIT_QUATERNION = 9  # a free joint's quaternion in q is not of unit norm
     RESULT_NOT_FINITE = 10  # finite arguments, a result with inf or NaN: float64 overflowed
     SINGULAR_TASK_SPACE = 11  # J_b M^-1 J_b^T of a frame is singular: it has no task-space inertia
+    # a vector argument's length is not the model's nq or nv, or (in Python) an argument is not
+    # of a type the kernel was compiled for: the public function converts and checks it
+    CONVERT = 12
     SINGULAR = 100  # + k: nothing with mass or inertia moves with coordinate k
 
 

@@ -24,7 +24,7 @@ from collections import namedtuple
 
 from numba import njit
 
-from .._runtime.arrays import all_finite, copy_into, fill
+from .._runtime.arrays import copy_into, fill
 from .._runtime.kernel_cache import JIT
 from .._runtime.status import Status
 from ..multibody.data import (
@@ -41,6 +41,7 @@ from ..multibody.joints import (
     joint_transform,
     prepare_joint_transforms,
     state_status,
+    vector_status,
 )
 from ..multibody.layout import body_count, dof_count, rigid_inertias, spatial_inertias, tree
 from ..spatial.compiled import (
@@ -130,8 +131,9 @@ def aba_kernel(ibuf, fbuf, work, q, qd, tau, loads, qdd, armature):
     status = state_status(ibuf, q, qd)
     if status:
         return status
-    if not all_finite(tau):
-        return Status.TAU_NOT_FINITE.value
+    status = vector_status(ibuf, tau, Status.TAU_NOT_FINITE.value)
+    if status:
+        return status
     body_tree = tree(ibuf, fbuf)
     parent, jtype, nv_j = body_tree.parent, body_tree.jtype, body_tree.nv_j
     iq, iv, mult = body_tree.iq, body_tree.iv, body_tree.mult

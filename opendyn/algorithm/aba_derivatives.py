@@ -15,7 +15,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .._runtime.arrays import all_finite, result_status
+from .._runtime.arrays import result_status
+from .._runtime.exact import exact
 from .._runtime.kernel_cache import BATCH, JIT
 from .._runtime.status import Status
 from ..multibody.data import (
@@ -25,7 +26,7 @@ from ..multibody.data import (
     mass_matrix_field,
     new_work,
 )
-from ..multibody.joints import state_status
+from ..multibody.joints import state_status, vector_status
 from ..multibody.layout import body_count, dof_count
 from . import checks
 from .christoffel import space_axes_and_inertias, velocity_terms
@@ -76,8 +77,9 @@ def aba_derivatives_kernel(
     status = state_status(ibuf, q, qd)
     if status:
         return status
-    if not all_finite(tau):
-        return Status.TAU_NOT_FINITE.value
+    status = vector_status(ibuf, tau, Status.TAU_NOT_FINITE.value)
+    if status:
+        return status
     nb, nv = body_count(ibuf), dof_count(ibuf)
     M = mass_matrix_field(work, nb, nv)
     space_axes_and_inertias(ibuf, fbuf, work, q)
@@ -135,6 +137,9 @@ def coupled_switch(model):
     return True if model.coupled else None
 
 
+aba_derivatives_exact = exact(aba_derivatives_kernel)
+
+
 def forward_dynamics_derivatives(model, q, qd, tau, f_tip=None, gravity=None, data=None):
     """The partial derivatives of qdd = forward_dynamics(model, q, qd, tau, f_tip, gravity),
     analytical: -M^-1 (dtau/dq, dtau/dqd) of the RNEA derivatives at qdd, and M^-1 by the
@@ -156,7 +161,7 @@ def forward_dynamics_derivatives(model, q, qd, tau, f_tip=None, gravity=None, da
     """
     checks.check_model(model, "forward_dynamics_derivatives")
     extra = (NO_ARMATURE, coupled_switch(model))
-    kernels = (aba_derivatives_kernel, aba_derivatives_batch_kernel, extra)
+    kernels = (aba_derivatives_kernel, aba_derivatives_exact, aba_derivatives_batch_kernel, extra)
     return derivatives_at(
         model,
         ("q", "qd", "tau"),

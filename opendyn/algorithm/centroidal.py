@@ -26,6 +26,7 @@ import numpy as np
 from numba import njit
 
 from .._runtime.arrays import fill, result_status, zero_matrix
+from .._runtime.exact import exact, learn
 from .._runtime.kernel_cache import BATCH, INLINE, JIT
 from ..multibody.data import (
     body_motion,
@@ -228,31 +229,26 @@ def _evaluate(model, what, result, kernels, shape, q, *named, options=()):
     (kernel, batch_kernel), shape the result's shape for one state, named the (name, value)
     velocity-like arguments after q (at most two), options the kernel's arguments after them.
     Returns the result, (*shape) or (N, *shape). ValueError when nothing that moves has mass:
-    there is no centre of mass. The caller has checked the model."""
+    there is no centre of mass. The checked path, after the public function's exact call (or
+    instead of it); the caller has checked the model."""
     if not model._total_mass > 0.0:
         raise ValueError(
             f"{what}: model {model.name!r} has no moving mass (its bodies' masses sum to "
             f"{model._total_mass:g} kg), so it has no centre of mass"
         )
     kernel, batch_kernel = kernels
-    values = [value for _, value in named]
-    if checks.is_single(model, q, *values):
-        out = np.empty(shape)
-        status = kernel(model._ibuf, model._fbuf, model._work, q, *values, *options, out)
-        if status:
-            arguments = dict(zip(["q"] + [name for name, _ in named], [q, *values]))
-            checks.raise_status(status, model, what, result, arguments)
-        return out
     if named:
         arrays, batch = checks.as_states(model, q, *named)
     else:
         arrays = [checks.as_q(model, q)]
         batch = arrays[0].ndim == 2
-    names = ["q"] + [name for name, _ in named]
+    arguments = dict(zip(["q"] + [name for name, _ in named], arrays))
     if not batch:
-        single = zip(names[1:], arrays[1:])
-        return _evaluate(model, what, result, kernels, shape, arrays[0], *single, options=options)
-    arguments = dict(zip(names, arrays))
+        out = np.empty(shape)
+        status = kernel(model._ibuf, model._fbuf, model._work, *arrays, *options, out)
+        if status:
+            checks.raise_status(status, model, what, result, arguments)
+        return out
     out = np.empty((arrays[0].shape[0], *shape))
     inputs = (*arrays, *options)
     return checks.run_batch(model, batch_kernel, inputs, out, what, result, arguments)
@@ -261,20 +257,24 @@ def _evaluate(model, what, result, kernels, shape, q, *named, options=()):
 _COM = (center_of_mass_kernel, center_of_mass_batch_kernel)
 _MAP = (centroidal_map_kernel, centroidal_map_batch_kernel)
 _MOMENTUM = (centroidal_momentum_kernel, centroidal_momentum_batch_kernel)
+center_of_mass_exact = exact(center_of_mass_kernel)
+centroidal_map_exact = exact(centroidal_map_kernel)
+centroidal_momentum_exact = exact(centroidal_momentum_kernel)
 
 
 def _momentum(model, q, qd, rate):
-    """(h_G, dh_G/dt at qdd = 0 or, unless rate, 0) (2, 6) of a single state that needs no
-    conversion and whose kernel succeeds, else None (then _evaluate converts, raises or runs
-    the batch)."""
-    if model._total_mass > 0.0 and checks.is_single(model, q, qd):
-        out = np.empty((2, 6))
-        status = centroidal_momentum_kernel(
-            model._ibuf, model._fbuf, model._work, q, qd, model._zero_v, rate, out
-        )
-        if not status:
-            return out
-    return None
+    """(h_G, dh_G/dt at qdd = 0 or, unless rate, 0) (2, 6) of a single float64 state whose
+    kernel succeeds (the exact call), else None (then _evaluate converts, raises or runs the
+    batch)."""
+    if not model._total_mass > 0.0:
+        return None
+    out = np.empty((2, 6))
+    ibuf, fbuf, work, zero = model._ibuf, model._fbuf, model._work, model._zero_v
+    try:
+        status = centroidal_momentum_exact(ibuf, fbuf, work, q, qd, zero, rate, out)
+    except TypeError:
+        status = learn(centroidal_momentum_exact, centroidal_momentum_kernel)
+    return None if status else out
 
 
 def center_of_mass(model, q):
@@ -285,9 +285,13 @@ def center_of_mass(model, q):
     function. ValueError when M is zero.
     """
     checks.check_model(model, "center_of_mass")
-    if model._total_mass > 0.0 and checks.is_single(model, q):
+    if model._total_mass > 0.0:
         c = np.empty(3)
-        if not center_of_mass_kernel(model._ibuf, model._fbuf, model._work, q, c):
+        try:
+            status = center_of_mass_exact(model._ibuf, model._fbuf, model._work, q, c)
+        except TypeError:
+            status = learn(center_of_mass_exact, center_of_mass_kernel)
+        if not status:
             return c
     return _evaluate(model, "center_of_mass", "c", _COM, (3,), q)
 
@@ -323,13 +327,18 @@ def centroidal_momentum_matrix(model, q):
 
 def _centroidal_map(model, q, linear_only, what, result):
     """A_G (6, nv), or J_c (3, nv) when linear_only, of a single configuration or a batch: a
-    single float64 q goes straight to the kernel, anything else through _evaluate (which
-    converts, raises or runs the batch)."""
+    single float64 q goes straight to the kernel's exact twin, anything else through _evaluate
+    (which converts, raises or runs the batch)."""
     checks.check_model(model, what)
     shape = (3 if linear_only else 6, model.nv)
-    if model._total_mass > 0.0 and checks.is_single(model, q):
+    if model._total_mass > 0.0:
         out = np.empty(shape)
-        if not centroidal_map_kernel(model._ibuf, model._fbuf, model._work, q, linear_only, out):
+        ibuf, fbuf, work = model._ibuf, model._fbuf, model._work
+        try:
+            status = centroidal_map_exact(ibuf, fbuf, work, q, linear_only, out)
+        except TypeError:
+            status = learn(centroidal_map_exact, centroidal_map_kernel)
+        if not status:
             return out
     return _evaluate(model, what, result, _MAP, shape, q, options=(linear_only,))
 

@@ -122,18 +122,6 @@ def as_real(x, name):
     return float(a)
 
 
-def is_single(model, q, v=None, a=None):
-    """True when q is a float64 (nq,) array and v, a (when given) float64 (nv,) arrays: the
-    fast path, no conversion. Written out rather than looped: it runs on every call."""
-    ndarray = np.ndarray
-    if type(q) is not ndarray or q.shape != model._q_shape or q.dtype is not F64:
-        return False
-    shape = model._vector_shape
-    if v is not None and (type(v) is not ndarray or v.shape != shape or v.dtype is not F64):
-        return False
-    return a is None or (type(a) is ndarray and a.shape == shape and a.dtype is F64)
-
-
 def as_state(model, x, name, n=None):
     """x as a writeable C-contiguous float64 array of shape (n,) or (N, n); n = nv unless
     given (model.nq for a configuration: see as_q)."""

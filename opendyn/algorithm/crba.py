@@ -16,7 +16,9 @@ import numpy as np
 from numba import njit
 
 from .._runtime.arrays import result_status, zero_matrix
+from .._runtime.exact import exact, learn
 from .._runtime.kernel_cache import BATCH, JIT
+from .._runtime.status import Status
 from ..multibody.data import (
     composite_inertias,
     joint_poses,
@@ -114,6 +116,9 @@ def crba_batch_kernel(ibuf, fbuf, q, M, status, start, stop):
         status[n] = crba_kernel(ibuf, fbuf, work, q[n], M[n])
 
 
+crba_exact = exact(crba_kernel)
+
+
 def mass_matrix(model, q, data=None):
     """M(q): the (nv, nv) joint-space mass matrix, symmetric positive definite, by CRBA.
 
@@ -125,18 +130,23 @@ def mass_matrix(model, q, data=None):
     base's block is the spatial inertia of the whole robot in the base frame.
     """
     checks.check_model(model, "mass_matrix")
-    if checks.is_single(model, q):
-        if data is None:
-            work, M = model._work, np.empty(model._matrix_shape)
-        else:
-            work, M = checks.work_of(model, data, "mass_matrix"), data.M
+    # the common call: a float64 (nq,) vector goes straight to the kernel
+    work = checks.work_of(model, data, "mass_matrix")
+    M = np.empty(model._matrix_shape) if data is None else data.M
+    try:
+        status = crba_exact(model._ibuf, model._fbuf, work, q, M)
+    except TypeError:
+        status = learn(crba_exact, crba_kernel)
+    if not status:
+        return M
+    if status != Status.CONVERT:
+        checks.raise_status(status, model, "mass_matrix", "M", {"q": q})
+    q = checks.as_q(model, q)
+    if q.ndim == 1:
         status = crba_kernel(model._ibuf, model._fbuf, work, q, M)
         if status:
             checks.raise_status(status, model, "mass_matrix", "M", {"q": q})
         return M
-    q = checks.as_q(model, q)
-    if q.ndim == 1:
-        return mass_matrix(model, q, data)
     checks.single_state_only(data, "mass_matrix")
     M = np.empty((q.shape[0], model.nv, model.nv))
     return checks.run_batch(model, crba_batch_kernel, (q,), M, "mass_matrix", "M", {"q": q})

@@ -19,6 +19,7 @@ import numpy as np
 from numba import njit
 
 from .._runtime.arrays import fill
+from .._runtime.exact import exact, learn
 from .._runtime.kernel_cache import BATCH, INLINE, JIT
 from .._runtime.status import Status
 from ..multibody.data import body_motion, joint_poses, new_work, temp_vectors, world_poses
@@ -140,6 +141,9 @@ def energy_batch_kernel(ibuf, fbuf, q, qd, gravity, out, status, start, stop):
         status[n] = energy_kernel(ibuf, fbuf, work, q[n], qd[n], gravity, out[n])
 
 
+energy_exact = exact(energy_kernel)
+
+
 def energies(model, q, qd, gravity=None, what="energies", data=None):
     """(K, U): kinetic energy 1/2 qd^T M qd and potential energy -sum_i m_i g . c_i (J), each a
     float, or (N,) arrays for batches (N, nq), (N, nv), by one compiled kernel. gravity:
@@ -148,11 +152,17 @@ def energies(model, q, qd, gravity=None, what="energies", data=None):
     An energy that overflows float64 is returned as it is (inf): a simulation records the
     energies of its states with this; kinetic_energy and potential_energy refuse it."""
     work = checks.work_of(model, data, what)
-    if data is not None and gravity is None and checks.is_single(model, q, qd):
-        status = energy_kernel(model._ibuf, model._fbuf, work, q, qd, model._gravity, data.energy)
-        if status:
+    if data is not None and gravity is None:
+        # float64 vectors of the model's sizes go to the kernel's exact twin
+        ibuf, fbuf, g, out = model._ibuf, model._fbuf, model._gravity, data.energy
+        try:
+            status = energy_exact(ibuf, fbuf, work, q, qd, g, out)
+        except TypeError:
+            status = learn(energy_exact, energy_kernel)
+        if not status:
+            return float(out[0]), float(out[1])
+        if status != Status.CONVERT:
             checks.raise_status(status, model, what)
-        return float(data.energy[0]), float(data.energy[1])
     (q, qd), batch = checks.as_states(model, q, ("qd", qd))
     g = checks.as_gravity(model, gravity)
     if not batch:
@@ -184,7 +194,7 @@ def potential_energy(model, q, gravity=None, data=None):
     allocates no array (data.energy holds (0, U), data.R_s, data.p_s the body poses).
     """
     checks.check_model(model, "potential_energy")
-    if data is not None and checks.is_single(model, q):
+    if data is not None:  # a single state (energies converts q, or refuses a batch)
         zero = data.zero_v
     else:
         q = checks.as_q(model, q)

@@ -12,10 +12,12 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .._runtime.arrays import all_finite, result_status
+from .._runtime.arrays import result_status
+from .._runtime.exact import exact, learn
 from .._runtime.kernel_cache import BATCH, JIT
 from .._runtime.status import Status
 from ..multibody.data import joint_vectors, mass_matrix_field, new_work, no_loads
+from ..multibody.joints import vector_status
 from ..multibody.layout import body_count, dof_count
 from . import checks
 from .aba import aba_kernel
@@ -58,8 +60,9 @@ def mass_matrix_solve(ibuf, fbuf, work, state, loads, qdd, armature, crba, newto
     status = rnea_kernel(ibuf, fbuf, work, q, qd, zero, loads, b)
     if status:
         return status
-    if not all_finite(tau):
-        return Status.TAU_NOT_FINITE.value
+    status = vector_status(ibuf, tau, Status.TAU_NOT_FINITE.value)
+    if status:
+        return status
     if crba is not None:
         crba_kernel(ibuf, fbuf, work, q, M)
     if newton_euler is not None:
@@ -123,6 +126,9 @@ def forward_batch_kernel(ibuf, fbuf, states, loads, armature, method, qdd, statu
         )
 
 
+forward_exact = exact(forward_kernel)
+# what forward_dynamics' error messages may name, in the order it keeps them
+_ARGUMENTS = ("q", "qd", "tau", "gravity", "f_tip")
 _SWITCHES = {m: tuple(True if m == k else None for k in METHODS) for m in (*METHODS, None)}
 
 
@@ -161,37 +167,41 @@ def forward_dynamics(model, q, qd, tau, f_tip=None, gravity=None, method="aba", 
     """
     checks.check_model(model, "forward_dynamics")
     switches = method_switches(model, method)
-    if checks.is_single(model, q, qd, tau):
-        if data is None:
-            work, qdd = model._work, np.empty(model._vector_shape)
-        else:
-            work, qdd = checks.work_of(model, data, "forward_dynamics"), data.qdd
+    # the common call: float64 vectors of the model's sizes go straight to the kernel
+    work = checks.work_of(model, data, "forward_dynamics")
+    qdd = np.empty(model._vector_shape) if data is None else data.qdd
+    arguments = (q, qd, tau, gravity, f_tip)
+    if gravity is None and f_tip is None:
+        ibuf, fbuf, loads = model._ibuf, model._fbuf, model._loads
+        try:
+            status = forward_exact(ibuf, fbuf, work, q, qd, tau, loads, qdd, NO_ARMATURE, switches)
+        except TypeError:
+            status = learn(forward_exact, forward_kernel)
+        if not status:
+            return qdd
+        if status != Status.CONVERT:
+            _raise_status(status, model, arguments)
+    (q, qd, tau), batch = checks.as_states(model, q, ("qd", qd), ("tau", tau))
+    arguments = (q, qd, tau, gravity, f_tip)
+    if not batch:
+        loads = checks.loads(model, gravity, f_tip)
         status = forward_kernel(
-            model._ibuf,
-            model._fbuf,
-            work,
-            q,
-            qd,
-            tau,
-            model._loads
-            if gravity is None and f_tip is None
-            else checks.loads(model, gravity, f_tip),
-            qdd,
-            NO_ARMATURE,
-            switches,
+            model._ibuf, model._fbuf, work, q, qd, tau, loads, qdd, NO_ARMATURE, switches
         )
         if status:
-            arguments = {"q": q, "qd": qd, "tau": tau, "gravity": gravity, "f_tip": f_tip}
-            checks.raise_status(status, model, "forward_dynamics", "qdd", arguments)
+            _raise_status(status, model, arguments)
         return qdd
-    (q, qd, tau), batch = checks.as_states(model, q, ("qd", qd), ("tau", tau))
-    if not batch:
-        return forward_dynamics(model, q, qd, tau, f_tip, gravity, method, data)
     checks.single_state_only(data, "forward_dynamics")
     n = q.shape[0]
     inputs = ((q, qd, tau), checks.loads(model, gravity, f_tip, n), NO_ARMATURE, switches)
-    arguments = {"q": q, "qd": qd, "tau": tau, "gravity": gravity, "f_tip": f_tip}
+    arguments = dict(zip(_ARGUMENTS, arguments))
     qdd = np.empty((n, model.nv))
     return checks.run_batch(
         model, forward_batch_kernel, inputs, qdd, "forward_dynamics", "qdd", arguments
     )
+
+
+def _raise_status(status, model, arguments):
+    """raise_status for forward_dynamics, with arguments = (q, qd, tau, gravity, f_tip)."""
+    arguments = dict(zip(_ARGUMENTS, arguments))
+    checks.raise_status(status, model, "forward_dynamics", "qdd", arguments)

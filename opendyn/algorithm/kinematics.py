@@ -17,7 +17,9 @@ import numpy as np
 from numba import njit
 
 from .._runtime.arrays import copy_into, fill, result_status, zero_matrix
+from .._runtime.exact import exact, learn
 from .._runtime.kernel_cache import BATCH, INLINE, JIT
+from .._runtime.status import Status
 from ..multibody.data import (
     body_flags,
     frame_pose_field,
@@ -202,9 +204,17 @@ def frame_pose_batch_kernel(ibuf, fbuf, q, body, T_bf, T_sf, status, start, stop
         status[n] = frame_pose_kernel(ibuf, fbuf, work, q[n], body, T_bf, T_sf[n])
 
 
+frame_pose_exact = exact(frame_pose_kernel)
+jacobian_exact = exact(jacobian_kernel)
+
+
 def _frame(model, frame):
-    fr = model.frames[model.frame_index(frame)]
-    return fr.body, fr.T_body_frame
+    """(body, T_bf) of a frame, the pair the kernels take; KeyError naming an unknown frame."""
+    try:
+        return model._frame_targets[frame]
+    except (KeyError, TypeError):
+        model.frame_index(frame)  # raises the KeyError that names it and the valid frames
+        raise
 
 
 def frame_pose(model, q, frame, data=None):
@@ -217,15 +227,19 @@ def frame_pose(model, q, frame, data=None):
     Raises KeyError naming the frame if it is not a frame of the model.
     """
     checks.check_model(model, "frame_pose")
-    if not checks.is_single(model, q):
-        q = checks.as_q(model, q)
     body, T_bf = _frame(model, frame)
+    # the common call: a float64 (nq,) vector goes straight to the kernel
+    work = checks.work_of(model, data, "frame_pose")
+    T = np.empty((4, 4)) if data is None else data.T_sf
+    try:
+        status = frame_pose_exact(model._ibuf, model._fbuf, work, q, body, T_bf, T)
+    except TypeError:
+        status = learn(frame_pose_exact, frame_pose_kernel)
+    if status == Status.CONVERT:
+        q = checks.as_q(model, q)
+        if q.ndim == 1:
+            status = frame_pose_kernel(model._ibuf, model._fbuf, work, q, body, T_bf, T)
     if q.ndim == 1:
-        if data is None:
-            work, T = model._work, np.empty((4, 4))
-        else:
-            work, T = checks.work_of(model, data, "frame_pose"), data.T_sf
-        status = frame_pose_kernel(model._ibuf, model._fbuf, work, q, body, T_bf, T)
         if status:
             checks.raise_status(status, model, "frame_pose", "T_sf", {"q": q})
         return T
@@ -247,16 +261,20 @@ def jacobian(model, q, frame, expressed_in="space", data=None):
     checks.check_model(model, "jacobian")
     if expressed_in not in ("space", "body"):
         raise ValueError(f"jacobian: expressed_in must be 'space' or 'body', got {expressed_in!r}")
-    if not checks.is_single(model, q):
-        q = checks.as_q(model, q)
     frame = _frame(model, frame)
     body_frame = expressed_in == "body"
+    # the common call: a float64 (nq,) vector goes straight to the kernel
+    work = checks.work_of(model, data, "jacobian")
+    J = np.empty((6, model.nv)) if data is None else data.J
+    try:
+        status = jacobian_exact(model._ibuf, model._fbuf, work, q, frame, body_frame, J)
+    except TypeError:
+        status = learn(jacobian_exact, jacobian_kernel)
+    if status == Status.CONVERT:
+        q = checks.as_q(model, q)
+        if q.ndim == 1:
+            status = jacobian_kernel(model._ibuf, model._fbuf, work, q, frame, body_frame, J)
     if q.ndim == 1:
-        if data is None:
-            work, J = model._work, np.empty((6, model.nv))
-        else:
-            work, J = checks.work_of(model, data, "jacobian"), data.J
-        status = jacobian_kernel(model._ibuf, model._fbuf, work, q, frame, body_frame, J)
         if status:
             checks.raise_status(status, model, "jacobian", "J", {"q": q})
         return J

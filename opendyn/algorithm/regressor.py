@@ -27,6 +27,7 @@ import numpy as np
 from numba import njit
 
 from .._runtime.arrays import result_status, zero_matrix
+from .._runtime.exact import exact, learn
 from .._runtime.kernel_cache import BATCH, INLINE, JIT
 from ..multibody.data import body_motion, joint_poses, new_work, scratch_rows, temp_vectors
 from ..multibody.joints import motion_status
@@ -139,6 +140,9 @@ def friction_columns(model, qd):
     return columns
 
 
+regressor_exact = exact(regressor_kernel)
+
+
 def torque_regressor(model, q, qd, qdd, gravity=None, friction=False):
     """Y(q, qd, qdd), so that inverse_dynamics(model, q, qd, qdd) = Y @ model.inertial_parameters().
 
@@ -158,10 +162,15 @@ def torque_regressor(model, q, qd, qdd, gravity=None, friction=False):
     """
     what = "torque_regressor"
     checks.check_model(model, what)
-    if gravity is None and not friction and checks.is_single(model, q, qd, qdd):
+    if gravity is None and not friction:
+        # the common call: float64 vectors of the model's sizes go to the kernel's exact twin
         Y = np.empty((model.nv, PARAMETERS_PER_BODY * model.nb))
-        dV_0 = model._loads[0]
-        if not regressor_kernel(model._ibuf, model._fbuf, model._work, q, qd, qdd, dV_0, Y):
+        ibuf, fbuf, work, dV_0 = model._ibuf, model._fbuf, model._work, model._loads[0]
+        try:
+            status = regressor_exact(ibuf, fbuf, work, q, qd, qdd, dV_0, Y)
+        except TypeError:
+            status = learn(regressor_exact, regressor_kernel)
+        if not status:
             return Y
     (q, qd, qdd), batch = checks.as_states(model, q, ("qd", qd), ("qdd", qdd))
     dV_0 = np.zeros(6)

@@ -46,7 +46,9 @@ import numpy as np
 from numba import njit
 
 from .._runtime.arrays import result_status, zero_matrix
+from .._runtime.exact import exact, learn
 from .._runtime.kernel_cache import BATCH, INLINE, JIT
+from .._runtime.status import Status
 from ..multibody.data import (
     axis_rates,
     coriolis_terms,
@@ -231,40 +233,47 @@ def rnea_derivatives_batch_kernel(ibuf, fbuf, states, loads, out, status, start,
         )
 
 
+rnea_derivatives_exact = exact(rnea_derivatives_kernel)
+
+
 def derivatives_at(model, names, state, extra_loads, data, fields, kernels, what):
-    """The three (nv, nv) derivative matrices that kernels = (kernel, batch_kernel, extra)
-    compute at state = (q, x, y) named `names`, for a single state or a batch (N, nv, nv)
-    each: kernel(ibuf, fbuf, work, (q, x, y), loads, *extra, *out) and batch_kernel(ibuf,
-    fbuf, (q, x, y), loads, *extra, out (N, 3, nv, nv), status, start, stop); extra_loads =
-    (f_tip, gravity); with data (single states) the Data's `fields`. The public derivative
-    functions' one path (after their check_model): a single float64 state goes straight to
-    the kernel."""
+    """The three (nv, nv) derivative matrices that kernels = (kernel, its exact twin,
+    batch_kernel, extra) compute at state = (q, x, y) named `names`, for a single state or a
+    batch (N, nv, nv) each: kernel(ibuf, fbuf, work, (q, x, y), loads, *extra, *out) and
+    batch_kernel(ibuf, fbuf, (q, x, y), loads, *extra, out (N, 3, nv, nv), status, start,
+    stop); extra_loads = (f_tip, gravity); with data (single states) the Data's `fields`. The
+    public derivative functions' one path (after their check_model): a single float64 state
+    goes straight to the kernel's twin (opendyn._runtime.exact)."""
     work = checks.work_of(model, data, what)
-    kernel, batch_kernel, extra = kernels
+    kernel, twin, batch_kernel, extra = kernels
     f_tip, gravity = extra_loads
     q, x, y = state
-    batch = False
-    if not checks.is_single(model, q, x, y):  # else nothing to convert
-        (q, x, y), batch = checks.as_states(model, q, (names[1], x), (names[2], y))
     nv = model.nv
+    if data is None:
+        held = np.empty((3, nv, nv))
+        out = (held[0], held[1], held[2])
+    else:
+        out = (getattr(data, fields[0]), getattr(data, fields[1]), getattr(data, fields[2]))
+    status = Status.CONVERT
+    if gravity is None and f_tip is None:
+        try:
+            status = twin(model._ibuf, model._fbuf, work, (q, x, y), model._loads, *extra, *out)
+        except TypeError:
+            status = learn(twin, kernel)
+        if not status:
+            return out
+    batch = False
+    if status == Status.CONVERT:
+        (q, x, y), batch = checks.as_states(model, q, (names[1], x), (names[2], y))
+        if not batch:
+            loads = checks.loads(model, gravity, f_tip)
+            status = kernel(model._ibuf, model._fbuf, work, (q, x, y), loads, *extra, *out)
+    arguments = {names[0]: q, names[1]: x, names[2]: y, "gravity": gravity, "f_tip": f_tip}
     if not batch:
-        if data is None:
-            held = np.empty((3, nv, nv))
-            out = (held[0], held[1], held[2])
-        else:
-            out = (getattr(data, fields[0]), getattr(data, fields[1]), getattr(data, fields[2]))
-        loads = (
-            model._loads
-            if gravity is None and f_tip is None
-            else checks.loads(model, gravity, f_tip)
-        )
-        status = kernel(model._ibuf, model._fbuf, work, (q, x, y), loads, *extra, *out)
         if status:
-            arguments = {names[0]: q, names[1]: x, names[2]: y, "gravity": gravity}
-            checks.raise_status(status, model, what, fields[0], {**arguments, "f_tip": f_tip})
+            checks.raise_status(status, model, what, fields[0], arguments)
         return out
     checks.single_state_only(data, what)
-    arguments = {names[0]: q, names[1]: x, names[2]: y, "gravity": gravity, "f_tip": f_tip}
     n = q.shape[0]
     inputs = ((q, x, y), checks.loads(model, gravity, f_tip, n), *extra)
     out = checks.run_batch(
@@ -291,7 +300,7 @@ def inverse_dynamics_derivatives(model, q, qd, qdd, f_tip=None, gravity=None, da
       dtau_dqdd = M(q), full and symmetric (kg m^2, kg m, kg).
     """
     checks.check_model(model, "inverse_dynamics_derivatives")
-    kernels = (rnea_derivatives_kernel, rnea_derivatives_batch_kernel, ())
+    kernels = (rnea_derivatives_kernel, rnea_derivatives_exact, rnea_derivatives_batch_kernel, ())
     return derivatives_at(
         model,
         ("q", "qd", "qdd"),

@@ -31,7 +31,7 @@ from .._runtime.arrays import all_finite
 from .._runtime.kernel_cache import INLINE, JIT
 from .._runtime.status import Status
 from ..spatial.compiled import se3_log_translation
-from .layout import _IQ, _JTYPE, FREE_JOINTS_INT, body_count, field
+from .layout import _IQ, _JTYPE, FREE_JOINTS_INT, body_count, config_count, dof_count, field
 
 # joint types, and each type's numbers of configuration and velocity coordinates
 REVOLUTE = 0
@@ -206,8 +206,11 @@ check_quaternions = free_joints_only(quaternion_status)
 
 @njit(**INLINE)
 def configuration_status(ibuf, q):
-    """Status of a configuration: Q_NOT_FINITE if q has NaN or inf, Q_NOT_UNIT_QUATERNION if
-    a free joint's quaternion norm is further than QUATERNION_TOLERANCE from 1, else OK."""
+    """Status of a configuration: CONVERT if q is not (nq,), Q_NOT_FINITE if q has NaN or inf,
+    Q_NOT_UNIT_QUATERNION if a free joint's quaternion norm is further than
+    QUATERNION_TOLERANCE from 1, else OK."""
+    if q.shape[0] != config_count(ibuf):
+        return Status.CONVERT.value
     if not all_finite(q):
         return Status.Q_NOT_FINITE.value
     return check_quaternions(ibuf, ibuf, q)
@@ -215,22 +218,33 @@ def configuration_status(ibuf, q):
 
 @njit(**INLINE)
 def state_status(ibuf, q, qd):
-    """Status of a state (q, qd): configuration_status(q), then QD_NOT_FINITE if qd has NaN or
-    inf, else OK: the checks every kernel taking a state opens with."""
+    """Status of a state (q, qd): configuration_status(q), then CONVERT if qd is not (nv,),
+    QD_NOT_FINITE if qd has NaN or inf, else OK: the checks every kernel taking a state opens
+    with."""
     status = configuration_status(ibuf, q)
     if status:
         return status
-    return Status.OK.value if all_finite(qd) else Status.QD_NOT_FINITE.value
+    return vector_status(ibuf, qd, Status.QD_NOT_FINITE.value)
+
+
+@njit(**INLINE)
+def vector_status(ibuf, x, not_finite):
+    """Status of a velocity-like argument x (qd, qdd, tau): CONVERT if it is not (nv,),
+    `not_finite` if it has NaN or inf, else OK."""
+    if x.shape[0] != dof_count(ibuf):
+        return Status.CONVERT.value
+    return Status.OK.value if all_finite(x) else not_finite
 
 
 @njit(**INLINE)
 def motion_status(ibuf, q, qd, qdd):
     """Status of a state with accelerations (q, qd, qdd): state_status(q, qd), then
-    QDD_NOT_FINITE if qdd has NaN or inf, else OK: the checks of every kernel taking qdd."""
+    vector_status(qdd) (CONVERT or QDD_NOT_FINITE), else OK: the checks of every kernel taking
+    qdd."""
     status = state_status(ibuf, q, qd)
     if status:
         return status
-    return Status.OK.value if all_finite(qdd) else Status.QDD_NOT_FINITE.value
+    return vector_status(ibuf, qdd, Status.QDD_NOT_FINITE.value)
 
 
 # ---- the configuration space: q (+) v and its inverse, per joint ----------------------------

@@ -120,6 +120,12 @@ def dof_count(ibuf):
     return np.int64(ibuf[1])
 
 
+@njit(**INLINE)
+def config_count(ibuf):
+    """nq from the model's int buffer, as int64 (see body_count)."""
+    return np.int64(ibuf[2])
+
+
 # The kinematic tree as the kernels see it, each field a view of the model's buffers (nb bodies):
 #   parent (nb,) int, -1 = the fixed world; jtype (nb,) int joint type; nv_j, iq, iv (nb,) int
 #   joint i's velocity size and first indices in q and v; mult, offset (nb,) the mimic law;

@@ -386,6 +386,12 @@ class Model:
         # the work buffer of calls made without data= (the kernels hold the GIL, so calls from
         # several threads take turns in it; batches give each thread a buffer of its own)
         object.__setattr__(self, "_work", np.zeros(work_size(nb, nv)))
+        # each frame's name (and alias) -> (body, T_body_frame): the pair the kernels take
+        frame_targets = {
+            name: (self.frames[k].body, self.frames[k].T_body_frame)
+            for name, k in self._frame_index.items()
+        }
+        object.__setattr__(self, "_frame_targets", frame_targets)
 
     parent = property(lambda self: self._fields["parent"], doc="(nb,) parent body, -1 = world")
     jtype = property(lambda self: self._fields["jtype"], doc="(nb,) REVOLUTE/PRISMATIC/FREE")
