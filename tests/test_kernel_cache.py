@@ -1,11 +1,15 @@
 """The compiled-kernel cache's folder is named by a hash of every source of the package, so that
 no kernel is ever loaded stale: not after a helper in another file changes, and not after a
-file moves or is renamed (numba keys its own cache on the kernel's file alone)."""
+file moves or is renamed (numba keys its own cache on the kernel's file alone). An entry that
+cannot be read (cut short) is a miss: it compiles again, with one warning, and is cached afresh."""
 
 from __future__ import annotations
 
+import os
 import pathlib
 import shutil
+import subprocess
+import sys
 
 import pytest
 
@@ -65,3 +69,48 @@ def test_a_new_module_names_a_new_folder(package_copy):
     before = source_digest(package_copy)
     (package_copy / "new_kernels.py").write_text("from numba import njit\n", encoding="utf-8")
     assert source_digest(package_copy) != before
+
+
+# a process that prints the UR5's M at one configuration: every run must print the same numbers
+_MASS_MATRIX = (
+    "import numpy as np, opendyn as od\n"
+    "model = od.load_urdf('ur5')\n"
+    "print(repr(od.mass_matrix(model, np.full(6, 0.3)).tolist()))\n"
+)
+
+
+def _run(cache):
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(cache), "PYTHONWARNINGS": "default"}
+    return subprocess.run(
+        [sys.executable, "-c", _MASS_MATRIX], env=env, capture_output=True, text=True, timeout=600
+    )
+
+
+def test_an_entry_cut_short_is_a_miss_that_compiles_again_with_one_warning(tmp_path):
+    first = _run(tmp_path)
+    assert first.returncode == 0, first.stderr
+    entries = sorted(tmp_path.glob("opendyn-kernels-*/algorithm_*/crba.crba_kernel-*.nb[ic]"))
+    assert {e.suffix for e in entries} == {".nbi", ".nbc"}, entries
+    for entry in entries:  # as an interrupted copy leaves them
+        entry.write_bytes(entry.read_bytes()[: entry.stat().st_size // 2])
+
+    damaged = _run(tmp_path)
+    assert damaged.returncode == 0, damaged.stderr
+    assert damaged.stdout == first.stdout
+    assert "Traceback" not in damaged.stderr
+    assert "unreadable entry of the compiled-kernel cache (crba.crba_kernel" in damaged.stderr
+    assert "compiling opendyn.algorithm.crba.crba_kernel" in damaged.stderr
+
+    again = _run(tmp_path)  # cached afresh: loaded without a word
+    assert again.returncode == 0 and again.stdout == first.stdout
+    assert "unreadable" not in again.stderr and "compiling" not in again.stderr, again.stderr
+
+
+def test_another_folders_unreadable_entry_still_raises(tmp_path):
+    from numba.core.caching import IndexDataCacheFile
+
+    (tmp_path / "f.nbi").write_bytes(b"\x80\x04\x95")  # a pickle cut short
+    cache_file = IndexDataCacheFile(str(tmp_path), "f", source_stamp=None)
+    with pytest.raises(Exception) as error:
+        cache_file._load_index()
+    assert (tmp_path / "f.nbi").exists(), type(error.value)

@@ -15,6 +15,11 @@ The folder is the first writable one of:
   3. the per-user cache, $XDG_CACHE_HOME (default ~/.cache)/opendyn/kernels-HASH.
 When none is writable, the kernels run uncached (compiled in every process), with one warning;
 `import opendyn` never fails for want of a cache folder.
+
+numba unpickles each cache entry as it finds it, so an entry cut short (an interrupted copy of
+the folder into a worker image, a full disk) would raise UnpicklingError or EOFError on every
+later run. In opendyn's folder such an entry is a miss instead: it is removed, the kernel
+compiles again and is cached afresh, and one warning names the folder (`unreadable_is_a_miss`).
 """
 
 from __future__ import annotations
@@ -27,6 +32,7 @@ import tempfile
 import warnings
 
 from numba.core import config as _numba_config
+from numba.core.caching import IndexDataCacheFile
 
 _HERE = pathlib.Path(__file__).resolve().parents[1]  # the package: opendyn/
 # every compiled source, and everything a kernel may inline or call: all of the package's Python
@@ -83,6 +89,55 @@ def _choose():
 
 CACHE_DIR, CACHE_WHERE = _choose()
 CACHING = CACHE_DIR is not None  # the kernels' `cache=` option
+
+
+def _discard(cache_file, path, error):
+    """Remove the unreadable cache file `path` of `cache_file` (an IndexDataCacheFile) if it
+    is in opendyn's folder, with one warning; else re-raise `error`."""
+    folder = pathlib.Path(cache_file._cache_path).resolve()
+    if CACHE_DIR is None or not folder.is_relative_to(pathlib.Path(CACHE_DIR).resolve()):
+        raise error
+    with contextlib.suppress(OSError):
+        os.remove(path)
+    warnings.warn(
+        f"opendyn: an unreadable entry of the compiled-kernel cache ({os.path.basename(path)}: "
+        f"{type(error).__name__}) was removed and its kernel compiles again; if this repeats, "
+        f"delete the folder {CACHE_DIR}",
+        RuntimeWarning,
+        stacklevel=2,
+    )
+
+
+def unreadable_is_a_miss():
+    """Make an unreadable entry of opendyn's kernel cache a cache miss (see the module
+    docstring): numba's index and data readers, wrapped once per process; entries of any other
+    folder (a user's own numba functions) behave exactly as before."""
+    if getattr(IndexDataCacheFile, "_opendyn_guarded", False):
+        return
+    load_index, load_data = IndexDataCacheFile._load_index, IndexDataCacheFile._load_data
+
+    def _load_index(self):
+        try:
+            return load_index(self)
+        except Exception as error:  # unpickling a cut-short file raises several kinds
+            _discard(self, self._index_path, error)
+            return {}
+
+    def _load_data(self, name):
+        try:
+            return load_data(self, name)
+        except OSError:
+            raise  # numba's own "no such entry": a miss
+        except Exception as error:
+            _discard(self, self._data_path(name), error)
+            raise OSError(f"unreadable cache entry {name}") from error
+
+    IndexDataCacheFile._load_index = _load_index
+    IndexDataCacheFile._load_data = _load_data
+    IndexDataCacheFile._opendyn_guarded = True
+
+
+unreadable_is_a_miss()
 
 
 @contextlib.contextmanager
