@@ -20,6 +20,7 @@ import numpy as np
 import pytest
 
 import opendyn as od
+from conftest import ctrl_c_default
 from opendyn._runtime.files import atomic_write
 from opendyn._runtime.signals import held_interrupt
 from opendyn.cli.main import main
@@ -216,7 +217,7 @@ def test_failed_write_after_the_run_goes_to_a_fallback_file(
 
 
 def test_ctrl_c_as_the_run_ends_waits_until_the_trajectory_is_saved(
-    tmp_path, monkeypatch, capsys
+    tmp_path, monkeypatch, capsys, ctrl_c_raises
 ):
     save = od.Trajectory.save
 
@@ -279,7 +280,7 @@ def test_atomic_write_gives_the_usual_permissions_and_follows_links(tmp_path):
     assert (tmp_path / "real.txt").read_text() == "through the link"
 
 
-def test_ctrl_c_swallowed_by_a_dependency_still_stops_the_program():
+def test_ctrl_c_swallowed_by_a_dependency_still_stops_the_program(ctrl_c_raises):
     """held_interrupt keeps Ctrl-C from a dependency that catches BaseException (trimesh does,
     around its optional imports) and delivers it when the call is over."""
     reached_the_end = False
@@ -316,6 +317,7 @@ def run_interrupted_at(module, argv, tmp_path, signal_name="SIGINT"):
         capture_output=True,
         text=True,
         timeout=120,
+        preexec_fn=ctrl_c_default,
     )
 
 
@@ -352,6 +354,7 @@ def test_ctrl_c_or_sigterm_during_the_run_writes_the_partial_record_and_exits_1(
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
+        preexec_fn=ctrl_c_default,
     )
     watchdog = threading.Timer(300, proc.kill)
     watchdog.start()
@@ -369,3 +372,34 @@ def test_ctrl_c_or_sigterm_during_the_run_writes_the_partial_record_and_exits_1(
     traj = od.Trajectory.load(out)
     assert not traj.complete and traj.message.startswith(f"interrupted ({name})")
     assert 0 < traj.t[-1] < 3600
+
+
+def test_started_with_ctrl_c_ignored_a_run_ignores_it_and_stops_on_sigterm(tmp_path):
+    """A background job of a script starts with SIGINT ignored: opendyn leaves it ignored, as
+    Python does, and SIGTERM still stops the run and keeps its record."""
+    out = tmp_path / "long.npz"
+    assert main(["compile", "ur5_falling"]) == 0
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "opendyn.cli", "simulate", "ur5_falling", "--duration", "3600"]
+        + ["-o", str(out)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_IGN),
+    )
+    watchdog = threading.Timer(300, proc.kill)
+    watchdog.start()
+    try:
+        seen = ""
+        while "simulating" not in seen and proc.poll() is None:
+            seen += proc.stderr.read(1)
+        proc.send_signal(signal.SIGINT)
+        with pytest.raises(subprocess.TimeoutExpired):
+            proc.wait(timeout=2.0)  # still running
+        proc.send_signal(signal.SIGTERM)
+        stdout, stderr = proc.communicate()
+    finally:
+        watchdog.cancel()
+    assert proc.returncode == 1, seen + stderr
+    assert "interrupted (SIGTERM) at t = " in stderr and "Ctrl-C" not in stderr
+    assert not od.Trajectory.load(out).complete

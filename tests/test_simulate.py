@@ -457,7 +457,7 @@ def test_singular_mass_matrix_stops_naming_the_joint_and_armature_fixes_it(tmp_p
     assert traj.complete
 
 
-def test_ctrl_c_stops_the_run_and_keeps_the_record():
+def test_ctrl_c_stops_the_run_and_keeps_the_record(ctrl_c_raises):
     scene = ur5_scene(duration=600.0)
     timer = threading.Timer(1.5, os.kill, (os.getpid(), signal.SIGINT))
     timer.start()

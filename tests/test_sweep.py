@@ -18,6 +18,7 @@ import pyarrow.parquet as pq  # the test extra installs the sweep extra
 import pytest
 
 import opendyn as od
+from conftest import ctrl_c_default
 from opendyn.errors import SweepError
 from opendyn.io.scene.schema import thaw
 from opendyn.sweep.engine import Axis, combinations, parse_axis
@@ -281,7 +282,7 @@ def test_ctrl_c_keeps_the_finished_rows_and_the_same_command_resumes(tmp_path):
         "--chunk", "2", "-o", "r.parquet",
     ]
     proc = subprocess.Popen(command, cwd=tmp_path, stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True)
+                            stderr=subprocess.PIPE, text=True, preexec_fn=ctrl_c_default)
     parts = tmp_path / "r.parquet.parts"
     deadline = time.time() + 120
     # finished parts only: a part being written is a temporary file beside them until renamed

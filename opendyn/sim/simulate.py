@@ -61,7 +61,10 @@ _COMPILE_ESTIMATE = {
 class Interrupt:
     """While a run is on (in the main thread), Ctrl-C sets `requested` instead of raising; the
     loops stop after the current chunk, so that the record stays consistent. `signum` is the
-    signal that asked (SIGINT, or SIGTERM when the command line hands it over)."""
+    signal that asked (SIGINT, or SIGTERM when the command line hands it over).
+
+    A process that started with Ctrl-C ignored (a background job of a script, nohup) keeps it
+    ignored, as Python itself does: SIGINT changes nothing, and SIGTERM still stops the run."""
 
     requested = False
     signum = signal.SIGINT
@@ -69,10 +72,13 @@ class Interrupt:
     def __enter__(self):
         self._previous = None
         if threading.current_thread() is threading.main_thread():
+            self._ctrl_c_ignored = signal.getsignal(signal.SIGINT) == signal.SIG_IGN
             self._previous = signal.signal(signal.SIGINT, self._handler)
         return self
 
     def _handler(self, signum, frame):
+        if signum == signal.SIGINT and self._ctrl_c_ignored:
+            return
         self.requested = True
         self.signum = signum
 
