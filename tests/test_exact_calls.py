@@ -1,5 +1,5 @@
 """The common call of a public dynamics function hands float64 vectors of the model's sizes to
-its kernel's exact twin (opendyn._runtime.exact), which runs only what the kernel has compiled.
+its kernel's exact twin (opendyn._runtime.entry), which runs only what the kernel has compiled.
 Any other argument (float32, a read-only or strided array, a list, a wrong length) takes the
 checked path: the same numbers, or the same clear error, and never a second compiled version of
 the kernel."""
@@ -11,7 +11,7 @@ import pytest
 from numba import njit
 
 import opendyn as od
-from opendyn._runtime.exact import exact, learn
+from opendyn._runtime.entry import exact, learn
 from opendyn._runtime.status import Status
 from opendyn.algorithm import aba_derivatives, crba, forward, kinematics, rnea, rnea_derivatives
 

@@ -16,7 +16,7 @@ import numpy as np
 from numba import njit
 
 from .._runtime.arrays import result_status
-from .._runtime.exact import exact
+from .._runtime.entry import exact
 from .._runtime.kernel_cache import BATCH, JIT
 from .._runtime.status import Status
 from ..multibody.data import (

@@ -26,7 +26,7 @@ import numpy as np
 from numba import njit
 
 from .._runtime.arrays import fill, result_status, zero_matrix
-from .._runtime.exact import exact, learn
+from .._runtime.entry import exact, learn
 from .._runtime.kernel_cache import BATCH, INLINE, JIT
 from ..multibody.data import (
     body_motion,

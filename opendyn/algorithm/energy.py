@@ -19,7 +19,7 @@ import numpy as np
 from numba import njit
 
 from .._runtime.arrays import fill
-from .._runtime.exact import exact, learn
+from .._runtime.entry import exact, learn
 from .._runtime.kernel_cache import BATCH, INLINE, JIT
 from .._runtime.status import Status
 from ..multibody.data import body_motion, joint_poses, new_work, temp_vectors, world_poses

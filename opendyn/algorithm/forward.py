@@ -13,7 +13,7 @@ import numpy as np
 from numba import njit
 
 from .._runtime.arrays import result_status
-from .._runtime.exact import exact, learn
+from .._runtime.entry import exact, learn
 from .._runtime.kernel_cache import BATCH, JIT
 from .._runtime.status import Status
 from ..multibody.data import joint_vectors, mass_matrix_field, new_work, no_loads

@@ -20,7 +20,7 @@ import numpy as np
 from numba import njit
 
 from .._runtime.arrays import fill, result_status
-from .._runtime.exact import exact, learn
+from .._runtime.entry import exact, learn
 from .._runtime.kernel_cache import BATCH, INLINE, JIT
 from .._runtime.status import Status
 from ..multibody.data import body_motion, joint_poses, new_work, scratch_rows

@@ -46,7 +46,7 @@ import numpy as np
 from numba import njit
 
 from .._runtime.arrays import result_status, zero_matrix
-from .._runtime.exact import exact, learn
+from .._runtime.entry import exact, learn
 from .._runtime.kernel_cache import BATCH, INLINE, JIT
 from .._runtime.status import Status
 from ..multibody.data import (
@@ -243,7 +243,7 @@ def derivatives_at(model, names, state, extra_loads, data, fields, kernels, what
     batch_kernel(ibuf, fbuf, (q, x, y), loads, *extra, out (N, 3, nv, nv), status, start,
     stop); extra_loads = (f_tip, gravity); with data (single states) the Data's `fields`. The
     public derivative functions' one path (after their check_model): a single float64 state
-    goes straight to the kernel's twin (opendyn._runtime.exact)."""
+    goes straight to the kernel's twin (opendyn._runtime.entry)."""
     work = checks.work_of(model, data, what)
     kernel, twin, batch_kernel, extra = kernels
     f_tip, gravity = extra_loads
