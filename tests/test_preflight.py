@@ -4,6 +4,8 @@ the key to change; a run that stops names the real cause, not a generic one."""
 from __future__ import annotations
 
 import importlib
+import subprocess
+import sys
 import warnings
 
 import numpy as np
@@ -34,10 +36,10 @@ def nothing_allocated(monkeypatch):
 
 
 def test_a_record_too_large_for_memory_is_refused_before_allocating(nothing_allocated):
-    # 1e12 samples of 11 numbers: 176 TB, on any machine more than it has
+    # 1e12 samples of 11 numbers, three times over: 264 TB, on any machine more than it has
     huge = scene(run={"duration": 1e9, "dt": 1e-3, "output_dt": 1e-3})
     with pytest.raises(od.SceneError, match=r"run\.output_dt: the record would hold 1e\+12 "
-                       r"samples of 11 numbers, about 176 TB") as info:
+                       r"samples of 11 numbers, about 264 TB") as info:
         od.simulate(huge)
     assert "raise run.output_dt (now 0.001 s) or shorten run.duration (now 1e+09 s)" in str(info.value)
 
@@ -46,11 +48,11 @@ def test_the_memory_estimate_counts_contact_points_and_compares_with_what_is_ava
     monkeypatch, nothing_allocated
 ):
     """ball_drop: 1 contact point on a free body (nq = 7, nv = 6): 3 + 7 + 12 + 2 + 7 = 31
-    numbers per sample, twice over. With 1 MB available, 4 s at 1 ms output (4001 samples,
-    1.98 MB) is refused; the same at 10 ms (401 samples, 0.2 MB) is not."""
+    numbers per sample, three times over. With 1 MB available, 4 s at 1 ms output (4001
+    samples, 2.98 MB) is refused; the same at 10 ms (401 samples, 0.3 MB) is not."""
     ball = od.load_scene("ball_drop").replace_run(duration=4.0, dt=1e-4, output_dt=1e-3)
-    monkeypatch.setattr(preflight, "available_memory", lambda: 1e6)
-    with pytest.raises(od.SceneError, match=r"4001 samples of 31 numbers, about 1\.98 MB"):
+    monkeypatch.setattr(preflight, "available_memory", lambda: (1e6, "memory available"))
+    with pytest.raises(od.SceneError, match=r"4001 samples of 31 numbers, about 2\.98 MB"):
         od.simulate(ball)
     integ = simulate_module.integrators.INTEGRATORS["rk4"]
     assert preflight.preflight(ball.replace_run(output_dt=1e-2), integ) == (40000, 100, 401)
@@ -229,3 +231,76 @@ def test_a_contact_point_that_starts_inside_the_ground_is_refused(change, words)
     # resting in the ground as deep as its weight presses it is a start, not a mistake
     box = od.load_scene("box_slide")
     assert od.simulate(box.replace_run(duration=0.01)).complete
+
+
+# a child process that lowers its own address-space limit (ulimit -v) to what it uses now
+# plus LIMIT_ROOM bytes, then runs `body`
+LIMIT_ROOM = 2e9
+_UNDER_A_LIMIT = """
+import resource
+from opendyn._runtime.memory import _process_status, _system
+if _system()[0] < 2 * {room}:
+    print("SKIP: too little memory available to set a limit under it")
+    raise SystemExit(0)
+used = _process_status()["VmSize"]
+resource.setrlimit(resource.RLIMIT_AS, (int(used + {room}), resource.RLIM_INFINITY))
+"""
+
+
+def _under_a_limit(body):
+    code = _UNDER_A_LIMIT.format(room=LIMIT_ROOM) + body
+    proc = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, timeout=300
+    )
+    assert proc.returncode == 0, proc.stderr
+    if proc.stdout.startswith("SKIP"):
+        pytest.skip(proc.stdout)
+    return proc.stdout
+
+
+@pytest.mark.skipif(sys.platform != "linux", reason="reads /proc")
+def test_the_memory_room_is_the_smallest_of_what_the_system_and_the_limits_allow():
+    out = _under_a_limit(
+        "from opendyn._runtime.memory import available_memory\n"
+        "room, what = available_memory()\n"
+        "print(room, what, sep='|')\n"
+    )
+    room, what = out.strip().split("|")
+    assert what == "the address-space limit (ulimit -v)"
+    assert 0.9 * LIMIT_ROOM < float(room) <= LIMIT_ROOM
+
+
+@pytest.mark.skipif(sys.platform != "linux", reason="reads /proc")
+def test_a_record_beyond_the_address_space_limit_is_refused_before_the_run():
+    """1e7 samples of 11 numbers, three times over, 2.64 GB: under the system's available memory
+    (the child checks that) but beyond a 2 GB ulimit -v, which the preflight now counts."""
+    out = _under_a_limit(
+        "import opendyn as od\n"
+        "scene = od.scene_from_dict({'robot': {'name': 'double_pendulum'},\n"
+        "    'effects': {'gravity': True},\n"
+        "    'run': {'duration': 1000.0, 'dt': 1e-4, 'output_dt': 1e-4}})\n"
+        "try:\n"
+        "    od.simulate(scene)\n"
+        "except od.SceneError as e:\n"
+        "    print(e)\n"
+    )
+    assert "the record would hold 1e+07 samples of 11 numbers, about 2.64 GB" in out
+    assert "that the address-space limit (ulimit -v) leaves this process" in out
+
+
+def test_out_of_memory_after_the_run_keeps_the_states_and_says_so(monkeypatch):
+    record_module = importlib.import_module("opendyn.sim.record")
+    run = scene(run={"duration": 0.5, "dt": 1e-3, "output_dt": 1e-3})
+    whole = od.simulate(run)
+
+    def out_of_memory(*args):
+        raise MemoryError("Unable to allocate 2.1 GiB")
+
+    monkeypatch.setattr(record_module, "energies_of", out_of_memory)
+    with pytest.warns(RuntimeWarning, match=r"out of memory computing the record of 501 samples"):
+        kept = od.simulate(run)
+    assert kept.complete
+    for name in ("t", "q", "qd", "tau", "work_applied", "work_passive"):
+        np.testing.assert_array_equal(getattr(kept, name), getattr(whole, name), err_msg=name)
+    assert kept.kinetic.shape == (501,) and np.isnan(kept.kinetic).all()
+    assert np.isnan(kept.energy_error).all()

@@ -120,6 +120,8 @@ def _write(option, name, write) -> bool:
             paths = write()
     except Exception as e:
         reason = e.strerror if isinstance(e, OSError) and e.strerror else e
+        if isinstance(e, MemoryError):
+            reason = f"out of memory ({e})" if str(e) else "out of memory"
         print(f"opendyn simulate: could not write {option} {name!r}: {reason}", file=sys.stderr)
         return False
     for path in paths:

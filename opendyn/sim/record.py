@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import datetime
 import platform
+import warnings
 
 import numpy as np
 
@@ -107,10 +108,23 @@ def trajectory_of(scene, table, out, n, complete, message, stats):
 
     model = scene.model
     t, q, qd, tau, w = out.t[:n], out.q[:n], out.qd[:n], out.tau[:n], out.w[:n]
-    kinetic, potential, spheres = energies_of(scene, table, q, qd)
-    off = violation(model, table, q, qd) if scene.constraints else (np.zeros(0),) * 2
+    try:
+        kinetic, potential, spheres = energies_of(scene, table, q, qd)
+        off = violation(model, table, q, qd) if scene.constraints else (np.zeros(0),) * 2
+        centroidal = _centroidal_record(model, q, qd)
+    except MemoryError:
+        # the run's states are kept: what ran out is said once, and the rest is left out
+        warnings.warn(
+            f"opendyn: out of memory computing the record of {n} samples after the run: the "
+            "trajectory keeps t, q, qd, tau and the work; its energies are NaN and its "
+            "constraint, contact and centroidal records are left out",
+            RuntimeWarning,
+            stacklevel=3,
+        )
+        kinetic = potential = np.full(n, np.nan)
+        spheres, off, centroidal = None, (np.zeros(0),) * 2, {}
     contact = {}
-    if scene.contact is not None:
+    if spheres is not None:
         points, forces, depth = spheres
         contact = dict(
             contact_names=tuple(p.name for p in scene.contact.points),
@@ -121,7 +135,7 @@ def trajectory_of(scene, table, out, n, complete, message, stats):
         )
     return Trajectory(
         **contact,
-        **_centroidal_record(model, q, qd),
+        **centroidal,
         violation_position=off[0],
         violation_velocity=off[1],
         t=t,

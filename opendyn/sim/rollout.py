@@ -47,7 +47,8 @@ from ..io.scene.variants import Variants
 from . import effects, integrators
 from .diagnostics import check_contact_step, failure_message
 from .effects import python_control
-from .preflight import available_memory, byte_size, check_start, run_size, sample_numbers
+from .._runtime.memory import available_memory
+from .preflight import byte_size, check_start, run_size, sample_numbers
 from .rollout_loops import Batch, Outcome, RunData, rollout_adaptive, rollout_fixed
 from .rollout_result import COMPLETE, FAILED, INTERRUPTED, RolloutResult
 from .simulate import Interrupt, as_scene, error_size_index, free_joints, integrator_of
@@ -410,11 +411,12 @@ def _check_memory(scene, n, rows):
     model = scene.model
     per_row = sample_numbers(scene)
     need = 8.0 * n * (rows * per_row + 2 * model.nq + 3 * model.nv + 8)
-    have = available_memory()
-    if have is not None and need > have:
+    room = available_memory()
+    if room is not None and need > room[0]:
+        have, what = room
         raise ValueError(
             f"rollout: {n} runs of {rows} rows of {per_row} numbers need about {byte_size(need)}, "
-            f"more than the {byte_size(have)} of memory available; record='final' keeps only "
+            f"more than the {byte_size(have)} that {what} leaves; record='final' keeps only "
             "each run's last state, or raise run.output_dt, or roll out fewer runs at a time"
         )
 
