@@ -8,6 +8,7 @@ from __future__ import annotations
 import os
 import re
 import signal
+import socket
 import subprocess
 import sys
 import threading
@@ -456,3 +457,58 @@ def test_a_swept_integrator_that_simulate_refuses_is_a_failed_row(client):
     rows = od.sweep(scene, {"run.integrator": "rk4,semi_implicit_euler"}, client=client).to_pylist()
     assert [r["status"] for r in rows] == ["complete", "failed"]
     assert "semi_implicit_euler" in rows[1]["message"] and "constraints" in rows[1]["message"]
+
+
+def _service(answer):
+    """A TCP service on localhost that sends `answer` (bytes) to each connection, or nothing
+    (None), and keeps it open: (address, stop)."""
+    server = socket.create_server(("127.0.0.1", 0))
+    held = []
+
+    def serve():
+        while True:
+            try:
+                peer, _ = server.accept()
+            except OSError:
+                return
+            held.append(peer)
+            if answer is not None:
+                peer.sendall(answer)
+
+    threading.Thread(target=serve, daemon=True).start()
+
+    def stop():
+        server.close()
+        for peer in held:
+            peer.close()
+
+    return f"tcp://127.0.0.1:{server.getsockname()[1]}", stop
+
+
+@pytest.mark.parametrize(
+    "answer, words",
+    [
+        (b"SSH-2.0-OpenSSH_9.6\r\n", "is not a Dask scheduler (it opened with b'SSH-2.0-'"),
+        (None, "no answer within 1 s"),
+    ],
+    ids=["ssh banner", "silent"],
+)
+def test_a_scheduler_address_that_is_not_dask_is_one_line_within_the_timeout(
+    answer, words, tmp_path, monkeypatch, capsys
+):
+    from opendyn.cli import sweep as sweep_command
+    from opendyn.cli.main import main
+
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr(sweep_command, "SCHEDULER_TIMEOUT", 1.0)
+    address, stop = _service(answer)
+    try:
+        tic = time.monotonic()
+        argv = ["sweep", "planar_3r_limits", "--vary", "run.duration=0.1", "--scheduler", address]
+        assert main(argv) == 2
+        assert time.monotonic() - tic < 10.0
+    finally:
+        stop()
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and f"--scheduler {address}: " in err and words in err, err
+    assert not (tmp_path / "planar_3r_limits-sweep.parquet").exists()
