@@ -403,3 +403,23 @@ def test_started_with_ctrl_c_ignored_a_run_ignores_it_and_stops_on_sigterm(tmp_p
     assert proc.returncode == 1, seen + stderr
     assert "interrupted (SIGTERM) at t = " in stderr and "Ctrl-C" not in stderr
     assert not od.Trajectory.load(out).complete
+
+
+def test_a_reader_that_closes_the_pipe_leaves_the_command_quiet_and_its_files_written(tmp_path):
+    """`opendyn simulate ... | head -1`: the command carries on without its reader, writes its
+    record and exits 0, with no "Broken pipe" and no traceback."""
+    out = tmp_path / "run.npz"
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "opendyn.cli", "simulate", "double_pendulum_swing"]
+        + ["--duration", "0.1", "-o", str(out)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env=dict(os.environ, PYTHONUNBUFFERED="1"),  # each line reaches the pipe at once
+    )
+    assert proc.stdout.readline().startswith("scene")
+    proc.stdout.close()  # what head does after its line
+    stderr = proc.stderr.read()
+    assert proc.wait(timeout=300) == 0, stderr
+    assert "Broken pipe" not in stderr and "Traceback" not in stderr, stderr
+    assert od.Trajectory.load(out).complete

@@ -32,6 +32,7 @@ from .cache import _compile_ahead
 from .interrupts import _Interrupted
 from .robot import DEFAULT_ROBOT, _demo, _info, _verify
 from .simulate import ENABLE_FROM_URDF, _simulate
+from .stdout import reader_may_leave
 from .sweep import _sweep
 
 
@@ -198,7 +199,7 @@ def main(argv=None) -> int:
     comp.set_defaults(run=_compile_ahead)
 
     args = parser.parse_args(argv)
-    with warnings.catch_warnings(), SigtermAsInterrupt() as signals:
+    with warnings.catch_warnings(), SigtermAsInterrupt() as signals, reader_may_leave():
         warnings.showwarning = _warning_printer(args.command)
         return _run(args, signals)
 
