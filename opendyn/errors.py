@@ -52,11 +52,13 @@ def _largest(value):
 
 class SingularMassMatrixError(ValueError):
     """M(q) is singular: a joint, or a combination of joints, moves nothing with mass or
-    inertia, so its acceleration is undetermined.
+    inertia (or too little beside the rest for float64), so its acceleration is undetermined.
 
     joints: the coordinates (model.v_names) whose column of M is zero: nothing with mass or
-      inertia moves with them. Empty when every joint moves some inertia but a combination of
-      them moves none; `together` then names the joints of that combination.
+      inertia moves with them; or, when each moves some, those whose inertia is too small
+      beside M's largest for float64's 16 digits (the message says which). Empty when every
+      joint moves some inertia but a combination of them moves none; `together` then names
+      the joints of that combination.
     (opendyn.algorithm.checks.singular_mass_matrix finds them and builds the error.)
     """
 

@@ -304,3 +304,56 @@ def test_out_of_memory_after_the_run_keeps_the_states_and_says_so(monkeypatch):
         np.testing.assert_array_equal(getattr(kept, name), getattr(whole, name), err_msg=name)
     assert kept.kinetic.shape == (501,) and np.isnan(kept.kinetic).all()
     assert np.isnan(kept.energy_error).all()
+
+
+def test_a_spin_too_fast_for_the_step_is_named_not_the_initial_forces():
+    """The T-handle spun at 5000 rad/s about its unstable axis, no force acting: RK4 at 1 ms
+    turns it 5 rad a step. The cause is the rotation's speed (with the step to use), not the
+    forces at the initial state, of which there are none."""
+    settings = thaw(od.load_scene("t_handle_flip").settings)
+    settings["initial"]["base_angular_velocity"] = [300.0, 5000.0, 300.0]
+    settings["run"].update(duration=0.1)
+    spin = od.scene_from_dict(settings, base_dir=shipped_robots_dir())
+    traj = od.simulate(spin, raise_on_failure=False)
+    assert not traj.complete
+    assert "the rotation is too fast for the step: 'base_wy' turns at" in traj.message
+    assert "rad per step of 0.001 s" in traj.message and "use a step below" in traj.message
+    assert "forces at the initial state" not in traj.message
+
+
+def test_a_mass_matrix_singular_for_its_range_of_masses_says_so_not_that_nothing_moves():
+    """A 1e30 kg payload on the UR5's tool: every joint moves mass, but M's diagonal spans 32
+    orders of magnitude, beyond float64's 16."""
+    heavy = od.load_urdf("ur5").with_payload("tool0", 1e30)
+    with pytest.raises(od.SingularMassMatrixError) as info:
+        od.forward_dynamics(heavy, np.full(6, 0.3), np.zeros(6), np.zeros(6))
+    message = str(info.value)
+    assert "span more digits than float64 keeps (16)" in message
+    assert "the heaviest body: 'wrist_3_link', 1e+30 kg" in message
+    assert "nothing with mass" not in message
+    assert info.value.joints == ["wrist_3_joint"]
+
+
+@pytest.mark.parametrize(
+    "tolerances, words",
+    [
+        ({"atol": 1e-14}, "the tolerances (run.rtol = 1e-06, run.atol = 1e-14) are tighter than"),
+        ({}, "contact switching on is a kink in the forces: loosen run.rtol = 1e-06"),
+    ],
+    ids=["tight atol", "default tolerances"],
+)
+def test_an_adaptive_step_underflow_at_a_touchdown_names_the_tolerances(tolerances, words):
+    """quadruped_drop under dopri5 with rtol = atol = 1e-14 stopped at its first touchdown
+    (t = 0.247 s, step 76) with a step underflow put down to "discontinuous or singular"
+    dynamics. The diagnosis of such a stop (here of ball_drop's, at its touchdown) must point
+    at a tolerance too tight, or, with sensible ones, at the contact's kink."""
+    from opendyn._runtime.status import Status
+    from opendyn.sim import effects
+    from opendyn.sim.diagnostics import failure_message
+
+    ball = od.load_scene("ball_drop").replace_run(integrator="dopri5", **tolerances)
+    message = failure_message(
+        ball, effects.stage_table(ball), Status.STEP_UNDERFLOW.value, 0.45, 80, ball.q0, ball.qd0
+    )
+    assert message.startswith("adaptive step underflow at t = 0.45 s (step 80)")
+    assert words in message

@@ -307,7 +307,9 @@ def singular_coordinates(model, q, armature=None):
 
     massless: the coordinates k whose diagonal entry M_kk = S_k^T Ic_k S_k (Ic_k the composite
     inertia of everything below joint k) is zero to the forward dynamics' pivot tolerance;
-    M is positive semi-definite, so their whole column of M is zero. When there are none,
+    M is positive semi-definite, so their whole column of M is zero. When none of them is
+    exactly zero, the sentence says that M's entries span more than float64's digits (a 1e30 kg
+    payload beside 1 kg links), not that nothing moves. When there are none,
     together: the coordinates of M's null direction (of M scaled to a unit diagonal, so that
     revolute and prismatic units do not matter): joints whose combined motion moves nothing
     with inertia, as two joints moving one body along or about the same axis. The sentence
@@ -317,7 +319,19 @@ def singular_coordinates(model, q, armature=None):
 
     M = mass_matrix_with_armature(model, q, armature)
     d = np.diag(M)
-    massless = [model.v_names[k] for k in np.flatnonzero(d <= SINGULAR_PIVOT * d.max(initial=0))]
+    small = np.flatnonzero(d <= SINGULAR_PIVOT * d.max(initial=0))
+    if small.size and not (d[small] <= 0.0).any():
+        # each moves some inertia, too little beside the largest for float64's 16 digits
+        k, j = int(small[np.argmin(d[small])]), int(np.argmax(d))
+        heaviest = int(np.argmax(model.mass))
+        return [model.v_names[k] for k in small], [], (
+            f"joint {model.v_names[k]!r} moves an inertia M_kk = {d[k]:.3g}, {d[k] / d[j]:.1g} "
+            f"times the largest on M's diagonal ({d[j]:.3g}, {model.v_names[j]!r}): M's entries "
+            "span more digits than float64 keeps (16), so M is singular to working precision "
+            f"although everything moves some mass; the masses or inertias differ too much (the "
+            f"heaviest body: {model.body_names[heaviest]!r}, {model.mass[heaviest]:.3g} kg)"
+        )
+    massless = [model.v_names[k] for k in small]
     if massless:
         names = ", ".join(map(repr, massless))
         if len(massless) == 1:

@@ -13,6 +13,7 @@ import numpy as np
 from .._runtime.status import Status, decode
 from ..algorithm.checks import mass_matrix_with_armature, singular_coordinates
 from ..errors import SceneError
+from ..multibody.joints import FREE, REVOLUTE
 from . import effects, integrators, step
 from .effects import registry
 from .effects.interface import RatesAt
@@ -46,12 +47,25 @@ def failure_message(scene, table, status, t, steps, q, qd):
     if status == Status.STEP_UNDERFLOW:
         # below 1e-14 s even DOPRI5's stability interval (about 3.3 / rate) is left behind
         stiff = _stiff_effects(_effect_rates(scene, table, q), 1e-14, 3.3)
-        cause = (
-            f"a step that small is still too large for {_describe(stiff, 1e-14)}, above 3.3. "
-            "Lower the stiffness, or use integrator implicit_euler"
-            if stiff
-            else "The dynamics are likely discontinuous or singular here"
-        )
+        if stiff:
+            cause = (
+                f"a step that small is still too large for {_describe(stiff, 1e-14)}, above "
+                "3.3. Lower the stiffness, or use integrator implicit_euler"
+            )
+        elif min(run.rtol, run.atol) < TIGHTEST:
+            cause = (
+                f"the tolerances (run.rtol = {run.rtol:g}, run.atol = {run.atol:g}) are tighter "
+                "than float64 can meet here, where each step rounds at about 1e-15 of the state "
+                f"(atol binds every coordinate near zero); loosen them to {TIGHTEST:g} or more"
+            )
+        else:
+            kinks = [name for name in ("contact", "limits") if getattr(scene, name) is not None]
+            cause = "The dynamics are likely discontinuous or singular here" + (
+                f" ({' or '.join(kinks)} switching on is a kink in the forces: loosen run.rtol "
+                f"= {run.rtol:g} and run.atol = {run.atol:g}, or use a fixed step)"
+                if kinks
+                else ""
+            )
         return (
             f"adaptive step underflow {where}: no step down to 1e-14 s met the tolerances. "
             f"Likely cause: {cause}."
@@ -72,8 +86,22 @@ def failure_message(scene, table, status, t, steps, q, qd):
         else ""
     )
     stiff = [] if implicit else _stiff_effects(_effect_rates(scene, table, q), run.dt, 2.0)
+    fixed_explicit = not implicit and not integrators.INTEGRATORS[run.integrator].adaptive
+    spin = _fastest_rotation(model, qd) if fixed_explicit else None
     if stiff:
         cause = _step_too_large(stiff, run.dt, 2.0)
+    elif (
+        spin is not None
+        and spin[1] * run.dt > TURN_PER_STEP
+        and (run.integrator != "euler" or steps == 0)  # else Euler's own growth is the cause
+    ):
+        name, speed = spin
+        cause = (
+            f"the rotation is too fast for the step: {name!r} turns at {speed:.3g} rad/s, "
+            f"{speed * run.dt:.3g} rad per step of {run.dt:g} s, where an explicit step follows "
+            f"about {TURN_PER_STEP:g} rad; use a step below {TURN_PER_STEP / speed:.2g} s, "
+            "or dopri5"
+        )
     elif steps == 0:
         cause = _start_cause(scene, table, q, qd)
     elif run.integrator == "euler":
@@ -89,6 +117,31 @@ def failure_message(scene, table, status, t, steps, q, qd):
             "use a smaller step or dopri5"
         )
     return f"simulation stopped {where}: {what}; {state}.\nLikely cause: {cause}."
+
+
+# tolerances tighter than this ask more of an adaptive step's error estimate than float64 can
+# give near a kink: the rounding of a step's stages is about 1e-15 of the state
+TIGHTEST = 1e-12
+# the most an explicit method's step may turn a joint or a body (rad) before the failure is put
+# down to the rotation's speed: RK4 follows a rotation of frequency w only while w dt < 2.8 (its
+# stability bound on the imaginary axis) and loses accuracy well before
+TURN_PER_STEP = 1.0
+
+
+def _fastest_rotation(model, qd):
+    """(name, |qd|) of the fastest angular velocity coordinate of qd (a revolute joint, or a
+    free joint's omega), or None when the model has none."""
+    angular = np.zeros(model.nv, dtype=bool)
+    for i in range(model.nb):
+        if model.jtype[i] == REVOLUTE:
+            angular[model.iv[i]] = True
+        elif model.jtype[i] == FREE:
+            angular[model.iv[i] : model.iv[i] + 3] = True
+    if not angular.any():
+        return None
+    speed = np.where(angular, np.abs(qd), -1.0)
+    k = int(np.argmax(speed))
+    return model.v_names[k], float(speed[k])
 
 
 def _start_cause(scene, table, q, qd):
