@@ -392,6 +392,8 @@ class Model:
             for name, k in self._frame_index.items()
         }
         object.__setattr__(self, "_frame_targets", frame_targets)
+        # the velocity coordinates no joint owns: a free joint's twist (a floating base's)
+        object.__setattr__(self, "_unactuated", np.setdiff1d(np.arange(nv), self.v_index))
 
     parent = property(lambda self: self._fields["parent"], doc="(nb,) parent body, -1 = world")
     jtype = property(lambda self: self._fields["jtype"], doc="(nb,) REVOLUTE/PRISMATIC/FREE")

@@ -437,8 +437,7 @@ def checked_torque(model, tau, what):
     (nv - 6,); 0.0 for None; TypeError or ValueError naming `what` otherwise."""
     if tau is None:
         return 0.0
-    joints = np.asarray(model.v_index, dtype=np.int64)
-    base = np.setdiff1d(np.arange(model.nv), joints)
+    joints, base = model.v_index, model._unactuated
     a = checks.as_float_array(tau, what)
     if base.size and a.shape == joints.shape:
         full = np.zeros(model.nv)
