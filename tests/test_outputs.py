@@ -341,11 +341,10 @@ def test_ctrl_c_or_sigterm_while_importing_opendyn_is_one_line(signal_name, name
     assert proc.stderr == f"opendyn: interrupted ({name}) while starting\n"
 
 
-@pytest.mark.parametrize("signum, name", [(signal.SIGINT, "Ctrl-C"), (signal.SIGTERM, "SIGTERM")])
-def test_ctrl_c_or_sigterm_during_the_run_writes_the_partial_record_and_exits_1(
-    signum, name, tmp_path
-):
-    out = tmp_path / "long.npz"
+def signal_a_long_run(out, ctrl_c, signals):
+    """Start `opendyn simulate ur5_falling` for an hour, writing `out`, with the child's Ctrl-C
+    disposition `ctrl_c` (SIG_DFL or SIG_IGN); once it has run a second, send `signals`, each
+    a (signal, seconds to wait after it) pair. Returns (returncode, stdout, stderr)."""
     # compiled ahead, so that the signal reaches the run and not numba compiling it
     assert main(["compile", "ur5_falling"]) == 0
     proc = subprocess.Popen(
@@ -354,7 +353,7 @@ def test_ctrl_c_or_sigterm_during_the_run_writes_the_partial_record_and_exits_1(
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
-        preexec_fn=ctrl_c_default,
+        preexec_fn=lambda: signal.signal(signal.SIGINT, ctrl_c),
     )
     watchdog = threading.Timer(300, proc.kill)
     watchdog.start()
@@ -363,11 +362,24 @@ def test_ctrl_c_or_sigterm_during_the_run_writes_the_partial_record_and_exits_1(
         seen = ""
         while "simulating" not in seen and proc.poll() is None:
             seen += proc.stderr.read(1)
-        proc.send_signal(signum)
+        for signum, wait in signals:
+            proc.send_signal(signum)
+            if wait:
+                with pytest.raises(subprocess.TimeoutExpired):
+                    proc.wait(timeout=wait)  # still running
         stdout, stderr = proc.communicate()
     finally:
         watchdog.cancel()
-    assert proc.returncode == 1, seen + stderr
+    return proc.returncode, stdout, seen + stderr
+
+
+@pytest.mark.parametrize("signum, name", [(signal.SIGINT, "Ctrl-C"), (signal.SIGTERM, "SIGTERM")])
+def test_ctrl_c_or_sigterm_during_the_run_writes_the_partial_record_and_exits_1(
+    signum, name, tmp_path
+):
+    out = tmp_path / "long.npz"
+    status, stdout, stderr = signal_a_long_run(out, signal.SIG_DFL, [(signum, 0)])
+    assert status == 1, stderr
     assert f"interrupted ({name}) at t = " in stderr and "STOPPED EARLY" in stdout
     traj = od.Trajectory.load(out)
     assert not traj.complete and traj.message.startswith(f"interrupted ({name})")
@@ -378,29 +390,9 @@ def test_started_with_ctrl_c_ignored_a_run_ignores_it_and_stops_on_sigterm(tmp_p
     """A background job of a script starts with SIGINT ignored: opendyn leaves it ignored, as
     Python does, and SIGTERM still stops the run and keeps its record."""
     out = tmp_path / "long.npz"
-    assert main(["compile", "ur5_falling"]) == 0
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "opendyn.cli", "simulate", "ur5_falling", "--duration", "3600"]
-        + ["-o", str(out)],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_IGN),
-    )
-    watchdog = threading.Timer(300, proc.kill)
-    watchdog.start()
-    try:
-        seen = ""
-        while "simulating" not in seen and proc.poll() is None:
-            seen += proc.stderr.read(1)
-        proc.send_signal(signal.SIGINT)
-        with pytest.raises(subprocess.TimeoutExpired):
-            proc.wait(timeout=2.0)  # still running
-        proc.send_signal(signal.SIGTERM)
-        stdout, stderr = proc.communicate()
-    finally:
-        watchdog.cancel()
-    assert proc.returncode == 1, seen + stderr
+    signals = [(signal.SIGINT, 2.0), (signal.SIGTERM, 0)]
+    status, _, stderr = signal_a_long_run(out, signal.SIG_IGN, signals)
+    assert status == 1, stderr
     assert "interrupted (SIGTERM) at t = " in stderr and "Ctrl-C" not in stderr
     assert not od.Trajectory.load(out).complete
 

@@ -208,6 +208,32 @@ frame_pose_exact = exact(frame_pose_kernel)
 jacobian_exact = exact(jacobian_kernel)
 
 
+def _at_configurations(model, q, data, kernels, extra, what, result):
+    """The result of a frame function at q (nq,), or at each row of a batch (N, nq):
+    kernels = (kernel, its exact twin, batch kernel), each taking (ibuf, fbuf, [work,] q,
+    *extra, out); result "T_sf" (4, 4) or "J" (6, nv), the Data field that data= returns. A
+    float64 (nq,) q goes straight to the twin; anything else is converted and checked."""
+    kernel, twin, batch_kernel = kernels
+    shape = (4, 4) if result == "T_sf" else (6, model.nv)
+    work = checks.work_of(model, data, what)
+    out = np.empty(shape) if data is None else getattr(data, result)
+    try:
+        status = twin(model._ibuf, model._fbuf, work, q, *extra, out)
+    except TypeError:
+        status = learn(twin, kernel)
+    if status == Status.CONVERT:
+        q = checks.as_q(model, q)
+        if q.ndim == 1:
+            status = kernel(model._ibuf, model._fbuf, work, q, *extra, out)
+    if q.ndim == 1:
+        if status:
+            checks.raise_status(status, model, what, result, {"q": q})
+        return out
+    checks.single_state_only(data, what)
+    out = np.empty((q.shape[0], *shape))
+    return checks.run_batch(model, batch_kernel, (q, *extra), out, what, result, {"q": q})
+
+
 def _frame(model, frame):
     """(body, T_bf) of a frame, the pair the kernels take; KeyError naming an unknown frame."""
     try:
@@ -228,25 +254,8 @@ def frame_pose(model, q, frame, data=None):
     """
     checks.check_model(model, "frame_pose")
     body, T_bf = _frame(model, frame)
-    # the common call: a float64 (nq,) vector goes straight to the kernel
-    work = checks.work_of(model, data, "frame_pose")
-    T = np.empty((4, 4)) if data is None else data.T_sf
-    try:
-        status = frame_pose_exact(model._ibuf, model._fbuf, work, q, body, T_bf, T)
-    except TypeError:
-        status = learn(frame_pose_exact, frame_pose_kernel)
-    if status == Status.CONVERT:
-        q = checks.as_q(model, q)
-        if q.ndim == 1:
-            status = frame_pose_kernel(model._ibuf, model._fbuf, work, q, body, T_bf, T)
-    if q.ndim == 1:
-        if status:
-            checks.raise_status(status, model, "frame_pose", "T_sf", {"q": q})
-        return T
-    checks.single_state_only(data, "frame_pose")
-    T = np.empty((q.shape[0], 4, 4))
-    kernel, inputs = frame_pose_batch_kernel, (q, body, T_bf)
-    return checks.run_batch(model, kernel, inputs, T, "frame_pose", "T_sf", {"q": q})
+    kernels = (frame_pose_kernel, frame_pose_exact, frame_pose_batch_kernel)
+    return _at_configurations(model, q, data, kernels, (body, T_bf), "frame_pose", "T_sf")
 
 
 def jacobian(model, q, frame, expressed_in="space", data=None):
@@ -261,24 +270,6 @@ def jacobian(model, q, frame, expressed_in="space", data=None):
     checks.check_model(model, "jacobian")
     if expressed_in not in ("space", "body"):
         raise ValueError(f"jacobian: expressed_in must be 'space' or 'body', got {expressed_in!r}")
-    frame = _frame(model, frame)
-    body_frame = expressed_in == "body"
-    # the common call: a float64 (nq,) vector goes straight to the kernel
-    work = checks.work_of(model, data, "jacobian")
-    J = np.empty((6, model.nv)) if data is None else data.J
-    try:
-        status = jacobian_exact(model._ibuf, model._fbuf, work, q, frame, body_frame, J)
-    except TypeError:
-        status = learn(jacobian_exact, jacobian_kernel)
-    if status == Status.CONVERT:
-        q = checks.as_q(model, q)
-        if q.ndim == 1:
-            status = jacobian_kernel(model._ibuf, model._fbuf, work, q, frame, body_frame, J)
-    if q.ndim == 1:
-        if status:
-            checks.raise_status(status, model, "jacobian", "J", {"q": q})
-        return J
-    checks.single_state_only(data, "jacobian")
-    J = np.empty((q.shape[0], 6, model.nv))
-    inputs = (q, frame, body_frame)
-    return checks.run_batch(model, jacobian_batch_kernel, inputs, J, "jacobian", "J", {"q": q})
+    extra = (_frame(model, frame), expressed_in == "body")
+    kernels = (jacobian_kernel, jacobian_exact, jacobian_batch_kernel)
+    return _at_configurations(model, q, data, kernels, extra, "jacobian", "J")

@@ -22,7 +22,6 @@ from numba import njit
 from .._runtime.arrays import fill, result_status
 from .._runtime.entry import exact, learn
 from .._runtime.kernel_cache import BATCH, INLINE, JIT
-from .._runtime.status import Status
 from ..multibody.data import body_motion, joint_poses, new_work, scratch_rows
 from ..multibody.joints import (
     add_joint_force,
@@ -135,20 +134,9 @@ _NO_GRAVITY = np.zeros(3)
 def run_rnea(model, q, qd, qdd, f_tip, gravity, what, result, data=None):
     """Checked RNEA for single states (nv,) or batches (N, nv); the public functions' core.
     what, result: the function and its result (e.g. "tau") as error messages name them, and
-    the Data field that holds it with data=. The common call (float64 vectors of the model's
-    sizes, no f_tip nor gravity override) goes straight to the kernel's exact twin."""
+    the Data field that holds it with data=."""
     work = checks.work_of(model, data, what)
     tau = np.empty(model._vector_shape) if data is None else getattr(data, result)
-    if gravity is None and f_tip is None:
-        try:
-            status = rnea_exact(model._ibuf, model._fbuf, work, q, qd, qdd, model._loads, tau)
-        except TypeError:
-            status = learn(rnea_exact, rnea_kernel)
-        if not status:
-            return tau
-        if status != Status.CONVERT:
-            arguments = {"q": q, "qd": qd, "qdd": qdd}
-            checks.raise_status(status, model, what, result, arguments)
     (q, qd, qdd), batch = checks.as_states(model, q, ("qd", qd), ("qdd", qdd))
     arguments = {"q": q, "qd": qd, "qdd": qdd, "gravity": gravity, "f_tip": f_tip}
     if not batch:
@@ -191,7 +179,7 @@ def inverse_dynamics(model, q, qd, qdd, f_tip=None, gravity=None, data=None):
     """
     checks.check_model(model, "inverse_dynamics")
     if gravity is None and f_tip is None:
-        # run_rnea's common call, written out here: the call through it costs 0.15 us (UR5)
+        # the common call: float64 vectors of the model's sizes go to the kernel's exact twin
         work = checks.work_of(model, data, "inverse_dynamics")
         tau = np.empty(model._vector_shape) if data is None else data.tau
         try:
