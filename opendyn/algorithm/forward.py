@@ -170,7 +170,6 @@ def forward_dynamics(model, q, qd, tau, f_tip=None, gravity=None, method="aba", 
     # the common call: float64 vectors of the model's sizes go straight to the kernel
     work = checks.work_of(model, data, "forward_dynamics")
     qdd = np.empty(model._vector_shape) if data is None else data.qdd
-    arguments = (q, qd, tau, gravity, f_tip)
     if gravity is None and f_tip is None:
         ibuf, fbuf, loads = model._ibuf, model._fbuf, model._loads
         try:
@@ -180,7 +179,7 @@ def forward_dynamics(model, q, qd, tau, f_tip=None, gravity=None, method="aba", 
         if not status:
             return qdd
         if status != Status.CONVERT:
-            _raise_status(status, model, arguments)
+            _raise_status(status, model, (q, qd, tau, gravity, f_tip))
     (q, qd, tau), batch = checks.as_states(model, q, ("qd", qd), ("tau", tau))
     arguments = (q, qd, tau, gravity, f_tip)
     if not batch:
