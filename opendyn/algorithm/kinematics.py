@@ -208,30 +208,34 @@ frame_pose_exact = exact(frame_pose_kernel)
 jacobian_exact = exact(jacobian_kernel)
 
 
-def _at_configurations(model, q, data, kernels, extra, what, result):
+def _at_configurations(model, q, data, kernels, a, b, what, result):
     """The result of a frame function at q (nq,), or at each row of a batch (N, nq):
-    kernels = (kernel, its exact twin, batch kernel), each taking (ibuf, fbuf, [work,] q,
-    *extra, out); result "T_sf" (4, 4) or "J" (6, nv), the Data field that data= returns. A
+    kernels = (kernel, its exact twin, batch kernel), each taking (ibuf, fbuf, [work,] q, a,
+    b, out); result "T_sf" (4, 4) or "J" (6, nv), the Data field that data= returns. A
     float64 (nq,) q goes straight to the twin; anything else is converted and checked."""
     kernel, twin, batch_kernel = kernels
-    shape = (4, 4) if result == "T_sf" else (6, model.nv)
     work = checks.work_of(model, data, what)
-    out = np.empty(shape) if data is None else getattr(data, result)
+    if data is not None:
+        out = getattr(data, result)
+    else:
+        out = np.empty((4, 4) if result == "T_sf" else (6, model.nv))
     try:
-        status = twin(model._ibuf, model._fbuf, work, q, *extra, out)
+        status = twin(model._ibuf, model._fbuf, work, q, a, b, out)
     except TypeError:
         status = learn(twin, kernel)
+    if not status:
+        return out
     if status == Status.CONVERT:
         q = checks.as_q(model, q)
-        if q.ndim == 1:
-            status = kernel(model._ibuf, model._fbuf, work, q, *extra, out)
-    if q.ndim == 1:
-        if status:
-            checks.raise_status(status, model, what, result, {"q": q})
-        return out
-    checks.single_state_only(data, what)
-    out = np.empty((q.shape[0], *shape))
-    return checks.run_batch(model, batch_kernel, (q, *extra), out, what, result, {"q": q})
+        if q.ndim == 2:
+            checks.single_state_only(data, what)
+            out = np.empty((q.shape[0], *out.shape))
+            inputs = (q, a, b)
+            return checks.run_batch(model, batch_kernel, inputs, out, what, result, {"q": q})
+        status = kernel(model._ibuf, model._fbuf, work, q, a, b, out)
+    if status:
+        checks.raise_status(status, model, what, result, {"q": q})
+    return out
 
 
 def _frame(model, frame):
@@ -255,7 +259,7 @@ def frame_pose(model, q, frame, data=None):
     checks.check_model(model, "frame_pose")
     body, T_bf = _frame(model, frame)
     kernels = (frame_pose_kernel, frame_pose_exact, frame_pose_batch_kernel)
-    return _at_configurations(model, q, data, kernels, (body, T_bf), "frame_pose", "T_sf")
+    return _at_configurations(model, q, data, kernels, body, T_bf, "frame_pose", "T_sf")
 
 
 def jacobian(model, q, frame, expressed_in="space", data=None):
@@ -270,6 +274,6 @@ def jacobian(model, q, frame, expressed_in="space", data=None):
     checks.check_model(model, "jacobian")
     if expressed_in not in ("space", "body"):
         raise ValueError(f"jacobian: expressed_in must be 'space' or 'body', got {expressed_in!r}")
-    extra = (_frame(model, frame), expressed_in == "body")
     kernels = (jacobian_kernel, jacobian_exact, jacobian_batch_kernel)
-    return _at_configurations(model, q, data, kernels, extra, "jacobian", "J")
+    frame_at, body_frame = _frame(model, frame), expressed_in == "body"
+    return _at_configurations(model, q, data, kernels, frame_at, body_frame, "jacobian", "J")
