@@ -20,7 +20,7 @@ import opendyn as od
 from opendyn.cli import simulate as cli_simulate
 from opendyn.io.scene.schema import EFFECTS, Scene
 from opendyn.io.urdf import shipped_robots_dir
-from opendyn.sim import effects
+from opendyn.sim import effects, step
 from opendyn.sim.effects import registry
 from opendyn.sim.effects.dispatch import run_stages
 from opendyn.sim.effects.interface import CONSERVATIVE, ENERGY_CLASSES, Context, Out
@@ -197,11 +197,11 @@ def test_every_stage_is_reached_by_the_dispatch_and_adds_to_its_energy_class(sta
             qd = rng.normal(size=model.nv)
             t = rng.uniform(0, 1)
             dV_0 = np.zeros(6)
-            ctx = Context(
-                model._ibuf, model._fbuf, model.data()._work, t, q, qd, dV_0, table.armature
-            )
+            data = step.scene_data(model, table)
+            ctx = Context(model._ibuf, model._fbuf, data.work, t, q, qd, dV_0, table.armature)
             nv = model.nv
             out = Out(*np.zeros((3, nv)), np.zeros(2), *np.zeros((2, nv, nv)), np.bool_(True))
+            assert step.place(data, q, qd) == 0  # as the step does before its stages
             for earlier in range(slot):
                 assert one_stage(earlier, table.effects, ctx, out) == 0
             before = {name: np.copy(value) for name, value in out._asdict().items()}
@@ -212,3 +212,73 @@ def test_every_stage_is_reached_by_the_dispatch_and_adds_to_its_energy_class(sta
             assert changed & {"K", "D"} <= set(stage.DERIVATIVES), stage.STAGE
             acted |= bool(changed) or np.any(dV_0 != base)
     assert acted, f"{stage.STAGE} never acted through the dispatch"
+
+
+def stage_forces(stage, scene, q, qd, poses_q, world):
+    """The stage's out vectors at (q, qd) after the step places the poses at poses_q (the world
+    poses only when `world`; else they hold NaN), gravity's base acceleration set first."""
+    model = scene.model
+    table = effects.stage_table(scene)
+    held = model.data()
+    data = step.scene_data(model, table)._replace(world=True if world else None, work=held._work)
+    work = data.work
+    held.R_s[...] = np.nan
+    held.p_s[...] = np.nan
+    assert step.place(data, poses_q, qd) == 0
+    assert np.shares_memory(work, held.R_s)
+    dV_0 = np.zeros(6)
+    ctx = Context(model._ibuf, model._fbuf, work, 0.3, q, qd, dV_0, table.armature)
+    nv = model.nv
+    out = Out(*np.zeros((3, nv)), np.zeros(2), *np.zeros((2, nv, nv)), np.bool_(True))
+    assert one_stage(registry.slot(effects.gravity), table.effects, ctx, out) == 0
+    assert one_stage(registry.slot(stage), table.effects, ctx, out) == 0
+    return np.concatenate([np.ravel(v) for v in out[:6]])
+
+
+@pytest.mark.parametrize("stage", registry.stages(), ids=ids(registry.stages()))
+def test_a_stage_reads_the_world_poses_only_if_it_declares_them(stage):
+    """Kinematics once per evaluation (opendyn.sim.step): the step places the world poses only
+    for a scene that names an effect declaring WORLD_POSES. A stage that does not declare them
+    must not read them (here NaN); one that does must take them as placed, without walking the
+    tree again: placed at another configuration, its force is the force there."""
+    rng = np.random.default_rng(5)
+    for scene in scenes_naming(stage):
+        model = scene.model
+        assert effects.stage_table(scene).world_poses == any(
+            getattr(e, "WORLD_POSES", False) for e in registry.stages() if e.record(scene) is not None
+        )
+        for _ in range(6):
+            q, q2 = rng.uniform(-1.5, 1.5, (2, model.nq))
+            q2[0] = q[0] + 0.1  # the tip (wrench, contact) goes elsewhere
+            qd = rng.normal(size=model.nv)
+            forces = stage_forces(stage, scene, q, qd, q, getattr(stage, "WORLD_POSES", False))
+            assert np.all(np.isfinite(forces)), stage.STAGE
+            if getattr(stage, "WORLD_POSES", False):
+                there = stage_forces(stage, scene, q2, qd, q2, True)
+                mixed = stage_forces(stage, scene, q, qd, q2, True)
+                np.testing.assert_array_equal(mixed, there)
+
+
+def test_the_step_with_its_poses_placed_once_is_forward_dynamics_of_its_forces():
+    """evaluate (the poses placed once, the effects and ABA on them) against the public
+    functions called one by one at the same state: a wrench and contact scene."""
+    scene = scene_named("pd")
+    model = scene.model
+    table = effects.stage_table(scene)
+    assert table.world_poses
+    data = step.scene_data(model, table)
+    rng = np.random.default_rng(2)
+    for _ in range(5):
+        q, qd = rng.uniform(-1.5, 1.5, model.nq), rng.normal(size=model.nv)
+        qdd, tau_ctrl, power = np.empty(model.nv), np.empty(model.nv), np.empty(2)
+        assert step.evaluate(data, 0.3, q, qd, qdd, tau_ctrl, power) == 0
+        tau = data.forces[0].copy()
+        M = od.mass_matrix(model, q) + np.diag(table.armature)
+        h = od.bias_forces(model, q, qd)
+        np.testing.assert_allclose(M @ qdd + h, tau, rtol=1e-10, atol=1e-10)
+        # the wrench's share: J_b(tip)^T F_tip with F in world axes at the tip
+        wrench = np.array([0, 0, 0, 1, 0, 2.0])
+        T = od.frame_pose(model, q, "tip")
+        F_b = np.concatenate([T[:3, :3].T @ wrench[:3], T[:3, :3].T @ wrench[3:]])
+        J_b = od.jacobian(model, q, "tip", "body")
+        np.testing.assert_allclose(data.forces[1], J_b.T @ F_b, atol=1e-12)

@@ -38,8 +38,7 @@ from ..multibody.data import (
 from ..multibody.joints import (
     free_joints_only,
     joint_motion,
-    joint_transform,
-    prepare_joint_transforms,
+    place_joints,
     state_status,
     vector_status,
 )
@@ -131,14 +130,21 @@ def aba_kernel(ibuf, fbuf, work, q, qd, tau, loads, qdd, armature):
     status = state_status(ibuf, q, qd)
     if status:
         return status
+    R, p = joint_poses(work, body_count(ibuf))
+    place_joints(tree(ibuf, fbuf), q, R, p)
+    return aba_on_poses(ibuf, fbuf, work, qd, tau, loads, qdd, armature)
+
+
+@njit(**JIT)
+def aba_on_poses(ibuf, fbuf, work, qd, tau, loads, qdd, armature):
+    """aba_kernel on the joint poses that `work` holds (joints.place_joints at the state's q,
+    which was checked with qd). Returns a Status as aba_kernel's."""
     status = vector_status(ibuf, tau, Status.TAU_NOT_FINITE.value)
     if status:
         return status
     body_tree = tree(ibuf, fbuf)
-    parent, jtype, nv_j = body_tree.parent, body_tree.jtype, body_tree.nv_j
-    iq, iv, mult = body_tree.iq, body_tree.iv, body_tree.mult
-    offset, S, R_home = body_tree.offset, body_tree.S, body_tree.R_home
-    p_home = body_tree.p_home
+    parent, nv_j = body_tree.parent, body_tree.nv_j
+    iv, S = body_tree.iv, body_tree.S
     G = spatial_inertias(ibuf, fbuf)
     mass, h, I_o = rigid_inertias(ibuf, fbuf)
     nb, nv = body_count(ibuf), dof_count(ibuf)
@@ -160,11 +166,7 @@ def aba_kernel(ibuf, fbuf, work, q, qd, tau, loads, qdd, armature):
 
     # pass 1: V_i = Ad V_lambda + V_J, c_i = ad_{V_i} V_J with V_J = S_i qd_i,
     # pA_i = -ad_{V_i}^T G_i V_i + F_tip,i; IA_i = G_i
-    prepare_joint_transforms(body_tree, q, R, p)
     for i in range(nb):
-        joint_transform(
-            jtype[i], S[i], R_home[i], p_home[i], q, iq[i], mult[i], offset[i], R[i], p[i]
-        )
         lam = parent[i]
         joint_motion(nv_j[i], S[i], 1.0, qd, iv[i], V_J)
         if lam < 0:

@@ -92,13 +92,20 @@ def contact_kernel(ibuf, fbuf, work, contacts, q, qd, tau, linear, record):
     the body's frame, r m) per point). q must be a valid configuration. Works in `work` (a
     Data's buffer: the world poses R_s, p_s of every body). Returns sum_p k delta_p
     delta_dot_p (W), the spring's share of the power."""
+    forward_kinematics(tree(ibuf, fbuf), work, q, np.int64(-1))
+    return contact_on_poses(ibuf, fbuf, work, contacts, qd, tau, linear, record)
+
+
+@njit(**JIT)
+def contact_on_poses(ibuf, fbuf, work, contacts, qd, tau, linear, record):
+    """contact_kernel on the world poses R_s, p_s of every body that `work` holds
+    (forward_kinematics at a valid q). Returns the springs' power as contact_kernel's."""
     bodies, params = contacts
     K, D, jac = linear
     x_c, f_c, delta = record
     body_tree = tree(ibuf, fbuf)
     nb = body_count(ibuf)
     nv = qd.shape[0]
-    forward_kinematics(body_tree, work, q, np.int64(-1))
     R_s, p_s = world_poses(work, nb)
     h, k, d = params[GROUND], params[STIFFNESS], params[DAMPING]
     mu, v_s = params[FRICTION], params[SLIP]

@@ -26,7 +26,7 @@ from ..multibody.data import (
     scratch_rows,
     temp_vectors,
 )
-from ..multibody.joints import configuration_status, joint_transform, prepare_joint_transforms
+from ..multibody.joints import configuration_status, place_joints
 from ..multibody.layout import body_count, dof_count, rigid_inertias, tree
 from ..spatial.compiled import (
     add_rigid_inertia_to_parent,
@@ -45,22 +45,25 @@ def crba_kernel(ibuf, fbuf, work, q, M):
     status = configuration_status(ibuf, q)
     if status:
         return status
+    R, p = joint_poses(work, body_count(ibuf))
+    place_joints(tree(ibuf, fbuf), q, R, p)
+    return crba_on_poses(ibuf, fbuf, work, M)
+
+
+@njit(**JIT)
+def crba_on_poses(ibuf, fbuf, work, M):
+    """crba_kernel on the joint poses that `work` holds (joints.place_joints at a checked q).
+    Returns OK or RESULT_NOT_FINITE."""
     body_tree = tree(ibuf, fbuf)
-    parent, jtype, nv_j = body_tree.parent, body_tree.jtype, body_tree.nv_j
-    iq, iv, mult = body_tree.iq, body_tree.iv, body_tree.mult
-    offset, S, R_home = body_tree.offset, body_tree.S, body_tree.R_home
-    p_home = body_tree.p_home
+    parent, nv_j, iv = body_tree.parent, body_tree.nv_j, body_tree.iv
+    mult, S = body_tree.mult, body_tree.S
     mass, h, I_o = rigid_inertias(ibuf, fbuf)
     nb, nv = body_count(ibuf), dof_count(ibuf)
     R, p = joint_poses(work, nb)
     mass_c, h_c, I_c = composite_inertias(work, nb)
     scratch = scratch_rows(work, nb, nv)[:3, :3]
     F = temp_vectors(work, nb, nv)[0]
-    prepare_joint_transforms(body_tree, q, R, p)
     for i in range(nb):
-        joint_transform(
-            jtype[i], S[i], R_home[i], p_home[i], q, iq[i], mult[i], offset[i], R[i], p[i]
-        )
         mass_c[i] = mass[i]
         for r in range(3):
             h_c[i, r] = h[i, r]

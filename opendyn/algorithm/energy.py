@@ -23,7 +23,7 @@ from .._runtime.entry import exact, learn
 from .._runtime.kernel_cache import BATCH, INLINE, JIT
 from .._runtime.status import Status
 from ..multibody.data import body_motion, joint_poses, new_work, temp_vectors, world_poses
-from ..multibody.joints import joint_motion, joint_transform, prepare_joint_transforms, state_status
+from ..multibody.joints import joint_motion, place_joints, state_status
 from ..multibody.layout import body_count, rigid_inertias, tree
 from ..spatial.compiled import (
     add_neg_ad_transpose,
@@ -91,14 +91,12 @@ def energy_kernel(ibuf, fbuf, work, q, qd, gravity, out):
     if status:
         return status
     body_tree = tree(ibuf, fbuf)
-    parent, jtype, nv_j = body_tree.parent, body_tree.jtype, body_tree.nv_j
-    iq, iv, mult = body_tree.iq, body_tree.iv, body_tree.mult
-    offset, S, R_home = body_tree.offset, body_tree.S, body_tree.R_home
-    p_home = body_tree.p_home
+    parent, nv_j, iv = body_tree.parent, body_tree.nv_j, body_tree.iv
+    mult, S = body_tree.mult, body_tree.S
     mass, h, I_o = rigid_inertias(ibuf, fbuf)
     nb = parent.shape[0]
     R, p = joint_poses(work, nb)
-    prepare_joint_transforms(body_tree, q, R, p)
+    place_joints(body_tree, q, R, p)
     R_s, p_s = world_poses(work, nb)
     V, _, _ = body_motion(work, nb)
     temp = temp_vectors(work, nb, qd.shape[0])
@@ -106,9 +104,6 @@ def energy_kernel(ibuf, fbuf, work, q, qd, gravity, out):
     K = 0.0
     U = 0.0
     for i in range(nb):
-        joint_transform(
-            jtype[i], S[i], R_home[i], p_home[i], q, iq[i], mult[i], offset[i], R[i], p[i]
-        )
         lam = parent[i]
         world_pose(R_s, p_s, lam, R[i], p[i], i)
         joint_motion(nv_j[i], S[i], mult[i], qd, iv[i], V_J)

@@ -28,7 +28,12 @@ from ..multibody.data import (
     temp_vectors,
     world_poses,
 )
-from ..multibody.joints import configuration_status, joint_transform, prepare_joint_transforms
+from ..multibody.joints import (
+    configuration_status,
+    joint_transform,
+    place_joints,
+    prepare_joint_transforms,
+)
 from ..multibody.layout import body_count, dof_count, tree
 from ..spatial.compiled import twist_to_child
 from . import checks
@@ -58,28 +63,43 @@ def world_pose(R_s, p_s, lam, R, p, i):
 def forward_kinematics(body_tree, work, q, last):
     """The work buffer's R_s[i], p_s[i] <- T_{s,i}(q) (world frame = the root link) for every
     body, or, when last >= 0, only for the bodies on the path from the root to body `last`
-    (its R, p <- their T_{lambda(i), i}). body_tree is layout.tree(ibuf, fbuf). Compiled once
-    and called by the kernels that need world poses."""
+    (its R, p <- their T_{lambda(i), i}; every body's when last < 0). body_tree is
+    layout.tree(ibuf, fbuf). Compiled once and called by the kernels that need world poses."""
     parent, jtype, iq = body_tree.parent, body_tree.jtype, body_tree.iq
     mult, offset, S = body_tree.mult, body_tree.offset, body_tree.S
     R_home, p_home = body_tree.R_home, body_tree.p_home
     nb = parent.shape[0]
     R, p = joint_poses(work, nb)
+    if last < 0:
+        place_joints(body_tree, q, R, p)
+        place_bodies(body_tree, work)
+        return
     R_s, p_s = world_poses(work, nb)
     prepare_joint_transforms(body_tree, q, R, p)
     wanted = body_flags(work, nb)  # 1.0 for a body on the path
-    fill(wanted, 1.0 if last < 0 else 0.0)
-    if last >= 0:
-        i = last
-        while i >= 0:
-            wanted[i] = 1.0
-            i = parent[i]
-    for i in range(nb if last < 0 else last + 1):
+    fill(wanted, 0.0)
+    i = last
+    while i >= 0:
+        wanted[i] = 1.0
+        i = parent[i]
+    for i in range(last + 1):
         if wanted[i] == 0.0:
             continue
         joint_transform(
             jtype[i], S[i], R_home[i], p_home[i], q, iq[i], mult[i], offset[i], R[i], p[i]
         )
+        world_pose(R_s, p_s, parent[i], R[i], p[i], i)
+
+
+@njit(**JIT)
+def place_bodies(body_tree, work):
+    """The work buffer's R_s[i], p_s[i] <- T_{s,i} = T_{s,lambda(i)} T_{lambda(i), i} for every
+    body, from the joint poses R, p it holds (joints.place_joints)."""
+    parent = body_tree.parent
+    nb = parent.shape[0]
+    R, p = joint_poses(work, nb)
+    R_s, p_s = world_poses(work, nb)
+    for i in range(nb):
         world_pose(R_s, p_s, parent[i], R[i], p[i], i)
 
 
@@ -158,14 +178,24 @@ def jacobian_kernel(ibuf, fbuf, work, q, frame, body_frame, J):
     status = configuration_status(ibuf, q)
     if status:
         return status
+    body = frame[0]
+    if body >= 0:
+        forward_kinematics(tree(ibuf, fbuf), work, q, body)
+    frame_jacobian(ibuf, fbuf, work, frame, body_frame, J)
+    return result_status(J)
+
+
+@njit(**JIT)
+def frame_jacobian(ibuf, fbuf, work, frame, body_frame, J):
+    """jacobian_kernel on the world poses R_s, p_s that `work` holds for the bodies from the
+    root to the frame's (forward_kinematics at a checked q): J (6, nv) <- J_s, or J_b when
+    body_frame; work's T_sf <- the frame's pose."""
     body_tree = tree(ibuf, fbuf)
     parent, nv_j, iv = body_tree.parent, body_tree.nv_j, body_tree.iv
     mult, S_rows = body_tree.mult, body_tree.S
     nb, nv = parent.shape[0], J.shape[1]
     body, T_bf = frame
     R_s, p_s = world_poses(work, nb)
-    if body >= 0:
-        forward_kinematics(body_tree, work, q, body)
     T_sf = frame_pose_field(work, nb, nv)
     compose_frame(R_s, p_s, body, T_bf, T_sf)
     temp = temp_vectors(work, nb, nv)
@@ -183,7 +213,6 @@ def jacobian_kernel(ibuf, fbuf, work, q, frame, body_frame, J):
             for r in range(6):
                 J[r, iv[i] + k] += mult[i] * col[r]
         i = parent[i]
-    return result_status(J)
 
 
 @njit(**BATCH)

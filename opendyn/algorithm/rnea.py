@@ -23,12 +23,7 @@ from .._runtime.arrays import fill, result_status
 from .._runtime.entry import exact, learn
 from .._runtime.kernel_cache import BATCH, INLINE, JIT
 from ..multibody.data import body_motion, joint_poses, new_work, scratch_rows
-from ..multibody.joints import (
-    add_joint_force,
-    joint_transform,
-    motion_status,
-    prepare_joint_transforms,
-)
+from ..multibody.joints import add_joint_force, motion_status, place_joints
 from ..multibody.layout import body_count, dof_count, rigid_inertias, tree
 from ..spatial.compiled import (
     ad_twist,
@@ -48,16 +43,18 @@ def forward_pass(body_tree, q, qd, qdd, dV_0, R, p, V, dV, s):
     gravity. s is scratch of at least one row of 6. Also used for energies and frame
     accelerations.
     """
-    parent, jtype, nv_j = body_tree.parent, body_tree.jtype, body_tree.nv_j
-    iq, iv, mult = body_tree.iq, body_tree.iv, body_tree.mult
-    offset, S, R_home = body_tree.offset, body_tree.S, body_tree.R_home
-    p_home = body_tree.p_home
+    place_joints(body_tree, q, R, p)
+    motion_pass(body_tree, qd, qdd, dV_0, R, p, V, dV, s)
+
+
+@njit(**INLINE)
+def motion_pass(body_tree, qd, qdd, dV_0, R, p, V, dV, s):
+    """forward_pass on the joint poses R[i], p[i] = T_{lambda,i} already placed
+    (joints.place_joints): V[i], dV[i] twist and its rate in {i}."""
+    parent, nv_j, iv = body_tree.parent, body_tree.nv_j, body_tree.iv
+    mult, S = body_tree.mult, body_tree.S
     a = s[0]
-    prepare_joint_transforms(body_tree, q, R, p)
     for i in range(parent.shape[0]):
-        joint_transform(
-            jtype[i], S[i], R_home[i], p_home[i], q, iq[i], mult[i], offset[i], R[i], p[i]
-        )
         lam = parent[i]
         # V_i = Ad_{T_{i,lambda}} V_lambda + S_i qd_i  (the world does not move: V_0 = 0)
         if lam < 0:
@@ -87,6 +84,15 @@ def rnea_kernel(ibuf, fbuf, work, q, qd, qdd, loads, tau):
     status = motion_status(ibuf, q, qd, qdd)
     if status:
         return status
+    R, p = joint_poses(work, body_count(ibuf))
+    place_joints(tree(ibuf, fbuf), q, R, p)
+    return rnea_on_poses(ibuf, fbuf, work, qd, qdd, loads, tau)
+
+
+@njit(**JIT)
+def rnea_on_poses(ibuf, fbuf, work, qd, qdd, loads, tau):
+    """rnea_kernel on the joint poses that `work` holds (joints.place_joints at the state's q,
+    which was checked, as qd and qdd are not here). Returns OK or RESULT_NOT_FINITE."""
     body_tree = tree(ibuf, fbuf)
     parent, nv_j, iv = body_tree.parent, body_tree.nv_j, body_tree.iv
     mult, S = body_tree.mult, body_tree.S
@@ -95,7 +101,7 @@ def rnea_kernel(ibuf, fbuf, work, q, qd, qdd, loads, tau):
     R, p = joint_poses(work, nb)
     V, dV, F = body_motion(work, nb)
     s = scratch_rows(work, nb, nv)
-    forward_pass(body_tree, q, qd, qdd, loads[0], R, p, V, dV, s)
+    motion_pass(body_tree, qd, qdd, loads[0], R, p, V, dV, s)
 
     # backward pass: F_i = G_i dV_i - ad_{V_i}^T G_i V_i + F_tip,i + sum_children Ad^T F_c,
     # tau_i = S_i^T F_i

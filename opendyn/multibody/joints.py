@@ -163,6 +163,21 @@ def prepare_joint_transforms(body_tree, q, R, p):
     transform_free_joints(body_tree[0], body_tree, q, R, p)
 
 
+@njit(**JIT)
+def place_joints(body_tree, q, R, p):
+    """R[i], p[i] <- T_{lambda(i), i}(q) = M_{lambda(i), i} X_J(q_i) for every body i (R (nb, 3,
+    3), p (nb, 3) m): the joint poses every recursion starts from. The kernels call it before
+    their passes; the simulation step calls it once per evaluation and runs the kernels' passes
+    on its result (their `*_on_poses` forms)."""
+    jtype, iq, mult = body_tree.jtype, body_tree.iq, body_tree.mult
+    offset, S, R_home, p_home = body_tree.offset, body_tree.S, body_tree.R_home, body_tree.p_home
+    prepare_joint_transforms(body_tree, q, R, p)
+    for i in range(jtype.shape[0]):
+        joint_transform(
+            jtype[i], S[i], R_home[i], p_home[i], q, iq[i], mult[i], offset[i], R[i], p[i]
+        )
+
+
 @njit(**INLINE)
 def joint_motion(nv_i, S_i, mult, x, iv, out):
     """out (6,) <- S_i x_i = sum_k S_i[k] mult x[iv + k]: the joint's twist for x = v, its

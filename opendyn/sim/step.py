@@ -23,6 +23,13 @@ where E = T + U_gravity:
 Each effect's module declares its class (ENERGY, opendyn.sim.effects.interface) and adds its
 force to that vector.
 
+Kinematics once per evaluation: the evaluation checks (q, qd) and places the joint poses
+T_{lambda(i), i}(q) in the step's Data buffer first, and the world poses T_{s,i} when an
+effect the scene names reads them (its module declares WORLD_POSES: applied wrenches,
+contact). The effects (computed torque's RNEA and CRBA included) and ABA then run on those
+poses, their kernels' `*_on_poses` forms, instead of walking the tree again each. An effect's
+compiled force must leave the poses as they are.
+
 Only the effects the scene names are compiled and run: an effect it does not name has None in
 its slot of the effects tuple, and numba drops its call when it compiles the step (not even a
 multiplication by zero remains; opendyn.sim.effects.dispatch).
@@ -35,24 +42,56 @@ from collections import namedtuple
 import numpy as np
 from numba import njit
 
-from .._runtime.arrays import fill, zero_matrix
+from .._runtime.arrays import fill, result_status, zero_matrix
 from .._runtime.kernel_cache import INLINE, JIT
 from .._runtime.status import Status
+from ..algorithm.aba import aba_on_poses
 from ..algorithm.constraints import ROW_COUNT, constrained_forward_kernel
 from ..algorithm.forward import forward_kernel, method_switches
+from ..algorithm.kinematics import place_bodies
+from ..multibody.data import joint_poses
+from ..multibody.joints import place_joints, state_status
+from ..multibody.layout import body_count, tree
 from .effects import GRAVITY
 from .effects.dispatch import EVERY, run_stages
 from .effects.interface import Context, Out
 
 
+@njit(**JIT)
+def place(scene, q, qd):
+    """Check the state (q (nq,), qd (nv,)) and place the poses at q in scene.work: the joint
+    poses R, p of every body, and the world poses R_s, p_s when scene.world is not None.
+    Returns a Status: OK, Q/QD_NOT_FINITE or Q_NOT_UNIT_QUATERNION."""
+    status = state_status(scene.ibuf, q, qd)
+    if status:
+        return status
+    body_tree = tree(scene.ibuf, scene.fbuf)
+    R, p = joint_poses(scene.work, body_count(scene.ibuf))
+    place_joints(body_tree, q, R, p)
+    place_world(scene.world, body_tree, scene.work)
+    return Status.OK.value
+
+
+@njit(**JIT)
+def place_world(world, body_tree, work):
+    """work's R_s, p_s <- the world poses from its joint poses; nothing when world is None
+    (numba drops the call when it compiles: no effect of the scene reads them)."""
+    if world is None:
+        return
+    place_bodies(body_tree, work)
+
+
 @njit(**INLINE)
 def generalized_forces(scene, t, q, qd, tau, tau_ctrl, power, K, D, jac):
-    """Run every effect the scene names (scene: a SceneData): tau (nv,) <- their total
-    generalized force, tau_ctrl (nv,) <- the control's share, the scene's base acceleration
-    dV_0 (6,) <- (0, -g) or 0, power (2,) <- (applied, passive) power qd . tau_applied and
-    qd . tau_passive (W), the passive one less the work of the contacts' springs. With jac, K
-    and D (nv, nv) <- the stiffness -d tau/dq and damping -d tau/dqd of the effects; without,
-    K and D are not touched. Returns a Status."""
+    """Check (q, qd), place the poses at q (place) and run every effect the scene names
+    (scene: a SceneData): tau (nv,) <- their total generalized force, tau_ctrl (nv,) <- the
+    control's share, the scene's base acceleration dV_0 (6,) <- (0, -g) or 0, power (2,) <-
+    (applied, passive) power qd . tau_applied and qd . tau_passive (W), the passive one less the
+    work of the contacts' springs. With jac, K and D (nv, nv) <- the stiffness -d tau/dq and
+    damping -d tau/dqd of the effects; without, K and D are not touched. Returns a Status."""
+    status = place(scene, q, qd)
+    if status:
+        return status
     tau_app, tau_pas, dV_0 = scene.forces[1], scene.forces[2], scene.loads[0]
     fill(tau_app, 0.0)
     fill(tau_pas, 0.0)
@@ -93,26 +132,43 @@ def add_held(tau_held, tau_ctrl):
 @njit(**JIT)
 def dynamics(scene, q, qd, tau, qdd):
     """qdd (nv,) <- forward dynamics under tau (nv,) and the base acceleration scene.loads[0]:
-    the method's without constraints, the constrained solve with them (solve_with). Returns a
-    Status."""
+    the method's without constraints, the constrained solve with them (solve_with), after
+    place. Returns a Status."""
+    status = place(scene, q, qd)
+    if status:
+        return status
     return solve_with(scene.constraints, scene, q, qd, tau, qdd)
 
 
 @njit(**JIT)
 def solve_with(con, scene, q, qd, tau, qdd):
-    """dynamics: the method's forward dynamics when con is None, the constrained solve with
-    con = (rows, params, gains) (the method's switches, (aba, crba, newton_euler) as
-    algorithm.forward.method_switches gives them, are then all None). numba tests con against
-    None when it compiles, so only the branch a scene selects is compiled. Returns a Status."""
+    """dynamics on the poses placed at q: the method's forward dynamics when con is None, the
+    constrained solve with con = (rows, params, gains) (the method's switches, (aba, crba,
+    newton_euler) as algorithm.forward.method_switches gives them, are then all None). numba
+    tests con against None when it compiles, so only the branch a scene selects is compiled.
+    Returns a Status."""
     if con is None:
-        return forward_kernel(
-            scene.ibuf, scene.fbuf, scene.work, q, qd, tau, scene.loads, qdd, scene.armature,
-            scene.method,
-        )
+        return solve_on_poses(scene.method[0], scene, q, qd, tau, qdd)
     lam = np.empty(con.rows[:, ROW_COUNT].sum())
     return constrained_forward_kernel(
         scene.ibuf, scene.fbuf, con, q, qd, tau, scene.loads, scene.armature, qdd, lam
     )
+
+
+@njit(**JIT)
+def solve_on_poses(aba, scene, q, qd, tau, qdd):
+    """qdd (nv,) <- ABA on the poses placed at q when aba (the method's compile-time switch) is
+    not None; the CRBA methods otherwise, which place their own (forward_kernel). Returns a
+    Status."""
+    if aba is None:
+        return forward_kernel(
+            scene.ibuf, scene.fbuf, scene.work, q, qd, tau, scene.loads, qdd, scene.armature,
+            scene.method,
+        )
+    status = aba_on_poses(
+        scene.ibuf, scene.fbuf, scene.work, qd, tau, scene.loads, qdd, scene.armature
+    )
+    return status if status else result_status(qdd)
 
 
 # The scene as the compiled step takes it (scene_data): the model's buffers ibuf, fbuf; the
@@ -120,13 +176,14 @@ def solve_with(con, scene, q, qd, tau, qdd):
 # as the compile-time switches of algorithm.forward.forward_kernel (none with constraints);
 # and the step's own scratch: forces (3, nv) (tau, tau_applied, tau_passive), loads (1, 6)
 # with dV_0, KD (2, nv, nv) the stiffness K and damping D of the effects for the implicit
-# integrator, work, the buffer of a Data of the model that the kernels work in, and held, the
-# torque tau_held (nv,) held over a control period, or None.
+# integrator, work, the buffer of a Data of the model that the kernels work in, held, the
+# torque tau_held (nv,) held over a control period, or None, and world, True when an effect
+# the scene names reads the world poses (place puts them in work), or None.
 SceneData = namedtuple(
     "SceneData",
     (
         "ibuf", "fbuf", "effects", "armature", "method", "constraints", "forces", "loads",
-        "KD", "work", "held",
+        "KD", "work", "held", "world",
     ),
 )
 
@@ -148,6 +205,7 @@ def scene_data(model, table, held=None):
         np.empty((2, model.nv, model.nv)),
         model.data()._work,
         held,
+        True if table.world_poses else None,
     )
 
 
@@ -160,7 +218,7 @@ def evaluate(scene, t, q, qd, qdd, tau_ctrl, power):
     status = generalized_forces(scene, t, q, qd, tau, tau_ctrl, power, KD[0], KD[1], False)
     if status:
         return status
-    return dynamics(scene, q, qd, tau, qdd)
+    return solve_with(scene.constraints, scene, q, qd, tau, qdd)
 
 
 @njit(**JIT)
@@ -189,6 +247,7 @@ def stage_cost_kernel(scene, which, t, q, qd):
             ctx = Context(
                 scene.ibuf, scene.fbuf, scene.work, t[n], q[n], qd[n], dV_0, scene.armature
             )
+            place(scene, q[n], qd[n])
             run_stages(which, scene.effects, ctx, out)
             for j in range(nv):
                 total += tau_ctrl[j] + tau_app[j] + tau_pas[j]

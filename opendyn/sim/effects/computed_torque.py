@@ -23,8 +23,8 @@ from numba import njit
 from ..._runtime.arrays import copy_into
 from ..._runtime.kernel_cache import JIT
 from ...algorithm.cholesky import cholesky_solve
-from ...algorithm.crba import crba_kernel
-from ...algorithm.rnea import rnea_kernel
+from ...algorithm.crba import crba_on_poses
+from ...algorithm.rnea import rnea_on_poses
 from .control import Control, of_kind, optional, required
 from .interface import CONTROL, OK, floats, q_indices, v_indices
 
@@ -95,7 +95,7 @@ def base_reaction(floating, ctx, tau_c):
         return OK
     nv = tau_c.shape[0]
     M = np.empty((nv, nv))
-    crba_kernel(ctx.ibuf, ctx.fbuf, ctx.work, ctx.q, M)
+    crba_on_poses(ctx.ibuf, ctx.fbuf, ctx.work, M)
     M_bb = np.empty((6, 6))
     minus_h_b = np.empty(6)
     for r in range(6):
@@ -134,7 +134,7 @@ def apply(p, ctx, out):
     loads = np.empty((1, 6))
     copy_into(ctx.dV_0, loads[0])
     tau_c = np.empty(qd.shape[0])
-    status = rnea_kernel(ctx.ibuf, ctx.fbuf, ctx.work, q, qd, qdd_c, loads, tau_c)
+    status = rnea_on_poses(ctx.ibuf, ctx.fbuf, ctx.work, qd, qdd_c, loads, tau_c)
     if status:
         return status
     status = base_reaction(p.floating, ctx, tau_c)

@@ -27,7 +27,7 @@ from ...algorithm.contact import (
     SLIP,
     STIFFNESS,
     contact_jacobians_kernel,
-    contact_kernel,
+    contact_on_poses,
 )
 from ...io.scene.values import _found
 from .interface import OK, PASSIVE, floats
@@ -46,6 +46,7 @@ DOC = (
 ENABLE = None
 STAGE = "contact"
 ENERGY = PASSIVE
+WORLD_POSES = True  # its force reads the world poses the step places (contact_on_poses)
 DERIVATIVES = ("K", "D")
 Params = None  # opendyn.algorithm.contact's (bodies, params): see contact_table
 
@@ -190,15 +191,15 @@ def apply(p, ctx, out):
     out.power[1] += their springs' share sum_p k delta_p delta_dot_p (with qd . tau it makes
     the contacts' non-conservative power); with out.jac, out.K, out.D (nv, nv) += their
     linearisation (opendyn.algorithm.contact). p = (bodies (P,) int64, params), or None.
-    Works in ctx.work, the step's Data buffer. Returns a Status."""
+    Works on the world poses the step placed in ctx.work (WORLD_POSES). Returns a Status."""
     if p is None:
         return OK
     n = p[0].shape[0]
     record = (np.empty((n, 3)), np.empty((n, 3)), np.empty(n))
     # np.bool_(jac): a run-time flag, so that the kernel compiles once for both values
     linear = (out.K, out.D, np.bool_(out.jac))
-    out.power[1] += contact_kernel(
-        ctx.ibuf, ctx.fbuf, ctx.work, p, ctx.q, ctx.qd, out.passive, linear, record
+    out.power[1] += contact_on_poses(
+        ctx.ibuf, ctx.fbuf, ctx.work, p, ctx.qd, out.passive, linear, record
     )
     return OK
 

@@ -10,6 +10,9 @@ An effect is one module of this package, listed once in registry.EFFECTS. The mo
   KEYS         the keys of its table, or () when its setting is one value (gravity = true)
   JOINTS       (optional, default False) True when it acts on the joint coordinates only:
                a scene whose robot has no joints refuses it (it would act on nothing)
+  WORLD_POSES  (optional, default False) True when its compiled force reads the bodies' world
+               poses R_s, p_s from ctx.work: the step places them once per evaluation when a
+               scene names it (the joint poses R, p are always placed; opendyn.sim.step)
   read         read(r, value) -> its record, checked (r: the scene's ValueReader, with r.model;
                value: its setting, None when absent, which gives OFF); a control law's is
                read(r, table, q0) -> a Control, and clip's read(r, table) -> the value of its key
@@ -65,7 +68,8 @@ CONSERVATIVE = "conservative"  # in E itself: no force vector (gravity's potenti
 ENERGY_CLASSES = (CONTROL, APPLIED, PASSIVE, CONSERVATIVE)
 
 # What every compiled force reads: the model's buffers ibuf, fbuf and work (the buffer of a
-# Data of the model, which the kernels work in), the time t (s), the state q (nq,), qd (nv,),
+# Data of the model, which the kernels work in, holding the poses the step placed at q: an
+# effect's force leaves them as they are), the time t (s), the state q (nq,), qd (nv,),
 # the base acceleration dV_0 (6,) (set by the gravity stage, which runs first, read by
 # computed torque), and armature (nv,) the rotor inertias (or empty).
 Context = namedtuple("Context", ("ibuf", "fbuf", "work", "t", "q", "qd", "dV_0", "armature"))

@@ -31,6 +31,8 @@ class StageTable:
       opendyn.algorithm.constraints.constraint_table gives them and the Baumgarte gains
       (alpha, beta); None when the scene has none (the constrained solve is then neither
       compiled nor run).
+    world_poses: whether an effect the scene names reads the bodies' world poses (its module
+      declares WORLD_POSES): the step then places them once per evaluation.
     """
 
     effects: tuple
@@ -39,6 +41,7 @@ class StageTable:
     method: str
     armature: np.ndarray
     constraints: tuple | None = None
+    world_poses: bool = False
 
     def params(self, effect):
         """The parameters in the slot of `effect` (a module of registry.stages()), or None."""
@@ -49,7 +52,7 @@ def stage_table(scene) -> StageTable:
     """The compiled step's data for the effects `scene` names, in the order they run
     (registry.stages(); armature goes to M)."""
     model = scene.model
-    effects, names = [], []
+    effects, names, world_poses = [], [], False
     for effect in registry.stages():
         record = effect.record(scene)
         params = None if record is None else effect.pack(record, model)
@@ -57,6 +60,7 @@ def stage_table(scene) -> StageTable:
         if params is not None:
             label = getattr(effect, "label", None)
             names.append(effect.STAGE if label is None else label(record, model))
+            world_poses = world_poses or getattr(effect, "WORLD_POSES", False)
     constraints = None
     if scene.constraints:
         c_rows, c_params = constraint_table(model, scene.constraints, scene.q0)
@@ -70,4 +74,5 @@ def stage_table(scene) -> StageTable:
         method="crba" if model.coupled else "aba",
         armature=NO_ARMATURE if rotors is None else armature.pack(rotors, model),
         constraints=constraints,
+        world_poses=world_poses,
     )

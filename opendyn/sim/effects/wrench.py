@@ -19,7 +19,7 @@ from numba import njit
 
 from ..._runtime.arrays import copy_into, immutable
 from ..._runtime.kernel_cache import JIT
-from ...algorithm.kinematics import jacobian_kernel
+from ...algorithm.kinematics import frame_jacobian
 from ...io.scene.values import _found
 from ...multibody.data import frame_pose_field
 from ...multibody.layout import body_count
@@ -38,6 +38,7 @@ DOC = (
 ENABLE = None
 STAGE = "wrench"
 ENERGY = APPLIED
+WORLD_POSES = True  # its force reads the world poses the step places (frame_jacobian)
 DERIVATIVES = ()
 rates = None
 EXPRESSED_IN = ("frame", "world")
@@ -194,8 +195,8 @@ def wrench_at(times, values, t, F):
 def apply(p, ctx, out):
     """out.applied += sum over the wrenches of J_b(frame)^T F_frame. p: Params, or None.
     world: F is given in world-aligned axes at the frame's origin, F_frame = (R^T m, R^T f),
-    with R from the pose T_sf that the Jacobian's kinematics leave in ctx.work (one pass of
-    kinematics a wrench). Returns a Status."""
+    with R from the pose T_sf that the Jacobian leaves in ctx.work. Works on the world poses
+    the step placed in ctx.work (WORLD_POSES). Returns a Status."""
     if p is None:
         return OK
     nv = ctx.qd.shape[0]
@@ -206,9 +207,7 @@ def apply(p, ctx, out):
     for w in range(p.body.shape[0]):
         first, last = p.first[w], p.first[w] + p.count[w]
         wrench_at(p.times[first:last], p.values[first:last], ctx.t, F)
-        jacobian_kernel(
-            ctx.ibuf, ctx.fbuf, ctx.work, ctx.q, (p.body[w], p.T_body_frame[w]), True, J_b
-        )
+        frame_jacobian(ctx.ibuf, ctx.fbuf, ctx.work, (p.body[w], p.T_body_frame[w]), True, J_b)
         if p.world[w]:
             copy_into(F, F_s)
             for r in range(3):
