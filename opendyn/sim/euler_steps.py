@@ -29,9 +29,9 @@ from ..algorithm.cholesky import (
 )
 from ..algorithm.configuration import integrate_kernel
 from ..algorithm.constraints import ROW_COUNT, constrained_solve_at
-from ..algorithm.crba import crba_kernel
+from ..algorithm.crba import crba_kernel, crba_on_poses
 from ..algorithm.energy import kinetic_gradient_kernel
-from ..algorithm.rnea import rnea_kernel
+from ..algorithm.rnea import rnea_on_poses
 from .step import generalized_forces
 
 FIXED_POINT_RTOL = 1e-14  # the momentum update's iteration stops when v changes less than this
@@ -62,12 +62,13 @@ def implicit_velocity_step(scene, t, dt, x, x1, tau_ctrl):
     status = generalized_forces(scene, t, q, qd, tau, tau_ctrl, power, K, D, True)
     if status:
         return status
+    # h(q, qd) and M(q) on the poses generalized_forces placed at q
     h = np.empty(nv)
-    status = rnea_kernel(ibuf, fbuf, work, q, qd, np.zeros(nv), loads, h)
+    status = rnea_on_poses(ibuf, fbuf, work, qd, np.zeros(nv), loads, h)
     if status:
         return status
     M = np.empty((nv, nv))
-    crba_kernel(ibuf, fbuf, work, q, M)
+    crba_on_poses(ibuf, fbuf, work, M)
     rhs = np.empty(nv)
     for j in range(nv):
         rhs[j] = tau[j] - h[j]
@@ -101,15 +102,16 @@ def symplectic_euler_step(scene, t, dt, x, x1, tau_ctrl):
     status = generalized_forces(scene, t, q, qd, tau, tau_ctrl, power, KD[0], KD[1], False)
     if status:
         return status
-    # g(q): RNEA at qd = qdd = 0 under the base acceleration
+    # g(q): RNEA at qd = qdd = 0 under the base acceleration, on the poses generalized_forces
+    # placed at q
     zero = np.zeros(nv)
     g = np.empty(nv)
-    status = rnea_kernel(ibuf, fbuf, work, q, zero, zero, loads, g)
+    status = rnea_on_poses(ibuf, fbuf, work, zero, zero, loads, g)
     if status:
         return status
     # p = (M(q) + diag(armature)) qd
     M = np.empty((nv, nv))
-    crba_kernel(ibuf, fbuf, work, q, M)
+    crba_on_poses(ibuf, fbuf, work, M)
     p = np.zeros(nv)
     for r in range(nv):
         if armature.shape[0]:

@@ -46,7 +46,7 @@ from .._runtime.arrays import fill, result_status, zero_matrix
 from .._runtime.kernel_cache import INLINE, JIT
 from .._runtime.status import Status
 from ..algorithm.aba import aba_on_poses
-from ..algorithm.constraints import ROW_COUNT, constrained_forward_kernel
+from ..algorithm.constraints import ROW_COUNT, constrained_on_poses
 from ..algorithm.forward import forward_kernel, method_switches
 from ..algorithm.kinematics import place_bodies
 from ..multibody.data import joint_poses
@@ -150,8 +150,9 @@ def solve_with(con, scene, q, qd, tau, qdd):
     if con is None:
         return solve_on_poses(scene.method[0], scene, q, qd, tau, qdd)
     lam = np.empty(con.rows[:, ROW_COUNT].sum())
-    return constrained_forward_kernel(
-        scene.ibuf, scene.fbuf, con, q, qd, tau, scene.loads, scene.armature, qdd, lam
+    return constrained_on_poses(
+        scene.ibuf, scene.fbuf, scene.work, con, (q, qd, tau), scene.loads, scene.armature,
+        (qdd, lam),
     )
 
 

@@ -17,6 +17,8 @@ Compiled interface:
   constrained_solve_rank_kernel(M, rhs, A, gamma, qdd, lam, rank) -> the same, rank[0] = rank
   constrained_solve_at(ibuf, fbuf, con, q, qd, M, rhs, qdd, lam) -> status
   constrained_forward_kernel(ibuf, fbuf, con, q, qd, tau, loads, armature, qdd, lam) -> status
+  constrained_on_poses(ibuf, fbuf, work, con, (q, qd, tau), loads, armature, (qdd, lam))
+                                        the same on the joint poses placed in work -> status
 with con a ConstraintTable (rows, params, gains): the table (opendyn.algorithm.constraints.table)
 and gains = (alpha, beta), the Baumgarte stabilisation A qdd + Adot qd + 2 alpha A qd +
 beta^2 phi = 0 of a simulation ((0, 0), NO_STABILISATION: none).
@@ -30,12 +32,13 @@ from numba import njit
 from ..._runtime.arrays import all_finite, fill
 from ..._runtime.kernel_cache import JIT
 from ..._runtime.status import Status
-from ...multibody.data import new_work
-from ...multibody.layout import body_count
+from ...multibody.data import joint_poses, new_work
+from ...multibody.joints import place_joints, state_status
+from ...multibody.layout import body_count, tree
 from ..cholesky import cholesky_solve
-from ..crba import crba_kernel
+from ..crba import crba_on_poses
 from ..eigen import symmetric_eigen
-from ..rnea import rnea_kernel
+from ..rnea import rnea_on_poses
 from .terms import constraint_terms_kernel
 
 RANK_RTOL = 1e-12  # eigenvalues of A M^-1 A^T below this times the largest count as zero
@@ -171,18 +174,34 @@ def constrained_forward_kernel(ibuf, fbuf, con, q, qd, tau, loads, armature, qdd
     ConstraintTable; gains zeros: no stabilisation). Returns a Status: OK, Q/QD/TAU_NOT_FINITE,
     Q_NOT_UNIT_QUATERNION, RESULT_NOT_FINITE (h overflowed), or SINGULAR + j when M is singular
     at coordinate j."""
+    status = state_status(ibuf, q, qd)
+    if status:
+        return status
+    nb = body_count(ibuf)
+    work = new_work(nb, qd.shape[0])
+    R, p = joint_poses(work, nb)
+    place_joints(tree(ibuf, fbuf), q, R, p)
+    return constrained_on_poses(ibuf, fbuf, work, con, (q, qd, tau), loads, armature, (qdd, lam))
+
+
+@njit(**JIT)
+def constrained_on_poses(ibuf, fbuf, work, con, state, loads, armature, solution):
+    """constrained_forward_kernel at state = (q, qd, tau), (q, qd) checked, on the joint poses
+    that `work` holds (joints.place_joints at q): h and M share them; solution = (qdd, lam).
+    Returns a Status as constrained_forward_kernel's."""
+    q, qd, tau = state
+    qdd, lam = solution
     if not all_finite(tau):
         return Status.TAU_NOT_FINITE.value
     nv = qd.shape[0]
-    work = new_work(body_count(ibuf), nv)
     rhs = np.empty(nv)
-    status = rnea_kernel(ibuf, fbuf, work, q, qd, np.zeros(nv), loads, rhs)
+    status = rnea_on_poses(ibuf, fbuf, work, qd, np.zeros(nv), loads, rhs)
     if status:
         return status
     for i in range(nv):
         rhs[i] = tau[i] - rhs[i]
     M = np.empty((nv, nv))
-    crba_kernel(ibuf, fbuf, work, q, M)
+    crba_on_poses(ibuf, fbuf, work, M)
     for i in range(armature.shape[0]):
         M[i, i] += armature[i]
     return constrained_solve_at(ibuf, fbuf, con, q, qd, M, rhs, qdd, lam)
