@@ -163,7 +163,7 @@ def prepare_joint_transforms(body_tree, q, R, p):
     transform_free_joints(body_tree[0], body_tree, q, R, p)
 
 
-@njit(**JIT)
+@njit(**INLINE)
 def place_joints(body_tree, q, R, p):
     """R[i], p[i] <- T_{lambda(i), i}(q) = M_{lambda(i), i} X_J(q_i) for every body i (R (nb, 3,
     3), p (nb, 3) m): the joint poses every recursion starts from. The kernels call it before
