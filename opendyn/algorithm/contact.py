@@ -37,7 +37,7 @@ import numpy as np
 from numba import njit
 
 from .._runtime.arrays import zero_matrix
-from .._runtime.kernel_cache import BATCH, JIT
+from .._runtime.kernel_cache import BATCH, INLINE, JIT
 from ..multibody.data import new_work, world_poses
 from ..multibody.layout import body_count, dof_count, tree
 from .kinematics import add_point_jacobian, forward_kinematics
@@ -82,7 +82,7 @@ def add_congruence(J_p, C, out):
                     out[a, b] += J_p[r, a] * CJ[r, b]
 
 
-@njit(**JIT)
+@njit(**INLINE)
 def contact_kernel(ibuf, fbuf, work, contacts, q, qd, tau, linear, record):
     """The contact forces at (q, qd): tau (nv,) += sum_p J_p^T f_p; record = (x_c (P, 3),
     f_c (P, 3), delta (P,)) <- the points' lowest points x_p (m, {s}), their forces f_p
@@ -91,7 +91,8 @@ def contact_kernel(ibuf, fbuf, work, contacts, q, qd, tau, linear, record):
     point's body; params: SHARED values (ground height, k, d, mu, v_s), then (c_b (3,) m in
     the body's frame, r m) per point). q must be a valid configuration. Works in `work` (a
     Data's buffer: the world poses R_s, p_s of every body). Returns sum_p k delta_p
-    delta_dot_p (W), the spring's share of the power."""
+    delta_dot_p (W), the spring's share of the power. Written out where it is called (the
+    record's kernel): the step calls contact_on_poses, on the poses it placed."""
     forward_kinematics(tree(ibuf, fbuf), work, q, np.int64(-1))
     return contact_on_poses(ibuf, fbuf, work, contacts, qd, tau, linear, record)
 

@@ -91,7 +91,7 @@ def forward_kinematics(body_tree, work, q, last):
         world_pose(R_s, p_s, parent[i], R[i], p[i], i)
 
 
-@njit(**JIT)
+@njit(**INLINE)
 def place_bodies(body_tree, work):
     """The work buffer's R_s[i], p_s[i] <- T_{s,i} = T_{s,lambda(i)} T_{lambda(i), i} for every
     body, from the joint poses R, p it holds (joints.place_joints)."""

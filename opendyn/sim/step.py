@@ -137,39 +137,35 @@ def dynamics(scene, q, qd, tau, qdd):
     status = place(scene, q, qd)
     if status:
         return status
-    return solve_with(scene.constraints, scene, q, qd, tau, qdd)
+    aba, crba, newton_euler = scene.method
+    return solve_with(scene.constraints, aba, crba, newton_euler, scene, q, qd, tau, qdd)
 
 
 @njit(**JIT)
-def solve_with(con, scene, q, qd, tau, qdd):
-    """dynamics on the poses placed at q: the method's forward dynamics when con is None, the
-    constrained solve with con = (rows, params, gains) (the method's switches, (aba, crba,
-    newton_euler) as algorithm.forward.method_switches gives them, are then all None). numba
-    tests con against None when it compiles, so only the branch a scene selects is compiled.
-    Returns a Status."""
-    if con is None:
-        return solve_on_poses(scene.method[0], scene, q, qd, tau, qdd)
-    lam = np.empty(con.rows[:, ROW_COUNT].sum())
-    return constrained_on_poses(
-        scene.ibuf, scene.fbuf, scene.work, con, (q, qd, tau), scene.loads, scene.armature,
-        (qdd, lam),
-    )
-
-
-@njit(**JIT)
-def solve_on_poses(aba, scene, q, qd, tau, qdd):
-    """qdd (nv,) <- ABA on the poses placed at q when aba (the method's compile-time switch) is
-    not None; the CRBA methods otherwise, which place their own (forward_kernel). Returns a
-    Status."""
-    if aba is None:
+def solve_with(con, aba, crba, newton_euler, scene, q, qd, tau, qdd):
+    """dynamics on the poses placed at q: with con = (rows, params, gains) the constrained
+    solve; else ABA on the poses, or the CRBA methods, which place their own (forward_kernel),
+    whichever of the method's switches scene.method = (aba, crba, newton_euler) is True (as
+    algorithm.forward.method_switches gives them; all None with constraints). numba drops a
+    branch whose argument is None when it compiles (only a None argument decides a test at
+    compile time), so only the branch a scene selects is compiled. Returns a Status."""
+    if con is not None:
+        lam = np.empty(con.rows[:, ROW_COUNT].sum())
+        return constrained_on_poses(
+            scene.ibuf, scene.fbuf, scene.work, con, (q, qd, tau), scene.loads, scene.armature,
+            (qdd, lam),
+        )
+    if aba is not None:
+        status = aba_on_poses(
+            scene.ibuf, scene.fbuf, scene.work, qd, tau, scene.loads, qdd, scene.armature
+        )
+        return status if status else result_status(qdd)
+    if crba is not None or newton_euler is not None:
         return forward_kernel(
             scene.ibuf, scene.fbuf, scene.work, q, qd, tau, scene.loads, qdd, scene.armature,
             scene.method,
         )
-    status = aba_on_poses(
-        scene.ibuf, scene.fbuf, scene.work, qd, tau, scene.loads, qdd, scene.armature
-    )
-    return status if status else result_status(qdd)
+    return Status.OK.value
 
 
 # The scene as the compiled step takes it (scene_data): the model's buffers ibuf, fbuf; the
@@ -219,7 +215,8 @@ def evaluate(scene, t, q, qd, qdd, tau_ctrl, power):
     status = generalized_forces(scene, t, q, qd, tau, tau_ctrl, power, KD[0], KD[1], False)
     if status:
         return status
-    return solve_with(scene.constraints, scene, q, qd, tau, qdd)
+    aba, crba, newton_euler = scene.method
+    return solve_with(scene.constraints, aba, crba, newton_euler, scene, q, qd, tau, qdd)
 
 
 @njit(**JIT)
