@@ -418,3 +418,56 @@ def test_random_configuration_with_an_rng_that_is_not_one_is_a_type_error():
     with pytest.raises(TypeError, match="rng must be a numpy Generator or an integer seed, got "
                        "str 'x'"):
         od.random_configuration(model, "x")
+
+
+def _pendulum_scene():
+    return od.load_scene("double_pendulum_swing")
+
+
+# (call, error, words the message must hold): every switch of the public functions takes True
+# or False only (a string "no" or a number would count as on), every count a whole number and
+# every time a finite number; each refusal names the function and the argument
+SWITCHES = {
+    "load_urdf floating_base": (lambda: od.load_urdf("ur5", floating_base="yes"), TypeError,
+                                "load_urdf: floating_base must be True or False, got 'yes'"),
+    "load_urdf mimic": (lambda: od.load_urdf("ur5", mimic=1), TypeError,
+                        "load_urdf: mimic must be True or False, got 1"),
+    "load_urdf check_inertia": (lambda: od.load_urdf("ur5", check_inertia="no"), TypeError,
+                                "load_urdf: check_inertia must be True or False"),
+    "simulate progress": (lambda: od.simulate(_pendulum_scene(), progress=5), TypeError,
+                          "simulate: progress must be True or False, got 5"),
+    "simulate raise_on_failure": (
+        lambda: od.simulate(_pendulum_scene(), raise_on_failure="no"), TypeError,
+        "simulate: raise_on_failure must be True or False"),
+    "rollout progress": (lambda: od.rollout(_pendulum_scene(), progress="yes"), TypeError,
+                         "rollout: progress must be True or False"),
+    "rollout threads": (lambda: od.rollout(_pendulum_scene(), threads=2.5), TypeError,
+                        "rollout: threads must be a whole number, got 2.5"),
+    "rollout threads 0": (lambda: od.rollout(_pendulum_scene(), threads=0), ValueError,
+                          "rollout: threads must be at least 1, got 0"),
+    "linearize discrete": (lambda: od.linearize(_pendulum_scene(), discrete="yes"), TypeError,
+                           "linearize: discrete must be True or False"),
+    "linearize t": (lambda: od.linearize(_pendulum_scene(), t=float("nan")), ValueError,
+                    "linearize: t must be finite"),
+    "torque_regressor friction": (
+        lambda: od.torque_regressor(od.load_urdf("ur5"), *np.zeros((3, 6)), friction="x"),
+        TypeError, "torque_regressor: friction must be True or False"),
+    "identify friction": (
+        lambda: od.identify(od.load_urdf("ur5"), *np.zeros((4, 20, 6)), friction="x"),
+        TypeError, "identify: friction must be True or False"),
+    "with_inertial_parameters check_inertia": (
+        lambda: (lambda m: m.with_inertial_parameters(m.inertial_parameters(), check_inertia=0))(
+            od.load_urdf("ur5")), TypeError,
+        "with_inertial_parameters: check_inertia must be True or False, got 0"),
+    "sweep progress": (
+        lambda: od.sweep(_pendulum_scene(), {"run.duration": [0.1]}, progress="yes"),
+        TypeError, "sweep: progress must be True or False"),
+}  # fmt: skip
+
+
+@pytest.mark.parametrize("case", SWITCHES)
+def test_switches_counts_and_times_of_the_wrong_kind_are_refused_naming_them(case):
+    call, error, words = SWITCHES[case]
+    with pytest.raises(error) as raised:
+        call()
+    assert words in str(raised.value)

@@ -40,6 +40,7 @@ from typing import NamedTuple
 import numpy as np
 from scipy.linalg import qr, solve_triangular
 
+from .._runtime.options import flag
 from ..multibody.layout import rigid_body_form
 from ..multibody.model import inertia_from_parameters, parameters_of, rigid_body_of
 from ..spatial.algebra import inverse_transform, transform_inertia
@@ -110,7 +111,7 @@ def parameter_names(model, friction=False):
     """Names of the full parameter vector: "m[body]" ... "Izz[body]" for each body (the order
     of Model.inertial_parameters), then with friction "fv[joint]" and "fc[joint]"."""
     names = [f"{p}[{body}]" for body in model.body_names for p in PARAMETER_NAMES]
-    if friction:
+    if flag(friction, "parameter_names: friction"):
         names += [f"fv[{j}]" for j in model.joint_names] + [f"fc[{j}]" for j in model.joint_names]
     return tuple(names)
 
@@ -179,6 +180,7 @@ def identify(model, q, qd, qdd, tau, friction=False):
     differences of q, never plain double differences of noisy positions.
     """
     what = "identify"
+    friction = flag(friction, "identify: friction")
     q, qd, qdd, tau = _samples(model, what, q, qd, qdd, tau)
     W = torque_regressor(model, q, qd, qdd, friction=friction)
     fit = _least_squares(W, tau.ravel(), what)

@@ -29,6 +29,7 @@ from numba import njit
 from .._runtime.arrays import result_status, zero_matrix
 from .._runtime.entry import exact, learn
 from .._runtime.kernel_cache import BATCH, INLINE, JIT
+from .._runtime.options import flag
 from ..multibody.data import body_motion, joint_poses, new_work, scratch_rows, temp_vectors
 from ..multibody.joints import motion_status
 from ..multibody.layout import body_count, dof_count, tree
@@ -162,6 +163,7 @@ def torque_regressor(model, q, qd, qdd, gravity=None, friction=False):
     """
     what = "torque_regressor"
     checks.check_model(model, what)
+    friction = flag(friction, "torque_regressor: friction")
     if gravity is None and not friction:
         # the common call: float64 vectors of the model's sizes go to the kernel's exact twin
         Y = np.empty((model.nv, PARAMETERS_PER_BODY * model.nb))

@@ -14,6 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .._runtime.options import flag
 from ..errors import URDFError
 from ..multibody.model import Model
 from .urdf_model import _Builder
@@ -42,6 +43,9 @@ def load_urdf(
     Returns the Model; ``model.report`` is the fidelity report (honoured, transformed, ignored).
     Raises URDFError naming the file, the element and the problem for malformed input.
     """
+    floating_base = flag(floating_base, "load_urdf: floating_base")
+    mimic = flag(mimic, "load_urdf: mimic")
+    check_inertia = flag(check_inertia, "load_urdf: check_inertia")
     file = resolve_robot(path)
     report = FidelityReport(source=file)
     root, robot = read_urdf(file, report)

@@ -39,6 +39,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .._runtime.arrays import immutable
+from .._runtime.options import flag
 from ..spatial.algebra import (
     _as_rotational_inertia,
     inverse_transform,
@@ -501,6 +502,7 @@ class Model:
             )
         if not np.all(np.isfinite(pi)):
             raise ValueError(f"pi must be finite, got {pi}")
+        check_inertia = flag(check_inertia, "with_inertial_parameters: check_inertia")
         G = np.zeros((self.nb, 6, 6))
         for i, pi_i in enumerate(pi.reshape(-1, 10)):
             mass, h, I_o = rigid_body_of(pi_i)

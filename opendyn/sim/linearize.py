@@ -24,6 +24,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.linalg
 
+from .._runtime.options import finite, flag
 from ..algorithm import checks
 from ..algorithm.aba_derivatives import aba_derivatives_kernel, coupled_switch
 from ..multibody.joints import FREE
@@ -84,7 +85,8 @@ def linearize(scene, t=0.0, q=None, qd=None, tau=None, discrete=False):
             f"linearize: scene {scene.name!r} has constraints, whose linearization is not built "
             "yet; linearize it without them (scene.without('constraints'))"
         )
-    t = checks.as_real(t, "linearize: t")
+    t = finite(checks.as_real(t, "linearize: t"), "linearize: t")
+    discrete = flag(discrete, "linearize: discrete")
     q = scene.q0.copy() if q is None else checked_configuration(model, q, "linearize: q")
     qd = scene.qd0.copy() if qd is None else checked_vector(model, qd, "linearize: qd")
     u = np.zeros(model.nv) if tau is None else checked_torque(model, tau, "linearize: tau")

@@ -26,7 +26,6 @@ from __future__ import annotations
 import collections
 import dataclasses
 import math
-import numbers
 import os
 import sys
 import time
@@ -39,6 +38,8 @@ from numba import typed
 
 from .._runtime.arrays import immutable
 from .._runtime.compile_notice import compile_seconds, compiling
+from .._runtime.memory import available_memory
+from .._runtime.options import flag, whole
 from .._runtime.signals import signal_name
 from ..algorithm.checks import as_float_array
 from ..algorithm.configuration import check_unit_quaternions
@@ -47,7 +48,6 @@ from ..io.scene.variants import Variants
 from . import effects, integrators
 from .diagnostics import check_contact_step, failure_message
 from .effects import python_control
-from .._runtime.memory import available_memory
 from .preflight import byte_size, check_start, run_size, sample_numbers
 from .rollout_loops import Batch, Outcome, RunData, rollout_adaptive, rollout_fixed
 from .rollout_result import COMPLETE, FAILED, INTERRUPTED, RolloutResult
@@ -84,6 +84,7 @@ def rollout(scene, q0=None, qd0=None, params=None, threads=None, record="samples
     "failed", message the cause, as simulate states it) and the others go on. Ctrl-C stops after the runs under way and raises
     RolloutInterrupted carrying the result so far.
     """
+    progress = flag(progress, "rollout: progress")
     scene = as_scene(scene, "rollout")
     if python_control.record(scene) is not None:
         raise SceneError(
@@ -430,11 +431,7 @@ def _bar(n):
 def _threads(threads):
     if threads is None:
         return os.cpu_count() or 1
-    if isinstance(threads, bool) or not isinstance(threads, numbers.Integral):
-        raise TypeError(f"rollout: threads must be a whole number, got {threads!r}")
-    if threads < 1:
-        raise ValueError(f"rollout: threads must be at least 1, got {threads}")
-    return int(threads)
+    return whole(threads, "rollout: threads")
 
 
 def _params(params):

@@ -26,6 +26,7 @@ import time
 import numpy as np
 
 from .._runtime.compile_notice import compile_seconds, compiling
+from .._runtime.options import flag
 from .._runtime.signals import signal_name
 from .._runtime.status import Status
 from ..algorithm.energy import energies
@@ -35,8 +36,8 @@ from ..io.scene.schema import Scene
 from ..multibody.joints import FREE
 from ..multibody.model import Model
 from . import effects, integrators, step
-from .effects import python_control
 from .diagnostics import check_contact_step, failure_message
+from .effects import python_control
 from .preflight import preflight
 from .record import (
     Samples,
@@ -107,6 +108,8 @@ def simulate(scene, *, progress=False, raise_on_failure=True, controller=None, c
     taken to get the compiled step ready: compile_s compiling it (once per machine and opendyn
     version; 0 when the on-disk cache had it) and load_s loading it.
     """
+    progress = flag(progress, "simulate: progress")
+    raise_on_failure = flag(raise_on_failure, "simulate: raise_on_failure")
     scene = as_scene(scene)
     if controller is not None or python_control.record(scene) is not None:
         from .simulator import run_controlled

@@ -47,6 +47,7 @@ import time
 import numpy as np
 
 from .._runtime.files import atomic_write, unwritable
+from .._runtime.options import flag
 from .._runtime.version import __version__
 from ..errors import SceneError, SweepError, SweepInterrupted
 from ..io.scene.schema import Scene
@@ -285,6 +286,7 @@ def sweep(
     check_installed()
     from .results import Results
 
+    progress = flag(progress, "sweep: progress")
     scene = as_scene(scene)
     if not isinstance(vary, dict) or not vary:
         raise SweepError("vary: expected a dict {dotted scene key: spec} with at least one key")
