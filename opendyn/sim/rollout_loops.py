@@ -54,14 +54,15 @@ Outcome = namedtuple("Outcome", ("status", "rows", "t", "tau"))
 @njit(**JIT)
 def run_views(base, batch, i, start):
     """(SceneData, State, Record, Counters) of run i of the Batch, which a slice from `start`
-    runs: base (a SceneData: the model's ibuf, the method, the scratch) with the run's RunData
+    runs: base (a SceneData: the model's ibuf, the method, the scratch, whether the world poses
+    are placed) with the run's RunData
     (fbuf, effects, armature, constraints); its state and counters copied out (the loops write
     them at every step, and neighbouring runs' rows share cache lines across threads), its
     record a view of its rows. end_run copies them back."""
     run = batch.runs[batch.which[i - start]]
     scene = SceneData(
         base.ibuf, run.fbuf, run.effects, run.armature, base.method, run.constraints,
-        base.forces, base.loads, base.KD, base.work, base.held,
+        base.forces, base.loads, base.KD, base.work, base.held, base.world,
     )
     x, out, c = batch.x, batch.out, batch.counters
     return (
