@@ -16,6 +16,7 @@ import opendyn as od
 from opendyn.cli.main import main
 from opendyn.io.scene.schema import thaw
 from opendyn.io.urdf import shipped_robots_dir
+from opendyn.verify.contract import verify
 
 MODEL_ARRAYS = (
     "G", "S", "A", "mass", "h", "I_o", "R_home", "p_home", "parent", "jtype", "nv_j", "iq",
@@ -462,6 +463,14 @@ SWITCHES = {
     "sweep progress": (
         lambda: od.sweep(_pendulum_scene(), {"run.duration": [0.1]}, progress="yes"),
         TypeError, "sweep: progress must be True or False"),
+    "sweep seed": (
+        lambda: od.sweep(_pendulum_scene(), {"run.duration": [0.1]}, seed=-1),
+        od.SweepError, "seed: expected a whole number >= 0, found -1"),
+    "sweep chunk_size": (
+        lambda: od.sweep(_pendulum_scene(), {"run.duration": [0.1]}, chunk_size=0),
+        od.SweepError, "chunk_size (--chunk): expected a whole number >= 1, found 0"),
+    "verify seed": (lambda: verify("ur5", seed=-1), ValueError,
+                    "verify: seed must be at least 0, got -1"),
 }  # fmt: skip
 
 

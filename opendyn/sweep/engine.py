@@ -290,6 +290,15 @@ def sweep(
     scene = as_scene(scene)
     if not isinstance(vary, dict) or not vary:
         raise SweepError("vary: expected a dict {dotted scene key: spec} with at least one key")
+    if isinstance(seed, bool) or not isinstance(seed, numbers.Integral) or seed < 0:
+        raise SweepError(f"seed: expected a whole number >= 0, found {seed!r}")
+    if chunk_size is not None and (
+        isinstance(chunk_size, bool) or not isinstance(chunk_size, numbers.Integral)
+        or chunk_size < 1
+    ):
+        raise SweepError(
+            f"chunk_size (--chunk): expected a whole number >= 1, found {chunk_size!r}"
+        )
     _check_outputs(parquet, trajectories)
     axes = [parse_axis(key, spec) for key, spec in vary.items()]
     runs = combinations(axes, samples, seed)

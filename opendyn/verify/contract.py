@@ -21,6 +21,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .._runtime.options import whole
 from ..algorithm.aba_derivatives import forward_dynamics_derivatives
 from ..algorithm.centroidal import (
     center_of_mass,
@@ -218,6 +219,7 @@ def verify(
         raise ValueError(f"verify: states must be an integer >= 1, got {states!r}")
     if not (isinstance(rtol, (int, float)) and rtol > 0 and np.isfinite(rtol)):
         raise ValueError(f"verify: rtol must be a finite number > 0, got {rtol!r}")
+    whole(seed, "verify: seed", minimum=0)
     model = _load(robot, mimic, check_inertia, floating_base)
     try:
         P = PinocchioOracle(model.source, model, mimic=model.coupled)
