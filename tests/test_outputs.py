@@ -415,3 +415,43 @@ def test_a_reader_that_closes_the_pipe_leaves_the_command_quiet_and_its_files_wr
     assert proc.wait(timeout=300) == 0, stderr
     assert "Broken pipe" not in stderr and "Traceback" not in stderr, stderr
     assert od.Trajectory.load(out).complete
+
+
+# a file of the wrong kind handed to each reader: named with what it is, not with the parser's
+# complaint about its first byte (nor numpy's advice to unpickle it)
+PNG = b"\x89PNG\r\n\x1a\n" + bytes(range(256))
+
+
+@pytest.mark.parametrize(
+    "name, content, call, words",
+    [
+        ("scene.toml", PNG, lambda p: od.load_scene(p), "is a PNG image, not a scene file"),
+        ("scene.toml", b"\x00\x01garbage", lambda p: od.load_scene(p),
+         "is binary data, not a scene file"),
+        ("robot.urdf", PNG, lambda p: od.load_urdf(p), "is a PNG image, not a URDF"),
+        ("robot.urdf", b"PK\x03\x04" + bytes(64), lambda p: od.load_urdf(p),
+         "is a ZIP archive, not a URDF"),
+        ("run.npz", PNG, lambda p: od.Trajectory.load(p),
+         "is a PNG image, not a trajectory saved by opendyn"),
+        ("run.npz", b"t,q\n0,1\n", lambda p: od.Trajectory.load(p),
+         "is a text file, not a trajectory saved by opendyn"),
+    ],
+)  # fmt: skip
+def test_a_file_of_another_kind_is_named_with_what_it_is(tmp_path, name, content, call, words):
+    path = tmp_path / name
+    path.write_bytes(content)
+    with pytest.raises(ValueError) as refused:
+        call(path)
+    message = str(refused.value)
+    assert str(path) in message and words in message
+    assert "allow_pickle" not in message and "codec" not in message
+
+
+def test_an_npz_of_other_arrays_names_the_trajectory_arrays_it_lacks(tmp_path):
+    np.savez(tmp_path / "other.npz", a=np.zeros(3))
+    with pytest.raises(ValueError, match="an .npz archive without the arrays of a trajectory") as e:
+        od.Trajectory.load(tmp_path / "other.npz")
+    assert "provenance" in str(e.value) and "joint_names" in str(e.value)
+    np.save(tmp_path / "array.npy", np.zeros(3))
+    with pytest.raises(ValueError, match="is a numpy array"):
+        od.Trajectory.load(tmp_path / "array.npy")

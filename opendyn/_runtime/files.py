@@ -76,3 +76,42 @@ def unwritable(name, path):
     except OSError as e:
         return f"no file can be written in the folder {folder} ({e.strerror})"
     return None
+
+
+# the first bytes of the files a user may hand opendyn by mistake, and what they are
+_SIGNATURES = (
+    (b"\x89PNG", "a PNG image"),
+    (b"\xff\xd8\xff", "a JPEG image"),
+    (b"GIF8", "a GIF image"),
+    (b"%PDF", "a PDF document"),
+    (b"PK\x03\x04", "a ZIP archive"),
+    (b"\x1f\x8b", "a gzip archive"),
+    (b"\x7fELF", "a program (ELF)"),
+    (b"PAR1", "a Parquet table"),
+    (b"\x93NUMPY", "a numpy array (.npy)"),
+    (b"SQLite format 3", "an SQLite database"),
+)
+
+
+def kind_of(path) -> str:
+    """What the file at `path` is, from its first bytes, as a message says it ("a PNG image",
+    "a ZIP archive", "a text file", "binary data", "empty"), for the errors that refuse a file
+    of the wrong kind."""
+    try:
+        with open(path, "rb") as f:
+            head = f.read(512)
+    except OSError as e:
+        return f"unreadable ({e.strerror or e})"
+    if not head:
+        return "empty"
+    for signature, kind in _SIGNATURES:
+        if head.startswith(signature):
+            return kind
+    if b"\0" in head:
+        return "binary data"
+    try:
+        head.decode("utf-8")
+    except UnicodeDecodeError as e:
+        if e.start < len(head) - 4:  # not merely a character cut at the 512th byte
+            return "binary data"
+    return "a text file"

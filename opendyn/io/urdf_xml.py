@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 
 from lxml import etree
 
+from .._runtime.files import kind_of
 from .._runtime.signals import held_interrupt
 from ..errors import URDFError
 
@@ -104,6 +105,9 @@ def _parse_xml(file, report):
     try:
         root = etree.fromstring(data, etree.XMLParser(remove_comments=True), base_url=file)
     except etree.XMLSyntaxError as e:
+        kind = kind_of(file)
+        if kind != "a text file":
+            raise URDFError(f"{file}: is {kind}, not a URDF (XML text)") from None
         raise URDFError(f"{file}: malformed XML: {e}") from None
     if root.tag != "robot":
         raise URDFError(f"{file}: the root element is <{root.tag}>, expected <robot>")

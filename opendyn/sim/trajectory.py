@@ -20,11 +20,12 @@ from __future__ import annotations
 
 import json
 import pathlib
+import zipfile
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from .._runtime.files import atomic_write
+from .._runtime.files import atomic_write, kind_of
 
 _ARRAYS = ("t", "q", "qd", "tau", "kinetic", "potential", "work_applied", "work_passive")
 _VIOLATION = ("violation_position", "violation_velocity")  # empty without constraints
@@ -167,8 +168,24 @@ class Trajectory:
 
     @classmethod
     def load(cls, path) -> "Trajectory":
-        """Read a trajectory written by `save`."""
-        with np.load(path, allow_pickle=False) as data:
+        """Read a trajectory written by `save`. A file of another kind (an image, an .npz of
+        other arrays) is a ValueError naming it and what it is."""
+        try:
+            data = np.load(path, allow_pickle=False)
+        except (ValueError, EOFError, zipfile.BadZipFile) as e:
+            kind = kind_of(path)
+            what = f"is {kind}" if kind != "a ZIP archive" else f"cannot be read ({e})"
+            raise ValueError(f"{path}: {what}, not a trajectory saved by opendyn (.npz)") from None
+        if not isinstance(data, np.lib.npyio.NpzFile):
+            raise ValueError(f"{path}: is a numpy array (.npy), not a trajectory saved by opendyn")
+        missing = [name for name in ("provenance", "joint_names", *_ARRAYS) if name not in data]
+        if missing:
+            data.close()
+            raise ValueError(
+                f"{path}: an .npz archive without the arrays of a trajectory saved by opendyn "
+                f"(no {', '.join(missing)})"
+            )
+        with data:
             record = json.loads(str(data["provenance"]))
             arrays = {name: data[name] for name in _ARRAYS}
             arrays.update({name: data[name] for name in _VIOLATION if name in data})

@@ -18,7 +18,7 @@ import numbers
 import pathlib
 import shutil
 
-from .._runtime.files import atomic_write
+from .._runtime.files import atomic_write, kind_of
 
 METADATA_KEY = b"opendyn.sweep"
 # the columns of every row after the run's index and its values, with their Arrow types
@@ -98,7 +98,9 @@ class Results:
         try:
             table = pq.read_table(file)
         except (pa.ArrowInvalid, OSError) as e:
-            raise _foreign(file, f"it is not a Parquet file opendyn can read ({e})") from None
+            kind = kind_of(file)
+            why = f"it is {kind}" if kind != "a Parquet table" else f"it cannot be read ({e})"
+            raise _foreign(file, f"{why}, not a Parquet file") from None
         raw = (table.schema.metadata or {}).get(METADATA_KEY)
         if raw is None:
             raise _foreign(file, "it holds no opendyn sweep")

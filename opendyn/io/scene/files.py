@@ -9,6 +9,7 @@ import pathlib
 
 import numpy as np
 
+from ..._runtime.files import kind_of
 from ...errors import SceneError, URDFError
 from ...multibody.model import Model
 from ..urdf import available_robots, load_urdf, shipped_robots_dir
@@ -34,10 +35,13 @@ def load_scene(path) -> Scene:
     try:
         # utf-8-sig: a byte-order mark, as some Windows editors write, is not part of the TOML
         data = tomllib.loads(file.read_bytes().decode("utf-8-sig"))
-    except tomllib.TOMLDecodeError as e:
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as e:
+        kind = kind_of(file)
+        if kind != "a text file":
+            raise SceneError(f"{file}: is {kind}, not a scene file (TOML text)") from None
+        if isinstance(e, UnicodeDecodeError):
+            raise SceneError(f"{file}: not a UTF-8 text file: {e}") from None
         raise SceneError(f"{file}: malformed TOML: {e}") from None
-    except UnicodeDecodeError as e:
-        raise SceneError(f"{file}: not a UTF-8 text file: {e}") from None
     except OSError as e:
         raise SceneError(f"{file}: cannot read the scene file: {e.strerror or e}") from None
     return _build(data, source=str(file), base_dir=file.parent, default_name=file.stem)
