@@ -183,9 +183,10 @@ from opendyn.algorithm import aba, contact, crba, forward, rnea
 od.simulate(od.load_scene("double_pendulum_swing").replace_run(duration=0.01))
 functions = {name: getattr(effects, name) for name in dir(effects) if name.endswith("_effect")}
 functions.update(
-    aba=aba.aba_kernel, crba=crba.crba_kernel, rnea=rnea.rnea_kernel,
+    aba=aba.aba_on_poses, crba=crba.crba_kernel, rnea=rnea.rnea_kernel,
     newton_euler=forward.newton_euler_mass_matrix, mass_matrix_solve=forward.mass_matrix_solve,
-    contact=contact.contact_kernel,
+    contact=contact.contact_on_poses, crba_on_poses=crba.crba_on_poses,
+    rnea_on_poses=rnea.rnea_on_poses, aba_kernel=aba.aba_kernel,
 )
 print(json.dumps({name: [str(sig[0]) for sig in f.signatures] for name, f in functions.items()}))
 """
@@ -218,7 +219,9 @@ def test_a_scene_compiles_no_effect_it_does_not_name(tmp_path):
         "clip_effect",
     ):
         assert compiled[name] == [], f"{name} compiled for {compiled[name]}"
-    assert compiled["aba"] and compiled["rnea"] == []
+    # the step runs ABA on the poses it placed (opendyn.sim.step), and nothing else of it
+    assert compiled["aba"] and compiled["rnea"] == [] and compiled["aba_kernel"] == []
+    assert compiled["crba_on_poses"] == [] and compiled["rnea_on_poses"] == []
     assert compiled["crba"] == [] and compiled["newton_euler"] == []
     assert compiled["mass_matrix_solve"] == [] and compiled["contact"] == []
     # and the run said so, once, on stderr
