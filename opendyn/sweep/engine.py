@@ -187,6 +187,12 @@ def _plain(v):
     return v.item() if isinstance(v, np.generic) else v
 
 
+def check_whole(value, key, minimum):
+    """SweepError naming `key` unless value is a whole number (not a bool) >= minimum."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < minimum:
+        raise SweepError(f"{key}: expected a whole number >= {minimum}, found {value!r}")
+
+
 def combinations(axes, samples=None, seed=0) -> list[dict]:
     """The runs' values [{key: value}], in run order: every combination of the axes (their
     lists and grids multiply; the last axis varies fastest) or, with `samples` = N, N draws
@@ -206,8 +212,7 @@ def combinations(axes, samples=None, seed=0) -> list[dict]:
             )
         keys = [a.key for a in axes]
         return [dict(zip(keys, combo)) for combo in itertools.product(*(a.values for a in axes))]
-    if isinstance(samples, bool) or not isinstance(samples, numbers.Integral) or samples < 1:
-        raise SweepError(f"samples: expected a whole number >= 1, found {samples!r}")
+    check_whole(samples, "samples", 1)
     if samples > MAX_RUNS:
         raise SweepError(f"samples: {samples:,} runs, more than {MAX_RUNS:,}")
     rng = np.random.default_rng(seed)
@@ -290,15 +295,9 @@ def sweep(
     scene = as_scene(scene)
     if not isinstance(vary, dict) or not vary:
         raise SweepError("vary: expected a dict {dotted scene key: spec} with at least one key")
-    if isinstance(seed, bool) or not isinstance(seed, numbers.Integral) or seed < 0:
-        raise SweepError(f"seed: expected a whole number >= 0, found {seed!r}")
-    if chunk_size is not None and (
-        isinstance(chunk_size, bool) or not isinstance(chunk_size, numbers.Integral)
-        or chunk_size < 1
-    ):
-        raise SweepError(
-            f"chunk_size (--chunk): expected a whole number >= 1, found {chunk_size!r}"
-        )
+    check_whole(seed, "seed", 0)
+    if chunk_size is not None:
+        check_whole(chunk_size, "chunk_size (--chunk)", 1)
     _check_outputs(parquet, trajectories)
     axes = [parse_axis(key, spec) for key, spec in vary.items()]
     runs = combinations(axes, samples, seed)
@@ -448,10 +447,8 @@ class _cluster:
     the client only, which stops the sweep in order)."""
 
     def __init__(self, client, workers):
-        if workers is not None and (
-            isinstance(workers, bool) or not isinstance(workers, numbers.Integral) or workers < 1
-        ):
-            raise SweepError(f"workers: expected a whole number >= 1, found {workers!r}")
+        if workers is not None:
+            check_whole(workers, "workers", 1)
         if client is not None and workers is not None:
             raise SweepError("workers: give workers for a local cluster, or a client, not both")
         self.client, self.workers = client, workers
