@@ -17,6 +17,7 @@ from .errors import (
     SingularTaskSpaceError,
     SweepError,
     SweepInterrupted,
+    SweepWriteError,
     URDFError,
 )
 
@@ -103,6 +104,7 @@ __all__ = [
     "sweep",
     "SweepError",
     "SweepInterrupted",
+    "SweepWriteError",
     "plot_sweep",
     "FixedPose",
     "CollisionSphere",

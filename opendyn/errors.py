@@ -93,6 +93,21 @@ class SweepInterrupted(KeyboardInterrupt):
         self.table = table
 
 
+class SweepWriteError(OSError):
+    """A sweep that stopped because a file could not be written (a full disk, a folder made
+    read-only): `filename` names the file, `errno` and `strerror` say why, and `table` holds
+    every row that arrived before it. The rows already in the results file and its parts stay
+    there, and the same sweep resumes from them once the file can be written."""
+
+    def __init__(self, message, errno, strerror, filename, table):
+        super().__init__(message)
+        self.errno, self.strerror, self.filename = errno, strerror, filename
+        self.table = table
+
+    def __str__(self):
+        return self.args[0]  # the message, not OSError's "[Errno N] ..." of the fields
+
+
 class RolloutInterrupted(KeyboardInterrupt):
     """Ctrl-C stopped a rollout after the runs under way finished; `result` (a RolloutResult)
     holds every run done, and the runs never started have status 'interrupted'."""

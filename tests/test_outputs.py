@@ -149,6 +149,44 @@ def test_playback_without_meshcat_is_refused_before_the_run(
     assert f"opendyn simulate: {option[0]}: playback needs meshcat: pip install" in err
 
 
+def test_every_name_the_file_system_allows_is_written(tmp_path, monkeypatch, capsys):
+    """Spaces, quotes, a newline, shell and Windows specials, a leading dash (--output=), no
+    suffix, unicode, and names at the file system's limit of bytes: a 255-byte name failed,
+    because the temporary file written beside it took a longer name."""
+    monkeypatch.chdir(tmp_path)
+    most = os.pathconf(tmp_path, "PC_NAME_MAX")
+    long_csv = "a" * (most - 4) + ".csv"  # exactly the limit
+    long_npz = "é" * ((most - 5) // 2) + ".npz"  # its .json is the limit, or one byte under
+    names = ["with space.npz", 'quo"te\'s.npz', "new\nline.npz", "a:b*c?<>|.npz", "-dash.npz",
+             "no-suffix", "ünïcødé 机器人.npz", ".hidden.npz", long_npz]
+    for name in names:
+        assert main(["simulate", *SHORT, f"--output={name}", f"--csv={long_csv}"]) == 0, name
+        npz, record = od.Trajectory.load(name), tmp_path / pathlib.Path(name).with_suffix(".json")
+        assert npz.complete and record.is_file() and (tmp_path / long_csv).is_file()
+        assert len(np.loadtxt(long_csv, delimiter=",", skiprows=1)) == len(npz.t)
+    assert not [p for p in tmp_path.iterdir() if p.name.endswith(".tmp")]
+
+
+def test_a_name_longer_than_the_file_system_allows_is_refused_before_the_run(
+    tmp_path, monkeypatch, capsys, no_run
+):
+    monkeypatch.chdir(tmp_path)
+    most = os.pathconf(tmp_path, "PC_NAME_MAX")
+    cases = [
+        (["--csv", "a" * (most - 3) + ".csv"], f"its name is {most + 1} bytes, longer than the "
+         f"{most} this file system allows"),
+        # the .npz fits; the .json record beside it does not
+        (["-o", "b" * (most - 4) + ".npz"],
+         f"{'b' * (most - 4)}.json: its name is {most + 1} bytes"),
+        (["--plot", "é" * (most // 2) + ".png"], f"its name is {most // 2 * 2 + 4} bytes"),
+    ]
+    for args, problem in cases:
+        assert main(["simulate", *args]) == 2
+        err = capsys.readouterr().err
+        assert err.startswith(f"opendyn simulate: {args[0]} ") and problem in err, err
+        assert files_in(tmp_path) == []
+
+
 def test_read_only_places_are_refused_before_the_run(
     read_only_folder, tmp_path, monkeypatch, capsys, no_run
 ):
@@ -455,3 +493,17 @@ def test_an_npz_of_other_arrays_names_the_trajectory_arrays_it_lacks(tmp_path):
     np.save(tmp_path / "array.npy", np.zeros(3))
     with pytest.raises(ValueError, match="is a numpy array"):
         od.Trajectory.load(tmp_path / "array.npy")
+
+
+def test_a_save_whose_record_name_is_too_long_writes_neither_file(tmp_path):
+    most = os.pathconf(tmp_path, "PC_NAME_MAX")
+    npz = tmp_path / ("t" * (most - 4) + ".npz")  # fits; its .json does not
+    with pytest.raises(OSError) as refused:
+        small_trajectory().save(npz)
+    assert refused.value.errno == errno.ENAMETOOLONG
+    assert refused.value.filename == str(npz.with_suffix(".json"))
+    assert f"its name is {most + 1} bytes" in str(refused.value) and files_in(tmp_path) == []
+    # a name at the limit itself is written (its temporary file takes a shorter name)
+    at_limit = tmp_path / ("u" * (most - 4) + ".csv")
+    small_trajectory().to_csv(at_limit)
+    assert files_in(tmp_path) == [at_limit.name]

@@ -6,6 +6,7 @@ where it stopped."""
 from __future__ import annotations
 
 import os
+import pathlib
 import re
 import signal
 import socket
@@ -512,3 +513,100 @@ def test_a_scheduler_address_that_is_not_dask_is_one_line_within_the_timeout(
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and f"--scheduler {address}: " in err and words in err, err
     assert not (tmp_path / "planar_3r_limits-sweep.parquet").exists()
+
+
+def _disk_full_after(calls):
+    """A stand-in for a writer that fills the disk: it lets `calls` writes through, then every
+    later one raises ENOSPC as a full file system does."""
+    import errno
+
+    count = {"n": 0}
+
+    def check():
+        count["n"] += 1
+        if count["n"] > calls:
+            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+
+    return check
+
+
+def test_a_full_disk_names_the_file_keeps_the_rows_and_the_sweep_resumes(
+    client, tmp_path, monkeypatch
+):
+    """A full disk while a sweep saved a trajectory or a part of its table was a bare
+    "[Errno 28] No space left on device": no file named, nothing said of the rows. Now it is a
+    SweepWriteError naming the file, the rows so far are in it and on disk, and the same sweep
+    resumes to the same table."""
+    from opendyn.sim.trajectory import Trajectory
+    from opendyn.sweep import results as results_module
+
+    scene = limits_scene(duration=0.1)
+    vary = {"effects.limits.stiffness": "1e3:1e5:6"}
+    full = od.sweep(scene, vary, client=client)
+    parquet, runs = tmp_path / "r.parquet", tmp_path / "runs"
+    # the disk fills at the third trajectory
+    full_disk = _disk_full_after(2)
+    save = Trajectory.save
+    monkeypatch.setattr(Trajectory, "save", lambda self, path: (full_disk(), save(self, path))[1])
+    with pytest.raises(od.SweepWriteError) as stopped:
+        od.sweep(scene, vary, client=client, parquet=parquet, trajectories=runs, chunk_size=1)
+    e = stopped.value
+    assert isinstance(e, OSError) and e.strerror == os.strerror(28)
+    assert re.fullmatch(re.escape(str(runs)) + r"/run-00000\d\.npz", e.filename)
+    assert str(e).startswith(e.filename + ": No space left on device; the sweep stopped there")
+    assert "the 2 rows so far are kept in" in str(e) and "the same sweep resumes" in str(e)
+    on_disk = pq.read_table(tmp_path / "r.parquet.parts").column("run").to_pylist()
+    assert sorted(on_disk) == e.table.column("run").to_pylist() and len(on_disk) == 2
+    monkeypatch.setattr(Trajectory, "save", save)
+    # the final table cannot be written: its parts stay, and it resumes again
+    full_disk = _disk_full_after(0)
+    atomic_write = results_module.atomic_write
+
+    def table_write(path):
+        if pathlib.Path(path) == parquet:
+            full_disk()
+        return atomic_write(path)
+
+    monkeypatch.setattr(results_module, "atomic_write", table_write)
+    with pytest.raises(od.SweepWriteError) as stopped:
+        od.sweep(scene, vary, client=client, parquet=parquet, trajectories=runs)
+    assert stopped.value.filename == str(parquet) and stopped.value.table.num_rows == 6
+    assert not parquet.exists() and len(list((tmp_path / "r.parquet.parts").iterdir())) >= 2
+    monkeypatch.setattr(results_module, "atomic_write", atomic_write)
+    resumed = od.sweep(scene, vary, client=client, parquet=parquet, trajectories=runs)
+    assert resumed.drop(["wall_s"]).equals(full.drop(["wall_s"]))
+    assert len(list(runs.glob("run-*.npz"))) == 6
+
+
+def test_the_command_on_a_full_disk_names_the_file_and_says_it_resumes(
+    client, tmp_path, monkeypatch, capsys
+):
+    from opendyn.cli.main import main
+    from opendyn.sim.trajectory import Trajectory
+
+    monkeypatch.chdir(tmp_path)
+    full_disk = _disk_full_after(1)
+    save = Trajectory.save
+    monkeypatch.setattr(Trajectory, "save", lambda self, path: (full_disk(), save(self, path))[1])
+    argv = ["sweep", "planar_3r_limits", "--vary", "effects.limits.stiffness=1e3,1e4,1e5",
+            "--vary", "run.duration=0.1", "--scheduler", client.scheduler.address, "-o",
+            "r.parquet", "--trajectories", "runs", "--chunk", "1"]
+    assert main(argv) == 3
+    err = capsys.readouterr().err.strip().splitlines()[-1]
+    assert re.fullmatch(
+        r"opendyn sweep: runs/run-00000\d\.npz: No space left on device; 1 runs \(1 complete, "
+        r"0 failed\) so far are kept: the same command resumes from them once the file can be "
+        r"written",
+        err,
+    ), err
+    monkeypatch.setattr(Trajectory, "save", save)
+    assert main(argv) == 0
+    assert pq.read_table(tmp_path / "r.parquet").column("run").to_pylist() == [0, 1, 2]
+
+
+def test_a_results_name_whose_parts_folder_would_be_too_long_is_refused(tmp_path):
+    most = os.pathconf(tmp_path, "PC_NAME_MAX")
+    name = "r" * (most - 8) + ".parquet"  # fits; its folder of parts, NAME.parts, does not
+    with pytest.raises(SweepError, match=rf"its folder of parts r+\.parquet\.parts: its name is "
+                       rf"{most + 6} bytes, longer than the {most}"):
+        od.sweep(limits_scene(0.1), {"effects.limits.stiffness": "1e3"}, parquet=tmp_path / name)

@@ -226,11 +226,12 @@ def core_calls(model, batch=64):
     return calls
 
 
-def compile_ahead(scenes, functions, out=sys.stderr, simulations=True):
+def compile_ahead(scenes, functions, out=sys.stderr, simulations=True, announce=True):
     """Compile (or load from the cache) what `scenes` (opendyn.Scene objects) need, their
     rollouts and, with `simulations`, their simulate() (a scene with a Python controller has
-    only that), and with `functions` every public core function, with one bar over the items.
-    Returns [(item, seconds)]."""
+    only that), and with `functions` every public core function, with one bar over the items
+    on `out`. announce=False: say nothing unless something compiles (then the usual notice on
+    stderr). Returns [(item, seconds)]."""
     from tqdm import tqdm
 
     from ..io.urdf import load_urdf
@@ -251,14 +252,21 @@ def compile_ahead(scenes, functions, out=sys.stderr, simulations=True):
             items.append(
                 (f"rollout {scene.name}", lambda s=short: rollout(s, threads=1).trajectory(0))
             )
-    where = CACHE_DIR or "nowhere (no writable cache folder: set NUMBA_CACHE_DIR)"
-    print(f"opendyn: compiling {len(items)} items ahead of time into {where}", file=out)
     done = []
-    with quiet():
-        bar = tqdm(items, desc="compiling", unit="item", file=out, disable=None)
-        for name, call in bar:
-            bar.set_postfix_str(name, refresh=True)
+    if announce:
+        where = CACHE_DIR or "nowhere (no writable cache folder: set NUMBA_CACHE_DIR)"
+        print(f"opendyn: compiling {len(items)} items ahead of time into {where}", file=out)
+        watch = quiet()
+        items = tqdm(items, desc="compiling", unit="item", file=out, disable=None)
+    else:
+        watch = compiling(f"{len(items)} items ahead of time", len(items), "20-80 s each")
+    with watch as step:
+        for name, call in items:
+            if announce:
+                items.set_postfix_str(name, refresh=True)
             tic = time.perf_counter()
             call()
             done.append((name, time.perf_counter() - tic))
+            if step is not None:
+                step()
     return done

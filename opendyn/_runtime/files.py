@@ -43,7 +43,10 @@ def _create_beside(target):
     with open(), not mkstemp, so that it gets the permissions of any new file (0o666 less the
     umask) rather than mkstemp's 0o600."""
     while True:
-        tmp = target.with_name(f".{target.name}.{secrets.token_hex(4)}.tmp")
+        token = secrets.token_hex(4)
+        tmp = target.with_name(f".{target.name}.{token}.tmp")
+        if name_too_long(tmp) is not None:  # a name near the limit: a short temporary one
+            tmp = target.with_name(f".opendyn-{token}.tmp")
         try:
             return open(tmp, "xb"), tmp
         except FileExistsError:
@@ -57,6 +60,13 @@ def unwritable(name, path):
     there and removed)."""
     if name.endswith(tuple(sep for sep in (os.sep, os.altsep) if sep)):
         return "names a folder, not a file"
+    too_long = name_too_long(path)
+    if too_long is not None:
+        return too_long
+    try:
+        path.exists()
+    except OSError as e:  # a path longer than the system's limit, a loop of links
+        return f"cannot be written ({e.strerror or e})"
     if path.is_dir():
         return "is a folder, not a file"
     if path.exists() and not path.is_file():  # a device or a pipe: written in place
@@ -75,6 +85,20 @@ def unwritable(name, path):
             pass
     except OSError as e:
         return f"no file can be written in the folder {folder} ({e.strerror})"
+    return None
+
+
+def name_too_long(path):
+    """Why `path`'s last component is longer than its folder's file system allows (in bytes,
+    os.pathconf's PC_NAME_MAX, 255 where the system does not say), or None."""
+    folder = next((p for p in (path.parent, *path.parent.parents) if p.is_dir()), None)
+    try:
+        most = os.pathconf(folder or ".", "PC_NAME_MAX")
+    except (OSError, ValueError):
+        most = 255
+    size = len(os.fsencode(path.name))
+    if size > most:
+        return f"its name is {size} bytes, longer than the {most} this file system allows"
     return None
 
 

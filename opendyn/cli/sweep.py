@@ -6,11 +6,12 @@ from __future__ import annotations
 import pathlib
 import socket
 import struct
+import sys
 import time
 
 from .interrupts import _doing, _Interrupted
 from .outputs import _check_outputs, _slug
-from .simulate import scene_for
+from .simulate import WRITE_FAILED, scene_for
 
 
 # seconds a --scheduler has to answer
@@ -65,7 +66,7 @@ def check_scheduler(address, timeout):
 def _sweep(args) -> int:
     """opendyn sweep: check the outputs, read every run's scene, run them on the cluster,
     report. Returns 0 when every run has a row (complete or failed)."""
-    from ..errors import SweepInterrupted
+    from ..errors import SweepInterrupted, SweepWriteError
     from ..sweep.engine import check_installed, sweep
 
     check_installed()
@@ -106,6 +107,14 @@ def _sweep(args) -> int:
             parquet=output, trajectories=args.trajectories, workers=args.workers,
             chunk_size=args.chunk, progress=not args.quiet,
         )
+    except SweepWriteError as e:
+        # a full disk: which file, and that the rows so far are kept and the command resumes
+        print(
+            f"opendyn sweep: {e.filename}: {e.strerror}; {_counts(e.table)} so far are kept: "
+            "the same command resumes from them once the file can be written",
+            file=sys.stderr,
+        )
+        return WRITE_FAILED
     except SweepInterrupted as e:
         # one line, naming Ctrl-C or SIGTERM, and the exit status 130 or 143, as every command
         raise _Interrupted(

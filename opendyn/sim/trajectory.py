@@ -18,14 +18,16 @@ closes as it does for the joint effects.
 
 from __future__ import annotations
 
+import errno
 import json
+import os
 import pathlib
 import zipfile
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from .._runtime.files import atomic_write, kind_of
+from .._runtime.files import atomic_write, kind_of, name_too_long
 
 _ARRAYS = ("t", "q", "qd", "tau", "kinetic", "potential", "work_applied", "work_passive")
 _VIOLATION = ("violation_position", "violation_velocity")  # empty without constraints
@@ -135,6 +137,10 @@ class Trajectory:
         is written atomically (`atomic_write`): an error or Ctrl-C during the save leaves the
         file as it was, or absent, never truncated. Returns the .npz path."""
         path, json_path = saved_paths(path)
+        for file in (path, json_path):  # both, or neither: checked before either is written
+            too_long = name_too_long(file)
+            if too_long is not None:
+                raise OSError(errno.ENAMETOOLONG, too_long, str(file))
         record = self.record()
         arrays = {name: getattr(self, name) for name in _ARRAYS + _VIOLATION}
         if self.has_contact:
@@ -168,8 +174,11 @@ class Trajectory:
 
     @classmethod
     def load(cls, path) -> "Trajectory":
-        """Read a trajectory written by `save`. A file of another kind (an image, an .npz of
-        other arrays) is a ValueError naming it and what it is."""
+        """Read a trajectory written by `save(path)`: `path`, or the .npz that `save` made of
+        it (`saved_paths`: "run" was saved as run.npz). A file of another kind (an image, an
+        .npz of other arrays) is a ValueError naming it and what it is."""
+        if not os.path.exists(path) and os.path.exists(saved_paths(path)[0]):
+            path = saved_paths(path)[0]
         try:
             data = np.load(path, allow_pickle=False)
         except (ValueError, EOFError, zipfile.BadZipFile) as e:

@@ -29,6 +29,7 @@ of a cluster that does not share the client's disk).
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import hashlib
 import importlib.util
@@ -46,15 +47,16 @@ import time
 
 import numpy as np
 
-from .._runtime.files import atomic_write, unwritable
+from .._runtime.files import atomic_write, name_too_long, unwritable
 from .._runtime.options import flag
 from .._runtime.version import __version__
-from ..errors import SceneError, SweepError, SweepInterrupted
+from ..errors import SceneError, SweepError, SweepInterrupted, SweepWriteError
 from ..io.scene.schema import Scene
 from ..io.scene.variants import Variants
 from ..sim.effects import python_control
 from ..sim.metrics import METRICS, applicable
 from ..sim.simulate import as_scene, integrator_of
+from .results import Unwritten, written
 from .worker import failed_row, run_chunk
 
 # more runs than this is a mistake in a spec (a grid of 1e3 points on each of 4 keys), not a sweep
@@ -326,26 +328,55 @@ def sweep(
     todo = [(run, values) for run, values in enumerate(runs) if run not in results.finished]
     cluster = _cluster(client, workers)
     try:
-        if todo:
-            runnable = _runnable(firsts)
-            _compile(runnable, progress)
-            run_s = _run_seconds(runnable)
-            if trajectories is not None:
-                _claim(trajectories, record)
-            with cluster as dask_client:
-                workers = max(1, len(dask_client.scheduler_info(n_workers=-1)["workers"]))
-                size = chunk_size or chunk_runs(len(todo), workers, run_s)
-                _execute(dask_client, base, todo, outputs, trajectories, results, size, progress)
-    except KeyboardInterrupt:
-        raise SweepInterrupted(results.close()) from None
-    return results.close()
+        try:
+            if todo:
+                runnable = _runnable(firsts)
+                _compile(runnable, progress)
+                run_s = _run_seconds(runnable)
+                if trajectories is not None:
+                    _claim(trajectories, record)
+                with cluster as dask_client:
+                    workers = max(1, len(dask_client.scheduler_info(n_workers=-1)["workers"]))
+                    size = chunk_size or chunk_runs(len(todo), workers, run_s)
+                    _execute(
+                        dask_client, base, todo, outputs, trajectories, results, size, progress
+                    )
+        except KeyboardInterrupt:
+            raise SweepInterrupted(results.close()) from None
+        return results.close()
+    except Unwritten as e:
+        raise _stopped_writing(e, results) from None
+
+
+def _stopped_writing(unwritten, results):
+    """The SweepWriteError of a sweep that could not write `unwritten.path`: the file, why,
+    and where the rows that arrived before are kept."""
+    table = results.table()
+    rows = f"{table.num_rows} row{'s' if table.num_rows != 1 else ''}"
+    if results.path is None:
+        kept = f"the {rows} so far are in this error's table (no results file was named)"
+    else:
+        where = " and ".join(str(f) for f in (results.path, results.parts) if f.exists())
+        kept = (
+            f"the {rows} so far are kept in {where or 'no file'}, and the same sweep resumes "
+            "from them once the file can be written"
+        )
+    e = unwritten.error
+    return SweepWriteError(
+        f"{unwritten.path}: {e.strerror or e}; the sweep stopped there: {kept}",
+        e.errno, e.strerror, str(unwritten.path), table,
+    )
 
 
 def _check_outputs(parquet, trajectories):
     """SweepError naming the argument when the results file or the trajectories' folder cannot
     be written, before anything runs."""
     if parquet is not None:
-        problem = unwritable(str(parquet), pathlib.Path(parquet))
+        path = pathlib.Path(parquet)
+        problem = unwritable(str(parquet), path)
+        parts = path.with_name(path.name + ".parts")  # opendyn.sweep.results
+        if problem is None and name_too_long(parts) is not None:
+            problem = f"its folder of parts {parts.name}: {name_too_long(parts)}"
         if problem is not None:
             raise SweepError(f"parquet {str(parquet)!r}: {problem}")
     if trajectories is not None:
@@ -388,7 +419,7 @@ def _claim(trajectories, record):
             f"trajectories {str(trajectories)!r}: the folder holds run files of a sweep that "
             "did not mark it; choose another folder, or empty it"
         )
-    with atomic_write(mark) as f:
+    with written(mark), atomic_write(mark) as f:
         f.write(json.dumps(ours, indent=1).encode())
 
 
@@ -432,13 +463,12 @@ def _runnable(scenes):
 
 def _compile(scenes, progress):
     """Compile (or load from the cache) each distinct step before the workers start, so that
-    they load it rather than each compile it."""
-    from .._runtime.compile_notice import compile_ahead
+    they load it rather than each compile it; the compile notice says so only when something
+    compiles."""
+    from .._runtime.compile_notice import compile_ahead, quiet
 
-    with open(os.devnull, "w") as devnull:
-        compile_ahead(
-            scenes, functions=False, out=sys.stderr if progress else devnull, simulations=False
-        )
+    with contextlib.nullcontext() if progress else quiet():
+        compile_ahead(scenes, functions=False, simulations=False, announce=False)
 
 
 class _cluster:
@@ -566,7 +596,9 @@ def _execute(client, base, todo, outputs, folder, results, size, progress):
                 pairs = [(failed_row(run, values, f"its worker was lost: {e}"), None)]
             for row, traj in pairs:
                 if traj is not None:
-                    traj.save(os.path.join(folder, f"run-{row['run']:06d}.npz"))
+                    path = os.path.join(folder, f"run-{row['run']:06d}.npz")
+                    with written(path):
+                        traj.save(path)
             results.add([row for row, _ in pairs])
             bar.update(len(pairs))
             bar.set_postfix_str(f"{results.complete} complete, {results.failed} failed")

@@ -13,6 +13,7 @@ metadata under b"opendyn.sweep": rows of another sweep are never mixed in.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import numbers
 import pathlib
@@ -58,6 +59,23 @@ def _arrow_type(values):
     if all(isinstance(v, numbers.Real) and not isinstance(v, bool) for v in values):
         return pa.float64()
     return pa.string()
+
+
+class Unwritten(Exception):
+    """A file of the sweep (`path`) could not be written: `error` is the OSError."""
+
+    def __init__(self, path, error):
+        super().__init__(path, error)
+        self.path, self.error = path, error
+
+
+@contextlib.contextmanager
+def written(path):
+    """The block that writes `path`; an OSError inside it (a full disk) is Unwritten(path)."""
+    try:
+        yield
+    except OSError as e:
+        raise Unwritten(path, e) from None
 
 
 class Results:
@@ -131,21 +149,29 @@ class Results:
                 row[key] = str(row[key])
         table = pa.Table.from_pylist(rows, schema=self.schema)
         if self.path is not None:
-            self.parts.mkdir(exist_ok=True)
-            with atomic_write(self.parts / f"part-{rows[0]['run']:09d}.parquet") as f:
-                pq.write_table(table, f)
+            part = self.parts / f"part-{rows[0]['run']:09d}.parquet"
+            with written(part):
+                self.parts.mkdir(exist_ok=True)
+                with atomic_write(part) as f:
+                    pq.write_table(table, f)
         self._count(table)
+
+    def table(self):
+        """Every row added or read back, sorted by run, as one table (nothing written)."""
+        import pyarrow as pa
+
+        table = pa.concat_tables(self.tables) if self.tables else self.schema.empty_table()
+        return table.sort_by("run").replace_schema_metadata(self.schema.metadata)
 
     def close(self):
         """Every row, sorted by run, as one table; with a file, written there (atomically) and
-        the parts removed. Returns the table."""
-        import pyarrow as pa
+        the parts removed (Unwritten, the parts kept, when the file cannot be written). Returns
+        the table."""
         import pyarrow.parquet as pq
 
-        table = pa.concat_tables(self.tables) if self.tables else self.schema.empty_table()
-        table = table.sort_by("run").replace_schema_metadata(self.schema.metadata)
+        table = self.table()
         if self.path is not None:
-            with atomic_write(self.path) as f:
+            with written(self.path), atomic_write(self.path) as f:
                 pq.write_table(table, f)
             if self.parts.is_dir():
                 shutil.rmtree(self.parts)
