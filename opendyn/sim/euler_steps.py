@@ -6,6 +6,9 @@ x1 over dt:
                        and damping D = -dtau/dqd (nv, nv) at the end of the step:
                          (M + diag(armature) + dt D + dt^2 K) (qd' - qd) = dt (tau - h - dt K qd),
                          q' = q (+) qd' dt
+                       K and D are the effects' exact derivatives (contact's are not symmetric:
+                       its friction turns with the normal force and the contact's geometry), the
+                       rigid body's own left out; the matrix is solved by LU
   semi_implicit_euler  symplectic Euler in momentum form, p = (M(q) + diag(armature)) qd:
                          p' = p + dt (dK/dq(q, v) - g(q) + tau(t, q, qd)),  v = (M(q) + ..)^-1 p',
                          q' = q (+) v dt,   qd' = (M(q') + diag(armature))^-1 p'
@@ -31,6 +34,7 @@ from ..algorithm.configuration import integrate_kernel
 from ..algorithm.constraints import ROW_COUNT, constrained_solve_at
 from ..algorithm.crba import crba_kernel, crba_on_poses
 from ..algorithm.energy import kinetic_gradient_kernel
+from ..algorithm.lu import lu_solve
 from ..algorithm.rnea import rnea_on_poses
 from .step import generalized_forces
 
@@ -41,10 +45,12 @@ FIXED_POINT_MAX = 50
 @njit(**JIT)
 def velocity_solve(ibuf, fbuf, con, q, qd, M, rhs, qdd):
     """qdd <- M^-1 rhs, or with constraints con (a ConstraintTable, not None) the constrained
-    solve of M qdd + A^T lambda = rhs (M overwritten). A function of its own so that the test on
-    None is decided when it compiles. Returns a Status (SINGULAR + k: M singular at joint k)."""
+    solve of M qdd + A^T lambda = rhs (M overwritten), both by LU with partial pivoting: M here
+    is M + diag(armature) + dt D + dt^2 K, not symmetric once contact's exact derivatives are
+    in K and D. A function of its own so that the test on None is decided when it compiles.
+    Returns a Status (SINGULAR + k: M singular at joint k)."""
     if con is None:
-        return cholesky_solve(M, rhs, qdd)
+        return lu_solve(M, rhs, qdd)
     lam = np.empty(con.rows[:, ROW_COUNT].sum())
     return constrained_solve_at(ibuf, fbuf, con, q, qd, M, rhs, qdd, lam)
 

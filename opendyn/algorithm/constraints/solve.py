@@ -15,7 +15,8 @@ rank is the number of eigenvalues kept.
 Compiled interface:
   constrained_solve_kernel(M, rhs, A, gamma, qdd, lam) -> Status.OK.value, or SINGULAR + k (pivot k)
   constrained_solve_rank_kernel(M, rhs, A, gamma, qdd, lam, rank) -> the same, rank[0] = rank
-  constrained_solve_at(ibuf, fbuf, con, q, qd, M, rhs, qdd, lam) -> status
+  constrained_solve_at(ibuf, fbuf, con, q, qd, M, rhs, qdd, lam) -> status, for a general M
+                                        (the implicit Euler step's, by LU)
   constrained_forward_kernel(ibuf, fbuf, con, q, qd, tau, loads, armature, qdd, lam) -> status
   constrained_on_poses(ibuf, fbuf, work, con, (q, qd, tau), loads, armature, (qdd, lam))
                                         the same on the joint poses placed in work -> status
@@ -38,6 +39,7 @@ from ...multibody.layout import body_count, tree
 from ..cholesky import cholesky_solve
 from ..crba import crba_on_poses
 from ..eigen import symmetric_eigen
+from ..lu import lu_factor, lu_substitute
 from ..rnea import rnea_on_poses
 from .terms import constraint_terms_kernel
 
@@ -145,9 +147,14 @@ def constrained_solve_at(ibuf, fbuf, con, q, qd, M, rhs, qdd, lam):
     constraints con (a ConstraintTable) at (q (nq,), qd (nv,)) held to second order, with its
     Baumgarte stabilisation gains (alpha, beta) (1/s):
         A qdd + Adot qd + 2 alpha A qd + beta^2 phi = 0
-    ((0, 0): A qdd + Adot qd = 0, the drift of phi left alone). M (nv, nv) is overwritten.
-    Returns a Status: OK, Q/QD_NOT_FINITE, Q_NOT_UNIT_QUATERNION, or SINGULAR + j when M is
-    singular at coordinate j."""
+    ((0, 0): A qdd + Adot qd = 0, the drift of phi left alone), for a general (nv, nv) M (the
+    linearly implicit Euler step's M + dt D + dt^2 K, not symmetric once contact's exact
+    derivatives enter it; overwritten): by P M = L U (opendyn.algorithm.lu),
+        G = A M^-1 A^T,   lam = G^+ b = (G^T G)^+ G^T b,  b = A M^-1 rhs + gamma,
+        qdd = M^-1 rhs - (M^-1 A^T) lam
+    (G^+ through the symmetric G^T G: pseudo_solve, its eigenvalues the squares of G's
+    singular values). Returns a Status: OK, Q/QD_NOT_FINITE, Q_NOT_UNIT_QUATERNION, or
+    SINGULAR + j when M is singular at coordinate j."""
     nv = qd.shape[0]
     k = lam.shape[0]
     A = np.empty((k, nv))
@@ -163,7 +170,41 @@ def constrained_solve_at(ibuf, fbuf, con, q, qd, M, rhs, qdd, lam):
             for j in range(nv):
                 rate += A[r, j] * qd[j]
             gamma[r] += 2.0 * alpha * rate + beta * beta * phi[r]
-    return constrained_solve_kernel(M, rhs, A, gamma, qdd, lam)
+    piv = np.empty(nv, dtype=np.int64)
+    status = lu_factor(M, piv)
+    if status:
+        return status
+    # qdd_free = M^-1 rhs, Y = M^-1 A^T (nv, k), G = A Y, b = A qdd_free + gamma
+    qdd_free = np.empty(nv)
+    lu_substitute(M, piv, rhs, qdd_free)
+    Y = np.empty((nv, k))
+    column = np.empty(nv)
+    for j in range(k):
+        lu_substitute(M, piv, A[j], column)
+        Y[:, j] = column
+    G = np.zeros((k, k))
+    b = gamma.copy()
+    for i in range(k):
+        for r in range(nv):
+            b[i] += A[i, r] * qdd_free[r]
+            for j in range(k):
+                G[i, j] += A[i, r] * Y[r, j]
+    # the normal equations G^T G lam = G^T b, their minimum-norm solution
+    GtG = np.zeros((k, k))
+    Gtb = np.zeros(k)
+    for i in range(k):
+        for j in range(k):
+            Gtb[i] += G[j, i] * b[j]
+            for m in range(k):
+                GtG[i, j] += G[m, i] * G[m, j]
+    pseudo_solve(GtG, Gtb, lam)
+    # qdd = qdd_free - Y lam
+    for r in range(nv):
+        s = qdd_free[r]
+        for j in range(k):
+            s -= Y[r, j] * lam[j]
+        qdd[r] = s
+    return Status.OK.value
 
 
 @njit(**JIT)
