@@ -63,6 +63,27 @@ CALLS = (
         "J",
         lambda m, q, qd, qdd, f, **kw: od.jacobian(m, q, f, expressed_in="body", **kw),
     ),
+    ("center_of_mass", "com", lambda m, q, qd, qdd, f, **kw: od.center_of_mass(m, q, **kw)),
+    (
+        "center_of_mass_jacobian",
+        "J_c",
+        lambda m, q, qd, qdd, f, **kw: od.center_of_mass_jacobian(m, q, **kw),
+    ),
+    (
+        "centroidal_momentum_matrix",
+        "A_G",
+        lambda m, q, qd, qdd, f, **kw: od.centroidal_momentum_matrix(m, q, **kw),
+    ),
+    (
+        "centroidal_momentum",
+        "h_G",
+        lambda m, q, qd, qdd, f, **kw: od.centroidal_momentum(m, q, qd, **kw),
+    ),
+    (
+        "centroidal_momentum_rate_bias",
+        "Adot_G_qd",
+        lambda m, q, qd, qdd, f, **kw: od.centroidal_momentum_rate_bias(m, q, qd, **kw),
+    ),
 )
 
 
@@ -189,7 +210,8 @@ import numpy as np
 from numba import njit
 from numba.core.runtime import rtsys
 import opendyn as od
-from opendyn.algorithm import aba_derivatives, christoffel, crba, energy, forward, kinematics
+from opendyn.algorithm import aba_derivatives, centroidal, christoffel, crba, energy, forward
+from opendyn.algorithm import kinematics
 from opendyn.algorithm import rnea, rnea_derivatives, task_space
 
 model = od.load_urdf(sys.argv[1], floating_base=sys.argv[2] == "1", check_inertia=False)
@@ -261,6 +283,24 @@ calls["task_space_bias"] = (
     task_space.task_space_bias_kernel,
     (*buffers, (q, qd), (link.body, link.T_body_frame), model._loads, data.eta),
 )
+calls["center_of_mass"] = (
+    lambda **kw: od.center_of_mass(model, q, **kw),
+    centroidal.center_of_mass_kernel, (*buffers, q, data.com),
+)
+calls["center_of_mass_jacobian"] = (
+    lambda **kw: od.center_of_mass_jacobian(model, q, **kw),
+    centroidal.centroidal_map_kernel, (*buffers, q, True, data.J_c),
+)
+calls["centroidal_momentum_matrix"] = (
+    lambda **kw: od.centroidal_momentum_matrix(model, q, **kw),
+    centroidal.centroidal_map_kernel, (*buffers, q, False, data.A_G),
+)
+for rate, name in ((False, "centroidal_momentum"), (True, "centroidal_momentum_rate_bias")):
+    calls[name] = (
+        lambda name=name, **kw: getattr(od, name)(model, q, qd, **kw),
+        centroidal.centroidal_momentum_kernel,
+        (*buffers, q, qd, model._zero_v, rate, data._momentum),
+    )
 calls["frame_acceleration"] = (
     lambda **kw: od.frame_acceleration(model, q, qd, qdd, link.name, **kw),
     task_space.frame_acceleration_kernel,
@@ -319,7 +359,7 @@ def test_a_call_with_data_allocates_nothing(name, floating):
     )
     assert proc.returncode == 0, proc.stderr
     counts = json.loads(proc.stdout.strip().splitlines()[-1])
-    assert len(counts) == 16
+    assert len(counts) == 21
     for call, count in counts.items():
         assert count["kernel"] == 0 and count["numpy with data"] == 0, (call, count)
         if call != "kinetic_energy":

@@ -224,19 +224,20 @@ def centroidal_momentum_batch_kernel(ibuf, fbuf, q, qd, qdd, rate, out, status, 
         status[n] = centroidal_momentum_kernel(ibuf, fbuf, work, q[n], qd[n], qdd[n], rate, out[n])
 
 
-def _evaluate(model, what, result, kernels, shape, q, *named, options=()):
-    """The kernel at a single state, or the batch kernel over a batch (N, ...): kernels =
-    (kernel, batch_kernel), shape the result's shape for one state, named the (name, value)
-    velocity-like arguments after q (at most two), options the kernel's arguments after them.
-    Returns the result, (*shape) or (N, *shape). ValueError when nothing that moves has mass:
-    there is no centre of mass. The checked path, after the public function's exact call (or
-    instead of it); the caller has checked the model."""
+def _evaluate(model, what, result, kernels, out, q, *named, options=()):
+    """The kernel at a single state into out (the result's array for one state: a fresh one,
+    or a Data's), or the batch kernel over a batch (N, ...): kernels = (kernel, batch_kernel),
+    named the (name, value) velocity-like arguments after q (at most two), options the
+    kernel's arguments after them. Returns the result, out or (N, *out.shape). ValueError when
+    nothing that moves has mass: there is no centre of mass. The checked path, after the public
+    function's exact call (or instead of it); the caller has checked the model, and out is a
+    Data's only with a Data's work buffer, `work`."""
     if not model._total_mass > 0.0:
         raise ValueError(
             f"{what}: model {model.name!r} has no moving mass (its bodies' masses sum to "
             f"{model._total_mass:g} kg), so it has no centre of mass"
         )
-    kernel, batch_kernel = kernels
+    kernel, batch_kernel, work, data = kernels
     if named:
         arrays, batch = checks.as_states(model, q, *named)
     else:
@@ -244,59 +245,44 @@ def _evaluate(model, what, result, kernels, shape, q, *named, options=()):
         batch = arrays[0].ndim == 2
     arguments = dict(zip(["q"] + [name for name, _ in named], arrays))
     if not batch:
-        out = np.empty(shape)
-        status = kernel(model._ibuf, model._fbuf, model._work, *arrays, *options, out)
+        status = kernel(model._ibuf, model._fbuf, work, *arrays, *options, out)
         if status:
             checks.raise_status(status, model, what, result, arguments)
         return out
-    out = np.empty((arrays[0].shape[0], *shape))
+    checks.single_state_only(data, what)
+    out = np.empty((arrays[0].shape[0], *out.shape))
     inputs = (*arrays, *options)
     return checks.run_batch(model, batch_kernel, inputs, out, what, result, arguments)
 
 
-_COM = (center_of_mass_kernel, center_of_mass_batch_kernel)
-_MAP = (centroidal_map_kernel, centroidal_map_batch_kernel)
-_MOMENTUM = (centroidal_momentum_kernel, centroidal_momentum_batch_kernel)
 center_of_mass_exact = exact(center_of_mass_kernel)
 centroidal_map_exact = exact(centroidal_map_kernel)
 centroidal_momentum_exact = exact(centroidal_momentum_kernel)
 
 
-def _momentum(model, q, qd, rate):
-    """(h_G, dh_G/dt at qdd = 0 or, unless rate, 0) (2, 6) of a single float64 state whose
-    kernel succeeds (the exact call), else None (then _evaluate converts, raises or runs the
-    batch)."""
-    if not model._total_mass > 0.0:
-        return None
-    out = np.empty((2, 6))
-    ibuf, fbuf, work, zero = model._ibuf, model._fbuf, model._work, model._zero_v
-    try:
-        status = centroidal_momentum_exact(ibuf, fbuf, work, q, qd, zero, rate, out)
-    except TypeError:
-        status = learn(centroidal_momentum_exact, centroidal_momentum_kernel)
-    return None if status else out
-
-
-def center_of_mass(model, q):
+def center_of_mass(model, q, data=None):
     """c(q) = (1/M) sum_i m_i c_i(q): the centre of mass of the moving bodies (m, world frame).
 
     q: (nq,) configuration, or a batch (N, nq) -> (3,) or (N, 3). M = sum_i m_i is the mass of
     the moving bodies: links welded to a fixed root are part of the world, as in every dynamics
     function. ValueError when M is zero.
+    data: optional Data of this model (single states): returns data.com, allocating nothing.
     """
     checks.check_model(model, "center_of_mass")
+    work = checks.work_of(model, data, "center_of_mass")
+    c = np.empty(3) if data is None else data.com
     if model._total_mass > 0.0:
-        c = np.empty(3)
         try:
-            status = center_of_mass_exact(model._ibuf, model._fbuf, model._work, q, c)
+            status = center_of_mass_exact(model._ibuf, model._fbuf, work, q, c)
         except TypeError:
             status = learn(center_of_mass_exact, center_of_mass_kernel)
         if not status:
             return c
-    return _evaluate(model, "center_of_mass", "c", _COM, (3,), q)
+    kernels = (center_of_mass_kernel, center_of_mass_batch_kernel, work, data)
+    return _evaluate(model, "center_of_mass", "c", kernels, c, q)
 
 
-def center_of_mass_jacobian(model, q):
+def center_of_mass_jacobian(model, q, data=None):
     """J_c(q) (3, nv), so that c_dot = J_c qd: the centre of mass's velocity (m/s, world frame)
     per velocity coordinate (for a floating base, per component of the base twist (omega_b,
     v_b) in the base frame, then per joint).
@@ -304,11 +290,12 @@ def center_of_mass_jacobian(model, q):
     J_c = the l_G rows of A_G over M (centroidal_momentum_matrix), the linear momentum being
     M c_dot; the same kernel, without forming the subtrees' rotational inertias.
     q: (nq,) or (N, nq) -> (3, nv) or (N, 3, nv).
+    data: optional Data of this model (single states): returns data.J_c, allocating nothing.
     """
-    return _centroidal_map(model, q, True, "center_of_mass_jacobian", "J_c")
+    return _centroidal_map(model, q, True, data, ("center_of_mass_jacobian", "J_c"))
 
 
-def centroidal_momentum_matrix(model, q):
+def centroidal_momentum_matrix(model, q, data=None):
     """A_G(q) (6, nv), so that h_G = A_G qd: the centroidal momentum matrix (Orin and Goswami
     2008, 2013; Pinocchio's ccrba, whose rows are linear first).
 
@@ -321,39 +308,43 @@ def centroidal_momentum_matrix(model, q):
     columns are the base twist's (omega_b, v_b) in the base frame, and A_G[:, :6] is the whole
     robot's spatial inertia moved from the base frame to {G}.
     q: (nq,) or (N, nq) -> (6, nv) or (N, 6, nv).
+    data: optional Data of this model (single states): returns data.A_G, allocating nothing.
     """
-    return _centroidal_map(model, q, False, "centroidal_momentum_matrix", "A_G")
+    return _centroidal_map(model, q, False, data, ("centroidal_momentum_matrix", "A_G"))
 
 
-def _centroidal_map(model, q, linear_only, what, result):
+def _centroidal_map(model, q, linear_only, data, names):
     """A_G (6, nv), or J_c (3, nv) when linear_only, of a single configuration or a batch: a
     single float64 q goes straight to the kernel's exact twin, anything else through _evaluate
-    (which converts, raises or runs the batch)."""
+    (which converts, raises or runs the batch). names = (the function, its result) for
+    errors; the result is also the Data field data= returns."""
+    what, result = names
     checks.check_model(model, what)
-    shape = (3 if linear_only else 6, model.nv)
+    work = checks.work_of(model, data, what)
+    out = np.empty((3 if linear_only else 6, model.nv)) if data is None else getattr(data, result)
     if model._total_mass > 0.0:
-        out = np.empty(shape)
-        ibuf, fbuf, work = model._ibuf, model._fbuf, model._work
         try:
-            status = centroidal_map_exact(ibuf, fbuf, work, q, linear_only, out)
+            status = centroidal_map_exact(model._ibuf, model._fbuf, work, q, linear_only, out)
         except TypeError:
             status = learn(centroidal_map_exact, centroidal_map_kernel)
         if not status:
             return out
-    return _evaluate(model, what, result, _MAP, shape, q, options=(linear_only,))
+    kernels = (centroidal_map_kernel, centroidal_map_batch_kernel, work, data)
+    return _evaluate(model, what, result, kernels, out, q, options=(linear_only,))
 
 
-def centroidal_momentum(model, q, qd):
+def centroidal_momentum(model, q, qd, data=None):
     """h_G = A_G(q) qd = (k_G, l_G) (6,): the angular momentum about the centre of mass
     (kg m^2/s) and the linear momentum (kg m/s), world-aligned axes, angular first; summed
     over the bodies, h_G = sum_i Ad_{T_{i,G}}^T G_i V_i.
 
     q, qd: (nq,), (nv,), or batches (N, nq), (N, nv) -> (6,) or (N, 6).
+    data: optional Data of this model (single states): returns data.h_G, allocating nothing.
     """
-    return _momentum_or_rate(model, q, qd, False, "centroidal_momentum", "h_G")
+    return _momentum_or_rate(model, q, qd, False, data, ("centroidal_momentum", "h_G"))
 
 
-def centroidal_momentum_rate_bias(model, q, qd):
+def centroidal_momentum_rate_bias(model, q, qd, data=None):
     """Adot_G(q, qd) qd (6,): the part of the centroidal momentum's rate that does not depend on
     qdd, so that
 
@@ -362,20 +353,34 @@ def centroidal_momentum_rate_bias(model, q, qd):
     (gravity's (0, M g) and contacts; angular first, world-aligned axes; N m and N). It is the
     sum of the bodies' net wrenches G_i dV_i - ad_{V_i}^T G_i V_i at qdd = 0, moved to {G}.
     q, qd: (nq,), (nv,), or batches -> (6,) or (N, 6).
+    data: optional Data of this model (single states): returns data.Adot_G_qd, allocating
+    nothing (data.h_G holds h_G).
     """
-    return _momentum_or_rate(model, q, qd, True, "centroidal_momentum_rate_bias", "Adot_G qd")
+    names = ("centroidal_momentum_rate_bias", "Adot_G qd")
+    return _momentum_or_rate(model, q, qd, True, data, names)
 
 
-def _momentum_or_rate(model, q, qd, rate, what, result):
-    """h_G (rate False) or Adot_G qd (rate True) for a single state or a batch: what and
-    result name the function and its result in errors."""
+def _momentum_or_rate(model, q, qd, rate, data, names):
+    """h_G (rate False) or Adot_G qd (rate True) for a single state or a batch: names = (the
+    function, its result) for errors."""
+    what, result = names
     checks.check_model(model, what)
+    work = checks.work_of(model, data, what)
     k = 1 if rate else 0
-    out = _momentum(model, q, qd, rate)
-    if out is not None:
-        return out[k]
+    out = np.empty((2, 6)) if data is None else data._momentum
+    if model._total_mass > 0.0:
+        ibuf, fbuf, zero = model._ibuf, model._fbuf, model._zero_v
+        try:
+            status = centroidal_momentum_exact(ibuf, fbuf, work, q, qd, zero, rate, out)
+        except TypeError:
+            status = learn(centroidal_momentum_exact, centroidal_momentum_kernel)
+        if not status:
+            return out[k] if data is None else (data.Adot_G_qd if rate else data.h_G)
+    kernels = (centroidal_momentum_kernel, centroidal_momentum_batch_kernel, work, data)
     out = _evaluate(
-        model, what, result, _MOMENTUM, (2, 6), q, ("qd", qd), ("qdd", model._zero_v),
+        model, what, result, kernels, out, q, ("qd", qd), ("qdd", model._zero_v),
         options=(rate,),
     )
-    return out[..., k, :]
+    if out.ndim == 3:
+        return out[:, k, :]
+    return out[k] if data is None else (data.Adot_G_qd if rate else data.h_G)

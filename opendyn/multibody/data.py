@@ -64,6 +64,15 @@ Joint space, the results (the function that returns each):
                           pose in it too)
   energy        (2,)      (K, U) (J): kinetic_energy and potential_energy leave both (with
                           qd = 0 for potential_energy)
+Centroidal (opendyn.algorithm.centroidal), in the world frame or world-aligned axes at the
+centre of mass G, angular first:
+  com           (3,)      center_of_mass: c (m)
+  J_c           (3, nv)   center_of_mass_jacobian: c_dot = J_c qd
+  A_G           (6, nv)   centroidal_momentum_matrix: h_G = A_G qd
+  h_G           (6,)      centroidal_momentum: (k_G, l_G) (kg m^2/s, kg m/s);
+                          centroidal_momentum_rate_bias leaves it too
+  Adot_G_qd     (6,)      centroidal_momentum_rate_bias (N m, N); centroidal_momentum leaves
+                          zero in it
 Task space, in the frame's coordinates {f}, angular first (opendyn.algorithm.task_space):
   JMinv         (6, nv)   J_b M^-1 (task_space_mass_matrix, task_space_bias)
   Lambda        (6, 6)    task_space_mass_matrix: (J_b M^-1 J_b^T + damping I)^-1 (kg m^2,
@@ -148,6 +157,8 @@ WORK_FIELDS = (
     ("e_k", (), "nv"),
     ("J", (6,), "nv"),
     ("JMinv", (6,), "nv"),
+    ("J_c", (3,), "nv"),
+    ("A_G", (6,), "nv"),
     ("M", (), "nv2"),
     ("C", (), "nv2"),
     ("P", (), "nv2"),
@@ -158,6 +169,9 @@ WORK_FIELDS = (
     ("Minv", (), "nv2"),
     ("unit_responses", (6,), "nv2"),
     ("T_sf", (4, 4), "fixed"),
+    ("com", (3,), "fixed"),
+    ("h_G", (6,), "fixed"),
+    ("Adot_G_qd", (6,), "fixed"),  # right after h_G: the momentum kernel writes both
     ("energy", (2,), "fixed"),
     ("Lambda", (6, 6), "fixed"),
     ("eta", (6,), "fixed"),
@@ -245,6 +259,9 @@ class Data:
             view = self._work[a : a + _count(size, nb, nv)]
             setattr(self, name, view.reshape(_shape(name, shape, unit, nb, nv)))
         # nv^3 numbers each: beside the buffer, which every Model keeps one of
+        # (h_G, Adot_G qd) as the one (2, 6) array the momentum kernel writes
+        a = _count(WORK_AT["h_G"][0], nb, nv)
+        self._momentum = self._work[a : a + 12].reshape(2, 6)
         self.Gamma = np.zeros((nv, nv, nv))
         self._C_e = np.zeros((nv, nv, nv))
         self._constraint_rows = {}
