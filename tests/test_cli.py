@@ -208,3 +208,24 @@ def test_simulate_warns_on_a_welded_mobile_robot_and_floating_base_frees_it(caps
     assert not scene_for("double_pendulum_swing").model.floating_base
     with pytest.warns(od.SceneWarning, match="'solo' looks like a mobile robot"):
         od.default_scene("solo12")
+
+
+@pytest.mark.parametrize(
+    "argv, words",
+    [
+        (["simulate", "--duration", "0_2"], "argument --duration: invalid number: '0_2' (no digit"),
+        (["verify", "ur5", "--states", "1_0"], "argument --states: invalid whole number: '1_0'"),
+    ],
+)
+def test_numbers_with_digit_separators_are_refused(argv, words, capsys):
+    """Python's float reads "0_2" as 2: --duration 0_2 ran 2 s without a word."""
+    with pytest.raises(SystemExit) as refused:
+        main(argv)
+    assert refused.value.code == 2 and words in capsys.readouterr().err
+
+
+def test_tolerances_for_a_fixed_step_run_are_refused(capsys):
+    """--rtol with the default scene's rk4 was accepted and did nothing."""
+    assert main(["simulate", "--rtol", "1e-6", "--no-save", "-q"]) == 2
+    err = capsys.readouterr().err
+    assert "--rtol: the tolerances of an adaptive step, but the run's integrator is rk4" in err

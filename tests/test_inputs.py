@@ -480,3 +480,49 @@ def test_switches_counts_and_times_of_the_wrong_kind_are_refused_naming_them(cas
     with pytest.raises(error) as raised:
         call()
     assert words in str(raised.value)
+
+
+def test_payload_values_of_the_wrong_kind_are_refused_naming_them():
+    """with_payload took "2.5" as 2.5 kg and True as 1 kg, where every array argument of the
+    API refuses text and booleans (the scene reader refuses mass = "2.5" too)."""
+    ur5 = od.load_urdf("ur5")
+    for kwargs, name in [
+        (dict(mass="2.5"), "mass"),
+        (dict(mass=True), "mass"),
+        (dict(mass=1.0, com=(True, False, True)), "com"),
+        (dict(mass=1.0, inertia=[["1", 0, 0], [0, 1, 0], [0, 0, 1]]), "inertia"),
+        (dict(mass=1.0 + 0j), "mass"),
+    ]:
+        with pytest.raises(TypeError, match=rf"^{name} must be a number or an array of numbers"):
+            ur5.with_payload("tool0", **kwargs)
+    assert ur5.with_payload("tool0", np.float32(2.0), com=(0, 0, 1)).mass.sum() == pytest.approx(
+        ur5.mass.sum() + 2.0
+    )
+
+
+def test_f_tip_that_is_not_a_mapping_is_a_type_error_naming_it():
+    """f_tip=np.zeros(6) fell into numpy's "truth value of an array is ambiguous"."""
+    ur5 = od.load_urdf("ur5")
+    zeros = np.zeros(6)
+    for f_tip in (np.zeros(6), [("tool0", np.zeros(6))], "tool0"):
+        with pytest.raises(TypeError, match=r"^f_tip must be a dict \{frame_name: \(6,\) wrench"):
+            od.inverse_dynamics(ur5, zeros, zeros, zeros, f_tip=f_tip)
+    assert od.inverse_dynamics(ur5, zeros, zeros, zeros, f_tip={}).shape == (6,)
+
+
+@pytest.mark.parametrize("where", ["q", "qd", "qdd", "tau"])
+def test_identify_with_a_measurement_that_is_not_finite_names_the_sample(where):
+    """A NaN or inf torque (a dropped measurement) went on to scipy's "array must not contain
+    infs or NaNs"; NaN in q was blamed on torque_regressor."""
+    ur5 = od.load_urdf("ur5")
+    samples = list(np.random.default_rng(2).normal(size=(3, 20, 6)))
+    samples.append(od.inverse_dynamics(ur5, *samples))
+    k = ["q", "qd", "qdd", "tau"].index(where)
+    samples[k][3, 2] = np.inf if where == "tau" else np.nan
+    for call, what in [
+        (lambda: od.identify(ur5, *samples), "identify"),
+        (lambda: od.identify_payload(ur5, "tool0", *samples), "identify_payload"),
+    ]:
+        with pytest.raises(ValueError, match=rf"^{what}: {where} must be finite; sample 3 has "
+                           r"(nan|inf) in column 2 \(1 such entries\)"):
+            call()

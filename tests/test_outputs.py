@@ -507,3 +507,31 @@ def test_a_save_whose_record_name_is_too_long_writes_neither_file(tmp_path):
     at_limit = tmp_path / ("u" * (most - 4) + ".csv")
     small_trajectory().to_csv(at_limit)
     assert files_in(tmp_path) == [at_limit.name]
+
+
+def test_a_save_into_a_missing_folder_or_onto_a_folder_names_the_path_given(tmp_path):
+    """Trajectory.save into a missing folder named its hidden temporary file; onto an existing
+    folder it wrote FOLDER.npz beside the folder."""
+    traj = small_trajectory()
+    with pytest.raises(FileNotFoundError) as missing:
+        traj.save(tmp_path / "missing" / "run.npz")
+    assert missing.value.filename == str(tmp_path / "missing" / "run.npz")
+    folder = tmp_path / "runs"
+    folder.mkdir()
+    with pytest.raises(IsADirectoryError, match="is a folder; name the .npz to write in it"):
+        traj.save(folder)
+    with pytest.raises(IsADirectoryError, match="is a folder, not a file"):
+        traj.to_csv(folder)
+    assert files_in(tmp_path) == ["runs"] and files_in(folder) == []
+
+
+def test_a_record_changed_after_it_was_saved_is_refused_naming_the_array(tmp_path):
+    """q cut to one column loaded, saved again, and failed only in plot (IndexError)."""
+    small_trajectory().save(tmp_path / "run.npz")
+    arrays = dict(np.load(tmp_path / "run.npz"))
+    arrays["qd"] = np.zeros((5, 1))
+    np.savez(tmp_path / "changed.npz", **arrays)
+    with pytest.raises(ValueError, match=r"changed\.npz: its array qd has shape \(5, 1\), where "
+                       r"\(2, 1\) fits the record \(2 samples, 1 coordinates q, 1 velocities\): "
+                       r"the file was changed after opendyn saved it"):
+        od.Trajectory.load(tmp_path / "changed.npz")

@@ -357,3 +357,15 @@ def test_an_adaptive_step_underflow_at_a_touchdown_names_the_tolerances(toleranc
     )
     assert message.startswith("adaptive step underflow at t = 0.45 s (step 80)")
     assert words in message
+
+
+def test_a_payload_far_from_its_frame_is_named_by_its_inertia_not_only_the_heaviest_body():
+    """2.5 kg a million metres out on the UR5's tool: the message named the heaviest body (the
+    upper arm, 8.4 kg) as if the masses were to blame; it now also names the body with the
+    largest inertia about its frame, the payload's, 2.5e12 kg m^2."""
+    far = od.load_urdf("ur5").with_payload("tool0", 2.5, com=(0.0, 0.0, 1e6))
+    with pytest.raises(od.SingularMassMatrixError) as info:
+        od.forward_dynamics(far, np.full(6, 0.3), np.zeros(6), np.zeros(6))
+    assert "the largest inertia about its frame: 'wrist_3_link', 2.5e+12 kg m^2" in str(
+        info.value
+    )

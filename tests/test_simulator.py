@@ -288,3 +288,32 @@ def test_the_panda_impedance_example_holds_its_tool_with_the_commanded_stiffness
     energy = tr.kinetic + tr.potential
     balance = energy - energy[0] - tr.work_applied - tr.work_passive
     assert np.abs(balance).max() < 1e-8 * np.abs(energy).max()
+
+
+def test_a_controller_that_returns_nothing_stops_the_run_naming_it():
+    """A controller that forgot its return ran the whole scene at zero torque, without a word
+    (None means zero only as Simulator.step's own argument)."""
+    def forgot(t, q, qd):
+        tau = -10.0 * qd  # noqa: F841 (computed, never returned)
+
+    scene = od.load_scene("ur5_falling").replace_run(duration=0.05)
+    with pytest.raises(od.SimulationError) as stopped:
+        od.simulate(scene, controller=forgot)
+    assert str(stopped.value).startswith(
+        "controller 'forgot' returned None at t = 0 s; it must return the joint torques tau "
+        "(a (6,) array"
+    )
+    assert len(stopped.value.trajectory.t) == 1  # the initial state, kept
+
+
+def test_a_torque_that_alone_passes_max_speed_in_one_step_is_named_as_the_cause():
+    """Simulator.step(1e9 N m) on the quadruped was put down to the integrator's step, with
+    the advice to use dopri5; the torque is the cause, and the message names it."""
+    sim = od.Simulator(od.load_scene("quadruped_drop").replace_run(duration=1.0))
+    sim.step(np.zeros(12), duration=0.01)
+    with pytest.raises(od.SimulationError) as stopped:
+        sim.step(np.full(12, 1e9))
+    message = str(stopped.value)
+    assert "Likely cause: the torque the step was given (|tau| up to 1e+09 on 'FL_HAA')" in message
+    assert "past max_speed = 10000; check the torque" in message and "dopri5" not in message
+    assert stopped.value.trajectory.t[-1] == pytest.approx(0.01)

@@ -269,7 +269,7 @@ def test_another_sweeps_results_file_is_refused(client, tmp_path):
     scene = limits_scene(duration=0.1)
     parquet = tmp_path / "r.parquet"
     od.sweep(scene, {"effects.limits.stiffness": "1e3,1e4"}, client=client, parquet=parquet)
-    with pytest.raises(SweepError, match="holds another sweep \\(its vary differ\\)"):
+    with pytest.raises(SweepError, match="holds another sweep \\(its vary differs\\)"):
         od.sweep(scene, {"effects.limits.damping": "1,2"}, client=client, parquet=parquet)
     (tmp_path / "x.parquet").write_text("not parquet")
     with pytest.raises(SweepError, match="not a Parquet file"):
@@ -610,3 +610,79 @@ def test_a_results_name_whose_parts_folder_would_be_too_long_is_refused(tmp_path
     with pytest.raises(SweepError, match=rf"its folder of parts r+\.parquet\.parts: its name is "
                        rf"{most + 6} bytes, longer than the {most}"):
         od.sweep(limits_scene(0.1), {"effects.limits.stiffness": "1e3"}, parquet=tmp_path / name)
+
+
+def test_a_grid_too_large_is_refused_before_it_is_made():
+    """0:1:1000000000 made its billion points first, and the process filled the memory."""
+    with pytest.raises(SweepError, match=r"n = 1,000,000,000 points, more than 10,000,000"):
+        parse_axis("initial.q.shoulder", "0:1:1000000000")
+
+
+def test_a_sweep_stopped_before_its_first_row_resumes(client, tmp_path):
+    """A results file of no rows (Ctrl-C before the first arrived) made every later run of
+    the same command fail in pyarrow ("Filter argument must be boolean type")."""
+    scene = limits_scene(duration=0.1)
+    vary = {"effects.limits.stiffness": "1e3,1e4"}
+    parquet = tmp_path / "r.parquet"
+    full = od.sweep(scene, vary, client=client, parquet=parquet)
+    pq.write_table(full.slice(0, 0), parquet)
+    resumed = od.sweep(scene, vary, client=client, parquet=parquet)
+    assert resumed.drop(["wall_s"]).equals(full.drop(["wall_s"]))
+
+
+def test_a_urdf_whose_values_the_scene_reads_edited_between_runs_is_another_sweep(
+    client, tmp_path
+):
+    """coefficients = "urdf" takes the URDF's damping: editing it between a stopped sweep and
+    its resume mixed two robots' rows in one table (the robot's own buffers do not hold it)."""
+    import shutil
+
+    shutil.copy(os.path.join(ROBOTS, "double_pendulum.urdf"), tmp_path / "dp.urdf")
+    (tmp_path / "dp.toml").write_text(
+        'name = "dp"\n[robot]\nurdf = "dp.urdf"\n[run]\nduration = 0.05\n'
+        '[effects]\ngravity = true\n[effects.damping]\ncoefficients = "urdf"\n'
+    )
+    vary = {"initial.q.shoulder": "0,1"}
+    parquet = tmp_path / "r.parquet"
+    od.sweep(od.load_scene(tmp_path / "dp.toml"), vary, client=client, parquet=parquet)
+    urdf = (tmp_path / "dp.urdf").read_text()
+    assert 'damping="0.1"' in urdf
+    (tmp_path / "dp.urdf").write_text(urdf.replace('damping="0.1"', 'damping="0.5"'))
+    with pytest.raises(SweepError, match=r"another sweep \(its effects differs\)"):
+        od.sweep(od.load_scene(tmp_path / "dp.toml"), vary, client=client, parquet=parquet)
+
+
+def test_a_results_file_another_sweep_is_writing_is_refused(tmp_path):
+    """Two sweeps started on one results file: each replaced the other's rows, and both said
+    they wrote it. The file is locked while a sweep writes it."""
+    import fcntl
+
+    parquet = tmp_path / "r.parquet"
+    with open(tmp_path / "r.parquet.lock", "a") as held:
+        fcntl.flock(held.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+        with pytest.raises(SweepError, match="another sweep is writing this results file now"):
+            od.sweep(limits_scene(0.1), {"effects.limits.stiffness": "1e3"}, parquet=parquet)
+    assert not parquet.exists()
+
+
+def test_results_that_are_not_a_parquet_path_are_refused_naming_the_argument(tmp_path):
+    scene, vary = limits_scene(0.1), {"effects.limits.stiffness": "1e3"}
+    with pytest.raises(SweepError, match=r"parquet \(-o\) '.*res\.csv': a sweep's results are a "
+                       r"Parquet table; name a \.parquet file \(not \.csv\)"):
+        od.sweep(scene, vary, parquet=tmp_path / "res.csv")
+    with pytest.raises(TypeError, match=r"^parquet must be a path \(a str or pathlib\.Path\), "
+                       r"got int 123"):
+        od.sweep(scene, vary, parquet=123)
+    with pytest.raises(TypeError, match=r"^trajectories must be a path"):
+        od.sweep(scene, vary, trajectories=["runs"])
+
+
+def test_the_command_refuses_metric_without_plot(tmp_path, monkeypatch, capsys):
+    from opendyn.cli.main import main
+
+    monkeypatch.chdir(tmp_path)
+    argv = ["sweep", "planar_3r_limits", "--vary", "run.duration=0.1", "--metric", "bogus"]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert "--metric bogus: it picks the metric --plot draws; give --plot FILE.png" in err
+    assert list(tmp_path.iterdir()) == []

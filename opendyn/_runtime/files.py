@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import contextlib
+import errno
 import os
 import pathlib
 import secrets
@@ -21,7 +22,9 @@ def atomic_write(path):
     is written in place: it cannot be replaced, and nothing on a disk can be left truncated.
     """
     target = pathlib.Path(os.path.realpath(path))
-    if target.exists() and not target.is_file() and not target.is_dir():
+    if target.is_dir():
+        raise IsADirectoryError(errno.EISDIR, "is a folder, not a file", str(path))
+    if target.exists() and not target.is_file():
         with open(target, "wb") as f:
             yield f
         return
@@ -51,6 +54,8 @@ def _create_beside(target):
             return open(tmp, "xb"), tmp
         except FileExistsError:
             continue
+        except OSError as e:  # no such folder, no permission: name the file asked for
+            raise type(e)(e.errno, e.strerror, str(target)) from None
 
 
 def unwritable(name, path):

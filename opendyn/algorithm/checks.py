@@ -186,13 +186,13 @@ def loads(model, gravity, f_tip, n_states=None):
         return model._loads if n_states is None else model._loads[None]
     dV_0 = np.zeros(6)
     linear(dV_0)[:] = -as_gravity(model, gravity)
+    if f_tip is not None and not isinstance(f_tip, dict):
+        raise TypeError(
+            "f_tip must be a dict {frame_name: (6,) wrench (m, f) in that frame}, "
+            f"got {type(f_tip).__name__} {_short_repr(f_tip)}"
+        )
     if not f_tip:
         return dV_0[None] if n_states is None else dV_0[None, None]
-    if not isinstance(f_tip, dict):
-        raise ValueError(
-            "f_tip must be a dict {frame_name: (6,) wrench (m, f) in that frame}, "
-            f"got {type(f_tip).__name__}"
-        )
     per_state = n_states is not None and any(np.ndim(F) == 2 for F in f_tip.values())
     out = np.zeros((n_states, 1 + model.nb, 6) if per_state else (1 + model.nb, 6))
     out[..., 0, :] = dV_0
@@ -324,12 +324,17 @@ def singular_coordinates(model, q, armature=None):
         # each moves some inertia, too little beside the largest for float64's 16 digits
         k, j = int(small[np.argmin(d[small])]), int(np.argmax(d))
         heaviest = int(np.argmax(model.mass))
+        inertia = np.abs(model.I_o).max(axis=(1, 2))  # about each body's frame origin
+        widest = int(np.argmax(inertia))
         return [model.v_names[k] for k in small], [], (
             f"joint {model.v_names[k]!r} moves an inertia M_kk = {d[k]:.3g}, {d[k] / d[j]:.1g} "
             f"times the largest on M's diagonal ({d[j]:.3g}, {model.v_names[j]!r}): M's entries "
             "span more digits than float64 keeps (16), so M is singular to working precision "
             f"although everything moves some mass; the masses or inertias differ too much (the "
-            f"heaviest body: {model.body_names[heaviest]!r}, {model.mass[heaviest]:.3g} kg)"
+            f"heaviest body: {model.body_names[heaviest]!r}, {model.mass[heaviest]:.3g} kg; the "
+            f"largest inertia about its frame: {model.body_names[widest]!r}, "
+            f"{inertia[widest]:.3g} kg m^2, as a payload's centre of mass far from its frame "
+            "makes)"
         )
     massless = [model.v_names[k] for k in small]
     if massless:

@@ -117,10 +117,20 @@ def parameter_names(model, friction=False):
 
 
 def _samples(model, what, q, qd, qdd, tau):
-    """Checked samples: (q, qd, qdd, tau) as batches (N, nq), (N, nv)."""
+    """Checked samples: (q, qd, qdd, tau) as batches (N, nq), (N, nv); ValueError naming the
+    function, the argument and the first sample that is not finite (a dropped measurement)."""
     checks.check_model(model, what)
     arrays, _ = checks.as_states(model, q, ("qd", qd), ("qdd", qdd), ("tau", tau))
-    return [a if a.ndim == 2 else a[None] for a in arrays]
+    arrays = [a if a.ndim == 2 else a[None] for a in arrays]
+    for name, a in zip(("q", "qd", "qdd", "tau"), arrays):
+        bad = np.argwhere(~np.isfinite(a))
+        if len(bad):
+            n, j = bad[0]
+            raise ValueError(
+                f"{what}: {name} must be finite; sample {n} has {a[n, j]} in column {j} "
+                f"({len(bad)} such entries): drop those samples"
+            )
+    return arrays
 
 
 class _Fit(NamedTuple):

@@ -36,6 +36,27 @@ from .stdout import reader_may_leave
 from .sweep import _sweep
 
 
+def number(text: str) -> float:
+    """An option's number as written: a decimal or scientific float; argparse's error for
+    anything else, including the digit separators Python's float takes ("0_2" is not 0.2)."""
+    if "_" in text:
+        raise argparse.ArgumentTypeError(f"invalid number: {text!r} (no digit separators)")
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"invalid number: {text!r}") from None
+
+
+def whole(text: str) -> int:
+    """An option's whole number as written (no digit separators, no "1e3")."""
+    if "_" in text:
+        raise argparse.ArgumentTypeError(f"invalid whole number: {text!r} (no digit separators)")
+    try:
+        return int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"invalid whole number: {text!r}") from None
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(
         prog="opendyn",
@@ -56,12 +77,12 @@ def main(argv=None) -> int:
         action="store_true",
         help="make the robot's root link a free body (robot.floating_base = true)",
     )
-    sim.add_argument("--duration", type=float, help="simulated time (s)")
-    sim.add_argument("--dt", type=float, help="step (s); the first trial step of dopri5")
+    sim.add_argument("--duration", type=number, help="simulated time (s)")
+    sim.add_argument("--dt", type=number, help="step (s); the first trial step of dopri5")
     sim.add_argument("--integrator", choices=INTEGRATORS)
-    sim.add_argument("--rtol", type=float, help="dopri5 relative tolerance")
-    sim.add_argument("--atol", type=float, help="dopri5 absolute tolerance")
-    sim.add_argument("--output-dt", type=float, help="sample interval of the record (s)")
+    sim.add_argument("--rtol", type=number, help="dopri5 relative tolerance")
+    sim.add_argument("--atol", type=number, help="dopri5 absolute tolerance")
+    sim.add_argument("--output-dt", type=number, help="sample interval of the record (s)")
     sim.add_argument(
         "--enable",
         action="append",
@@ -84,7 +105,7 @@ def main(argv=None) -> int:
     )
     sim.add_argument(
         "--control-dt",
-        type=float,
+        type=number,
         metavar="DT",
         help="the controller's period (s); default: the scene's control_dt, else its dt",
     )
@@ -120,9 +141,9 @@ def main(argv=None) -> int:
 
     verify = sub.add_parser("verify", help="compare every dynamics function with Pinocchio")
     verify.add_argument("robot", help="URDF file or robot name")
-    verify.add_argument("--states", type=int, default=5, help="random states (default 5)")
-    verify.add_argument("--seed", type=int, default=0)
-    verify.add_argument("--rtol", type=float, default=1e-9, help="relative tolerance")
+    verify.add_argument("--states", type=whole, default=5, help="random states (default 5)")
+    verify.add_argument("--seed", type=whole, default=0)
+    verify.add_argument("--rtol", type=number, default=1e-9, help="relative tolerance")
     verify.add_argument("--mimic", action="store_true", help="couple mimic joints")
     verify.add_argument(
         "--floating-base", action="store_true", help="make the root link a free body"
@@ -163,10 +184,10 @@ def main(argv=None) -> int:
         "and its values: a,b,c | lo:hi:n | log:lo:hi:n | uniform:lo:hi | normal:mu:sigma "
         "(repeatable; lists and grids multiply)",
     )
-    sw.add_argument("--samples", type=int, help="draw N random combinations (seeded)")
-    sw.add_argument("--seed", type=int, default=0, help="seed of the draws (default 0)")
+    sw.add_argument("--samples", type=whole, help="draw N random combinations (seeded)")
+    sw.add_argument("--seed", type=whole, default=0, help="seed of the draws (default 0)")
     where = sw.add_mutually_exclusive_group()
-    where.add_argument("--workers", type=int, help="local worker processes (default: the cores)")
+    where.add_argument("--workers", type=whole, help="local worker processes (default: the cores)")
     where.add_argument("--scheduler", metavar="ADDRESS", help="an existing Dask scheduler")
     sw.add_argument(
         "-o", "--output", help="results table (.parquet); default: SCENE-sweep.parquet"
@@ -178,7 +199,7 @@ def main(argv=None) -> int:
     )
     sw.add_argument("--plot", help="PNG of a metric against the varied keys")
     sw.add_argument("--metric", help="the metric --plot draws (default: the scene's main one)")
-    sw.add_argument("--chunk", type=int, help="runs per task (default: chosen from the count)")
+    sw.add_argument("--chunk", type=whole, help="runs per task (default: chosen from the count)")
     sw.add_argument("-q", "--quiet", action="store_true", help="no progress bar or summary")
     sw.set_defaults(run=_sweep)
 

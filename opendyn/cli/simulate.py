@@ -24,6 +24,7 @@ from ..errors import SceneError, URDFError
 from ..io.scene.schema import thaw
 from ..io.urdf import load_urdf
 from ..sim.effects import registry
+from ..sim.integrators import INTEGRATORS
 from ..sim.trajectory import saved_paths
 from .interrupts import _doing
 from .outputs import (
@@ -158,6 +159,13 @@ def _scene_to_run(args):
     run = {k: v for k, v in run.items() if v is not None}
     if run:
         scene = scene.replace_run(**run)
+    tolerances = [o for o, v in (("--rtol", args.rtol), ("--atol", args.atol)) if v is not None]
+    if tolerances and not INTEGRATORS[scene.run.integrator].adaptive:
+        raise ValueError(
+            f"{' and '.join(tolerances)}: the tolerances of an adaptive step, but the run's "
+            f"integrator is {scene.run.integrator} (a fixed step, dt = {scene.run.dt:g} s); "
+            "give --integrator dopri5 with them, or --dt"
+        )
     return _with_effects(scene, args.enable, args.disable)
 
 

@@ -85,6 +85,11 @@ def _sweep(args) -> int:
     if args.plot is not None:
         named.append(("--plot", args.plot, pathlib.Path(args.plot)))
     _check_outputs(named)
+    if args.metric is not None and args.plot is None:
+        raise ValueError(
+            f"--metric {args.metric}: it picks the metric --plot draws; give --plot FILE.png "
+            "(every metric is a column of the results table either way)"
+        )
     if args.plot is not None:
         from ..sweep.engine import parse_axis
         from ..sweep.plot import check_plan

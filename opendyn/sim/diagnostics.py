@@ -19,9 +19,11 @@ from .effects import registry
 from .effects.interface import RatesAt
 
 
-def failure_message(scene, table, status, t, steps, q, qd):
+def failure_message(scene, table, status, t, steps, q, qd, held=None):
     """Why a run stopped at time t after `steps` steps, from the kernel's status and the last
-    good state: what failed, and the likely cause. table: the scene's effects.StageTable."""
+    good state: what failed, and the likely cause. table: the scene's effects.StageTable;
+    held: the torque (nv,) a Simulator held over the step, if any (a torque that alone would
+    pass max_speed within one step is named as the cause)."""
     model = scene.model
     run = scene.run
     where = f"at t = {t:.6g} s (step {steps})"
@@ -88,7 +90,10 @@ def failure_message(scene, table, status, t, steps, q, qd):
     stiff = [] if implicit else _stiff_effects(_effect_rates(scene, table, q), run.dt, 2.0)
     fixed_explicit = not implicit and not integrators.INTEGRATORS[run.integrator].adaptive
     spin = _fastest_rotation(model, qd) if fixed_explicit else None
-    if stiff:
+    pushed = _torque_too_large(scene, q, held)
+    if pushed is not None:
+        cause = pushed
+    elif stiff:
         cause = _step_too_large(stiff, run.dt, 2.0)
     elif (
         spin is not None
@@ -167,6 +172,28 @@ def _start_cause(scene, table, q, qd):
             else "and the first step does not survive them"
         )
         + "; check the scene's forces (gravity, wrenches, control gains) and initial state"
+    )
+
+
+def _torque_too_large(scene, q, held):
+    """The cause when the held torque alone, qdd = (M + diag(armature))^-1 tau_held at q,
+    would take a coordinate past max_speed within one step dt; else None."""
+    if held is None or not np.any(held):
+        return None
+    M = _scene_mass_matrix(scene, q)
+    try:
+        qdd = np.linalg.solve(M, held) if M is not None else None
+    except np.linalg.LinAlgError:
+        qdd = None
+    run, model = scene.run, scene.model
+    if qdd is None or not np.abs(qdd).max() * run.dt > run.max_speed:
+        return None
+    j, k = int(np.argmax(np.abs(held))), int(np.argmax(np.abs(qdd)))
+    return (
+        f"the torque the step was given (|tau| up to {abs(held[j]):.3g} on "
+        f"{model.v_names[j]!r}) accelerates {model.v_names[k]!r} at {abs(qdd[k]):.3g} per s^2: "
+        f"{abs(qdd[k]) * run.dt:.3g} per s within one step of {run.dt:g} s, past max_speed = "
+        f"{run.max_speed:g}; check the torque (its units, its gains)"
     )
 
 

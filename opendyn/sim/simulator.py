@@ -204,6 +204,12 @@ class Simulator:
         except Exception as error:
             self._stop(f"controller {_name(fn)} raised {type(error).__name__}: {error} at "
                        f"t = {t:.6g} s", error)
+        if tau is None:  # a controller that forgot to return: not zero torque
+            self._stop(
+                f"controller {_name(fn)} returned None at t = {t:.6g} s; it must return the "
+                f"joint torques tau (a ({len(self.model.v_index)},) array; zeros for none)",
+                TypeError("the controller returned None"),
+            )
         try:
             return checked_torque(
                 self.model, tau, f"controller {_name(fn)} at t = {t:.6g} s returned tau"
@@ -229,7 +235,8 @@ class Simulator:
             steps = self._steps
             self._stop(
                 failure_message(
-                    self.scene, self._table, status, self._t, steps, self._x.q, self._x.qd
+                    self.scene, self._table, status, self._t, steps, self._x.q, self._x.qd,
+                    self._held,
                 )
             )
 
@@ -492,5 +499,8 @@ def _shown(a):
 
 
 def _name(fn):
-    return repr(getattr(fn, "__qualname__", None) or type(fn).__name__)
+    """The controller as messages name it: its qualified name (Class.method) without the
+    "outer.<locals>." of a function defined inside another."""
+    name = getattr(fn, "__qualname__", None) or type(fn).__name__
+    return repr(name.rpartition("<locals>.")[2])
 

@@ -39,6 +39,23 @@ _CENTROIDAL_COLUMNS = tuple(f"com_{a}" for a in "xyz") + tuple(
 )
 
 
+def _check_shapes(traj, path):
+    """ValueError naming the file and the array whose shape does not fit the others' (t's
+    samples, the coordinates' names): a file changed after it was saved."""
+    k, nq, nv = len(traj.t), len(traj.q_names), len(traj.v_names)
+    expected = {"t": (k,), "q": (k, nq), "qd": (k, nv), "tau": (k, nv)}
+    expected.update({name: (k,) for name in ("kinetic", "potential")})
+    expected.update({name: (k,) for name in ("work_applied", "work_passive")})
+    for name, shape in expected.items():
+        found = np.shape(getattr(traj, name))
+        if found != shape:
+            raise ValueError(
+                f"{path}: its array {name} has shape {found}, where {shape} fits the record ("
+                f"{k} samples, {nq} coordinates q, {nv} velocities): the file was changed "
+                "after opendyn saved it"
+            )
+
+
 def saved_paths(path) -> tuple[pathlib.Path, pathlib.Path]:
     """The two files `Trajectory.save(path)` writes: `path` as a .npz (its suffix replaced by
     .npz, or .npz added), and the JSON record beside it (the same name, .json)."""
@@ -136,6 +153,11 @@ class Trajectory:
         .npz (key "provenance") and beside it (same name, .json; see `saved_paths`). Each file
         is written atomically (`atomic_write`): an error or Ctrl-C during the save leaves the
         file as it was, or absent, never truncated. Returns the .npz path."""
+        if os.path.isdir(path):
+            raise IsADirectoryError(
+                errno.EISDIR, "is a folder; name the .npz to write in it (FOLDER/run.npz)",
+                str(path),
+            )
         path, json_path = saved_paths(path)
         for file in (path, json_path):  # both, or neither: checked before either is written
             too_long = name_too_long(file)
@@ -213,7 +235,7 @@ class Trajectory:
         complete = record.pop("complete", True)
         message = record.pop("message", "")
         record.pop("samples", None)
-        return cls(
+        traj = cls(
             **arrays,
             joint_names=names,
             **columns,
@@ -222,6 +244,8 @@ class Trajectory:
             stats=stats,
             provenance=record,
         )
+        _check_shapes(traj, path)
+        return traj
 
     def to_csv(self, path) -> pathlib.Path:
         """One row per sample: t, q_<name> for each of q_names, qd_<name> and tau_<name> for

@@ -25,14 +25,22 @@ _SERIES_THRESHOLD = 0.1
 
 
 def _as_array(value, name, shape):
-    """Return `value` as a finite float array of `shape`, else raise ValueError naming it.
+    """Return `value` as a finite float array of `shape`, else raise ValueError naming it;
+    entries that are not real numbers (booleans, text such as "2.5", complex numbers,
+    objects) are a TypeError naming it, never converted.
 
     A leading Ellipsis in `shape` allows any number of leading axes.
     """
     try:
-        array = np.asarray(value, dtype=float)
+        raw = np.asarray(value)
     except (TypeError, ValueError) as error:
         raise ValueError(f"{name} must be a numeric array, got {value!r}") from error
+    if raw.dtype.kind not in "iuf":
+        raise TypeError(
+            f"{name} must be a number or an array of numbers (integers or floats), got "
+            f"{type(value).__name__} {value!r}"
+        )
+    array = np.asarray(raw, dtype=float)  # a view of a float array: angular(V)[:] = ... writes V
     if shape and shape[0] is Ellipsis:
         trailing = tuple(shape[1:])
         matches = (

@@ -40,6 +40,8 @@ import multiprocessing
 import numbers
 import os
 import pathlib
+import pickle
+import re
 import signal
 import sys
 import threading
@@ -53,7 +55,7 @@ from .._runtime.version import __version__
 from ..errors import SceneError, SweepError, SweepInterrupted, SweepWriteError
 from ..io.scene.schema import Scene
 from ..io.scene.variants import Variants
-from ..sim.effects import python_control
+from ..sim.effects import python_control, registry
 from ..sim.metrics import METRICS, applicable
 from ..sim.simulate import as_scene, integrator_of
 from .results import Unwritten, written
@@ -61,6 +63,7 @@ from .worker import failed_row, run_chunk
 
 # more runs than this is a mistake in a spec (a grid of 1e3 points on each of 4 keys), not a sweep
 MAX_RUNS = 10_000_000
+READ_QUIETLY = 10_000  # runs whose scenes are read without a progress bar (about 2 s)
 # A task is a chunk of runs rolled out together on a worker. Chunks are cut into about
 # CHUNKS_PER_WORKER per worker, each of at least TASK_MIN_S of work (estimated from a short run
 # on the client), so that the scheduler is never what limits a large cluster (64 workers need
@@ -157,6 +160,8 @@ def parse_axis(key, spec) -> Axis:
         lo, hi, n = numbers_of(fields[1:] if log else fields, ("lo", "hi", "n"))
         if n != int(n) or n < 1:
             raise SweepError(f"vary {key}={spec}: n = {n:g} must be a whole number >= 1")
+        if n > MAX_RUNS:  # before the grid is made: 1e9 points would fill the memory
+            raise SweepError(f"vary {key}={spec}: n = {n:,.0f} points, more than {MAX_RUNS:,}")
         if log and not (lo > 0 and hi > 0):
             raise SweepError(f"vary {key}={spec}: a log grid needs lo > 0 and hi > 0")
         grid = np.geomspace(lo, hi, int(n)) if log else np.linspace(lo, hi, int(n))
@@ -170,6 +175,10 @@ def parse_axis(key, spec) -> Axis:
 
 
 def _number(text):
+    """The number a spec's field writes, or None: "0_2" (Python's digit separators) is not
+    one, as it is not in a scene file."""
+    if "_" in text:
+        return None
     try:
         return float(text)
     except ValueError:
@@ -222,12 +231,18 @@ def combinations(axes, samples=None, seed=0) -> list[dict]:
     return [dict(zip((a.key for a in axes), row)) for row in zip(*columns)]
 
 
-def check_runs(base: Variants, runs) -> list[Scene]:
+def check_runs(base: Variants, runs, progress=False) -> list[Scene]:
     """Read every run's scene (SceneError -> SweepError naming the run and its values), the
     first scene of each distinct step (integrator, effects, constraints, base) returned, in
-    order, for compiling ahead; and the union of the metrics that apply, in METRICS order."""
+    order, for compiling ahead; and the union of the metrics that apply, in METRICS order.
+    With progress, a bar (on stderr) over the runs when there are more than READ_QUIETLY."""
+    from tqdm import tqdm
+
     firsts, metrics = {}, set()
-    for run, values in enumerate(runs):
+    shown = progress and len(runs) > READ_QUIETLY
+    bar = tqdm(runs, desc="reading the runs' scenes", unit="run", file=sys.stderr,
+               disable=not shown or None, leave=False)
+    for run, values in enumerate(bar):
         try:
             scene = base.scene_for(values)
         except SceneError as e:
@@ -304,7 +319,7 @@ def sweep(
     axes = [parse_axis(key, spec) for key, spec in vary.items()]
     runs = combinations(axes, samples, seed)
     base = Variants.of(scene)
-    firsts, metrics = check_runs(base, runs)
+    firsts, metrics = check_runs(base, runs, progress)
     outputs = _outputs(outputs, metrics)
     record = {
         "scene": base.settings,
@@ -319,6 +334,8 @@ def sweep(
         "robot": hashlib.sha1(
             scene.model._ibuf.tobytes() + scene.model._fbuf.tobytes()
         ).hexdigest()[:16],
+        # and what the scene read from it: coefficients = "urdf" takes the URDF's damping
+        "effects": _effects_digest(scene),
     }
     record["fingerprint"] = hashlib.sha1(
         json.dumps(record, sort_keys=True, default=str).encode()
@@ -346,6 +363,8 @@ def sweep(
         return results.close()
     except Unwritten as e:
         raise _stopped_writing(e, results) from None
+    finally:
+        results.release()
 
 
 def _stopped_writing(unwritten, results):
@@ -368,11 +387,36 @@ def _stopped_writing(unwritten, results):
     )
 
 
+def _effects_digest(scene) -> str:
+    """A digest of the values of every effect the scene names, as it resolved them (its
+    records: the URDF's damping or limits where the scene says "urdf"), so that a URDF edited
+    between a stopped sweep and its resume is another sweep."""
+    digest = hashlib.sha1()
+    for effect in registry.EFFECTS:
+        record = effect.record(scene)
+        try:
+            digest.update(pickle.dumps(record))
+        except (pickle.PicklingError, TypeError, AttributeError):  # a lambda controller
+            digest.update(re.sub(r" at 0x[0-9a-f]+", "", repr(record)).encode())
+    return digest.hexdigest()[:16]
+
+
 def _check_outputs(parquet, trajectories):
     """SweepError naming the argument when the results file or the trajectories' folder cannot
     be written, before anything runs."""
+    for name, value in (("parquet", parquet), ("trajectories", trajectories)):
+        if value is not None and not isinstance(value, (str, os.PathLike)):
+            raise TypeError(
+                f"{name} must be a path (a str or pathlib.Path), got {type(value).__name__} "
+                f"{value!r}"
+            )
     if parquet is not None:
         path = pathlib.Path(parquet)
+        if path.suffix.lower() not in ("", ".parquet", ".pq"):
+            raise SweepError(
+                f"parquet (-o) {str(parquet)!r}: a sweep's results are a Parquet table; name "
+                f"a .parquet file (not {path.suffix})"
+            )
         problem = unwritable(str(parquet), path)
         parts = path.with_name(path.name + ".parts")  # opendyn.sweep.results
         if problem is None and name_too_long(parts) is not None:

@@ -16,6 +16,7 @@ from __future__ import annotations
 import contextlib
 import json
 import numbers
+import os
 import pathlib
 import shutil
 
@@ -94,20 +95,29 @@ class Results:
         self.tables, self.finished = [], set()
         self.complete = self.failed = 0
         self.wall_s = 0.0
+        self._lock = None
         if self.path is not None:
             self.parts = self.path.with_name(self.path.name + ".parts")
-            for table in self._saved():
-                self._count(table)
+            self._lock = _claim(self.path)
+            try:
+                for table in self._saved():
+                    self._count(table)
+            except BaseException:  # another sweep's file: refused, and the lock let go
+                self.release()
+                raise
 
     def _saved(self):
         """The tables already on disk for this sweep: PARQUET, then its parts."""
         files = [self.path] if self.path.is_file() else []
         if self.parts.is_dir():
             files += sorted(self.parts.glob("part-*.parquet"))
+        import pyarrow as pa
+
         for file in files:
             table = self._read(file)
             keep = [run not in self.finished for run in table.column("run").to_pylist()]
-            yield table.filter(keep)
+            # typed: a file of no rows (a sweep stopped before its first) gives an empty list
+            yield table.filter(pa.array(keep, type=pa.bool_()))
 
     def _read(self, file):
         import pyarrow as pa
@@ -124,11 +134,10 @@ class Results:
             raise _foreign(file, "it holds no opendyn sweep")
         theirs, ours = json.loads(raw), json.loads(self.schema.metadata[METADATA_KEY])
         if theirs.get("fingerprint") != ours["fingerprint"]:
-            differ = [k for k in ("scene", "robot", "vary", "samples", "seed", "outputs")
-                      if theirs.get(k) != ours[k]]
-            raise _foreign(
-                file, f"it holds another sweep (its {', '.join(differ) or 'record'} differ)"
-            )
+            keys = ("scene", "robot", "effects", "vary", "samples", "seed", "outputs")
+            differ = [k for k in keys if theirs.get(k) != ours[k]] or ["record"]
+            verb = "differs" if len(differ) == 1 else "differ"
+            raise _foreign(file, f"it holds another sweep (its {', '.join(differ)} {verb})")
         return table.select(self.schema.names).cast(self.schema)
 
     def _count(self, table):
@@ -175,7 +184,43 @@ class Results:
                 pq.write_table(table, f)
             if self.parts.is_dir():
                 shutil.rmtree(self.parts)
+        self.release()
         return table
+
+    def release(self):
+        """Let another sweep write this results file (the lock taken when the rows were read
+        back); called by close, and by the sweep whatever stopped it."""
+        if self._lock is not None:
+            lock, self._lock = self._lock, None
+            with contextlib.suppress(OSError):
+                os.unlink(lock.name)
+            lock.close()
+
+
+def _claim(path):
+    """The open lock file PATH.lock, locked (flock, released when it is closed or the process
+    ends); SweepError when another sweep holds it: two sweeps writing one results file would
+    each replace the other's rows. None where the system has no flock."""
+    try:
+        import fcntl
+    except ImportError:  # not a POSIX system: no lock
+        return None
+    from ..errors import SweepError
+
+    name = path.with_name(path.name + ".lock")
+    try:
+        lock = open(name, "a")
+    except OSError:
+        return None  # a folder where no lock can be made: the outputs' check names it
+    try:
+        fcntl.flock(lock.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except OSError:
+        lock.close()
+        raise SweepError(
+            f"{path}: another sweep is writing this results file now (it holds {name}); let it "
+            "finish, or name another results file (-o)"
+        ) from None
+    return lock
 
 
 def _foreign(file, why):
