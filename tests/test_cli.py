@@ -229,3 +229,16 @@ def test_tolerances_for_a_fixed_step_run_are_refused(capsys):
     assert main(["simulate", "--rtol", "1e-6", "--no-save", "-q"]) == 2
     err = capsys.readouterr().err
     assert "--rtol: the tolerances of an adaptive step, but the run's integrator is rk4" in err
+
+
+def test_a_scene_whose_robot_has_an_impossible_inertia_says_which_scene_key_keeps_it(
+    tmp_path, capsys
+):
+    """The refusal named load_urdf's check_inertia=False, a Python argument, to a user of the
+    command line; a scene's robot.check_inertia = false is what works there."""
+    scene = tmp_path / "anymal.toml"
+    scene.write_text('name = "a"\n[robot]\nname = "anymal"\nfloating_base = true\n')
+    assert main(["simulate", str(scene), "--no-save"]) == 2
+    err = capsys.readouterr().err
+    assert "violates the triangle inequality" in err
+    assert err.rstrip().endswith("(a scene with robot.check_inertia = false loads it anyway)")

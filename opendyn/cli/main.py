@@ -255,5 +255,7 @@ def _run(args, signals) -> int:
         hint = ""
         if "check_inertia=False" in str(e) and args.command in ("info", "verify"):
             hint = f"\n(opendyn {args.command} --keep-inertia ROBOT loads it anyway)"
+        elif "check_inertia=False" in str(e) and args.command in ("simulate", "sweep"):
+            hint = "\n(a scene with robot.check_inertia = false loads it anyway)"
         print(f"opendyn {args.command}: {e}{hint}", file=sys.stderr)
         return 2
