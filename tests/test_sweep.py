@@ -686,3 +686,35 @@ def test_the_command_refuses_metric_without_plot(tmp_path, monkeypatch, capsys):
     err = capsys.readouterr().err
     assert "--metric bogus: it picks the metric --plot draws; give --plot FILE.png" in err
     assert list(tmp_path.iterdir()) == []
+
+
+def test_sigterm_while_the_local_cluster_starts_closes_it_once_up_then_stops(monkeypatch):
+    """A SIGTERM in the second or two the local cluster takes to start stopped it halfway, and
+    Dask's exit handler then printed a traceback after the command's one line."""
+    from opendyn._runtime.signals import SigtermAsInterrupt
+    from opendyn.sweep import engine
+
+    events = []
+
+    class Starting:
+        def __init__(self, **kwargs):
+            os.kill(os.getpid(), signal.SIGTERM)  # arrives while the cluster starts
+            events.append("cluster up")
+
+        def close(self):
+            events.append("cluster closed")
+
+    class Connecting:
+        def __init__(self, cluster):
+            events.append("client up")
+
+        def close(self):
+            events.append("client closed")
+
+    monkeypatch.setattr("dask.distributed.LocalCluster", Starting)
+    monkeypatch.setattr("dask.distributed.Client", Connecting)
+    with SigtermAsInterrupt() as signals, pytest.raises(KeyboardInterrupt):
+        with engine._cluster(None, 2):
+            events.append("sweeping")
+    assert signals.terminated
+    assert events == ["cluster up", "client up", "client closed", "cluster closed"]

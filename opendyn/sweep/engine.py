@@ -518,7 +518,8 @@ def _compile(scenes, progress):
 class _cluster:
     """The client to run on: `client` itself, or a local cluster of worker processes for the
     duration of the block (started with Ctrl-C ignored, so that the terminal's Ctrl-C reaches
-    the client only, which stops the sweep in order)."""
+    the client only, which stops the sweep in order; a SIGTERM during the start is held until
+    the cluster is up, which then closes before the SIGTERM goes to its handler)."""
 
     def __init__(self, client, workers):
         if workers is not None:
@@ -538,7 +539,12 @@ class _cluster:
         if multiprocessing.parent_process() is not None:
             raise SweepError(f"a worker process started a sweep: {_MAIN_GUARD}")
         main = threading.current_thread() is threading.main_thread()
-        previous = signal.signal(signal.SIGINT, signal.SIG_IGN) if main else None
+        # SIGTERM while the cluster starts is held until it has started, then closes it and
+        # stops the sweep: stopped halfway, Dask's exit handler trips over it (a traceback)
+        terms = []
+        if main:
+            previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+            previous_term = signal.signal(signal.SIGTERM, lambda *sig: terms.append(sig))
         try:
             cluster = LocalCluster(
                 n_workers=self.workers or os.cpu_count() or 1,
@@ -548,6 +554,7 @@ class _cluster:
                 silence_logs=logging.CRITICAL,
                 env={"NUMBA_NUM_THREADS": "1"},
             )
+            self.own = (cluster, Client(cluster))
         except RuntimeError as e:
             raise SweepError(
                 f"the local cluster's workers did not start ({e}); {_MAIN_GUARD}"
@@ -555,7 +562,10 @@ class _cluster:
         finally:
             if main:
                 signal.signal(signal.SIGINT, previous)
-        self.own = (cluster, Client(cluster))
+                signal.signal(signal.SIGTERM, previous_term)
+        if terms:
+            self.__exit__()
+            signal.raise_signal(signal.SIGTERM)  # to its own handler now
         return self.own[1]
 
     def __exit__(self, *exc):
