@@ -400,7 +400,6 @@ def test_kinetic_energy_of_free_body_is_constant_along_integrated_motion(rng):
         (lambda: ad(np.zeros((6, 1))), "V"),
         (lambda: lie_bracket(np.zeros(6), np.zeros(3)), "V2"),
         (lambda: angular(np.zeros(5)), "V"),
-        (lambda: linear("not a twist"), "V"),
         (lambda: spatial_inertia(-1.0, np.zeros(3), np.eye(3)), "mass"),
         (lambda: spatial_inertia(np.nan, np.zeros(3), np.eye(3)), "mass"),
         (lambda: spatial_inertia(1.0, np.zeros(2), np.eye(3)), "com"),
@@ -424,6 +423,23 @@ def test_kinetic_energy_of_free_body_is_constant_along_integrated_motion(rng):
 )
 def test_invalid_arguments_raise_value_error_naming_the_argument(call, name):
     with pytest.raises(ValueError, match=rf"^{name} "):
+        call()
+
+
+@pytest.mark.parametrize(
+    "call, name",
+    [
+        (lambda: linear("not a twist"), "V"),
+        (lambda: spatial_inertia("2.5", np.zeros(3), np.eye(3)), "mass"),
+        (lambda: spatial_inertia(True, np.zeros(3), np.eye(3)), "mass"),
+        (lambda: spatial_inertia(1.0, [True, False, True], np.eye(3)), "com"),
+        (lambda: skew([1j, 0.0, 0.0]), "w"),
+    ],
+)
+def test_arguments_that_are_not_numbers_raise_type_error_naming_them(call, name):
+    """Text, booleans and complex numbers are refused, never converted ("2.5" was 2.5 kg and
+    True 1 kg), as every array argument of the dynamics functions refuses them."""
+    with pytest.raises(TypeError, match=rf"^{name} must be a number or an array of numbers"):
         call()
 
 
