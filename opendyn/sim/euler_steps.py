@@ -31,7 +31,7 @@ from ..algorithm.cholesky import (
     largest_diagonal,
 )
 from ..algorithm.configuration import integrate_kernel
-from ..algorithm.constraints import ROW_COUNT, constrained_solve_at
+from ..algorithm.constraints import ROW_COUNT, general_constrained_solve_at
 from ..algorithm.crba import crba_kernel, crba_on_poses
 from ..algorithm.energy import kinetic_gradient_kernel
 from ..algorithm.lu import lu_solve
@@ -52,7 +52,7 @@ def velocity_solve(ibuf, fbuf, con, q, qd, M, rhs, qdd):
     if con is None:
         return lu_solve(M, rhs, qdd)
     lam = np.empty(con.rows[:, ROW_COUNT].sum())
-    return constrained_solve_at(ibuf, fbuf, con, q, qd, M, rhs, qdd, lam)
+    return general_constrained_solve_at(ibuf, fbuf, con, q, qd, M, rhs, qdd, lam)
 
 
 @njit(**JIT)

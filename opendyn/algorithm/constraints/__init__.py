@@ -45,6 +45,7 @@ from .solve import (
     constrained_solve_at,
     constrained_solve_kernel,
     constrained_solve_rank_kernel,
+    general_constrained_solve_at,
 )
 from .table import BODY_A, BODY_B, KIND, OFFSET, ROW_COUNT, ConstraintTable, constraint_table
 from .terms import constraint_terms_kernel
@@ -77,4 +78,5 @@ __all__ = [
     "constraint_table",
     "constraint_terms_kernel",
     "constraint_wrench",
+    "general_constrained_solve_at",
 ]

@@ -15,8 +15,9 @@ rank is the number of eigenvalues kept.
 Compiled interface:
   constrained_solve_kernel(M, rhs, A, gamma, qdd, lam) -> Status.OK.value, or SINGULAR + k (pivot k)
   constrained_solve_rank_kernel(M, rhs, A, gamma, qdd, lam, rank) -> the same, rank[0] = rank
-  constrained_solve_at(ibuf, fbuf, con, q, qd, M, rhs, qdd, lam) -> status, for a general M
-                                        (the implicit Euler step's, by LU)
+  constrained_solve_at(ibuf, fbuf, con, q, qd, M, rhs, qdd, lam) -> status
+  general_constrained_solve_at(...)     the same for a general M (the implicit Euler step's,
+                                        not symmetric: by LU)
   constrained_forward_kernel(ibuf, fbuf, con, q, qd, tau, loads, armature, qdd, lam) -> status
   constrained_on_poses(ibuf, fbuf, work, con, (q, qd, tau), loads, armature, (qdd, lam))
                                         the same on the joint poses placed in work -> status
@@ -142,23 +143,15 @@ def constrained_solve_kernel(M, rhs, A, gamma, qdd, lam):
 
 
 @njit(**JIT)
-def constrained_solve_at(ibuf, fbuf, con, q, qd, M, rhs, qdd, lam):
-    """qdd (nv,), lam (k,) <- the solution of M qdd + A^T lam = rhs with the rows of the
-    constraints con (a ConstraintTable) at (q (nq,), qd (nv,)) held to second order, with its
-    Baumgarte stabilisation gains (alpha, beta) (1/s):
+def constraint_rows_at(ibuf, fbuf, con, q, qd, A, gamma):
+    """A (k, nv), gamma (k,) <- the rows of the constraints con (a ConstraintTable) at
+    (q (nq,), qd (nv,)) and their right-hand side with its Baumgarte stabilisation gains
+    (alpha, beta) (1/s): A qdd = -gamma is
         A qdd + Adot qd + 2 alpha A qd + beta^2 phi = 0
-    ((0, 0): A qdd + Adot qd = 0, the drift of phi left alone), for a general (nv, nv) M (the
-    linearly implicit Euler step's M + dt D + dt^2 K, not symmetric once contact's exact
-    derivatives enter it; overwritten): by P M = L U (opendyn.algorithm.lu),
-        G = A M^-1 A^T,   lam = G^+ b = (G^T G)^+ G^T b,  b = A M^-1 rhs + gamma,
-        qdd = M^-1 rhs - (M^-1 A^T) lam
-    (G^+ through the symmetric G^T G: pseudo_solve, its eigenvalues the squares of G's
-    singular values). Returns a Status: OK, Q/QD_NOT_FINITE, Q_NOT_UNIT_QUATERNION, or
-    SINGULAR + j when M is singular at coordinate j."""
+    ((0, 0): A qdd + Adot qd = 0, the drift of phi left alone). Returns a Status: OK,
+    Q/QD_NOT_FINITE or Q_NOT_UNIT_QUATERNION."""
     nv = qd.shape[0]
-    k = lam.shape[0]
-    A = np.empty((k, nv))
-    gamma = np.empty(k)
+    k = gamma.shape[0]
     phi = np.empty(k)
     status = constraint_terms_kernel(ibuf, fbuf, con.rows, con.params, q, qd, A, gamma, phi)
     if status:
@@ -170,6 +163,41 @@ def constrained_solve_at(ibuf, fbuf, con, q, qd, M, rhs, qdd, lam):
             for j in range(nv):
                 rate += A[r, j] * qd[j]
             gamma[r] += 2.0 * alpha * rate + beta * beta * phi[r]
+    return Status.OK.value
+
+
+@njit(**JIT)
+def constrained_solve_at(ibuf, fbuf, con, q, qd, M, rhs, qdd, lam):
+    """qdd (nv,), lam (k,) <- the solution of M qdd + A^T lam = rhs with the rows of the
+    constraints con at (q, qd) held to second order (constraint_rows_at), M (nv, nv) symmetric
+    positive definite (overwritten by its Cholesky factor: constrained_solve_kernel). Returns a
+    Status: OK, Q/QD_NOT_FINITE, Q_NOT_UNIT_QUATERNION, or SINGULAR + j when M is singular at
+    coordinate j."""
+    k = lam.shape[0]
+    A = np.empty((k, qd.shape[0]))
+    gamma = np.empty(k)
+    status = constraint_rows_at(ibuf, fbuf, con, q, qd, A, gamma)
+    if status:
+        return status
+    return constrained_solve_kernel(M, rhs, A, gamma, qdd, lam)
+
+
+@njit(**JIT)
+def general_constrained_solve_at(ibuf, fbuf, con, q, qd, M, rhs, qdd, lam):
+    """constrained_solve_at for a general (nv, nv) M, not symmetric (the linearly implicit
+    Euler step's M + dt D + dt^2 K once contact's exact derivatives are in it; overwritten):
+    by P M = L U (opendyn.algorithm.lu),
+        G = A M^-1 A^T,   lam = G^+ b = (G^T G)^+ G^T b,  b = A M^-1 rhs + gamma,
+        qdd = M^-1 rhs - (M^-1 A^T) lam
+    (G^+ through the symmetric G^T G: pseudo_solve, whose eigenvalues are the squares of G's
+    singular values). Returns a Status as constrained_solve_at's."""
+    nv = qd.shape[0]
+    k = lam.shape[0]
+    A = np.empty((k, nv))
+    gamma = np.empty(k)
+    status = constraint_rows_at(ibuf, fbuf, con, q, qd, A, gamma)
+    if status:
+        return status
     piv = np.empty(nv, dtype=np.int64)
     status = lu_factor(M, piv)
     if status:
