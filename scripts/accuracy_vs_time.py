@@ -1,6 +1,6 @@
 """What accuracy costs in time: integrators and steps, forward-dynamics algorithms, effects.
 
-    python scripts/accuracy_vs_time.py             # the full study (about 4.5 min on 2 cores)
+    python scripts/accuracy_vs_time.py             # the full study (5-7 min on 2 cores)
     python scripts/accuracy_vs_time.py --quick     # the same pipeline on small sweeps (< 2 min)
 
 1. Integrators. Each scene runs with every integrator over a sweep of steps (tolerances for the
