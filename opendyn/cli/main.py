@@ -36,25 +36,25 @@ from .stdout import reader_may_leave
 from .sweep import _sweep
 
 
-def number(text: str) -> float:
-    """An option's number as written: a decimal or scientific float; argparse's error for
-    anything else, including the digit separators Python's float takes ("0_2" is not 0.2)."""
+def _option_value(text: str, convert, kind: str):
+    """An option's value as written, by `convert` (float or int); argparse's error for anything
+    else, including the digit separators Python takes ("0_2" is not 0.2)."""
     if "_" in text:
-        raise argparse.ArgumentTypeError(f"invalid number: {text!r} (no digit separators)")
+        raise argparse.ArgumentTypeError(f"invalid {kind}: {text!r} (no digit separators)")
     try:
-        return float(text)
+        return convert(text)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"invalid number: {text!r}") from None
+        raise argparse.ArgumentTypeError(f"invalid {kind}: {text!r}") from None
+
+
+def number(text: str) -> float:
+    """An option's number: a decimal or scientific float."""
+    return _option_value(text, float, "number")
 
 
 def whole(text: str) -> int:
-    """An option's whole number as written (no digit separators, no "1e3")."""
-    if "_" in text:
-        raise argparse.ArgumentTypeError(f"invalid whole number: {text!r} (no digit separators)")
-    try:
-        return int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"invalid whole number: {text!r}") from None
+    """An option's whole number (no "1e3")."""
+    return _option_value(text, int, "whole number")
 
 
 def main(argv=None) -> int:
