@@ -40,7 +40,8 @@ from mujoco import rollout as mujoco_rollout
 
 import opendyn as od
 from opendyn.io.scene.variants import Variants
-from opendyn.sweep.engine import _run_seconds, chunk_runs, combinations, parse_axis
+from opendyn.sweep.engine import _run_seconds, chunk_runs
+from opendyn.sweep.specs import combinations, parse_axis
 
 DURATION, DT = 2.0, 1e-3
 VARY = {"initial.q.shoulder_lift_joint": "uniform:-1.5:1.5"}

@@ -91,7 +91,7 @@ def _sweep(args) -> int:
             "(every metric is a column of the results table either way)"
         )
     if args.plot is not None:
-        from ..sweep.engine import parse_axis
+        from ..sweep.specs import parse_axis
         from ..sweep.plot import check_plan
 
         check_plan([parse_axis(key, spec) for key, spec in vary.items()], args.metric)

@@ -1,9 +1,6 @@
 """Sweeps and Monte Carlo runs of a scene on a Dask cluster: one table row per run.
 
-    runs = lists x grids                  every combination (no samples)
-    runs = N draws of (key_1, ..., key_m)   samples = N: each key drawn on its own from one seeded
-                                          generator; a distribution draws a value, a list or a
-                                          grid one of its values, uniformly
+    runs = the specs' combinations or draws (opendyn.sweep.specs)
     row(run) = the run's values + simulate(scene with those values): status, stats, final
                state, metrics (opendyn.sim.metrics)
 
@@ -30,14 +27,11 @@ of a cluster that does not share the client's disk).
 from __future__ import annotations
 
 import contextlib
-import dataclasses
 import hashlib
 import importlib.util
-import itertools
 import json
 import math
 import multiprocessing
-import numbers
 import os
 import pathlib
 import pickle
@@ -59,10 +53,9 @@ from ..sim.effects import python_control, registry
 from ..sim.metrics import METRICS, applicable
 from ..sim.simulate import as_scene, integrator_of
 from .results import Unwritten, written
+from .specs import check_whole, combinations, parse_axis, spans_decades
 from .worker import failed_row, run_chunk
 
-# more runs than this is a mistake in a spec (a grid of 1e3 points on each of 4 keys), not a sweep
-MAX_RUNS = 10_000_000
 READ_QUIETLY = 10_000  # runs whose scenes are read without a progress bar (about 2 s)
 # A task is a chunk of runs rolled out together on a worker. Chunks are cut into about
 # CHUNKS_PER_WORKER per worker, each of at least TASK_MIN_S of work (estimated from a short run
@@ -73,12 +66,6 @@ MAX_CHUNK = 1000
 CHUNKS_PER_WORKER = 8
 TASK_MIN_S = 0.1
 TASK_MAX_S = 0.5
-# the distributions a spec can name, with their parameters
-DISTRIBUTIONS = {"uniform": ("lo", "hi"), "normal": ("mu", "sigma")}
-SPEC_FORMS = (
-    "a list 'a,b,c', a grid 'lo:hi:n' or 'log:lo:hi:n', or a distribution 'uniform:lo:hi' or "
-    "'normal:mu:sigma'"
-)
 # the local cluster's workers are new Python processes that import the __main__ module first
 _MAIN_GUARD = (
     "a script that calls od.sweep must do it under `if __name__ == \"__main__\":`, since each "
@@ -94,141 +81,6 @@ def check_installed():
     missing = [m for m in ("distributed", "pyarrow") if importlib.util.find_spec(m) is None]
     if missing:
         raise ImportError(f"sweeps need {' and '.join(missing)}: {EXTRA_HINT}")
-
-
-@dataclasses.dataclass(frozen=True)
-class Axis:
-    """One varied key: values (a list or grid) or a distribution (kind, parameters).
-
-    key: dotted scene key; spec: the spec as written (for the results' record); log: a
-    logarithmic grid (plots use a log axis)."""
-
-    key: str
-    spec: str
-    values: tuple = ()
-    distribution: tuple = ()
-    log: bool = False
-
-    def draw(self, rng, n) -> list:
-        """n values: a distribution's draws, or values picked uniformly from the list or grid."""
-        if self.distribution:
-            kind, a, b = self.distribution
-            x = rng.uniform(a, b, n) if kind == "uniform" else rng.normal(a, b, n)
-            return [float(v) for v in x]
-        return [self.values[i] for i in rng.integers(len(self.values), size=n)]
-
-
-def parse_axis(key, spec) -> Axis:
-    """The Axis of `key` from a spec: a string in one of SPEC_FORMS, or a sequence of values."""
-    if not isinstance(key, str) or not key or any(not part for part in key.split(".")):
-        raise SweepError(f"vary: {key!r} is not a dotted scene key (e.g. 'control.kp')")
-    if isinstance(spec, (list, tuple, np.ndarray)):
-        values = tuple(_plain(v) for v in spec)
-        if not values:
-            raise SweepError(f"vary {key}: an empty list of values")
-        return Axis(key, ",".join(map(str, values)), values=values)
-    if isinstance(spec, (numbers.Real, bool)):
-        return Axis(key, str(spec), values=(_plain(spec),))
-    if not isinstance(spec, str):
-        raise SweepError(f"vary {key}: expected {SPEC_FORMS}, found {spec!r}")
-    fields = spec.split(":")
-    head = fields[0].strip()
-
-    def numbers_of(parts, names):
-        if len(parts) != len(names):
-            raise SweepError(
-                f"vary {key}={spec}: expected {head}:{':'.join(names)}, found {len(parts)} "
-                f"field(s) after '{head}:'"
-            )
-        out = []
-        for name, text in zip(names, parts):
-            x = _number(text)
-            if x is None or not math.isfinite(x):
-                raise SweepError(f"vary {key}={spec}: {name} = {text!r} is not a finite number")
-            out.append(x)
-        return out
-
-    if head in DISTRIBUTIONS:
-        a, b = numbers_of(fields[1:], DISTRIBUTIONS[head])
-        if head == "uniform" and not a < b:
-            raise SweepError(f"vary {key}={spec}: uniform needs lo < hi")
-        if head == "normal" and not b > 0:
-            raise SweepError(f"vary {key}={spec}: normal needs sigma > 0")
-        return Axis(key, spec, distribution=(head, a, b))
-    if head == "log" or len(fields) == 3:
-        log = head == "log"
-        lo, hi, n = numbers_of(fields[1:] if log else fields, ("lo", "hi", "n"))
-        if n != int(n) or n < 1:
-            raise SweepError(f"vary {key}={spec}: n = {n:g} must be a whole number >= 1")
-        if n > MAX_RUNS:  # before the grid is made: 1e9 points would fill the memory
-            raise SweepError(f"vary {key}={spec}: n = {n:,.0f} points, more than {MAX_RUNS:,}")
-        if log and not (lo > 0 and hi > 0):
-            raise SweepError(f"vary {key}={spec}: a log grid needs lo > 0 and hi > 0")
-        grid = np.geomspace(lo, hi, int(n)) if log else np.linspace(lo, hi, int(n))
-        return Axis(key, spec, values=tuple(float(v) for v in grid), log=log)
-    if ":" in spec:
-        raise SweepError(f"vary {key}={spec}: expected {SPEC_FORMS}")
-    values = tuple(_value(text.strip()) for text in spec.split(","))
-    if any(v == "" for v in values):
-        raise SweepError(f"vary {key}={spec}: an empty value in the list")
-    return Axis(key, spec, values=values)
-
-
-def _number(text):
-    """The number a spec's field writes, or None: "0_2" (Python's digit separators) is not
-    one, as it is not in a scene file."""
-    if "_" in text:
-        return None
-    try:
-        return float(text)
-    except ValueError:
-        return None
-
-
-def _value(text):
-    """A list entry as the scene file would hold it: a number, true/false, or a string."""
-    if text in ("true", "false"):
-        return text == "true"
-    x = _number(text)
-    return text if x is None else x
-
-
-def _plain(v):
-    """A numpy scalar as the Python number it holds (the scene reader and Parquet want them)."""
-    return v.item() if isinstance(v, np.generic) else v
-
-
-def check_whole(value, key, minimum):
-    """SweepError naming `key` unless value is a whole number (not a bool) >= minimum."""
-    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < minimum:
-        raise SweepError(f"{key}: expected a whole number >= {minimum}, found {value!r}")
-
-
-def combinations(axes, samples=None, seed=0) -> list[dict]:
-    """The runs' values [{key: value}], in run order: every combination of the axes (their
-    lists and grids multiply; the last axis varies fastest) or, with `samples` = N, N draws
-    from np.random.default_rng(seed), one axis after another."""
-    if samples is None:
-        for axis in axes:
-            if axis.distribution:
-                raise SweepError(
-                    f"vary {axis.key}={axis.spec} is a distribution: give samples=N "
-                    f"(--samples N) for N random runs"
-                )
-        count = math.prod(len(a.values) for a in axes)
-        if count > MAX_RUNS:
-            raise SweepError(
-                f"the grids multiply to {count:,} runs, more than {MAX_RUNS:,}; use fewer "
-                f"points, or draw samples=N random combinations"
-            )
-        keys = [a.key for a in axes]
-        return [dict(zip(keys, combo)) for combo in itertools.product(*(a.values for a in axes))]
-    check_whole(samples, "samples", 1)
-    if samples > MAX_RUNS:
-        raise SweepError(f"samples: {samples:,} runs, more than {MAX_RUNS:,}")
-    rng = np.random.default_rng(seed)
-    columns = [axis.draw(rng, int(samples)) for axis in axes]
-    return [dict(zip((a.key for a in axes), row)) for row in zip(*columns)]
 
 
 def check_runs(base: Variants, runs, progress=False) -> list[Scene]:
@@ -325,7 +177,7 @@ def sweep(
         "scene": base.settings,
         "source": base.source,
         "vary": {a.key: a.spec for a in axes},
-        "log": [a.key for a in axes if a.log or _spans_decades(a.values)],
+        "log": [a.key for a in axes if a.log or spans_decades(a.values)],
         "samples": samples,
         "seed": seed,
         "outputs": list(outputs),
@@ -465,16 +317,6 @@ def _claim(trajectories, record):
         )
     with written(mark), atomic_write(mark) as f:
         f.write(json.dumps(ours, indent=1).encode())
-
-
-def _spans_decades(values) -> bool:
-    """Whether a list of positive numbers spans more than a decade (drawn on a log axis)."""
-    numbers_only = [v for v in values if isinstance(v, float)]
-    return (
-        len(numbers_only) == len(values) > 2
-        and min(numbers_only) > 0
-        and max(numbers_only) >= 10 * min(numbers_only)
-    )
 
 
 def _outputs(outputs, metrics) -> tuple[str, ...]:

@@ -98,7 +98,7 @@ class Results:
         self._lock = None
         if self.path is not None:
             self.parts = self.path.with_name(self.path.name + ".parts")
-            self._lock = _claim(self.path)
+            self._lock = _lock_file(self.path)
             try:
                 for table in self._saved():
                     self._count(table)
@@ -197,7 +197,7 @@ class Results:
             lock.close()
 
 
-def _claim(path):
+def _lock_file(path):
     """The open lock file PATH.lock, locked (flock, released when it is closed or the process
     ends); SweepError when another sweep holds it: two sweeps writing one results file would
     each replace the other's rows. None where the system has no flock."""
