@@ -22,7 +22,7 @@ import pytest
 import opendyn as od
 from conftest import ctrl_c_default
 from opendyn._runtime.files import atomic_write
-from opendyn._runtime.signals import held_interrupt
+from opendyn._runtime.signals import held_interrupt, unswallowed_interrupt
 from opendyn.cli.main import main
 
 REPO = pathlib.Path(__file__).resolve().parents[1]
@@ -330,6 +330,26 @@ def test_ctrl_c_swallowed_by_a_dependency_still_stops_the_program(ctrl_c_raises)
                 pass
             reached_the_end = True
     assert reached_the_end
+
+
+def test_ctrl_c_swallowed_while_a_kernel_loads_is_raised_again(ctrl_c_raises):
+    """llvmlite prints "Exception ignored" for a KeyboardInterrupt raised in its callbacks while
+    numba compiles or loads a kernel, and goes on: a sweep's Ctrl-C then was lost, and it ran
+    to its end. Not swallowed, it stops the block as soon as it arrives."""
+    steps = []
+    with pytest.raises(KeyboardInterrupt):
+        with unswallowed_interrupt():
+            try:
+                signal.raise_signal(signal.SIGINT)
+            except KeyboardInterrupt:  # what a ctypes callback does with it
+                steps.append("swallowed")
+            steps.append("went on")
+    assert steps == ["swallowed", "went on"]
+    with pytest.raises(KeyboardInterrupt):
+        with unswallowed_interrupt():
+            signal.raise_signal(signal.SIGINT)
+            steps.append("not swallowed")
+    assert steps == ["swallowed", "went on"]
 
 
 def run_interrupted_at(module, argv, tmp_path, signal_name="SIGINT"):

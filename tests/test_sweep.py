@@ -283,17 +283,21 @@ def test_ctrl_c_keeps_the_finished_rows_and_the_same_command_resumes(tmp_path):
         "--vary", "initial.q.shoulder=0:1:40", "--vary", "run.dt=0.0002", "--workers", "2",
         "--chunk", "2", "-o", "r.parquet",
     ]
+    # in a session of its own, so that Ctrl-C goes to its whole process group, as a terminal
+    # sends it: the client and the workers
     proc = subprocess.Popen(command, cwd=tmp_path, stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True, preexec_fn=ctrl_c_default)
+                            stderr=subprocess.PIPE, text=True, preexec_fn=ctrl_c_default,
+                            start_new_session=True)
     parts = tmp_path / "r.parquet.parts"
     deadline = time.time() + 120
     # finished parts only: a part being written is a temporary file beside them until renamed
     while len(list(parts.glob("part-*.parquet"))) < 2 and time.time() < deadline:
         time.sleep(0.05)
-    proc.send_signal(signal.SIGINT)
+    os.killpg(proc.pid, signal.SIGINT)
     out, err = proc.communicate(timeout=120)
     assert proc.returncode == 130, err
     assert "interrupted" in err and "the same command resumes" in err
+    assert "Traceback" not in err and "KeyboardInterrupt" not in err, err  # nor a worker's
     kept = pq.read_table(tmp_path / "r.parquet").column("run").to_pylist()
     assert 4 <= len(kept) < 40 and len(set(kept)) == len(kept)
     done = subprocess.run(command, cwd=tmp_path, capture_output=True, text=True, timeout=300)
@@ -688,11 +692,55 @@ def test_the_command_refuses_metric_without_plot(tmp_path, monkeypatch, capsys):
     assert list(tmp_path.iterdir()) == []
 
 
+def test_the_local_clusters_workers_ignore_ctrl_c(ctrl_c_raises):
+    """A terminal's Ctrl-C goes to the workers too; they must leave it to the client, which
+    stops the sweep in order."""
+    from opendyn.sweep.cluster import LocalOrGiven
+
+    with LocalOrGiven(None, 2) as dask_client:
+        handlers = dask_client.run(signal.getsignal, signal.SIGINT)
+    assert len(handlers) == 2
+    assert all(h == signal.SIG_IGN for h in handlers.values()), handlers
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+
+
+def test_ctrl_c_while_the_local_cluster_starts_closes_it_once_up_then_stops(
+    monkeypatch, ctrl_c_raises
+):
+    """The client ignored Ctrl-C while the cluster started (1-3 s), so that its workers would
+    inherit the ignored signal: a Ctrl-C then was lost, and the sweep ran to its end."""
+    from opendyn.sweep.cluster import LocalOrGiven
+
+    events = []
+
+    class Starting:
+        def __init__(self, **kwargs):
+            os.kill(os.getpid(), signal.SIGINT)  # arrives while the cluster starts
+            events.append("cluster up")
+
+        def close(self):
+            events.append("cluster closed")
+
+    class Connecting:
+        def __init__(self, cluster):
+            events.append("client up")
+
+        def close(self):
+            events.append("client closed")
+
+    monkeypatch.setattr("dask.distributed.LocalCluster", Starting)
+    monkeypatch.setattr("dask.distributed.Client", Connecting)
+    with pytest.raises(KeyboardInterrupt):
+        with LocalOrGiven(None, 2):
+            events.append("sweeping")
+    assert events == ["cluster up", "client up", "client closed", "cluster closed"]
+
+
 def test_sigterm_while_the_local_cluster_starts_closes_it_once_up_then_stops(monkeypatch):
     """A SIGTERM in the second or two the local cluster takes to start stopped it halfway, and
     Dask's exit handler then printed a traceback after the command's one line."""
     from opendyn._runtime.signals import SigtermAsInterrupt
-    from opendyn.sweep import engine
+    from opendyn.sweep.cluster import LocalOrGiven
 
     events = []
 
@@ -714,7 +762,7 @@ def test_sigterm_while_the_local_cluster_starts_closes_it_once_up_then_stops(mon
     monkeypatch.setattr("dask.distributed.LocalCluster", Starting)
     monkeypatch.setattr("dask.distributed.Client", Connecting)
     with SigtermAsInterrupt() as signals, pytest.raises(KeyboardInterrupt):
-        with engine._cluster(None, 2):
+        with LocalOrGiven(None, 2):
             events.append("sweeping")
     assert signals.terminated
     assert events == ["cluster up", "client up", "client closed", "cluster closed"]

@@ -21,7 +21,7 @@ def _in_main_thread():
     return threading.current_thread() is threading.main_thread()
 
 
-def _deliver(handler, signum, frame):
+def deliver(handler, signum, frame):
     """Hand a signal to a SIGINT handler: call it; with no Python handler, stop the program by
     a KeyboardInterrupt, unless it was Ctrl-C and Ctrl-C is ignored."""
     if callable(handler):
@@ -49,7 +49,31 @@ def held_interrupt():
     finally:
         signal.signal(signal.SIGINT, previous)
         if held:
-            _deliver(previous, *held[0])
+            deliver(previous, *held[0])
+
+
+@contextlib.contextmanager
+def unswallowed_interrupt():
+    """Ctrl-C during the block raises KeyboardInterrupt as usual, and if something swallowed it
+    (llvmlite prints "Exception ignored" for one raised in its callbacks while numba compiles or
+    loads a kernel, and goes on), it is raised again when the block ends."""
+    if not _in_main_thread() or signal.getsignal(signal.SIGINT) is None:
+        yield
+        return
+    arrived = []
+    previous = signal.getsignal(signal.SIGINT)
+
+    def handler(signum, frame):
+        arrived.append((signum, frame))
+        deliver(previous, signum, frame)
+
+    signal.signal(signal.SIGINT, handler)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+    if arrived:
+        deliver(previous, *arrived[0])
 
 
 class SigtermAsInterrupt:
@@ -68,7 +92,7 @@ class SigtermAsInterrupt:
 
     def _handler(self, signum, frame):
         self.terminated = True
-        _deliver(signal.getsignal(signal.SIGINT), signum, frame)
+        deliver(signal.getsignal(signal.SIGINT), signum, frame)
 
     def __exit__(self, *exc):
         if self._previous is not None:

@@ -31,20 +31,18 @@ import hashlib
 import importlib.util
 import json
 import math
-import multiprocessing
 import os
 import pathlib
 import pickle
 import re
-import signal
 import sys
-import threading
 import time
 
 import numpy as np
 
 from .._runtime.files import atomic_write, name_too_long, unwritable
 from .._runtime.options import flag
+from .._runtime.signals import unswallowed_interrupt
 from .._runtime.version import __version__
 from ..errors import SceneError, SweepError, SweepInterrupted, SweepWriteError
 from ..io.scene.schema import Scene
@@ -52,6 +50,7 @@ from ..io.scene.variants import Variants
 from ..sim.effects import python_control, registry
 from ..sim.metrics import METRICS, applicable
 from ..sim.simulate import as_scene, integrator_of
+from .cluster import LocalOrGiven
 from .results import Unwritten, written
 from .specs import check_whole, combinations, parse_axis, spans_decades
 from .worker import failed_row, run_chunk
@@ -66,13 +65,6 @@ MAX_CHUNK = 1000
 CHUNKS_PER_WORKER = 8
 TASK_MIN_S = 0.1
 TASK_MAX_S = 0.5
-# the local cluster's workers are new Python processes that import the __main__ module first
-_MAIN_GUARD = (
-    "a script that calls od.sweep must do it under `if __name__ == \"__main__\":`, since each "
-    "worker process of the local cluster imports the script"
-)
-
-
 EXTRA_HINT = "pip install 'opendyn[sweep]' (dask[distributed] and pyarrow)"
 
 
@@ -195,13 +187,14 @@ def sweep(
     record["name"], record["opendyn"] = scene.name, __version__
     results = Results(parquet, record, axes, runs, outputs)
     todo = [(run, values) for run, values in enumerate(runs) if run not in results.finished]
-    cluster = _cluster(client, workers)
+    cluster = LocalOrGiven(client, workers)
     try:
         try:
             if todo:
                 runnable = _runnable(firsts)
-                _compile(runnable, progress)
-                run_s = _run_seconds(runnable)
+                with unswallowed_interrupt():
+                    _compile(runnable, progress)
+                    run_s = _run_seconds(runnable)
                 if trajectories is not None:
                     _claim(trajectories, record)
                 with cluster as dask_client:
@@ -355,66 +348,6 @@ def _compile(scenes, progress):
 
     with contextlib.nullcontext() if progress else quiet():
         compile_ahead(scenes, functions=False, simulations=False, announce=False)
-
-
-class _cluster:
-    """The client to run on: `client` itself, or a local cluster of worker processes for the
-    duration of the block (started with Ctrl-C ignored, so that the terminal's Ctrl-C reaches
-    the client only, which stops the sweep in order; a SIGTERM during the start is held until
-    the cluster is up, which then closes before the SIGTERM goes to its handler)."""
-
-    def __init__(self, client, workers):
-        if workers is not None:
-            check_whole(workers, "workers", 1)
-        if client is not None and workers is not None:
-            raise SweepError("workers: give workers for a local cluster, or a client, not both")
-        self.client, self.workers = client, workers
-
-    def __enter__(self):
-        if self.client is not None:
-            self.own = None
-            return self.client
-        import logging
-
-        from dask.distributed import Client, LocalCluster
-
-        if multiprocessing.parent_process() is not None:
-            raise SweepError(f"a worker process started a sweep: {_MAIN_GUARD}")
-        main = threading.current_thread() is threading.main_thread()
-        # SIGTERM while the cluster starts is held until it has started, then closes it and
-        # stops the sweep: stopped halfway, Dask's exit handler trips over it (a traceback)
-        terms = []
-        if main:
-            previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
-            previous_term = signal.signal(signal.SIGTERM, lambda *sig: terms.append(sig))
-        try:
-            cluster = LocalCluster(
-                n_workers=self.workers or os.cpu_count() or 1,
-                threads_per_worker=1,
-                processes=True,
-                dashboard_address=":0",
-                silence_logs=logging.CRITICAL,
-                env={"NUMBA_NUM_THREADS": "1"},
-            )
-            self.own = (cluster, Client(cluster))
-        except RuntimeError as e:
-            raise SweepError(
-                f"the local cluster's workers did not start ({e}); {_MAIN_GUARD}"
-            ) from None
-        finally:
-            if main:
-                signal.signal(signal.SIGINT, previous)
-                signal.signal(signal.SIGTERM, previous_term)
-        if terms:
-            self.__exit__()
-            signal.raise_signal(signal.SIGTERM)  # to its own handler now
-        return self.own[1]
-
-    def __exit__(self, *exc):
-        if self.own is not None:
-            cluster, client = self.own
-            client.close()
-            cluster.close()
 
 
 def _run_seconds(scenes):
