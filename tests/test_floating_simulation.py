@@ -120,6 +120,33 @@ def test_bad_base_keys_are_errors_naming_the_key(initial, key, what):
         _handle_scene(**initial)
 
 
+def test_one_quaternion_tolerance_for_scene_files_the_simulator_linearize_and_the_dynamics():
+    """A quaternion typed to four digits (norm 0.99998) is taken and normalised everywhere, as
+    the dynamics functions take it; one further than 1e-3 from unit norm is refused everywhere.
+    The scene file, Simulator.reset and linearize refused anything beyond 1e-6."""
+    typed = [0.7071, 0.0, 0.0, 0.7071]
+    scene = _handle_scene(base_orientation=typed)
+    unit = np.array(typed) / np.linalg.norm(typed)
+    np.testing.assert_allclose(scene.q0[3:7], unit, atol=1e-15)
+    q = scene.q0.copy()
+    q[3:7] = typed
+    sim = od.Simulator(scene)
+    sim.reset(q=q)
+    np.testing.assert_allclose(sim.q[3:7], unit, atol=1e-15)
+    od.linearize(scene, q=q)
+    od.mass_matrix(scene.model, q)
+    far = np.array([0.0, 0.0, 0.0, 1.002])
+    with pytest.raises(SceneError, match="initial.base_orientation: .*unit quaternion"):
+        _handle_scene(base_orientation=list(far))
+    q[3:7] = far
+    with pytest.raises(ValueError, match="unit norm"):
+        sim.reset(q=q)
+    with pytest.raises(ValueError, match="unit norm"):
+        od.linearize(scene, q=q)
+    with pytest.raises(ValueError, match="unit norm"):
+        od.mass_matrix(scene.model, q)
+
+
 def test_a_fixed_base_scene_with_a_base_key_is_an_error_naming_it():
     with pytest.raises(SceneError, match="initial.base_velocity: .*fixed base.*floating_base"):
         _scene({"robot": {"urdf": "t_handle.urdf"}, "initial": {"base_velocity": [0, 0, 1]}})

@@ -34,9 +34,8 @@ from .._runtime.entry import entry_for
 from .._runtime.signals import signal_name
 from ..algorithm import checks
 from ..errors import SceneError, SimulationError
-from ..io.scene.sections_robot import BASE_QUATERNION_TOLERANCE
 from ..io.scene.sections_run import whole_steps
-from ..multibody.joints import FREE
+from ..multibody.joints import FREE, QUATERNION_TOLERANCE
 from . import effects, integrators, step
 from .diagnostics import check_contact_step, failure_message
 from .effects import python_control
@@ -466,15 +465,15 @@ def checked_torque(model, tau, what):
 
 def checked_configuration(model, q, what):
     """q checked as an initial configuration (nq,): finite, unit quaternions (normalised
-    within BASE_QUATERNION_TOLERANCE); errors name `what`."""
+    within QUATERNION_TOLERANCE); errors name `what`."""
     q = checked_vector(model, q, what, model.nq)
     for i in np.flatnonzero(model.jtype == FREE):
         k = int(model.iq[i]) + 3
         norm = float(np.linalg.norm(q[k : k + 4]))
-        if not abs(norm - 1.0) <= BASE_QUATERNION_TOLERANCE:
+        if not abs(norm - 1.0) <= QUATERNION_TOLERANCE:
             raise ValueError(
                 f"{what}[{k}:{k + 4}] is the floating base's quaternion [x, y, z, "
-                f"w] and must have unit norm (within {BASE_QUATERNION_TOLERANCE:g}), found "
+                f"w] and must have unit norm (within {QUATERNION_TOLERANCE:g}), found "
                 f"{norm:.6g}"
             )
         q[k : k + 4] /= norm

@@ -16,7 +16,7 @@ from scipy.spatial.transform import Rotation
 
 from ..._runtime.arrays import immutable
 from ...errors import URDFError
-from ...multibody.joints import FREE
+from ...multibody.joints import FREE, QUATERNION_TOLERANCE
 from ...multibody.model import Model
 from ..urdf import load_urdf
 from .values import ValueReader, _found
@@ -35,8 +35,6 @@ _BASE_KEYS = (
     "base_angular_velocity",
 )
 _INITIAL_KEYS = ("q", "qd") + _BASE_KEYS
-# a base_orientation quaternion whose norm is off 1 by more than this is refused as a mistake
-BASE_QUATERNION_TOLERANCE = 1e-6
 
 
 class RobotSection(ValueReader):
@@ -155,11 +153,11 @@ class RobotSection(ValueReader):
             key = "initial.base_orientation"
             quat = self.vector(table["base_orientation"], key, 4)
             norm = float(np.linalg.norm(quat))
-            if not abs(norm - 1.0) <= BASE_QUATERNION_TOLERANCE:
+            if not abs(norm - 1.0) <= QUATERNION_TOLERANCE:
                 self.fail(
                     key,
                     f"expected a unit quaternion [x, y, z, w] (norm within "
-                    f"{BASE_QUATERNION_TOLERANCE:g} of 1), found norm {norm:.6g}",
+                    f"{QUATERNION_TOLERANCE:g} of 1), found norm {norm:.6g}",
                 )
             R_sb = Rotation.from_quat(quat)
         else:
