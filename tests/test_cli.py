@@ -87,6 +87,25 @@ def test_simulate_without_argument_runs_the_default_scene(capsys, tmp_path):
     assert (tmp_path / "dp.json").exists() and (tmp_path / "dp.png").stat().st_size > 10_000
 
 
+@pytest.mark.parametrize(
+    "options, said",
+    [
+        (["--duration", "-1"], "--duration: expected a number > 0, found -1"),
+        (["--dt", "0"], "--dt: expected a number > 0, found 0"),
+        (["--output-dt", "0.00001"], "--output-dt: 1e-05 s is not a whole multiple of run.dt"),
+        (["--integrator", "dopri5", "--rtol", "-1"], "--rtol: expected a number > 0"),
+    ],
+)
+def test_a_bad_run_option_is_named_as_the_option_not_as_the_scene_files_key(
+    capsys, options, said
+):
+    """The scene file does not hold the value an option gave: the error named `SCENE.toml:
+    run.duration`."""
+    assert main(["simulate", "--no-save", "-q", "double_pendulum_swing", *options]) == 2
+    err = capsys.readouterr().err
+    assert f"opendyn simulate: {said}" in err and ".toml" not in err, err
+
+
 def test_simulate_options_change_the_run(capsys, tmp_path):
     csv = tmp_path / "run.csv"
     args = [

@@ -93,19 +93,26 @@ CACHING = CACHE_DIR is not None  # the kernels' `cache=` option
 
 def _discard(cache_file, path, error):
     """Remove the unreadable cache file `path` of `cache_file` (an IndexDataCacheFile) if it
-    is in opendyn's folder, with one warning; else re-raise `error`."""
+    is in opendyn's folder, with a warning for the first in this process; else re-raise
+    `error`."""
     folder = pathlib.Path(cache_file._cache_path).resolve()
     if CACHE_DIR is None or not folder.is_relative_to(pathlib.Path(CACHE_DIR).resolve()):
         raise error
     with contextlib.suppress(OSError):
         os.remove(path)
+    if _discarded:
+        return  # one warning a process: a damaged copy of the cache has many such entries
+    _discarded.append(path)
     warnings.warn(
         f"opendyn: an unreadable entry of the compiled-kernel cache ({os.path.basename(path)}: "
-        f"{type(error).__name__}) was removed and its kernel compiles again; if this repeats, "
-        f"delete the folder {CACHE_DIR}",
+        f"{type(error).__name__}) was removed and its kernel compiles again, as will any other "
+        f"this process finds; if this repeats, delete the folder {CACHE_DIR}",
         RuntimeWarning,
         stacklevel=2,
     )
+
+
+_discarded = []  # the first unreadable entry removed in this process
 
 
 def unreadable_is_a_miss():

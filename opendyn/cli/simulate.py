@@ -158,7 +158,10 @@ def _scene_to_run(args):
     }
     run = {k: v for k, v in run.items() if v is not None}
     if run:
-        scene = scene.replace_run(**run)
+        try:
+            scene = scene.replace_run(**run)
+        except SceneError as e:
+            raise _named_by_its_option(e, scene.source, run) from None
     tolerances = [o for o, v in (("--rtol", args.rtol), ("--atol", args.atol)) if v is not None]
     if tolerances and not INTEGRATORS[scene.run.integrator].adaptive:
         raise ValueError(
@@ -167,6 +170,18 @@ def _scene_to_run(args):
             "give --integrator dopri5 with them, or --dt"
         )
     return _with_effects(scene, args.enable, args.disable)
+
+
+def _named_by_its_option(error, source, given):
+    """The SceneError of a run setting that an option gave, naming the option (`--output-dt`)
+    where it named the scene file's key (`SCENE.toml: run.output_dt`), which does not hold
+    that value; other errors as they are."""
+    text = str(error)
+    for key in given:
+        prefix = f"{source}: run.{key}: "
+        if text.startswith(prefix):
+            return SceneError(f"--{key.replace('_', '-')}: {text[len(prefix):]}")
+    return error
 
 
 def _check_meshcat(args):
