@@ -25,7 +25,9 @@ from opendyn.sim.effects import registry
 from opendyn.sim.effects.dispatch import run_stages
 from opendyn.sim.effects.interface import CONSERVATIVE, ENERGY_CLASSES, Context, Out
 
-README = (pathlib.Path(__file__).resolve().parents[1] / "README.md").read_text(encoding="utf-8")
+SCENES_GUIDE = (
+    pathlib.Path(__file__).resolve().parents[1] / "docs" / "guides" / "scenes.md"
+).read_text(encoding="utf-8")
 SCENE_FIELDS = {field.name for field in dataclasses.fields(Scene)}
 
 # the double pendulum (limits +-3.14 rad, effort limits 50 and 20 N m); scenes that together
@@ -146,8 +148,14 @@ def test_the_lists_of_effects_derive_from_the_registry():
     assert set(registry.enable_settings()) == {"gravity", "damping", "friction"}
 
 
-def test_the_readme_effects_table_is_the_registry_s():
-    assert registry.effects_table() in README
+def test_the_documentations_effects_table_is_the_registry_s():
+    """The scenes guide's table is generated from the registry when the site is built (the
+    built page is checked in tests/test_docs.py)."""
+    assert "<!-- generated: effects -->" in SCENES_GUIDE
+    table = registry.effects_table().splitlines()
+    assert len(table) == 2 + len(registry.names())
+    for name in registry.names():
+        assert any(row.startswith(f"| {name} | ") for row in table)
 
 
 @pytest.mark.parametrize("effect", registry.EFFECTS, ids=ids(registry.EFFECTS))

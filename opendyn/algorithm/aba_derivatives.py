@@ -145,9 +145,11 @@ def forward_dynamics_derivatives(model, q, qd, tau, f_tip=None, gravity=None, da
     analytical: -M^-1 (dtau/dq, dtau/dqd) of the RNEA derivatives at qdd, and M^-1 by the
     articulated-body recursion (the module docstring).
 
-    Args: as forward_dynamics: q (nq,), qd and tau (nv,), or batches (N, nq), (N, nv); f_tip
-      {frame: (6,) wrench (m, f) the frame applies to the environment, in its coordinates};
-      gravity (3,) world-frame (m/s^2), default model.gravity.
+    Args:
+      q, qd, tau: as forward_dynamics: q (nq,), qd and tau (nv,), or batches (N, nq), (N, nv).
+      f_tip: {frame: (6,) wrench (m, f) the frame applies to the environment, in its
+        coordinates}.
+      gravity: (3,) world-frame (m/s^2), default model.gravity.
       data: optional Data of this model (single states): the call works in it and returns
         (data.ddq_dq, data.ddq_dqd, data.Minv), allocating nothing; data.qdd holds qdd and
         data.dtau_dq, data.dtau_dqd the inverse dynamics' derivatives there.

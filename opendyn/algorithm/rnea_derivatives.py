@@ -286,9 +286,11 @@ def inverse_dynamics_derivatives(model, q, qd, qdd, f_tip=None, gravity=None, da
     """The partial derivatives of tau = inverse_dynamics(model, q, qd, qdd, f_tip, gravity),
     analytical (by differentiating RNEA, O(n d); the module docstring has the recursion).
 
-    Args: as inverse_dynamics: q (nq,), qd and qdd (nv,), or batches (N, nq), (N, nv); f_tip
-      {frame: (6,) wrench (m, f) the frame applies to the environment, in its coordinates};
-      gravity (3,) world-frame (m/s^2), default model.gravity.
+    Args:
+      q, qd, qdd: as inverse_dynamics: q (nq,), qd and qdd (nv,), or batches (N, nq), (N, nv).
+      f_tip: {frame: (6,) wrench (m, f) the frame applies to the environment, in its
+        coordinates}.
+      gravity: (3,) world-frame (m/s^2), default model.gravity.
       data: optional Data of this model (single states): the call works in it and returns
         (data.dtau_dq, data.dtau_dqd, data.M), allocating nothing.
     Returns (dtau_dq, dtau_dqd, dtau_dqdd), each (nv, nv), or (N, nv, nv) for a batch:

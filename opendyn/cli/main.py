@@ -58,6 +58,15 @@ def whole(text: str) -> int:
 
 
 def main(argv=None) -> int:
+    args = command_line().parse_args(argv)
+    with warnings.catch_warnings(), SigtermAsInterrupt() as signals, reader_may_leave():
+        warnings.showwarning = _warning_printer(args.command)
+        return _run(args, signals)
+
+
+def command_line() -> argparse.ArgumentParser:
+    """The `opendyn` command's parser: every command, its arguments and their help (the
+    documentation's command-line reference is its `--help`)."""
     parser = argparse.ArgumentParser(
         prog="opendyn",
         description=__doc__.split("\n\n")[1] if __doc__ else None,
@@ -218,11 +227,7 @@ def main(argv=None) -> int:
         help="every core function and every shipped scene whose robot is installed",
     )
     comp.set_defaults(run=_compile_ahead)
-
-    args = parser.parse_args(argv)
-    with warnings.catch_warnings(), SigtermAsInterrupt() as signals, reader_may_leave():
-        warnings.showwarning = _warning_printer(args.command)
-        return _run(args, signals)
+    return parser
 
 
 def _warning_printer(command):

@@ -148,7 +148,7 @@ from .sections_effects import EffectsSection
 from .sections_robot import RobotSection
 from .sections_run import RunSection
 
-_TOP_KEYS = (
+TOP_KEYS = (
     "name",
     "description",
     "robot",
@@ -164,7 +164,7 @@ _TOP_KEYS = (
 def _build(data, source, base_dir, default_name=None, model=None) -> Scene:
     r = _Reader(source)
     r.base_dir = base_dir  # where paths in the file are relative to (None: the working folder)
-    r.keys(data, "", _TOP_KEYS)
+    r.keys(data, "", TOP_KEYS)
     if model is None:
         model = r.robot(data.get("robot"), base_dir)
     r.model = model

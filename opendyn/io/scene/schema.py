@@ -45,7 +45,7 @@ from ...sim.effects.control import Control
 from ...sim.effects.friction import Friction
 from ...sim.effects.limits import Limits
 from ...sim.effects.wrench import Wrench
-from .sections_run import _RUN_KEYS, Run, RunSection
+from .sections_run import RUN_KEYS, Run, RunSection
 from .values import _suggest
 
 __all__ = [
@@ -135,10 +135,10 @@ class Scene:
         """The same scene with new Run fields (duration, integrator, dt, output_dt, rtol, atol,
         max_speed), validated as in a scene file; a value None restores that field's default."""
         for key in changes:
-            if key not in _RUN_KEYS:
+            if key not in RUN_KEYS:
                 raise SceneError(
                     f"{self.source}: Scene.replace_run: unknown run setting {key!r}"
-                    f"{_suggest(key, _RUN_KEYS)}; valid: {', '.join(_RUN_KEYS)}"
+                    f"{_suggest(key, RUN_KEYS)}; valid: {', '.join(RUN_KEYS)}"
                 )
         settings = thaw(self.settings)
         table = settings.get("run") or {}

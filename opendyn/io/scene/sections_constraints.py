@@ -31,13 +31,14 @@ CONSTRAINT_TYPES = (
     "fixed_pose",
     "joint_coupling",
 )
-_CONSTRAINT_KEYS = {
+CONSTRAINT_KEYS = {
     "point_to_world": ("type", "frame", "point", "target"),
     "point_on_plane": ("type", "frame", "normal", "point", "offset"),
     "point_to_point": ("type", "frame_a", "frame_b", "point_a", "point_b"),
     "fixed_pose": ("type", "frame_a", "frame_b", "xyz", "rpy"),
     "joint_coupling": ("type", "coefficients", "matrix"),
 }
+BAUMGARTE_KEYS = ("alpha", "beta")
 # an initial state farther than this from the constraints (m or rad; m/s or rad/s) is refused
 CONSTRAINT_TOLERANCE = 1e-6
 
@@ -67,7 +68,7 @@ class ConstraintsSection(ValueReader):
         if "type" not in table:
             self.fail(f"{key}.type", f"missing: one of {', '.join(CONSTRAINT_TYPES)}")
         kind = self.string(table["type"], f"{key}.type", CONSTRAINT_TYPES)
-        self.keys(table, key, _CONSTRAINT_KEYS[kind])
+        self.keys(table, key, CONSTRAINT_KEYS[kind])
 
         def frame(field):
             if field not in table:
@@ -167,7 +168,7 @@ class ConstraintsSection(ValueReader):
     def baumgarte(self, table, has_constraints) -> tuple[float, float] | None:
         if table is None:
             return None
-        self.keys(table, "baumgarte", ("alpha", "beta"))
+        self.keys(table, "baumgarte", BAUMGARTE_KEYS)
         if not has_constraints:
             self.fail("baumgarte", "stabilises constraints, but the scene has no [[constraints]]")
         return (

@@ -19,6 +19,14 @@ def _laws():
     return laws, tuple(effect for effect in in_control if not effect.CONTROL_TYPE)
 
 
+def control_keys() -> tuple[str, ...]:
+    """Every key [control] takes, over all its types: type, each law's, the shared ones."""
+    laws, shared = _laws()
+    keys = ["type", *(k for law in laws.values() for k in law.KEYS)]
+    keys += [k for effect in shared for k in effect.KEYS]
+    return tuple(dict.fromkeys(keys))
+
+
 class ControlSection(ValueReader):
     """Reads [control] into a Control."""
 

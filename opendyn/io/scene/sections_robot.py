@@ -21,8 +21,8 @@ from ...multibody.model import Model
 from ..urdf import load_urdf
 from .values import ValueReader, _found
 
-_ROBOT_KEYS = ("urdf", "name", "mimic", "check_inertia", "floating_base", "payload")
-_PAYLOAD_KEYS = ("frame", "mass", "com", "inertia")
+ROBOT_KEYS = ("urdf", "name", "mimic", "check_inertia", "floating_base", "payload")
+PAYLOAD_KEYS = ("frame", "mass", "com", "inertia")
 # a URDF <inertia>'s attributes, each the entry (row, column) of the symmetric matrix
 _INERTIA_ENTRIES = {
     "ixx": (0, 0), "iyy": (1, 1), "izz": (2, 2), "ixy": (0, 1), "ixz": (0, 2), "iyz": (1, 2)
@@ -34,7 +34,7 @@ _BASE_KEYS = (
     "base_velocity",
     "base_angular_velocity",
 )
-_INITIAL_KEYS = ("q", "qd") + _BASE_KEYS
+INITIAL_KEYS = ("q", "qd") + _BASE_KEYS
 
 
 class RobotSection(ValueReader):
@@ -43,7 +43,7 @@ class RobotSection(ValueReader):
     def robot(self, table, base_dir) -> Model:
         if table is None:
             self.fail("robot", "missing: a scene needs [robot] with urdf = PATH or name = NAME")
-        self.keys(table, "robot", _ROBOT_KEYS)
+        self.keys(table, "robot", ROBOT_KEYS)
         given = [k for k in ("urdf", "name") if k in table]
         if len(given) != 1:
             what = "both" if given else "neither"
@@ -83,7 +83,7 @@ class RobotSection(ValueReader):
         if table is None:
             return m
         key = "robot.payload"
-        self.keys(table, key, _PAYLOAD_KEYS)
+        self.keys(table, key, PAYLOAD_KEYS)
         for field in ("frame", "mass"):
             if field not in table:
                 self.fail(
@@ -116,7 +116,7 @@ class RobotSection(ValueReader):
         """[initial] -> (q0 (nq,), qd0 (nv,)): the joints from q and qd, a floating base from
         the base_* keys (world-frame motion turned into the body twist)."""
         m = self.model
-        self.keys(table, "initial", _INITIAL_KEYS)
+        self.keys(table, "initial", INITIAL_KEYS)
         given = [k for k in _BASE_KEYS if k in table]
         if given and not m.floating_base:
             self.fail(

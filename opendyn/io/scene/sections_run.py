@@ -13,7 +13,7 @@ from .values import ValueReader
 
 INTEGRATORS = ("euler", "semi_implicit_euler", "rk4", "dopri5", "implicit_euler")
 ADAPTIVE_INTEGRATORS = ("dopri5",)
-_RUN_KEYS = (
+RUN_KEYS = (
     "duration", "integrator", "dt", "output_dt", "rtol", "atol", "max_speed", "control_dt"
 )
 # a ratio of times counts as a whole number of steps within this relative tolerance
@@ -49,7 +49,7 @@ class RunSection(ValueReader):
 
     def run(self, table) -> Run:
         table = self.table(table, "run")
-        self.keys(table, "run", _RUN_KEYS)
+        self.keys(table, "run", RUN_KEYS)
         d = Run()
         duration = self.number(table.get("duration", d.duration), "run.duration", positive=True)
         integrator = self.string(

@@ -6,7 +6,7 @@ slot in a StageTable's effects tuple is its place among the effects with a compi
 list of effects derives from it, at the time it is asked for: the scene reader's keys, the
 Scene's effect names, the stage table and the step's dispatch (dispatch.run_stages), the
 stiff-effect diagnosis, the command line's --enable and --disable, and the effects table of the
-README. Adding an effect is one module and one line here (docs/developing.md).
+documentation. Adding an effect is one module and one line here (docs/developing.md).
 """
 
 from __future__ import annotations
@@ -92,7 +92,7 @@ def enable_settings() -> dict:
 
 
 def effects_table() -> str:
-    """The README's table of effects: one row per name, its modules' DOC lines joined."""
+    """The table of effects in the documentation's scenes guide (generated there): one row per name, its modules' DOC lines joined."""
     rows = ["| effect | generalized force |", "|---|---|"]
     for name in names():
         rows.append(f"| {name} | {'; '.join(effect.DOC for effect in named(name))} |")

@@ -1,0 +1,298 @@
+"""The documentation works as written: every command of its ```bash blocks exits 0, its
+```python blocks run in order (page by page), its ```toml scenes load; the README is short and
+its quick start is the commands CI runs; CONTRIBUTING's layout is the package's tree; and the
+site builds with `mkdocs build --strict`, its generated references hold every public name, scene
+key and command, and headless Chromium finds a function by the site's search, draws a reference
+page and shows a figure."""
+
+from __future__ import annotations
+
+import functools
+import http.server
+import os
+import pathlib
+import re
+import shlex
+import shutil
+import subprocess
+import sys
+import threading
+import urllib.request
+
+import pytest
+
+import opendyn as od
+from opendyn.cli.main import main
+from opendyn.io.scene.files import tomllib
+from opendyn.io.scene.keys import scene_keys
+from opendyn.io.urdf import shipped_robots_dir
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+DOCS = ROOT / "docs"
+# the pages whose examples run here; docs/developing.md's module is built and tested by
+# tests/test_adding_an_effect.py
+PAGES = ["README.md", "CONTRIBUTING.md"] + sorted(
+    p.relative_to(ROOT).as_posix() for p in DOCS.rglob("*.md") if p.name != "developing.md"
+)
+
+# commands the pages show that this test does not run, and why; each must still be shown
+NOT_RUN_HERE = {
+    "pip install .": "installing: CI runs the quick start in a fresh virtual environment",
+    'pip install ".[test]"': "installing: CI runs the quick start in a fresh virtual environment",
+    'pip install ".[docs]"': "installing: the site is built below from this environment",
+    'pip install -e ".[test,bench,docs]"': "installing, for development",
+    "python -m pytest": "the test suite that runs this test",
+    "python -m pytest -q tests/test_effects_registry.py": "a file of this test suite",
+    "mkdocs serve": "a server that runs until stopped; the site fixture builds the site",
+    "mkdocs build --strict": "run by the site fixture below",
+    "python scripts/bench_core.py --quick": "a benchmark: timings are never taken by tests",
+    "python scripts/bench_sim.py --quick": "a benchmark: timings are never taken by tests",
+    "python scripts/bench_coldstart.py --quick": "a benchmark: timings are never taken by tests",
+    "NUMBA_CACHE_DIR=$(mktemp -d) opendyn simulate --no-save -q": "a cold start in an empty "
+    "cache, which the benchmarks measure; the same command warm runs in the other tests",
+}
+
+
+def text(page):
+    return (ROOT / page).read_text(encoding="utf-8")
+
+
+def blocks(page, language):
+    """The fenced code blocks of a page in that language, in order."""
+    return re.findall(rf"^```{language}\n(.*?)^```", text(page), re.M | re.S)
+
+
+def bash_commands(page):
+    """Every command of the page's bash blocks: one per line, comments dropped, `a && b`
+    split."""
+    commands = []
+    for block in blocks(page, "bash"):
+        for line in block.splitlines():
+            line = re.sub(r"\s+#.*$", "", line).strip()
+            commands += [part.strip() for part in line.split("&&") if part.strip()]
+    return commands
+
+
+COMMANDS = sorted({c for page in PAGES for c in bash_commands(page) if c not in NOT_RUN_HERE})
+
+
+def test_the_readme_is_short_and_its_quick_start_is_what_ci_runs():
+    readme = text("README.md")
+    assert len(readme.splitlines()) <= 200
+    quick = blocks("README.md", "bash")[:2]
+    assert quick == ["pip install . && opendyn simulate\n",
+                     'pip install ".[test]" && python -m pytest\n']
+    ci = (ROOT / ".ci" / "run").read_text()
+    assert """'^pip install "\\.\\[test\\]"'""" in ci  # CI runs the README's line, verbatim
+
+
+def test_the_pages_show_the_commands_they_leave_to_ci_and_to_other_tests():
+    shown = {c for page in PAGES for c in bash_commands(page)}
+    assert set(NOT_RUN_HERE) <= shown, set(NOT_RUN_HERE) - shown
+    assert all(c.split()[0] == "opendyn" for c in COMMANDS), COMMANDS
+
+
+@pytest.mark.parametrize("command", COMMANDS)
+def test_every_command_shown_exits_zero(command, tmp_path, monkeypatch, capsys):
+    """Run as the pages show it, from a folder holding the repository's robots/ (the commands
+    name robots/...): exit status 0 and nothing on stderr that says error."""
+    (tmp_path / "robots").symlink_to(ROOT / "robots")
+    monkeypatch.chdir(tmp_path)
+    status = main(shlex.split(command)[1:])
+    out, err = capsys.readouterr()
+    assert status == 0, f"{command!r} exited {status}:\n{err}"
+    assert "error" not in err.lower(), err
+
+
+def run_page(page, tmp_path, monkeypatch):
+    """Run the page's python blocks in order in one namespace, as a script, in tmp_path."""
+    monkeypatch.chdir(tmp_path)
+    namespace = {"__name__": "__main__"}  # as a script's, which the sweep example needs
+    for code in blocks(page, "python"):
+        exec(compile(code, page, "exec"), namespace)
+    return namespace
+
+
+# what some pages' examples leave behind, checked beyond running without an error
+CHECKS = {
+    "README.md": lambda ns, tmp: (
+        od.Trajectory.load(tmp / "ur5.npz").complete and (tmp / "ur5.png").is_file()
+    ),
+    "docs/getting-started.md": lambda ns, tmp: (tmp / "run.npz").is_file(),
+    "docs/guides/dynamics.md": lambda ns, tmp: ns["taus"].shape == (10_000, 6),
+    "docs/guides/constraints.md": lambda ns, tmp: (
+        ns["lam"].shape == (3,) and abs(ns["lam"][2]) < 1e-9  # "its z row is 0 (rank 2)"
+    ),
+    "docs/guides/sweeps.md": lambda ns, tmp: (
+        ns["table"].num_rows == 6 and (tmp / "pendulum.png").is_file()
+    ),
+}
+PYTHON_PAGES = [page for page in PAGES if blocks(page, "python")]
+
+
+@pytest.mark.parametrize("page", PYTHON_PAGES)
+def test_every_pages_python_examples_run_in_order(page, tmp_path, monkeypatch):
+    namespace = run_page(page, tmp_path, monkeypatch)
+    if page in CHECKS:
+        assert CHECKS[page](namespace, tmp_path)
+
+
+def test_the_checked_pages_have_their_examples():
+    assert set(CHECKS) <= set(PYTHON_PAGES)
+
+
+def test_the_scene_examples_load_and_the_complete_one_runs():
+    """The complete scene example runs (0.1 s); each fragment loads with the robot of its
+    section: the floating base (Solo12, complete), the payload (UR5, complete), contact on
+    Solo12, constraints on the shipped four-bar scene's initial state."""
+    (full,) = (tomllib.loads(b) for b in blocks("docs/guides/scenes.md", "toml"))
+    floating, payload = (tomllib.loads(b) for b in blocks("docs/guides/robots.md", "toml"))
+    (contact,) = (tomllib.loads(b) for b in blocks("docs/guides/contact.md", "toml"))
+    (constraints,) = (tomllib.loads(b) for b in blocks("docs/guides/constraints.md", "toml"))
+    scene = od.scene_from_dict(full, base_dir=shipped_robots_dir())
+    assert scene.effects == ("gravity", "damping", "wrench", "control")
+    assert od.simulate(scene.replace_run(duration=0.1)).complete
+    solo = od.scene_from_dict(floating)
+    assert solo.model.floating_base and solo.q0[2] == 1.0
+    loaded = od.scene_from_dict(payload).model
+    assert loaded.mass.sum() == pytest.approx(od.load_urdf("ur5").mass.sum() + 2.5)
+    on_ground = od.scene_from_dict({**floating, **contact})
+    assert [p.frame for p in on_ground.contact.points] == ["FL_FOOT"]
+    four_bar = tomllib.loads((shipped_robots_dir() / "four_bar.toml").read_text())
+    del four_bar["constraints"], four_bar["baumgarte"]  # the fragment's, on the same state
+    closed = od.scene_from_dict({**four_bar, **constraints}, base_dir=shipped_robots_dir())
+    assert len(closed.constraints) == 1 and closed.baumgarte == (20.0, 20.0)
+
+
+def layout_modules():
+    """The Python files CONTRIBUTING's Layout section lists under opendyn/: its tree block, two
+    spaces of indent a level, a folder ending in '/'; a line indented deeper than the level
+    it could open continues the description above it."""
+    section = text("CONTRIBUTING.md").split("## Layout", 1)[1]
+    tree = re.search(r"^```\n(opendyn/\n.*?)^```", section, re.M | re.S).group(1)
+    listed, folders = set(), []
+    for line in tree.splitlines():
+        if not line.strip():
+            continue
+        depth = (len(line) - len(line.lstrip())) // 2
+        if depth > len(folders):
+            continue  # a description's second line
+        name = line.split()[0]
+        if depth == 0 and name != "opendyn/":
+            break  # past the package: robots/, tests/, ...
+        del folders[depth:]
+        if name.endswith("/"):
+            folders.append(name.rstrip("/"))
+        elif name.endswith(".py"):
+            listed.add("/".join(folders + [name]))
+    return listed
+
+
+def test_the_layout_section_lists_every_module_of_the_package_and_no_other():
+    """One line per module: CONTRIBUTING's Layout is the package's tree."""
+    package = ROOT / "opendyn"
+    modules = {
+        p.relative_to(ROOT).as_posix()
+        for p in package.rglob("*.py")
+        if "__pycache__" not in p.parts
+    }
+    listed = layout_modules()
+    assert listed == modules, (
+        f"in the package, not in CONTRIBUTING.md: {sorted(modules - listed)}; "
+        f"in CONTRIBUTING.md, not in the package: {sorted(listed - modules)}"
+    )
+
+
+# --- the site ------------------------------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def site(tmp_path_factory):
+    """The site as `mkdocs build --strict` writes it: any warning (a broken link, a page the
+    navigation names that is missing, a docstring mkdocstrings cannot read) fails the build."""
+    out = tmp_path_factory.mktemp("site")
+    done = subprocess.run(
+        [sys.executable, "-m", "mkdocs", "build", "--strict", "--site-dir", str(out)],
+        cwd=ROOT, capture_output=True, text=True, timeout=600,
+        env={**os.environ, "NO_MKDOCS_2_WARNING": "1"},
+    )
+    assert done.returncode == 0, done.stderr[-4000:]
+    return out
+
+
+def test_the_site_builds_strictly_with_every_page_of_its_navigation(site):
+    for page in ("index.html", "getting-started/index.html", "guides/scenes/index.html",
+                 "reference/api/index.html", "performance/core/index.html",
+                 "study/study/index.html", "search/search_index.json"):
+        assert (site / page).is_file(), page
+
+
+def test_the_api_reference_holds_every_public_name(site):
+    page = (site / "reference" / "api" / "index.html").read_text(encoding="utf-8")
+    documented = set(re.findall(r'id="opendyn\.(\w+)"', page))
+    assert set(od.__all__) <= documented, set(od.__all__) - documented
+
+
+def test_the_scene_file_reference_holds_every_key_the_reader_takes(site):
+    page = (site / "reference" / "scene-file" / "index.html").read_text(encoding="utf-8")
+    missing = [key for key in scene_keys() if f"<code>{key}</code>" not in page]
+    assert not missing, missing
+    assert len(scene_keys()) > 80
+
+
+def test_the_command_line_and_effects_references_are_generated(site):
+    from opendyn.cli.main import command_line
+    from opendyn.sim.effects import registry
+
+    page = (site / "guides" / "cli" / "index.html").read_text(encoding="utf-8")
+    commands = next(a for a in command_line()._actions if a.dest == "command").choices
+    for name in commands:
+        assert f"usage: opendyn {name}" in page, name
+    scenes = (site / "guides" / "scenes" / "index.html").read_text(encoding="utf-8")
+    for name in registry.names():
+        assert f"<td>{name}</td>" in scenes, name
+
+
+def chromium():
+    for name in ("chromium", "chromium-browser", "google-chrome", "google-chrome-stable"):
+        if shutil.which(name):
+            return shutil.which(name)
+    pytest.skip("headless Chromium is not installed (no chromium on PATH; .ci/run installs it)")
+
+
+@pytest.fixture(scope="module")
+def served(site):
+    """The built site over HTTP on a free local port (the search runs in a web worker, which
+    a file:// page may not start)."""
+    handler = functools.partial(http.server.SimpleHTTPRequestHandler, directory=str(site))
+    server = http.server.ThreadingHTTPServer(("127.0.0.1", 0), handler)
+    threading.Thread(target=server.serve_forever, daemon=True).start()
+    yield f"http://127.0.0.1:{server.server_address[1]}"
+    server.shutdown()
+
+
+def rendered(url, tmp_path, budget_ms=8000):
+    """The page's DOM after headless Chromium has run its scripts."""
+    done = subprocess.run(
+        [chromium(), "--headless", "--no-sandbox", "--disable-gpu",
+         f"--user-data-dir={tmp_path / 'profile'}", f"--virtual-time-budget={budget_ms}",
+         "--dump-dom", url],
+        capture_output=True, text=True, timeout=180,
+    )
+    assert done.returncode == 0, done.stderr[-2000:]
+    return done.stdout
+
+
+def test_the_built_site_in_a_browser_finds_draws_and_shows(served, tmp_path):
+    """Search: the search box, given `mass_matrix`, lists the API reference's entry; a
+    reference page draws its rendered docstrings; a figure is served and shown."""
+    found = rendered(f"{served}/?q=mass_matrix", tmp_path)
+    results = re.findall(r'class="md-search-result__link"[^>]*href="([^"]+)"', found)
+    assert any("reference/api/#opendyn.mass_matrix" in r for r in results), results[:10]
+    api = rendered(f"{served}/reference/api/", tmp_path)
+    assert 'id="opendyn.inverse_dynamics"' in api and "RNEA" in api
+    playback = rendered(f"{served}/guides/playback/", tmp_path)
+    images = re.findall(r'<img[^>]+src="([^"]+)"', playback)
+    assert images, "the playback guide shows no figure"
+    with urllib.request.urlopen(f"{served}/guides/playback/{images[0]}") as response:
+        assert response.headers["Content-Type"] == "image/png" and len(response.read()) > 10_000
