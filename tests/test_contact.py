@@ -312,7 +312,7 @@ def test_contact_stiffness_and_damping_matrices_are_the_exact_derivatives(fricti
     normal damper and the contact's geometry (the lever arm and the point moving with the
     body) included, by central differences (along integrate for q). They were the symmetric
     k J_z^T J_z and the friction's slope alone, which made implicit Euler's steps on the Solo12
-    drop 2-14 times less accurate (README, the accuracy study)."""
+    drop 2-14 times less accurate (the contact guide, the accuracy study)."""
     scene, q, qd = _solo_in_contact(friction=friction, damping=damping)
     _, K, D, _, f, _ = _contact_tau(scene, q, qd, jac=True)
     assert (f[:, 2] > 1.0).sum() >= 2  # feet pressing, away from the clamp at f_n = 0

@@ -457,7 +457,7 @@ def test_a_changed_robot_is_another_sweep_not_a_resume(client, tmp_path):
 
 def test_a_swept_integrator_that_simulate_refuses_is_a_failed_row(client):
     """Semi-implicit Euler takes no constraints: among the swept integrators it refused the
-    whole sweep, where the README says a run simulate refuses is a failed row."""
+    whole sweep, where the sweeps guide says a run simulate refuses is a failed row."""
     scene = od.load_scene("four_bar").replace_run(duration=0.05)
     rows = od.sweep(scene, {"run.integrator": "rk4,semi_implicit_euler"}, client=client).to_pylist()
     assert [r["status"] for r in rows] == ["complete", "failed"]
