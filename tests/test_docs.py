@@ -16,6 +16,7 @@ import shlex
 import shutil
 import subprocess
 import sys
+import textwrap
 import threading
 import urllib.request
 
@@ -58,8 +59,10 @@ def text(page):
 
 
 def blocks(page, language):
-    """The fenced code blocks of a page in that language, in order."""
-    return re.findall(rf"^```{language}\n(.*?)^```", text(page), re.M | re.S)
+    """The fenced code blocks of a page in that language, in order, a block indented in a
+    list item dedented."""
+    found = re.findall(rf"^( *)```{language}\n(.*?)^\1```", text(page), re.M | re.S)
+    return [textwrap.dedent(code) for _, code in found]
 
 
 def bash_commands(page):
