@@ -88,13 +88,17 @@ def header(title, script, argv, modules=(), when=None) -> str:
 
 def write_atomic(path, text) -> pathlib.Path:
     """Write `text` to `path` (its folder made if missing) through a temporary file in the same
-    folder renamed over it, so that a reader never sees half a page. Returns the path."""
+    folder renamed over it, so that a reader never sees half a page; the file gets the
+    permissions that open() would give it (mkstemp's are the owner's alone). Returns the path."""
     path = pathlib.Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    umask = os.umask(0)
+    os.umask(umask)
     try:
         with os.fdopen(fd, "w", encoding="utf-8") as f:
             f.write(text)
+        os.chmod(tmp, 0o666 & ~umask)
         os.replace(tmp, path)
     except BaseException:
         os.unlink(tmp)
