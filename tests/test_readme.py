@@ -24,8 +24,8 @@ NOT_RUN_HERE = {
     "pip install .": "installing: CI runs the quick start in a fresh virtual environment",
     'pip install ".[test]"': "installing: CI runs the quick start in a fresh virtual environment",
     "python -m pytest": "the test suite that runs this test",
-    "python scripts/accuracy_vs_time.py": "the full study, 4.5 min; its --quick mode runs the "
-    "same code on small sweeps, in tests/test_accuracy_study.py",
+    "python scripts/accuracy_vs_time.py --docs": "the full study, 4.5 min, written into docs/; "
+    "its --quick mode runs the same code on small sweeps, in tests/test_accuracy_study.py",
     "python scripts/accuracy_vs_time.py --quick": "run, and its output checked, by "
     "tests/test_accuracy_study.py",
 }
