@@ -2,6 +2,7 @@
 
     python scripts/accuracy_vs_time.py             # the full study (5-7 min on 2 cores)
     python scripts/accuracy_vs_time.py --quick     # the same pipeline on small sweeps (< 2 min)
+    python scripts/accuracy_vs_time.py --docs      # the full study, published in docs/study/
 
 1. Integrators. Each scene runs with every integrator over a sweep of steps (tolerances for the
    adaptive dopri5). The error of a run is max_j |q_j - q_ref,j| (rad or m) at the final time and
@@ -43,18 +44,22 @@
    k = 1e4 to 1e7 N/m, whose rate sqrt(k/m) sets RK4's stability step 2.8 / rate, and each
    integrator's fastest run within 1e-3 m.
 
-Writes into --out (default docs/study): accuracy_vs_time.png (error against wall time, one curve
-per integrator: the Pareto plot), convergence.png (error against step), constraint.png (the
-four-bar's max violation against step and wall time; solid with Baumgarte, dashed without),
-algorithms.png, contact.png (error against wall time on the two contact scenes; the stiffness
-cost), study.md (every table) and study.json (every number; the four-bar under "constrained",
-contact under "contact").
+Writes into --out (default accuracy_study/ in the current folder): accuracy_vs_time.png (error
+against wall time, one curve per integrator: the Pareto plot), convergence.png (error against
+step), constraint.png (the four-bar's max violation against step and wall time; solid with
+Baumgarte, dashed without), algorithms.png, contact.png (error against wall time on the two
+contact scenes; the stiffness cost), study.md (every table) and study.json (every number; the
+four-bar under "constrained", contact under "contact"). Only --docs writes the published study,
+docs/study/, and then study.md starts with a header that says when, on what machine and with
+which versions it ran and the command that reproduces it (scripts/docs_page.py); --docs refuses
+--quick (quick results must never replace the published study) and --out.
 """
 
 from __future__ import annotations
 
 import argparse
 import dataclasses
+import datetime
 import json
 import pathlib
 import re
@@ -74,8 +79,12 @@ from opendyn.sim import effects, step  # noqa: E402
 from opendyn.sim.profile import stage_costs  # noqa: E402
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "tests"))
+sys.path[:0] = [str(ROOT / "tests"), str(ROOT / "scripts")]
+import docs_page  # noqa: E402
 from randtree import random_chain_urdf  # noqa: E402
+
+DEFAULT_OUT = "accuracy_study"  # in the current folder: a trial run never touches the docs
+DOCS_OUT = ROOT / "docs" / "study"
 
 OUTPUT_DT = 0.02  # s: every fixed step below divides it, so all runs share the sample times
 FIXED = ("euler", "semi_implicit_euler", "implicit_euler", "rk4")
@@ -716,7 +725,8 @@ def contact_study(mode, repeats):
                 recommendations=recommend(runs),
             )
         )
-    return dict(output_dt=CONTACT_OUTPUT_DT, scenes=scenes, stiffness=stiffness_study(mode, repeats))
+    stiffness = stiffness_study(mode, repeats)
+    return dict(output_dt=CONTACT_OUTPUT_DT, scenes=scenes, stiffness=stiffness)
 
 
 def _contact_sweep(integrator):
@@ -1205,9 +1215,9 @@ def method_table(rows, key, title):
     return lines
 
 
-def markdown(results, constrained, contact, algo, cond_rows, effect_rows, mode, elapsed):
-    out = [f"# Accuracy versus time ({mode} run, {elapsed:.0f} s)\n"]
-    out.append("## Recommendations: the fastest run that meets each max error\n")
+def markdown(results, constrained, contact, algo, cond_rows, effect_rows):
+    """Every table of the study, in Markdown, from its first section on (no title)."""
+    out = ["## Recommendations: the fastest run that meets each max error\n"]
     out.append("| scene | " + " | ".join(f"error <= {t:.0e} rad" for t in TARGETS) + " |")
     out.append("|---" * (len(TARGETS) + 1) + "|")
     for res in results:
@@ -1305,10 +1315,21 @@ def markdown(results, constrained, contact, algo, cond_rows, effect_rows, mode, 
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--quick", action="store_true", help="small sweeps, under 2 minutes")
-    parser.add_argument("--out", default=str(ROOT / "docs" / "study"), help="output folder")
+    parser.add_argument("--out", help=f"output folder (default {DEFAULT_OUT}/ in this folder)")
+    parser.add_argument(
+        "--docs", action="store_true", help="write the published study, docs/study/ (full run)"
+    )
     args = parser.parse_args(argv)
+    if args.docs and args.quick:
+        parser.error(
+            "--docs writes the published study, docs/study/, and quick results must never "
+            "replace it: run --quick without --docs (it writes to --out)"
+        )
+    if args.docs and args.out:
+        parser.error("--docs writes docs/study/: give --docs or --out, not both")
     mode = "quick" if args.quick else "full"
-    out = pathlib.Path(args.out)
+    out = DOCS_OUT if args.docs else pathlib.Path(args.out or DEFAULT_OUT)
+    started = datetime.datetime.now(datetime.timezone.utc)
     out.mkdir(parents=True, exist_ok=True)
     tmp = out / "urdf"
     tmp.mkdir(exist_ok=True)
@@ -1325,8 +1346,14 @@ def main(argv=None):
     plot_constraint(constrained, out / "constraint.png")
     plot_algorithms(algo, cond_rows, out / "algorithms.png")
     plot_contact(contact, out / "contact.png")
-    text = markdown(results, constrained, contact, algo, cond_rows, effect_rows, mode, elapsed)
-    (out / "study.md").write_text(text)
+    title = f"Accuracy versus time ({mode} run, {elapsed:.0f} s)"
+    if args.docs:
+        argv = sys.argv[1:] if argv is None else argv
+        head = docs_page.header(title, __file__, argv, modules=("pinocchio",), when=started)
+    else:
+        head = f"# {title}\n\n"
+    text = head + markdown(results, constrained, contact, algo, cond_rows, effect_rows)
+    docs_page.write_atomic(out / "study.md", text)
     record = dict(
         mode=mode,
         elapsed_s=elapsed,
@@ -1338,14 +1365,14 @@ def main(argv=None):
         contact=contact,
         versions=dict(opendyn=od.__version__, numpy=np.__version__),
     )
-    (out / "study.json").write_text(json.dumps(record, indent=1, default=_json_default))
+    docs_page.write_atomic(out / "study.json", json.dumps(record, indent=1, default=_json_default))
     for path in sorted(tmp.iterdir()):
         path.unlink()
     tmp.rmdir()
     print(text)
     print(
-        f"wrote {out}/: accuracy_vs_time.png convergence.png constraint.png algorithms.png "
-        "contact.png study.md study.json"
+        f"wrote {out.resolve()}/: accuracy_vs_time.png convergence.png constraint.png "
+        "algorithms.png contact.png study.md study.json"
     )
     return 0
 

@@ -1,7 +1,7 @@
 """What a first run costs: numba compiling opendyn's kernels in a fresh, empty cache, against the
 same run once the on-disk cache is warm.
 
-    python scripts/bench_coldstart.py [--quick] [--json FILE]
+    python scripts/bench_coldstart.py [--quick] [--json FILE] [--docs]
 
 Measures, each in fresh processes (wall time of the whole process, import included):
   - `opendyn simulate` on the default scene, cold (empty NUMBA_CACHE_DIR) and warm (again, in
@@ -10,7 +10,9 @@ Measures, each in fresh processes (wall time of the whole process, import includ
     warm (skipped with --quick);
   - the first call of every public core function on the UR5 (example-robot-data), single
     states and batches, all in one process: cold, then warm in a second process.
-Prints Markdown tables (the README's "Start-up" section is written from them).
+Prints Markdown tables (the README's "Start-up" section is written from them). With --docs it also
+writes what it prints to docs/performance/startup.md, under a header that says when, on what
+machine and with which versions it ran and the command that reproduces it (scripts/docs_page.py).
 """
 
 from __future__ import annotations
@@ -22,6 +24,8 @@ import subprocess
 import sys
 import tempfile
 import time
+
+import docs_page
 
 # The first call of each function (opendyn._runtime.compile_notice.core_calls, the list `opendyn
 # compile` runs), in one process; prints {name: seconds} as JSON. Run as a child process so that
@@ -115,7 +119,21 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--quick", action="store_true", help="default scene and functions only")
     parser.add_argument("--json", help="also write every number to this file")
+    parser.add_argument(
+        "--docs", action="store_true", help="also write the tables to docs/performance/startup.md"
+    )
     args = parser.parse_args()
+    title = "Start-up: compiling the kernels, and the on-disk cache"
+    with docs_page.page("startup.md", title, enabled=args.docs):
+        results = print_tables(args.quick)
+    if args.json:
+        with open(args.json, "w") as f:
+            json.dump(results, f, indent=1)
+
+
+def print_tables(quick):
+    """Measure and print every table (the shipped scenes' rows skipped when `quick`); returns
+    every number, as --json writes them."""
     results = {}
 
     cold, warm = simulate_cold_warm(None)
@@ -127,7 +145,7 @@ def main():
     cold, warm = rollout_cold_warm()
     results["rollout (default scene)"] = (cold, warm)
     print(f"| `od.rollout` of the default scene, one run | {cold:.1f} | {warm:.2f} |")
-    if not args.quick:
+    if not quick:
         for scene in SCENES:
             cold, warm = simulate_cold_warm(scene)
             results[f"simulate {scene}"] = (cold, warm)
@@ -151,9 +169,7 @@ def main():
         f"the constraint functions add {total_con:.1f} s cold."
     )
     results["totals"] = {"core_cold": total_core, "constraints_cold": total_con}
-    if args.json:
-        with open(args.json, "w") as f:
-            json.dump(results, f, indent=1)
+    return results
 
 
 if __name__ == "__main__":

@@ -1,6 +1,6 @@
 """Time opendyn's public API against Pinocchio's Python bindings, in the same run.
 
-    python scripts/bench_core.py [--quick]
+    python scripts/bench_core.py [--quick] [--no-startup] [--centroidal] [--docs]
 
 Prints, for UR5, Panda and talos_full_v2 with a fixed base and for solo12, anymal and
 talos_full_v2 with a floating base (Pinocchio with a JointModelFreeFlyer root), microseconds
@@ -16,6 +16,10 @@ fresh processes. States are converted to Pinocchio's conventions by opendyn.veri
 Every call goes through the public API with the argument checks a user gets. Each pair of
 functions is timed in alternation (best of 25 rounds each), so that a slow spell of a shared
 machine hits both sides alike.
+
+With --docs it also writes what it prints to docs/performance/core.md, under a header that says
+when, on what machine and with which versions it ran and the command that reproduces it
+(scripts/docs_page.py). --centroidal prints only a part of the page, so it refuses --docs.
 """
 
 from __future__ import annotations
@@ -27,6 +31,7 @@ import sys
 import tempfile
 import timeit
 
+import docs_page
 import numpy as np
 import pinocchio as pin
 
@@ -347,7 +352,19 @@ def main():
     parser.add_argument(
         "--centroidal", action="store_true", help="only the centroidal and regressor table"
     )
+    parser.add_argument(
+        "--docs", action="store_true", help="also write the tables to docs/performance/core.md"
+    )
     args = parser.parse_args()
+    if args.docs and args.centroidal:
+        parser.error("--centroidal prints only part of the page: run --docs without it")
+    title = "Core functions: opendyn against Pinocchio"
+    with docs_page.page("core.md", title, enabled=args.docs, modules=("pinocchio",)):
+        print_tables(args)
+
+
+def print_tables(args):
+    """Print the tables (only the centroidal one with args.centroidal)."""
     budget = 0.1 if args.quick else 0.5
 
     print(

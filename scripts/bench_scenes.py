@@ -1,6 +1,6 @@
 """Time the simulation step of shipped scenes, paired against another checkout of opendyn.
 
-    python scripts/bench_scenes.py [--against PATH] [--rounds N] [SCENE ...]
+    python scripts/bench_scenes.py [--against PATH] [--rounds N] [--docs] [SCENE ...]
 
 For each scene (default: double_pendulum_push, a wrench; quadruped_drop, ground contact;
 ur5_falling, gravity alone) it runs ``simulate`` in a fresh process for this checkout and, with
@@ -8,6 +8,10 @@ ur5_falling, gravity alone) it runs ``simulate`` in a fresh process for this che
 worktree of the previous release), in alternation, best of N rounds (5). Each process loads or
 compiles its kernels first (a warm-up run, not timed), then times whole runs and prints
 microseconds per step. The table gives both and their ratio: below 1 this checkout is faster.
+
+With --docs it also writes the table to docs/performance/scenes.md, under a header that says
+when, on what machine and with which versions it ran (opendyn's: this checkout's) and the command
+that reproduces it (scripts/docs_page.py).
 """
 
 from __future__ import annotations
@@ -18,6 +22,8 @@ import os
 import pathlib
 import subprocess
 import sys
+
+import docs_page
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 DEFAULT_SCENES = ("double_pendulum_push", "quadruped_drop", "ur5_falling")
@@ -61,7 +67,19 @@ def main():
     parser.add_argument("scenes", nargs="*", default=DEFAULT_SCENES)
     parser.add_argument("--against", type=pathlib.Path, help="another checkout to pair with")
     parser.add_argument("--rounds", type=int, default=5, help="best of N rounds")
+    parser.add_argument(
+        "--docs", action="store_true", help="also write the table to docs/performance/scenes.md"
+    )
     args = parser.parse_args()
+    # the header's opendyn version is this checkout's, the one timed first
+    sys.path.insert(0, str(ROOT))
+    title = "Scenes: microseconds per simulation step"
+    with docs_page.page("scenes.md", title, enabled=args.docs):
+        print_table(args)
+
+
+def print_table(args):
+    """Time each of args.scenes with this checkout and args.against, and print the table."""
     checkouts = [ROOT] + ([args.against] if args.against else [])
     header, rule = "| scene | steps | this checkout (us/step) |", "|---|---:|---:|"
     if args.against:

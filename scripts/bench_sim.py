@@ -1,6 +1,6 @@
 """Time 10 s of a UR5 falling under gravity, RK4 at 1 ms, in opendyn, Pinocchio and MuJoCo.
 
-    python scripts/bench_sim.py [--quick] [--rounds N]
+    python scripts/bench_sim.py [--quick] [--rounds N] [--docs]
 
 The same robot in all three: example-robot-data's ur5 URDF, loaded by opendyn
 (``load_urdf("ur5")``), by Pinocchio (``buildModelFromUrdf``) and by MuJoCo (which reads the
@@ -29,6 +29,10 @@ every state:
   which runs the same loop in C.
 It prints a markdown table (wall time, real-time factor, opendyn's time over each other's) and a
 one-line summary.
+
+With --docs it also writes what it prints to docs/performance/simulation.md, under a header that
+says when, on what machine and with which versions it ran and the command that reproduces it
+(scripts/docs_page.py).
 """
 
 from __future__ import annotations
@@ -36,9 +40,11 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import os
+import pathlib
 import time
 import xml.etree.ElementTree as ET
 
+import docs_page
 import mujoco
 import numpy as np
 import pinocchio as pin
@@ -278,6 +284,17 @@ def opendyn_available():
 # checks and timing
 
 
+def urdf_label(path):
+    """The URDF's path below the last folder called robots above it, without the machine's
+    prefix (ur_description/urdf/ur5_robot.urdf for example-robot-data's UR5); its name alone
+    when no folder above it is called robots."""
+    parts = pathlib.Path(path).parts
+    if "robots" not in parts[:-1]:
+        return parts[-1]
+    last = len(parts) - 1 - parts[::-1].index("robots")
+    return "/".join(parts[last + 1 :])
+
+
 def relative_difference(a, b):
     """max |a - b| / max |b|."""
     return float(np.max(np.abs(a - b)) / max(np.max(np.abs(b)), 1e-300))
@@ -396,10 +413,24 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="2 timing rounds instead of 5")
     parser.add_argument("--rounds", type=int, default=None, help="timing rounds (best of N)")
+    parser.add_argument(
+        "--docs",
+        action="store_true",
+        help="also write the tables to docs/performance/simulation.md",
+    )
     args = parser.parse_args()
     rounds = args.rounds if args.rounds is not None else (2 if args.quick else 5)
     if rounds < 1:
         parser.error(f"--rounds must be at least 1, got {rounds}")
+    title = "Simulation: opendyn, Pinocchio and MuJoCo on the UR5"
+    with docs_page.page(
+        "simulation.md", title, enabled=args.docs, modules=("pinocchio", "mujoco")
+    ):
+        print_tables(rounds)
+
+
+def print_tables(rounds):
+    """Print every table and sentence, timing with best of `rounds`."""
     n_steps = int(round(DURATION / DT))
 
     model = od.load_urdf(ROBOT)
@@ -413,7 +444,7 @@ def main():
         f"opendyn {od.__version__}, Pinocchio {pin.__version__}, MuJoCo {mujoco.__version__}, "
         f"numpy {np.__version__}, {os.cpu_count()} cores"
     )
-    print(f"{ROBOT}: {urdf}")
+    print(f"{ROBOT}: {urdf_label(urdf)}")
     masses = {
         "opendyn": float(np.sum(model.mass)),
         "Pinocchio": float(sum(inertia.mass for inertia in pin_sim.model.inertias[1:])),

@@ -5,6 +5,7 @@ Dask cluster against a bare rollout.
     python scripts/bench_sweep.py                # 1,000 runs (about 5 minutes on 2 cores)
     python scripts/bench_sweep.py --runs 200 --rounds 1
     python scripts/bench_sweep.py --memory       # and record="final" over 100,000 runs
+    python scripts/bench_sweep.py --docs         # and write docs/performance/sweeps.md
 
 1. Rollouts, in this process, alternating, best of --rounds: od.rollout with threads = 1 and 2
    against mujoco.rollout.rollout with 1 and 2 threads (one MjData each) on the same initial
@@ -22,6 +23,10 @@ Dask cluster against a bare rollout.
    feed 16 and 64 workers.
 3. --memory: the peak memory that a rollout of 100,000 runs of 0.02 s with record="final"
    allocates (tracemalloc, in a fresh process).
+
+With --docs it also writes what it prints to docs/performance/sweeps.md, under a header that says
+when, on what machine and with which versions it ran and the command that reproduces it
+(scripts/docs_page.py).
 """
 
 from __future__ import annotations
@@ -33,6 +38,7 @@ import subprocess
 import sys
 import time
 
+import docs_page
 import mujoco
 import numpy as np
 from bench_sim import MujocoSim
@@ -205,12 +211,17 @@ def main():
     parser.add_argument("--runs", type=int, default=1000)
     parser.add_argument("--rounds", type=int, default=2)
     parser.add_argument("--memory", action="store_true")
+    parser.add_argument(
+        "--docs", action="store_true", help="also write the tables to docs/performance/sweeps.md"
+    )
     args = parser.parse_args()
-    runs, q0 = initial_states(args.runs)
-    rollouts(q0, args.rounds)
-    sweeps(runs, q0)
-    if args.memory:
-        memory()
+    title = "Sweeps: what thousands of runs cost"
+    with docs_page.page("sweeps.md", title, enabled=args.docs, modules=("mujoco", "dask")):
+        runs, q0 = initial_states(args.runs)
+        rollouts(q0, args.rounds)
+        sweeps(runs, q0)
+        if args.memory:
+            memory()
 
 
 if __name__ == "__main__":

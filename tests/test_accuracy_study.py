@@ -6,7 +6,9 @@ simulator refuses exactly the explicit steps beyond the contact's stability limi
 the ball, friction near zero slip on the quadruped), implicit Euler lands the quadruped at 1 ms
 and converges at first order, and a stiffer contact needs a smaller RK4 step.
 
-Timings are recorded by the study but never asserted here.
+Timings are recorded by the study but never asserted here. The quick run is made as a new user
+would try it, without --out, from a temporary folder: it writes there, never into the published
+study in docs/study/.
 """
 
 import importlib.util
@@ -17,17 +19,46 @@ import pytest
 
 pytest.importorskip("pinocchio")  # the UR5 and Panda come from example-robot-data with it
 
-SCRIPT = pathlib.Path(__file__).resolve().parents[1] / "scripts" / "accuracy_vs_time.py"
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+SCRIPT = ROOT / "scripts" / "accuracy_vs_time.py"
+PUBLISHED = ROOT / "docs" / "study"
+
+
+def folder_bytes(folder):
+    """{path relative to folder: bytes} of every file under folder."""
+    return {str(p.relative_to(folder)): p.read_bytes() for p in folder.rglob("*") if p.is_file()}
 
 
 @pytest.fixture(scope="module")
-def quick_study(tmp_path_factory):
+def published_study():
+    """The published study's files, read before the quick run."""
+    return folder_bytes(PUBLISHED)
+
+
+@pytest.fixture(scope="module")
+def quick_study(tmp_path_factory, published_study):
+    """(output folder, study.json) of `accuracy_vs_time.py --quick` run from a temporary
+    folder without --out, as a new user would try it."""
     spec = importlib.util.spec_from_file_location("accuracy_vs_time", SCRIPT)
     study = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(study)
-    out = tmp_path_factory.mktemp("study")
-    assert study.main(["--quick", "--out", str(out)]) == 0
+    trial = tmp_path_factory.mktemp("trial")
+    with pytest.MonkeyPatch.context() as patch:
+        patch.chdir(trial)
+        assert study.main(["--quick"]) == 0
+    out = trial / "accuracy_study"
     return out, json.loads((out / "study.json").read_text())
+
+
+def test_quick_study_writes_where_it_is_run_and_leaves_the_published_study_alone(
+    quick_study, published_study
+):
+    out, _ = quick_study
+    assert sorted(p.name for p in out.iterdir()) == sorted(
+        name for name in published_study if "/" not in name
+    )
+    assert folder_bytes(PUBLISHED) == published_study
+    assert "do not edit this page" not in (out / "study.md").read_text()  # no --docs header
 
 
 def test_quick_study_writes_its_plots_and_tables(quick_study):
