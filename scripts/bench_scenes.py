@@ -74,8 +74,33 @@ def main():
     # the header's opendyn version is this checkout's, the one timed first
     sys.path.insert(0, str(ROOT))
     title = "Scenes: microseconds per simulation step"
-    with docs_page.page("scenes.md", title, enabled=args.docs):
+    with docs_page.page("scenes.md", title, enabled=args.docs, argv=_public_argv(sys.argv[1:])):
+        if args.against:
+            print(f"The other checkout (OTHER_CHECKOUT below): {_described(args.against)}.\n")
         print_table(args)
+
+
+def _public_argv(argv):
+    """argv with the other checkout's path (a path on this machine) as OTHER_CHECKOUT."""
+    public, hide = [], False
+    for arg in argv:
+        if hide:
+            public.append("OTHER_CHECKOUT")
+        elif arg.startswith("--against="):
+            public.append("--against=OTHER_CHECKOUT")
+        else:
+            public.append(arg)
+        hide = arg == "--against"
+    return public
+
+
+def _described(checkout):
+    """The other checkout as its git commit says it (or 'not a git checkout')."""
+    done = subprocess.run(
+        ["git", "-C", str(checkout), "log", "-1", "--format=commit %h of %cs, %s"],
+        capture_output=True, text=True,
+    )
+    return done.stdout.strip()[:120] if done.returncode == 0 else "not a git checkout"
 
 
 def print_table(args):

@@ -171,3 +171,14 @@ def test_the_study_refuses_to_publish_quick_results_or_elsewhere(study, argv, re
 def test_the_studys_trial_runs_go_to_the_current_folder(study):
     assert not pathlib.Path(study.DEFAULT_OUT).is_absolute()
     assert study.DOCS_OUT == PUBLISHED_STUDY
+
+
+def test_bench_scenes_page_names_the_other_checkout_by_its_commit_not_its_path():
+    """The other checkout's path is a path on the machine that ran it: the page's command says
+    OTHER_CHECKOUT, and a line above the table names the checkout by its commit."""
+    bench_scenes = load_script("bench_scenes")
+    for argv in (["--against", "/home/me/old"], ["--against=/home/me/old"]):
+        public = bench_scenes._public_argv([*argv, "--rounds", "3", "--docs"])
+        assert "/home/me/old" not in " ".join(public)
+        assert "OTHER_CHECKOUT" in " ".join(public) and public[-3:] == ["--rounds", "3", "--docs"]
+    assert bench_scenes._described(pathlib.Path("/")) == "not a git checkout"
