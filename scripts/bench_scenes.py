@@ -97,10 +97,10 @@ def _public_argv(argv):
 def _described(checkout):
     """The other checkout as its git commit says it (or 'not a git checkout')."""
     done = subprocess.run(
-        ["git", "-C", str(checkout), "log", "-1", "--format=commit %h of %cs, %s"],
+        ["git", "-C", str(checkout), "log", "-1", "--format=commit %h of %cs"],
         capture_output=True, text=True,
     )
-    return done.stdout.strip()[:120] if done.returncode == 0 else "not a git checkout"
+    return done.stdout.strip() if done.returncode == 0 else "not a git checkout"
 
 
 def print_table(args):
