@@ -1021,7 +1021,8 @@ def constrained_markdown(res):
         f"steps; bound {ref['error_bound']:.1e} rad from the run at {CHECK_TOL:.0e}; its own max "
         f"|phi| is {ref['violation_max']:.1e} m, max |A qd| {ref['velocity_violation_max']:.1e} "
         f"m/s). Every run, stabilised or not, approximates the same exact motion, on which phi = 0 "
-        f"and the Baumgarte terms vanish.\n"
+        f"and the Baumgarte terms vanish.\n",
+        figure("constraint.png", "loop-closure violation against step and wall time") + "\n",
     ]
     for stab, title in STABILISATION.items():
         out.append(f"### {title[0].upper() + title[1:]}\n")
@@ -1106,7 +1107,8 @@ def contact_markdown(contact):
         "W_applied - W_passive. Penetration: the deepest at the run's samples and its distance "
         "to the reference's deepest at the same samples. refused: the simulator refused the "
         "step before the run (its stability check at the initial state; the stiffest cause "
-        "shown); failed: the run stopped.\n"
+        "shown); failed: the run stopped.\n",
+        figure("contact.png", "error against wall time on two drops; the stiffness cost") + "\n",
     ]
     for res in contact["scenes"]:
         ref = res["reference"]
@@ -1215,6 +1217,11 @@ def method_table(rows, key, title):
     return lines
 
 
+def figure(name, what):
+    """A Markdown image of one of the study's plots, written beside study.md."""
+    return f"![{what}]({name})"
+
+
 def markdown(results, constrained, contact, algo, cond_rows, effect_rows):
     """Every table of the study, in Markdown, from its first section on (no title)."""
     out = ["## Recommendations: the fastest run that meets each max error\n"]
@@ -1230,6 +1237,8 @@ def markdown(results, constrained, contact, algo, cond_rows, effect_rows):
                 else f"{LABEL[r['integrator']]}, {_step(r)}: {r['wall_s'] * 1e3:.3g} ms"
             )
         out.append(f"| {res['title']} | " + " | ".join(cells) + " |")
+    pareto = figure("accuracy_vs_time.png", "error against wall time, one curve per integrator")
+    out.append(f"\n{pareto}")
     out += constrained_recommendations(constrained)
     out += contact_recommendations(contact)
     out.append(
@@ -1237,6 +1246,7 @@ def markdown(results, constrained, contact, algo, cond_rows, effect_rows):
         "against log(rtol) (1: the error is proportional to the tolerance). '-': fewer than "
         "three runs in the asymptotic range.\n"
     )
+    out.append(figure("convergence.png", "error against step, one curve per integrator") + "\n")
     out.append("| scene | " + " | ".join(LABEL[n] for n in LABEL) + " |")
     out.append("|---" * (len(LABEL) + 1) + "|")
     for res in results:
@@ -1273,6 +1283,8 @@ def markdown(results, constrained, contact, algo, cond_rows, effect_rows):
         out.append(f"\nPareto front (fastest first): {front}.")
     out += constrained_markdown(constrained)
     out.append("\n## Forward dynamics: time per call on random serial chains\n")
+    out.append(figure("algorithms.png", "time per call against n, and residual against cond(M)"))
+    out.append("")
     out += method_table(algo["chains"], "n", "n")
     out.append("\nAnd on the bundled robots (and example-robot-data's UR5 and Panda):\n")
     out += method_table(algo["robots"], "robot", "robot (nv)")

@@ -14,6 +14,7 @@ study in docs/study/.
 import importlib.util
 import json
 import pathlib
+import re
 
 import pytest
 
@@ -68,6 +69,9 @@ def test_quick_study_writes_its_plots_and_tables(quick_study):
     text = (out / "study.md").read_text()
     for heading in ("Recommendations", "Convergence orders", "Pareto front", "Residual", "effect"):
         assert heading in text
+    # the page shows its five plots, each written beside it (the documentation's study page)
+    shown = re.findall(r"!\[[^\]]+\]\(([\w.]+\.png)\)", text)
+    assert sorted(shown) == sorted(p.name for p in out.glob("*.png")) and len(shown) == 5
     assert record["mode"] == "quick"
     assert [r["key"] for r in record["integrators"]] == [
         "double_pendulum",
