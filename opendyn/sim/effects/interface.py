@@ -19,7 +19,7 @@ An effect is one module of this package, listed once in registry.EFFECTS. The mo
   FIELD, OFF   the Scene field that holds its record (None: scene.other_effects[NAME]), and
                the record of the effect switched off (None, or () for a list of records)
   record       record(scene) -> its record in that scene, or None where it is off
-  DOC          its line in the effects table (the documentation's scenes guide): the generalized force, in words
+  DOC          its line in the effects table (the scenes guide): the generalized force, in words
   ENABLE       what `opendyn simulate --enable NAME` puts in [effects.NAME] (values from the
                URDF), or None: no switch
   STAGE        the stage's name in reports, or None when the effect is no stage (armature)

@@ -92,7 +92,8 @@ def enable_settings() -> dict:
 
 
 def effects_table() -> str:
-    """The table of effects in the documentation's scenes guide (generated there): one row per name, its modules' DOC lines joined."""
+    """The table of effects of the documentation's scenes guide (generated there): one row per
+    name, its modules' DOC lines joined."""
     rows = ["| effect | generalized force |", "|---|---|"]
     for name in names():
         rows.append(f"| {name} | {'; '.join(effect.DOC for effect in named(name))} |")
