@@ -33,9 +33,10 @@ from .._runtime.compile_notice import compile_seconds
 from .._runtime.entry import entry_for
 from .._runtime.signals import signal_name
 from ..algorithm import checks
+from ..algorithm.configuration import check_unit_quaternions
 from ..errors import SceneError, SimulationError
 from ..io.scene.sections_run import whole_steps
-from ..multibody.joints import FREE, QUATERNION_TOLERANCE
+from ..multibody.joints import FREE
 from . import effects, integrators, step
 from .diagnostics import check_contact_step, failure_message
 from .effects import python_control
@@ -464,19 +465,14 @@ def checked_torque(model, tau, what):
 
 
 def checked_configuration(model, q, what):
-    """q checked as an initial configuration (nq,): finite, unit quaternions (normalised
-    within QUATERNION_TOLERANCE); errors name `what`."""
+    """q checked as an initial configuration (nq,): finite, each quaternion within
+    QUATERNION_TOLERANCE of unit norm as every dynamics function takes it (the same check), and
+    normalised; errors name `what`."""
     q = checked_vector(model, q, what, model.nq)
+    check_unit_quaternions(model, q, "q", what)
     for i in np.flatnonzero(model.jtype == FREE):
         k = int(model.iq[i]) + 3
-        norm = float(np.linalg.norm(q[k : k + 4]))
-        if not abs(norm - 1.0) <= QUATERNION_TOLERANCE:
-            raise ValueError(
-                f"{what}[{k}:{k + 4}] is the floating base's quaternion [x, y, z, "
-                f"w] and must have unit norm (within {QUATERNION_TOLERANCE:g}), found "
-                f"{norm:.6g}"
-            )
-        q[k : k + 4] /= norm
+        q[k : k + 4] /= np.linalg.norm(q[k : k + 4])
     return q
 
 

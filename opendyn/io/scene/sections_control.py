@@ -19,12 +19,18 @@ def _laws():
     return laws, tuple(effect for effect in in_control if not effect.CONTROL_TYPE)
 
 
+def _keys_by_type(laws, shared) -> dict:
+    """{control type: the keys it takes}: type, the law's own keys, and the shared ones."""
+    every = tuple(key for effect in shared for key in effect.KEYS)
+    keys = {"none": ("type",)}
+    keys.update({kind: ("type", *law.KEYS, *every) for kind, law in laws.items()})
+    return keys
+
+
 def control_keys() -> tuple[str, ...]:
-    """Every key [control] takes, over all its types: type, each law's, the shared ones."""
-    laws, shared = _laws()
-    keys = ["type", *(k for law in laws.values() for k in law.KEYS)]
-    keys += [k for effect in shared for k in effect.KEYS]
-    return tuple(dict.fromkeys(keys))
+    """Every key [control] takes, over all its types."""
+    keys = _keys_by_type(*_laws()).values()
+    return tuple(dict.fromkeys(key for of_type in keys for key in of_type))
 
 
 class ControlSection(ValueReader):
@@ -35,9 +41,7 @@ class ControlSection(ValueReader):
             return None
         self.table(table, "control")
         laws, shared = _laws()
-        every = tuple(key for effect in shared for key in effect.KEYS)
-        keys = {"none": ("type",)}
-        keys.update({kind: ("type", *law.KEYS, *every) for kind, law in laws.items()})
+        keys = _keys_by_type(laws, shared)
         kind = self.string(table.get("type", "none"), "control.type", tuple(keys))
         for k in table:
             owners = [t for t, valid in keys.items() if k in valid]
