@@ -224,5 +224,7 @@ def test_ctrl_c_stops_after_the_runs_under_way_and_keeps_them(monkeypatch, ctrl_
     assert result.complete[:sent].all() and (result.status[sent:] == "interrupted").all()
     assert 0 < sent < 200 and (result.rows[sent:] == 0).all()
     assert np.isnan(result.q_final[sent:]).all() and not np.isnan(result.q_final[:sent]).any()
+    for name in ("t", "q", "qd", "tau", "work_applied"):  # the record of a run never started
+        assert np.isnan(getattr(result, name)[sent:]).all(), name
     assert all(m == "interrupted (Ctrl-C) before it started" for m in result.message[sent:])
     assert_same_run(result, sent - 1, dataclasses.replace(scene, q0=q0[sent - 1], qd0=qd0[sent - 1]))
