@@ -65,8 +65,16 @@ def _short_repr(value, limit=40):
 
 
 def work_of(model, data, what):
-    """The work buffer a call runs in: the Data's (checked to be a Data of `model`), or the
-    model's own for a call without data=."""
+    """The work buffer a call runs in: the Data's, or the model's own for a call without data=.
+    Checks on the way that `model` is a Model (check_model's TypeError) and `data` a Data of
+    it: the public functions' first call, in one Python call (measured on the UR5: a call
+    to check_model and one here cost 0.1 us of inverse_dynamics' 1.6)."""
+    if data is None:
+        if type(model) is Model:
+            return model._work
+    elif type(data) is Data and data.model is model:
+        return data._work
+    check_model(model, what)
     if data is None:
         return model._work
     if type(data) is not Data:
@@ -74,12 +82,10 @@ def work_of(model, data, what):
             f"{what}: data must be an opendyn Data (od.Data(model) or model.data()), got "
             f"{type(data).__name__} {_short_repr(data)}"
         )
-    if data.model is not model:
-        raise ValueError(
-            f"{what}: data was made for model {data.model.name!r} (nv={data.model.nv}), not "
-            f"for this model {model.name!r} (nv={model.nv}); make one with model.data()"
-        )
-    return data._work
+    raise ValueError(
+        f"{what}: data was made for model {data.model.name!r} (nv={data.model.nv}), not "
+        f"for this model {model.name!r} (nv={model.nv}); make one with model.data()"
+    )
 
 
 def single_state_only(data, what):

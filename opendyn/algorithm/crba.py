@@ -132,9 +132,8 @@ def mass_matrix(model, q, data=None):
     Units: kg m^2 (rotation-rotation), kg m (mixed), kg (translation-translation); a floating
     base's block is the spatial inertia of the whole robot in the base frame.
     """
-    checks.check_model(model, "mass_matrix")
+    work = checks.work_of(model, data, "mass_matrix")  # checks model and data
     # the common call: a float64 (nq,) vector goes straight to the kernel
-    work = checks.work_of(model, data, "mass_matrix")
     M = np.empty(model._matrix_shape) if data is None else data.M
     try:
         status = crba_exact(model._ibuf, model._fbuf, work, q, M)

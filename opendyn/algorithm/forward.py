@@ -165,10 +165,9 @@ def forward_dynamics(model, q, qd, tau, f_tip=None, gravity=None, method="aba", 
     Raises SingularMassMatrixError (a ValueError) naming every joint that moves nothing with
     mass or inertia (or the joints whose combined motion moves none) when M(q) is singular.
     """
-    checks.check_model(model, "forward_dynamics")
+    work = checks.work_of(model, data, "forward_dynamics")  # checks model and data
     switches = method_switches(model, method)
     # the common call: float64 vectors of the model's sizes go straight to the kernel
-    work = checks.work_of(model, data, "forward_dynamics")
     qdd = np.empty(model._vector_shape) if data is None else data.qdd
     if gravity is None and f_tip is None:
         ibuf, fbuf, loads = model._ibuf, model._fbuf, model._loads

@@ -183,10 +183,9 @@ def inverse_dynamics(model, q, qd, qdd, f_tip=None, gravity=None, data=None):
     Returns tau, (nv,) or (N, nv): joint torques (N m) or forces (N), after the wrench
     (m_b, f_b) on a floating base in its own frame.
     """
-    checks.check_model(model, "inverse_dynamics")
+    work = checks.work_of(model, data, "inverse_dynamics")  # checks model and data
     if gravity is None and f_tip is None:
         # the common call: float64 vectors of the model's sizes go to the kernel's exact twin
-        work = checks.work_of(model, data, "inverse_dynamics")
         tau = np.empty(model._vector_shape) if data is None else data.tau
         try:
             status = rnea_exact(model._ibuf, model._fbuf, work, q, qd, qdd, model._loads, tau)
