@@ -8,6 +8,8 @@ from __future__ import annotations
 import dataclasses
 import os
 import signal
+import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -228,3 +230,28 @@ def test_ctrl_c_stops_after_the_runs_under_way_and_keeps_them(monkeypatch, ctrl_
         assert np.isnan(getattr(result, name)[sent:]).all(), name
     assert all(m == "interrupted (Ctrl-C) before it started" for m in result.message[sent:])
     assert_same_run(result, sent - 1, dataclasses.replace(scene, q0=q0[sent - 1], qd0=qd0[sent - 1]))
+
+
+_TYPED_LIST_HELPERS_COMPILED = r"""
+import numpy as np
+import opendyn as od
+from numba.typed import typedlist
+scene = od.load_scene("double_pendulum_swing").replace_run(duration=0.01)
+od.rollout(scene, q0=np.tile(scene.q0, (3, 1)), threads=2)
+helpers = (typedlist._make_list, typedlist._append, typedlist._length, typedlist._getitem)
+print(sum(len(f.signatures) for f in helpers))
+"""
+
+
+def test_a_rollout_compiles_nothing_outside_the_kernel_cache():
+    """numba's typed List called from Python compiles its helpers in every process, where no
+    cache keeps them (0.6 s, each sweep worker's first task): a rollout's list of runs is made
+    by compiled functions, so that a fresh process with a warm cache compiles none of them."""
+    proc = subprocess.run(
+        [sys.executable, "-c", _TYPED_LIST_HELPERS_COMPILED],
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.strip().splitlines()[-1] == "0"

@@ -23,6 +23,7 @@ from collections import namedtuple
 
 import numpy as np
 from numba import njit
+from numba.typed import List
 
 from .._runtime.arrays import copy_into, fill
 from .._runtime.kernel_cache import BATCH, JIT
@@ -49,6 +50,22 @@ Batch = namedtuple("Batch", ("runs", "which", "x", "out", "counters", "outcome")
 # recorded, t (N,) s the time it reached, tau (N, nv) the control torque at its last state
 # (NaN where the dynamics fail there).
 Outcome = namedtuple("Outcome", ("status", "rows", "t", "tau"))
+
+
+@njit(**JIT)
+def run_list(first):
+    """A numba typed List of RunData holding `first`: the `runs` of a Batch. Made and grown
+    (push_run) by compiled functions, which the kernel cache keeps: the typed List's own
+    methods called from Python compile in every process (0.6 s, a sweep worker's first task)."""
+    runs = List()
+    runs.append(first)
+    return runs
+
+
+@njit(**JIT)
+def push_run(runs, run):
+    """runs.append(run), compiled (see run_list)."""
+    runs.append(run)
 
 
 @njit(**JIT)
