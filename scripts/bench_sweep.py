@@ -2,7 +2,7 @@
 1 ms, 2,000 steps each), with od.rollout against MuJoCo's rollout, and with od.sweep on a local
 Dask cluster against a bare rollout.
 
-    python scripts/bench_sweep.py                # 1,000 runs (about 5 minutes on 2 cores)
+    python scripts/bench_sweep.py                # 1,000 runs (about 8 minutes on 2 cores)
     python scripts/bench_sweep.py --runs 200 --rounds 1
     python scripts/bench_sweep.py --memory       # and record="final" over 100,000 runs
     python scripts/bench_sweep.py --docs         # and write docs/performance/sweeps.md
@@ -16,7 +16,7 @@ Dask cluster against a bare rollout.
    within what the chaotic motion allows (printed) and with simulate's bit for bit.
 2. Sweeps (output_dt = 10 ms, as a sweep's scene would record): od.sweep on a local cluster of 1
    and of 2 worker processes, a bare od.rollout (threads = 1, the same runs and record), and a
-   loop over simulate. Prints runs per second, the second worker's speed-up and the engine's
+   loop over simulate; the bare rollout and the 1-worker sweep alternate, best of --rounds. Prints runs per second, the second worker's speed-up and the engine's
    overhead per run over the bare rollout, (T_sweep,1 worker - T_rollout) / N; the sweep's rows
    are checked against the rollout's final states, bit for bit. Then the chunk size the sweep
    chose, the seconds of work per task and the tasks per second a scheduler would then need to
@@ -143,19 +143,26 @@ def on_cluster(workers, n):
         return start, time.perf_counter() - tic, table
 
 
-def sweeps(runs, q0):
+def sweeps(runs, q0, rounds):
+    """The sweep engine against a bare rollout of the same runs. The bare rollout and the
+    one-worker sweep alternate over the rounds, best of each (this machine's speed drifts by
+    10-20% over minutes: runs timed minutes apart differ by more than the engine's share)."""
     n = len(runs)
     base = scene()
     od.rollout(base, q0=q0[:2])  # compile or load before any clock starts
-    tic = time.perf_counter()
-    bare = od.rollout(base, q0=q0, threads=1)
-    t_bare = time.perf_counter() - tic
     variants = Variants.of(base)
     tic = time.perf_counter()
     finals = [od.simulate(variants.scene_for(values)).q[-1].tolist() for values in runs]
     t_loop = time.perf_counter() - tic
+    bare_times, one_worker = [], []
+    for _ in range(rounds):
+        tic = time.perf_counter()
+        bare = od.rollout(base, q0=q0, threads=1)
+        bare_times.append(time.perf_counter() - tic)
+        one_worker.append(on_cluster(1, n))
     assert finals == bare.q_final.tolist(), "the rollout differs from the loop over simulate"
-    results = {w: on_cluster(w, n) for w in (1, 2)}
+    t_bare = min(bare_times)
+    results = {1: min(one_worker, key=lambda r: r[1]), 2: on_cluster(2, n)}
     for _, _, table in results.values():
         assert table.column("q_final").to_pylist() == finals, "the sweep differs from the rollout"
     t1, t2 = results[1][1], results[2][1]
@@ -171,7 +178,8 @@ def sweeps(runs, q0):
     per_run = t_bare / n
     overhead = (t1 - t_bare) / n
     print(f"\nspeed-up of the second worker: {t1 / t2:.2f}x; the engine's overhead per run over "
-          f"the bare rollout (1 worker): {overhead * 1e3:.2f} ms ({overhead / per_run * 100:.1f}% "
+          f"the bare rollout (1 worker, best of {len(bare_times)} alternating rounds each): "
+          f"{overhead * 1e3:.2f} ms ({overhead / per_run * 100:.1f}% "
           f"of a run's {per_run * 1e3:.1f} ms)")
     run_s = _run_seconds([base])
     size = chunk_runs(n, 2, run_s)
@@ -219,7 +227,7 @@ def main():
     with docs_page.page("sweeps.md", title, enabled=args.docs, modules=("mujoco", "dask")):
         runs, q0 = initial_states(args.runs)
         rollouts(q0, args.rounds)
-        sweeps(runs, q0)
+        sweeps(runs, q0, args.rounds)
         if args.memory:
             memory()
 
