@@ -268,8 +268,7 @@ def center_of_mass(model, q, data=None):
     function. ValueError when M is zero.
     data: optional Data of this model (single states): returns data.com, allocating nothing.
     """
-    checks.check_model(model, "center_of_mass")
-    work = checks.work_of(model, data, "center_of_mass")
+    work = checks.work_of(model, data, "center_of_mass")  # checks model and data
     c = np.empty(3) if data is None else data.com
     if model._total_mass > 0.0:
         try:
@@ -319,8 +318,7 @@ def _centroidal_map(model, q, linear_only, data, names):
     (which converts, raises or runs the batch). names = (the function, its result) for
     errors; the result is also the Data field data= returns."""
     what, result = names
-    checks.check_model(model, what)
-    work = checks.work_of(model, data, what)
+    work = checks.work_of(model, data, what)  # checks model and data
     out = np.empty((3 if linear_only else 6, model.nv)) if data is None else getattr(data, result)
     if model._total_mass > 0.0:
         try:
@@ -364,8 +362,7 @@ def _momentum_or_rate(model, q, qd, rate, data, names):
     """h_G (rate False) or Adot_G qd (rate True) for a single state or a batch: names = (the
     function, its result) for errors."""
     what, result = names
-    checks.check_model(model, what)
-    work = checks.work_of(model, data, what)
+    work = checks.work_of(model, data, what)  # checks model and data
     k = 1 if rate else 0
     out = np.empty((2, 6)) if data is None else data._momentum
     if model._total_mass > 0.0:

@@ -198,8 +198,7 @@ def task_space_mass_matrix(model, q, frame, damping=0.0, data=None):
       the Cholesky factor of M.
     """
     what = "task_space_mass_matrix"
-    checks.check_model(model, what)
-    work = checks.work_of(model, data, what)
+    work = checks.work_of(model, data, what)  # checks model and data
     q = _single_q(model, q, data, what)
     damping = checks.as_real(damping, f"{what}: damping")
     if damping < 0 or not np.isfinite(damping):
@@ -222,8 +221,7 @@ def frame_acceleration(model, q, qd, qdd, frame, data=None):
     nothing; data.V and data.dV hold the bodies' twists and their rates (no gravity).
     """
     what = "frame_acceleration"
-    checks.check_model(model, what)
-    work = checks.work_of(model, data, what)
+    work = checks.work_of(model, data, what)  # checks model and data
     state, batch = checks.as_states(model, q, ("qd", qd), ("qdd", qdd))
     if batch:
         checks.single_state_only(data, what)
@@ -247,8 +245,7 @@ def task_space_bias(model, q, qd, frame, gravity=None, data=None):
     Raises SingularTaskSpaceError where Lambda is undefined (see task_space_mass_matrix).
     """
     what = "task_space_bias"
-    checks.check_model(model, what)
-    work = checks.work_of(model, data, what)
+    work = checks.work_of(model, data, what)  # checks model and data
     q = _single_q(model, q, data, what)
     qd = checks.as_state(model, qd, "qd")
     if qd.ndim != 1:
