@@ -22,6 +22,10 @@ def test_free_fall_keeps_the_angular_momentum_and_gains_m_g_t():
     traj = od.simulate(scene)
     K = len(traj.t)
     assert traj.com.shape == (K, 3) and traj.centroidal_momentum.shape == (K, 6)
+    # the record is what the public functions give at each sample (one kernel computes both)
+    np.testing.assert_array_equal(traj.com, od.center_of_mass(scene.model, traj.q))
+    momentum = od.centroidal_momentum(scene.model, traj.q, traj.qd)
+    np.testing.assert_array_equal(traj.centroidal_momentum, momentum)
     M, g = float(np.sum(scene.model.mass)), np.asarray(scene.gravity)
     t = traj.t - traj.t[0]
     k_G, l_G = traj.centroidal_momentum[:, :3], traj.centroidal_momentum[:, 3:]

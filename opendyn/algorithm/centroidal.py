@@ -30,6 +30,7 @@ from .._runtime.entry import exact, learn
 from .._runtime.kernel_cache import BATCH, INLINE, JIT
 from ..multibody.data import (
     body_motion,
+    com_field,
     composite_inertias,
     joint_poses,
     new_work,
@@ -165,7 +166,8 @@ def centroidal_map_kernel(ibuf, fbuf, work, q, linear_only, A_G):
 @njit(**JIT)
 def centroidal_momentum_kernel(ibuf, fbuf, work, q, qd, qdd, rate, out):
     """out (2, 6) <- (h_G, dh_G/dt = A_G qdd + Adot_G qd) at (q, qd, qdd), without gravity, or,
-    unless rate, (h_G, 0), in `work` (R, p, R_s, p_s, V and dV are left as this state's).
+    unless rate, (h_G, 0), in `work` (R, p, R_s, p_s, V and dV are left as this state's, and
+    com as the centre of mass c).
     Returns a Status: OK, Q/QD/QDD_NOT_FINITE, Q_NOT_UNIT_QUATERNION or RESULT_NOT_FINITE."""
     status = motion_status(ibuf, q, qd, qdd)
     if status:
@@ -179,8 +181,8 @@ def centroidal_momentum_kernel(ibuf, fbuf, work, q, qd, qdd, rate, out):
     mass, h, I_o = rigid_inertias(ibuf, fbuf)
     s = scratch_rows(work, nb, nv)
     temp = temp_vectors(work, nb, nv)
-    P, F, c = temp[0], temp[1], temp[2, :3]
-    p_G = temp[2, 3:]
+    P, F, p_G = temp[0], temp[1], temp[2, :3]
+    c = com_field(work, nb, nv)
     forward_pass(body_tree, q, qd, qdd, no_loads(work, nb, nv)[0], R, p, V, dV, s)
     for i in range(nb):
         world_pose(R_s, p_s, parent[i], R[i], p[i], i)
@@ -222,6 +224,27 @@ def centroidal_momentum_batch_kernel(ibuf, fbuf, q, qd, qdd, rate, out, status, 
     work = new_work(body_count(ibuf), dof_count(ibuf))
     for n in range(start, stop):
         status[n] = centroidal_momentum_kernel(ibuf, fbuf, work, q[n], qd[n], qdd[n], rate, out[n])
+
+
+@njit(**BATCH)
+def centroidal_record_batch_kernel(ibuf, fbuf, q, qd, out, status, start, stop):
+    """A floating run's centroidal record over rows [start, stop) of its samples: out (N, 9)
+    <- (c, h_G) at (q[n], qd[n]), the centre of mass (m, world frame) and the centroidal
+    momentum (k_G, l_G), by the momentum kernel alone (which leaves c in its work buffer):
+    one kernel to compile for both."""
+    nb, nv = body_count(ibuf), dof_count(ibuf)
+    work = new_work(nb, nv)
+    momentum = np.empty((2, 6))
+    qdd = np.zeros(nv)
+    for n in range(start, stop):
+        status[n] = centroidal_momentum_kernel(
+            ibuf, fbuf, work, q[n], qd[n], qdd, False, momentum
+        )
+        c = com_field(work, nb, nv)
+        for r in range(3):
+            out[n, r] = c[r]
+        for r in range(6):
+            out[n, 3 + r] = momentum[0, r]
 
 
 def _evaluate(model, what, result, kernels, out, q, *named, options=()):
@@ -356,6 +379,21 @@ def centroidal_momentum_rate_bias(model, q, qd, data=None):
     """
     names = ("centroidal_momentum_rate_bias", "Adot_G qd")
     return _momentum_or_rate(model, q, qd, True, data, names)
+
+
+def centroidal_record(model, q, qd):
+    """(c (K, 3), h_G (K, 6)): the centre of mass (m, world frame) and the centroidal momentum
+    (k_G, l_G) at each sample of a run, q (K, nq), qd (K, nv) (a floating run's record), by one
+    compiled kernel (centroidal_record_batch_kernel); the values of center_of_mass and
+    centroidal_momentum at each row. The model has moving mass."""
+    q, qd = np.ascontiguousarray(q, dtype=float), np.ascontiguousarray(qd, dtype=float)
+    out = np.empty((q.shape[0], 9))
+    arguments = {"q": q, "qd": qd}
+    checks.run_batch(
+        model, centroidal_record_batch_kernel, (q, qd), out, "centroidal_momentum", "h_G",
+        arguments,
+    )
+    return out[:, :3].copy(), out[:, 3:].copy()
 
 
 def _momentum_or_rate(model, q, qd, rate, data, names):

@@ -66,7 +66,8 @@ Joint space, the results (the function that returns each):
                           qd = 0 for potential_energy)
 Centroidal (opendyn.algorithm.centroidal), in the world frame or world-aligned axes at the
 centre of mass G, angular first:
-  com           (3,)      center_of_mass: c (m)
+  com           (3,)      center_of_mass: c (m); centroidal_momentum and
+                          centroidal_momentum_rate_bias leave it too
   J_c           (3, nv)   center_of_mass_jacobian: c_dot = J_c qd
   A_G           (6, nv)   centroidal_momentum_matrix: h_G = A_G qd
   h_G           (6,)      centroidal_momentum: (k_G, l_G) (kg m^2/s, kg m/s);
@@ -293,7 +294,7 @@ _IA, _U, _L = (_where(n) for n in ("IA", "U", "L"))
 _MASS_C, _H_C, _I_C = (_where(n) for n in ("mass_c", "h_c", "I_c"))
 _BODY_FLAG, _ZERO_V, _E_K = (_where(n) for n in ("body_flag", "zero_v", "e_k"))
 _TAU, _G, _C, _H, _QDD = (_where(n) for n in ("tau", "g", "c", "h", "qdd"))
-_J, _M, _C_MATRIX, _T_SF = (_where(n) for n in ("J", "M", "C", "T_sf"))
+_J, _M, _C_MATRIX, _T_SF, _COM = (_where(n) for n in ("J", "M", "C", "T_sf", "com"))
 _S_S, _G_S, _GC, _DS = (_where(n) for n in ("S_s", "G_s", "Gc", "dS"))
 _BC, _V_S, _IDLE, _STILL = (_where(n) for n in ("Bc", "V_s", "idle", "still"))
 _NO_LOADS, _SCRATCH, _TEMP = _where("no_loads"), _where("scratch"), _where("temp")
@@ -450,6 +451,12 @@ def new_work(nb, nv):
 def frame_pose_field(work, nb, nv):
     """T_sf (4, 4): a frame's pose in the world."""
     return shaped(work_field(work, nb, nv, _T_SF), (4, 4))
+
+
+@njit(**JIT)
+def com_field(work, nb, nv):
+    """com (3,): the centre of mass c (m, world frame)."""
+    return work_field(work, nb, nv, _COM)
 
 
 @njit(**JIT)

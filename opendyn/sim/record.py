@@ -13,7 +13,7 @@ import numpy as np
 
 from .._runtime.batch import run_rows
 from .._runtime.version import __version__
-from ..algorithm.centroidal import center_of_mass, centroidal_momentum
+from ..algorithm.centroidal import centroidal_record
 from ..algorithm.constraints import ROW_COUNT, constraint_terms_kernel
 from ..algorithm.contact import contact_record_kernel
 from ..algorithm.energy import energies
@@ -162,10 +162,8 @@ def _centroidal_record(model, q, qd):
     a robot without moving mass (a Trajectory's defaults: empty arrays)."""
     if not model.floating_base or not model._total_mass > 0.0 or not len(q):
         return {}
-    return {
-        "com": center_of_mass(model, q),
-        "centroidal_momentum": centroidal_momentum(model, q, qd),
-    }
+    com, momentum = centroidal_record(model, q, qd)
+    return {"com": com, "centroidal_momentum": momentum}
 
 
 def violation(model, table, q, qd):
