@@ -49,7 +49,13 @@ from .diagnostics import check_contact_step, failure_message
 from .effects import python_control
 from .preflight import byte_size, check_start, run_size, sample_numbers
 from .rollout_loops import (
-    Batch, Outcome, RunData, push_run, rollout_adaptive, rollout_fixed, run_list,
+    Batch,
+    Outcome,
+    RunData,
+    push_run,
+    rollout_adaptive,
+    rollout_fixed,
+    run_list,
 )
 from .rollout_result import COMPLETE, FAILED, INTERRUPTED, RolloutResult
 from .simulate import Interrupt, as_scene, error_size_index, free_joints, integrator_of
@@ -82,8 +88,8 @@ def rollout(scene, q0=None, qd0=None, params=None, threads=None, record="samples
     are not finite numbers are refused before anything runs (ValueError or TypeError naming the
     argument and the run); a value the scene refuses (a negative mass) or a start simulate
     refuses fails its run only. A run that fails keeps its rows up to the failure (status
-    "failed", message the cause, as simulate states it) and the others go on. Ctrl-C stops after the runs under way and raises
-    RolloutInterrupted carrying the result so far.
+    "failed", message the cause, as simulate states it) and the others go on. Ctrl-C stops
+    after the runs under way and raises RolloutInterrupted carrying the result so far.
     """
     progress = flag(progress, "rollout: progress")
     scene = as_scene(scene, "rollout")
@@ -182,7 +188,8 @@ def run_batch(runs, threads, keep, progress=False):
     )
     counters = np.zeros((n, 3), dtype=np.int64)
     outcome = Outcome(
-        np.zeros(n, np.int64), np.zeros(n, np.int64), np.full(n, np.nan), np.full((n, model.nv), np.nan)
+        np.zeros(n, np.int64), np.zeros(n, np.int64), np.full(n, np.nan),
+        np.full((n, model.nv), np.nan),
     )
     notes = (np.full(n, INTERRUPTED, dtype="<U11"), [""] * n, [""] * n)
     which = np.full(n, -1, dtype=np.int64)
