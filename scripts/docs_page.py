@@ -131,10 +131,35 @@ class Tee:
         return getattr(self.stream, name)
 
 
+def _plain(line) -> bool:
+    """Whether a printed line is plain text: not blank, a table row, a heading or a list item."""
+    return bool(line.strip()) and not line.startswith(("|", "#", "- ", "* ", "```", "    "))
+
+
+def _row(line) -> bool:
+    """Whether a printed line is a table row."""
+    return line.startswith("|")
+
+
+def as_markdown(printed) -> str:
+    """The printed text as the page's Markdown: a blank line between two plain lines, which
+    Markdown would otherwise join into one paragraph (the console shows them as lines), and
+    between a table and a plain line next to it, which it would read as one more row."""
+    lines = printed.split("\n")
+    out = lines[:1]
+    for before, line in zip(lines, lines[1:]):
+        joined = _plain(before) or _row(before), _plain(line) or _row(line)
+        if all(joined) and not (_row(before) and _row(line)):
+            out.append("")
+        out.append(line)
+    return "\n".join(out)
+
+
 @contextlib.contextmanager
 def page(name, title, *, enabled, modules=(), script=None, argv=None, folder=PERFORMANCE):
     """With `enabled`, tee sys.stdout for the block and, when it ends without an exception,
-    write header(title, ...) + what it printed to folder/name (docs/performance/ by default)
+    write header(title, ...) + what it printed (as_markdown) to folder/name
+    (docs/performance/ by default)
     and say so on stderr. `script` is the script's path (default sys.argv[0]), `argv` its
     arguments (default sys.argv[1:]); `modules` as in versions(). The header's time is the
     block's start. Without `enabled` it does nothing."""
@@ -150,6 +175,7 @@ def page(name, title, *, enabled, modules=(), script=None, argv=None, folder=PER
         sys.stdout = tee.stream
     script = sys.argv[0] if script is None else script
     argv = sys.argv[1:] if argv is None else argv
-    text = header(title, script, argv, modules, when) + tee.text().rstrip("\n") + "\n"
+    printed = as_markdown(tee.text().rstrip("\n"))
+    text = header(title, script, argv, modules, when) + printed + "\n"
     path = write_atomic(pathlib.Path(folder) / name, text)
     print(f"wrote {path}", file=sys.stderr)

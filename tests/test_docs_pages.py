@@ -108,6 +108,17 @@ def test_a_page_is_header_and_what_was_printed(docs_page, tmp_path, capsys):
     assert stat.S_IMODE((tmp_path / "core.md").stat().st_mode) == 0o666 & ~current_umask()
 
 
+def test_printed_lines_stay_lines_on_the_page(docs_page, tmp_path, capsys):
+    """Two plain lines printed one after the other are two paragraphs on the page (Markdown
+    would join them into one); tables and lists are left as they are."""
+    with docs_page.page("sim.md", "Sim", enabled=True, script="b.py", argv=[], folder=tmp_path):
+        print("robot: ur5\nmass: 16.99 kg\n| a |\n|---|\n| 1 |\nsummary\n- one\n- two")
+    assert capsys.readouterr().out.startswith("robot: ur5\nmass: 16.99 kg\n")  # the console
+    text = (tmp_path / "sim.md").read_text()
+    page = "robot: ur5\n\nmass: 16.99 kg\n\n| a |\n|---|\n| 1 |\n\nsummary\n- one\n- two\n"
+    assert text.endswith(page)
+
+
 def test_no_page_is_written_unless_asked(docs_page, tmp_path, capsys):
     stdout = sys.stdout
     with docs_page.page("core.md", "Core", enabled=False, folder=tmp_path):
