@@ -17,8 +17,8 @@ Dask cluster against a bare rollout.
 2. Sweeps (output_dt = 10 ms, as a sweep's scene would record): od.sweep on a local cluster of 1
    and of 2 worker processes, a bare od.rollout (threads = 1, the same runs and record), and a
    loop over simulate; the bare rollout and the 1-worker sweep alternate, best of --rounds.
-   Prints runs per second, the second worker's speed-up and the engine's
-   overhead per run over the bare rollout, (T_sweep,1 worker - T_rollout) / N; the sweep's rows
+   Prints runs per second, the second worker's speed-up and the engine's overhead per run over
+   the bare rollout, (T_sweep,1 worker - T_rollout) / N; the sweep's rows
    are checked against the rollout's final states, bit for bit. Then the chunk size the sweep
    chose, the seconds of work per task and the tasks per second a scheduler would then need to
    feed 16 and 64 workers.

@@ -131,25 +131,25 @@ class Tee:
         return getattr(self.stream, name)
 
 
-def _plain(line) -> bool:
-    """Whether a printed line is plain text: not blank, a table row, a heading or a list item."""
-    return bool(line.strip()) and not line.startswith(("|", "#", "- ", "* ", "```", "    "))
-
-
-def _row(line) -> bool:
-    """Whether a printed line is a table row."""
-    return line.startswith("|")
+def _kind(line):
+    """"row" for a table row, "text" for plain text, None for anything else (a blank line, a
+    heading, a list item, code)."""
+    if line.startswith("|"):
+        return "row"
+    if not line.strip() or line.startswith(("#", "- ", "* ", "```", "    ")):
+        return None
+    return "text"
 
 
 def as_markdown(printed) -> str:
-    """The printed text as the page's Markdown: a blank line between two plain lines, which
+    """The printed text as the page's Markdown: a blank line between two lines of text, which
     Markdown would otherwise join into one paragraph (the console shows them as lines), and
-    between a table and a plain line next to it, which it would read as one more row."""
+    between a table and a line of text next to it, which it would read as one more row."""
     lines = printed.split("\n")
     out = lines[:1]
     for before, line in zip(lines, lines[1:]):
-        joined = _plain(before) or _row(before), _plain(line) or _row(line)
-        if all(joined) and not (_row(before) and _row(line)):
+        kinds = _kind(before), _kind(line)
+        if None not in kinds and kinds != ("row", "row"):
             out.append("")
         out.append(line)
     return "\n".join(out)
@@ -158,11 +158,10 @@ def as_markdown(printed) -> str:
 @contextlib.contextmanager
 def page(name, title, *, enabled, modules=(), script=None, argv=None, folder=PERFORMANCE):
     """With `enabled`, tee sys.stdout for the block and, when it ends without an exception,
-    write header(title, ...) + what it printed (as_markdown) to folder/name
-    (docs/performance/ by default)
-    and say so on stderr. `script` is the script's path (default sys.argv[0]), `argv` its
-    arguments (default sys.argv[1:]); `modules` as in versions(). The header's time is the
-    block's start. Without `enabled` it does nothing."""
+    write header(title, ...) + what it printed (as_markdown) to folder/name (docs/performance/
+    by default) and say so on stderr. `script` is the script's path (default sys.argv[0]),
+    `argv` its arguments (default sys.argv[1:]); `modules` as in versions(). The header's time
+    is the block's start. Without `enabled` it does nothing."""
     if not enabled:
         yield
         return
