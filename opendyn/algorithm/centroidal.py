@@ -88,7 +88,7 @@ def center_of_mass_kernel(ibuf, fbuf, work, q, c):
     if status:
         return status
     nb = body_count(ibuf)
-    forward_kinematics(tree(ibuf, fbuf), work, q, -1)
+    forward_kinematics(tree(ibuf, fbuf), work, q, np.int64(-1))
     R_s, p_s = world_poses(work, nb)
     mass, h, _ = rigid_inertias(ibuf, fbuf)
     centre_of_mass_of(R_s, p_s, mass, h, c)
@@ -109,7 +109,7 @@ def centroidal_map_kernel(ibuf, fbuf, work, q, linear_only, A_G):
     parent, nv_j, iv = body_tree.parent, body_tree.nv_j, body_tree.iv
     mult, S = body_tree.mult, body_tree.S
     nb, nv = body_count(ibuf), dof_count(ibuf)
-    forward_kinematics(body_tree, work, q, -1)
+    forward_kinematics(body_tree, work, q, np.int64(-1))
     R_s, p_s = world_poses(work, nb)
     mass, h, I_o = rigid_inertias(ibuf, fbuf)
     mass_c, h_c, I_c = composite_inertias(work, nb)

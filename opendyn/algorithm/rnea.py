@@ -40,7 +40,7 @@ def forward_pass(body_tree, q, qd, qdd, dV_0, R, p, V, dV, s):
     """Forward pass of RNEA: R[i], p[i] = T_{lambda,i}; V[i], dV[i] twist and its rate in {i}.
 
     body_tree is layout.tree(ibuf, fbuf); dV_0 is the base's acceleration, (0, -g) for
-    gravity. s is scratch of at least one row of 6. Also used for energies and frame
+    gravity. s is scratch of at least two rows of 6. Also used for energies and frame
     accelerations.
     """
     place_joints(body_tree, q, R, p)
@@ -53,14 +53,13 @@ def motion_pass(body_tree, qd, qdd, dV_0, R, p, V, dV, s):
     (joints.place_joints): V[i], dV[i] twist and its rate in {i}."""
     parent, nv_j, iv = body_tree.parent, body_tree.nv_j, body_tree.iv
     mult, S = body_tree.mult, body_tree.S
-    a = s[0]
+    a, V_0 = s[0], s[1]
+    fill(V_0, 0.0)  # the world does not move
     for i in range(parent.shape[0]):
         lam = parent[i]
-        # V_i = Ad_{T_{i,lambda}} V_lambda + S_i qd_i  (the world does not move: V_0 = 0)
-        if lam < 0:
-            fill(V[i], 0.0)
-        else:
-            twist_to_child(R[i], p[i], V[lam], V[i])
+        # V_i = Ad_{T_{i,lambda}} V_lambda + S_i qd_i (a root's V_lambda is V_0; one call, not a
+        # branch around two, so that numba drops the reference counting of the views here)
+        twist_to_child(R[i], p[i], V_0 if lam < 0 else V[lam], V[i])
         for k in range(nv_j[i]):
             qd_k = mult[i] * qd[iv[i] + k]
             for r in range(6):
