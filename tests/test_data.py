@@ -289,17 +289,17 @@ calls["center_of_mass"] = (
 )
 calls["center_of_mass_jacobian"] = (
     lambda **kw: od.center_of_mass_jacobian(model, q, **kw),
-    centroidal.centroidal_map_kernel, (*buffers, q, True, data.J_c),
+    centroidal.center_of_mass_jacobian_kernel, (*buffers, q, data.J_c),
 )
 calls["centroidal_momentum_matrix"] = (
     lambda **kw: od.centroidal_momentum_matrix(model, q, **kw),
-    centroidal.centroidal_map_kernel, (*buffers, q, False, data.A_G),
+    centroidal.momentum_matrix_kernel, (*buffers, q, data.A_G),
 )
 for rate, name in ((False, "centroidal_momentum"), (True, "centroidal_momentum_rate_bias")):
     calls[name] = (
         lambda name=name, **kw: getattr(od, name)(model, q, qd, **kw),
         centroidal.centroidal_momentum_kernel,
-        (*buffers, q, qd, model._zero_v, rate, data._momentum),
+        (*buffers, q, qd, rate, data._momentum),
     )
 calls["frame_acceleration"] = (
     lambda **kw: od.frame_acceleration(model, q, qd, qdd, link.name, **kw),

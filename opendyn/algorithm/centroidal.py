@@ -5,12 +5,14 @@ T_{s,i} = (R_i, p_i), mass m_i and first moment h_i = m_i c_i in {i}, M = sum_i 
 
     c   = (1/M) sum_i (R_i h_i + m_i p_i)                                   (m, world frame)
     h_G = (k_G, l_G) = sum_i Ad_{T_{i,G}}^T G_i V_i = A_G(q) qd             (angular first)
-    A_G[:, k] = mult_k Ic_{G,j} S_{G,k},  Ic_{G,j} = sum_{i in subtree(j)} Ad_{T_{i,G}}^T G_i Ad_{T_{i,G}}
-    J_c = l_G-rows of A_G / M,   so c_dot = J_c qd
+    A_G[:, k] = mult_k Ic_{G,j} S_{G,k},  Ic_{G,j} = sum_{i in subtree(j)} Ad_{i,G}^T G_i Ad_{i,G}
+    J_c[:, k] = mult_k (m_{c,j} v_k + w_k x h_{c,j}) / M = l_G-rows of A_G / M,   c_dot = J_c qd
     dh_G/dt = sum_i Ad_{T_{i,G}}^T (G_i dV_i - ad_{V_i}^T G_i V_i) = A_G qdd + Adot_G qd
 
 S_{G,k} is row k of joint j's motion subspace S_j as a twist of {G} (Ad_{T_{G,j}} s_k), Ic_{G,j}
-the composite inertia of the subtree of j about c in world axes, V_i and dV_i the body twists and
+the composite inertia of the subtree of j about c in world axes (Ad_{i,G} = Ad_{T_{i,G}}),
+(w_k, v_k) = Ad_{T_{s,j}} s_k the axis in {s}, m_{c,j} and h_{c,j} the subtree's mass and first
+moment sum_i m_i c_i in {s}, V_i and dV_i the body twists and
 accelerations of the RNEA forward pass (opendyn.algorithm.rnea) without gravity. {G} moves with
 c but keeps its axes, and c_dot x l_G = c_dot x M c_dot = 0, so the rate of the momentum about
 the moving point c is the rate about a fixed point momentarily at c: the sum of the bodies'
@@ -33,13 +35,14 @@ from ..multibody.data import (
     com_field,
     composite_inertias,
     joint_poses,
+    joint_vectors,
     new_work,
     no_loads,
     scratch_rows,
     temp_vectors,
     world_poses,
 )
-from ..multibody.joints import configuration_status, motion_status
+from ..multibody.joints import configuration_status, place_joints, state_status
 from ..multibody.layout import body_count, dof_count, rigid_inertias, tree
 from ..spatial.compiled import (
     add_neg_ad_transpose,
@@ -48,8 +51,8 @@ from ..spatial.compiled import (
     rigid_inertia_times,
 )
 from . import checks
-from .kinematics import forward_kinematics, space_axis, world_pose
-from .rnea import forward_pass
+from .kinematics import forward_kinematics, place_bodies, space_axis
+from .rnea import acceleration_pass, velocity_pass
 
 
 @njit(**INLINE)
@@ -88,7 +91,7 @@ def center_of_mass_kernel(ibuf, fbuf, work, q, c):
     if status:
         return status
     nb = body_count(ibuf)
-    forward_kinematics(tree(ibuf, fbuf), work, q, np.int64(-1))
+    forward_kinematics(ibuf, fbuf, work, q)
     R_s, p_s = world_poses(work, nb)
     mass, h, _ = rigid_inertias(ibuf, fbuf)
     centre_of_mass_of(R_s, p_s, mass, h, c)
@@ -96,12 +99,15 @@ def center_of_mass_kernel(ibuf, fbuf, work, q, c):
 
 
 @njit(**JIT)
-def centroidal_map_kernel(ibuf, fbuf, work, q, linear_only, A_G):
-    """A_G (6, nv) <- the centroidal momentum matrix at q or, when linear_only, A_G (3, nv) <-
-    J_c, its linear rows over M (the subtrees' rotational inertias are then not formed), in
-    `work` (R_s, p_s are left as the body poses; mass_c, h_c and, unless linear_only, I_c as
-    the subtrees' composite inertias about c in world axes). Returns a Status: OK,
-    Q_NOT_FINITE, Q_NOT_UNIT_QUATERNION or RESULT_NOT_FINITE."""
+def center_of_mass_jacobian_kernel(ibuf, fbuf, work, q, J_c):
+    """J_c (3, nv) <- the centre of mass Jacobian at q, in `work` (R_s, p_s are left as the
+    body poses, mass_c and h_c as the subtrees' masses and first moments in {s}). Returns a
+    Status: OK, Q_NOT_FINITE, Q_NOT_UNIT_QUATERNION or RESULT_NOT_FINITE.
+
+    The subtree of joint j moving alone at unit speed about its axis S_{s,k} = (w, v) in {s}
+    has linear momentum sum_i m_i (v + w x c_i) = m_c v + w x h_c (m_c its mass, h_c its
+    first moment sum_i m_i c_i in {s}), the column's share of M c_dot: no rotational
+    inertia and no centre of mass are formed."""
     status = configuration_status(ibuf, q)
     if status:
         return status
@@ -109,7 +115,55 @@ def centroidal_map_kernel(ibuf, fbuf, work, q, linear_only, A_G):
     parent, nv_j, iv = body_tree.parent, body_tree.nv_j, body_tree.iv
     mult, S = body_tree.mult, body_tree.S
     nb, nv = body_count(ibuf), dof_count(ibuf)
-    forward_kinematics(body_tree, work, q, np.int64(-1))
+    forward_kinematics(ibuf, fbuf, work, q)
+    R_s, p_s = world_poses(work, nb)
+    mass, h, _ = rigid_inertias(ibuf, fbuf)
+    mass_c, h_c, _ = composite_inertias(work, nb)
+    S_s = temp_vectors(work, nb, nv)[0]
+    # m_c,i = sum of m_j, h_c,i = sum of R_j h_j + m_j p_j over the subtree of i, tips first
+    total = 0.0
+    for i in range(nb):
+        total += mass[i]
+        mass_c[i] = mass[i]
+        for r in range(3):
+            h_c[i, r] = (
+                R_s[i, r, 0] * h[i, 0]
+                + R_s[i, r, 1] * h[i, 1]
+                + R_s[i, r, 2] * h[i, 2]
+                + mass[i] * p_s[i, r]
+            )
+    for i in range(nb - 1, -1, -1):
+        lam = parent[i]
+        if lam >= 0:
+            mass_c[lam] += mass_c[i]
+            for r in range(3):
+                h_c[lam, r] += h_c[i, r]
+    # J_c[:, iv_i + k] += mult_i (m_c,i v + w x h_c,i) / M,  (w, v) = Ad_{T_{s,i}} s_k
+    zero_matrix(J_c)
+    for i in range(nb):
+        f = mult[i] / total
+        for k in range(nv_j[i]):
+            space_axis(R_s[i], p_s[i], S[i, k], S_s)
+            col = iv[i] + k
+            J_c[0, col] += f * (mass_c[i] * S_s[3] + S_s[1] * h_c[i, 2] - S_s[2] * h_c[i, 1])
+            J_c[1, col] += f * (mass_c[i] * S_s[4] + S_s[2] * h_c[i, 0] - S_s[0] * h_c[i, 2])
+            J_c[2, col] += f * (mass_c[i] * S_s[5] + S_s[0] * h_c[i, 1] - S_s[1] * h_c[i, 0])
+    return result_status(J_c)
+
+
+@njit(**JIT)
+def momentum_matrix_kernel(ibuf, fbuf, work, q, A_G):
+    """A_G (6, nv) <- the centroidal momentum matrix at q, in `work` (R_s, p_s are left as the
+    body poses; mass_c, h_c and I_c as the subtrees' composite inertias about c in world
+    axes). Returns a Status: OK, Q_NOT_FINITE, Q_NOT_UNIT_QUATERNION or RESULT_NOT_FINITE."""
+    status = configuration_status(ibuf, q)
+    if status:
+        return status
+    body_tree = tree(ibuf, fbuf)
+    parent, nv_j, iv = body_tree.parent, body_tree.nv_j, body_tree.iv
+    mult, S = body_tree.mult, body_tree.S
+    nb, nv = body_count(ibuf), dof_count(ibuf)
+    forward_kinematics(ibuf, fbuf, work, q)
     R_s, p_s = world_poses(work, nb)
     mass, h, I_o = rigid_inertias(ibuf, fbuf)
     mass_c, h_c, I_c = composite_inertias(work, nb)
@@ -117,27 +171,16 @@ def centroidal_map_kernel(ibuf, fbuf, work, q, linear_only, A_G):
     temp = temp_vectors(work, nb, nv)
     S_G, F, c = temp[0], temp[1], temp[2, :3]
     p_G = temp[2, 3:]
-    total = centre_of_mass_of(R_s, p_s, mass, h, c)
-    # Ic_{G,i} <- G_i in {G} (mass and first moment R_i h_i + m_i (p_i - c) alone when
-    # linear_only), then the subtree sums (all in one frame: plain sums), tips first
+    centre_of_mass_of(R_s, p_s, mass, h, c)
+    # Ic_{G,i} <- G_i in {G}, then the subtree sums (all in one frame: plain sums), tips first
     fill(mass_c, 0.0)
     fill(h_c, 0.0)
     fill(I_c, 0.0)
     for i in range(nb):
         relative_to(p_s[i], c, p_G)
-        if linear_only:
-            mass_c[i] = mass[i]
-            for r in range(3):
-                h_c[i, r] = (
-                    R_s[i, r, 0] * h[i, 0]
-                    + R_s[i, r, 1] * h[i, 1]
-                    + R_s[i, r, 2] * h[i, 2]
-                    + mass[i] * p_G[r]
-                )
-        else:
-            add_rigid_inertia_to_parent(
-                R_s[i], p_G, mass[i], h[i], I_o[i], mass_c[i : i + 1], h_c[i], I_c[i], scratch
-            )
+        add_rigid_inertia_to_parent(
+            R_s[i], p_G, mass[i], h[i], I_o[i], mass_c[i : i + 1], h_c[i], I_c[i], scratch
+        )
     for i in range(nb - 1, -1, -1):
         lam = parent[i]
         if lam >= 0:
@@ -146,34 +189,28 @@ def centroidal_map_kernel(ibuf, fbuf, work, q, linear_only, A_G):
                 h_c[lam, r] += h_c[i, r]
                 for k in range(3):
                     I_c[lam, r, k] += I_c[i, r, k]
-    # A_G[:, iv_i + k] = mult_i Ic_{G,i} S_{G,k}, S_{G,k} = Ad_{T_{G,i}} s_k; its linear rows
-    # are m_c v - h_c x w for S_{G,k} = (w, v)
+    # A_G[:, iv_i + k] += mult_i Ic_{G,i} S_{G,k},  S_{G,k} = Ad_{T_{G,i}} s_k
     zero_matrix(A_G)
     for i in range(nb):
         relative_to(p_s[i], c, p_G)
         for k in range(nv_j[i]):
             space_axis(R_s[i], p_G, S[i, k], S_G)
             rigid_inertia_times(mass_c[i], h_c[i], I_c[i], S_G, F)
-            if linear_only:
-                for r in range(3):
-                    A_G[r, iv[i] + k] += mult[i] * F[3 + r] / total
-            else:
-                for r in range(6):
-                    A_G[r, iv[i] + k] += mult[i] * F[r]
+            for r in range(6):
+                A_G[r, iv[i] + k] += mult[i] * F[r]
     return result_status(A_G)
 
 
 @njit(**JIT)
-def centroidal_momentum_kernel(ibuf, fbuf, work, q, qd, qdd, rate, out):
-    """out (2, 6) <- (h_G, dh_G/dt = A_G qdd + Adot_G qd) at (q, qd, qdd), without gravity, or,
-    unless rate, (h_G, 0), in `work` (R, p, R_s, p_s, V and dV are left as this state's, and
-    com as the centre of mass c).
-    Returns a Status: OK, Q/QD/QDD_NOT_FINITE, Q_NOT_UNIT_QUATERNION or RESULT_NOT_FINITE."""
-    status = motion_status(ibuf, q, qd, qdd)
+def centroidal_momentum_kernel(ibuf, fbuf, work, q, qd, rate, out):
+    """out (2, 6) <- (h_G, Adot_G qd) at (q, qd), or, unless rate, (h_G, 0), in `work` (R, p,
+    R_s, p_s, V and, with rate, dV at qdd = 0 are left as this state's, and com as the centre
+    of mass c; without rate the accelerations are not formed). Returns a Status: OK,
+    Q/QD_NOT_FINITE, Q_NOT_UNIT_QUATERNION or RESULT_NOT_FINITE."""
+    status = state_status(ibuf, q, qd)
     if status:
         return status
     body_tree = tree(ibuf, fbuf)
-    parent = body_tree.parent
     nb, nv = body_count(ibuf), dof_count(ibuf)
     R, p = joint_poses(work, nb)
     R_s, p_s = world_poses(work, nb)
@@ -183,9 +220,12 @@ def centroidal_momentum_kernel(ibuf, fbuf, work, q, qd, qdd, rate, out):
     temp = temp_vectors(work, nb, nv)
     P, F, p_G = temp[0], temp[1], temp[2, :3]
     c = com_field(work, nb, nv)
-    forward_pass(body_tree, q, qd, qdd, no_loads(work, nb, nv)[0], R, p, V, dV, s)
-    for i in range(nb):
-        world_pose(R_s, p_s, parent[i], R[i], p[i], i)
+    place_joints(body_tree, q, R, p)
+    place_bodies(body_tree, work)
+    velocity_pass(body_tree, qd, R, p, V, s)
+    if rate:  # dV_i at qdd = 0, without gravity (dV_0 = 0)
+        zero_v = joint_vectors(work, nb, nv)[1]
+        acceleration_pass(body_tree, qd, zero_v, no_loads(work, nb, nv)[0], R, p, V, dV, s)
     centre_of_mass_of(R_s, p_s, mass, h, c)
     # h_G = sum_i Ad_{T_{i,G}}^T P_i,  P_i = G_i V_i;
     # dh_G/dt = sum_i Ad_{T_{i,G}}^T F_i,  F_i = G_i dV_i - ad_{V_i}^T P_i
@@ -210,20 +250,27 @@ def center_of_mass_batch_kernel(ibuf, fbuf, q, c, status, start, stop):
 
 
 @njit(**BATCH)
-def centroidal_map_batch_kernel(ibuf, fbuf, q, linear_only, A_G, status, start, stop):
-    """Centroidal momentum matrices (or, linear_only, J_c) over rows [start, stop) of a batch
-    (N, nq) -> (N, 6, nv) (or (N, 3, nv))."""
+def center_of_mass_jacobian_batch_kernel(ibuf, fbuf, q, J_c, status, start, stop):
+    """Centre of mass Jacobians over rows [start, stop) of a batch (N, nq) -> (N, 3, nv)."""
     work = new_work(body_count(ibuf), dof_count(ibuf))
     for n in range(start, stop):
-        status[n] = centroidal_map_kernel(ibuf, fbuf, work, q[n], linear_only, A_G[n])
+        status[n] = center_of_mass_jacobian_kernel(ibuf, fbuf, work, q[n], J_c[n])
 
 
 @njit(**BATCH)
-def centroidal_momentum_batch_kernel(ibuf, fbuf, q, qd, qdd, rate, out, status, start, stop):
+def momentum_matrix_batch_kernel(ibuf, fbuf, q, A_G, status, start, stop):
+    """Centroidal momentum matrices over rows [start, stop) of a batch (N, nq) -> (N, 6, nv)."""
+    work = new_work(body_count(ibuf), dof_count(ibuf))
+    for n in range(start, stop):
+        status[n] = momentum_matrix_kernel(ibuf, fbuf, work, q[n], A_G[n])
+
+
+@njit(**BATCH)
+def centroidal_momentum_batch_kernel(ibuf, fbuf, q, qd, rate, out, status, start, stop):
     """(h_G, dh_G/dt or 0) over rows [start, stop) of a batch -> (N, 2, 6)."""
     work = new_work(body_count(ibuf), dof_count(ibuf))
     for n in range(start, stop):
-        status[n] = centroidal_momentum_kernel(ibuf, fbuf, work, q[n], qd[n], qdd[n], rate, out[n])
+        status[n] = centroidal_momentum_kernel(ibuf, fbuf, work, q[n], qd[n], rate, out[n])
 
 
 @njit(**BATCH)
@@ -235,11 +282,8 @@ def centroidal_record_batch_kernel(ibuf, fbuf, q, qd, out, status, start, stop):
     nb, nv = body_count(ibuf), dof_count(ibuf)
     work = new_work(nb, nv)
     momentum = np.empty((2, 6))
-    qdd = np.zeros(nv)
     for n in range(start, stop):
-        status[n] = centroidal_momentum_kernel(
-            ibuf, fbuf, work, q[n], qd[n], qdd, False, momentum
-        )
+        status[n] = centroidal_momentum_kernel(ibuf, fbuf, work, q[n], qd[n], False, momentum)
         c = com_field(work, nb, nv)
         for r in range(3):
             out[n, r] = c[r]
@@ -279,8 +323,9 @@ def _evaluate(model, what, result, kernels, out, q, *named, options=()):
 
 
 center_of_mass_exact = exact(center_of_mass_kernel)
-centroidal_map_exact = exact(centroidal_map_kernel)
-centroidal_momentum_exact = exact(centroidal_momentum_kernel)
+jacobian_exact = exact(center_of_mass_jacobian_kernel)
+momentum_matrix_exact = exact(momentum_matrix_kernel)
+momentum_exact = exact(centroidal_momentum_kernel)
 
 
 def center_of_mass(model, q, data=None):
@@ -310,11 +355,22 @@ def center_of_mass_jacobian(model, q, data=None):
     v_b) in the base frame, then per joint).
 
     J_c = the l_G rows of A_G over M (centroidal_momentum_matrix), the linear momentum being
-    M c_dot; the same kernel, without forming the subtrees' rotational inertias.
+    M c_dot: column k is m_c v + w x h_c over M, for the subtree moved by velocity coordinate
+    k (its mass m_c and first moment h_c in {s}) and that coordinate's axis (w, v) in {s}.
     q: (nq,) or (N, nq) -> (3, nv) or (N, 3, nv).
     data: optional Data of this model (single states): returns data.J_c, allocating nothing.
     """
-    return _centroidal_map(model, q, True, data, ("center_of_mass_jacobian", "J_c"))
+    work = checks.work_of(model, data, "center_of_mass_jacobian")  # checks model and data
+    J_c = np.empty((3, model.nv)) if data is None else data.J_c
+    if model._total_mass > 0.0:
+        try:
+            status = jacobian_exact(model._ibuf, model._fbuf, work, q, J_c)
+        except TypeError:
+            status = learn(jacobian_exact, center_of_mass_jacobian_kernel)
+        if not status:
+            return J_c
+    kernels = (center_of_mass_jacobian_kernel, center_of_mass_jacobian_batch_kernel, work, data)
+    return _evaluate(model, "center_of_mass_jacobian", "J_c", kernels, J_c, q)
 
 
 def centroidal_momentum_matrix(model, q, data=None):
@@ -332,26 +388,17 @@ def centroidal_momentum_matrix(model, q, data=None):
     q: (nq,) or (N, nq) -> (6, nv) or (N, 6, nv).
     data: optional Data of this model (single states): returns data.A_G, allocating nothing.
     """
-    return _centroidal_map(model, q, False, data, ("centroidal_momentum_matrix", "A_G"))
-
-
-def _centroidal_map(model, q, linear_only, data, names):
-    """A_G (6, nv), or J_c (3, nv) when linear_only, of a single configuration or a batch: a
-    single float64 q goes straight to the kernel's exact twin, anything else through _evaluate
-    (which converts, raises or runs the batch). names = (the function, its result) for
-    errors; the result is also the Data field data= returns."""
-    what, result = names
-    work = checks.work_of(model, data, what)  # checks model and data
-    out = np.empty((3 if linear_only else 6, model.nv)) if data is None else getattr(data, result)
+    work = checks.work_of(model, data, "centroidal_momentum_matrix")  # checks model and data
+    A_G = np.empty((6, model.nv)) if data is None else data.A_G
     if model._total_mass > 0.0:
         try:
-            status = centroidal_map_exact(model._ibuf, model._fbuf, work, q, linear_only, out)
+            status = momentum_matrix_exact(model._ibuf, model._fbuf, work, q, A_G)
         except TypeError:
-            status = learn(centroidal_map_exact, centroidal_map_kernel)
+            status = learn(momentum_matrix_exact, momentum_matrix_kernel)
         if not status:
-            return out
-    kernels = (centroidal_map_kernel, centroidal_map_batch_kernel, work, data)
-    return _evaluate(model, what, result, kernels, out, q, options=(linear_only,))
+            return A_G
+    kernels = (momentum_matrix_kernel, momentum_matrix_batch_kernel, work, data)
+    return _evaluate(model, "centroidal_momentum_matrix", "A_G", kernels, A_G, q)
 
 
 def centroidal_momentum(model, q, qd, data=None):
@@ -362,7 +409,18 @@ def centroidal_momentum(model, q, qd, data=None):
     q, qd: (nq,), (nv,), or batches (N, nq), (N, nv) -> (6,) or (N, 6).
     data: optional Data of this model (single states): returns data.h_G, allocating nothing.
     """
-    return _momentum_or_rate(model, q, qd, False, data, ("centroidal_momentum", "h_G"))
+    work = checks.work_of(model, data, "centroidal_momentum")  # checks model and data
+    out = np.empty((2, 6)) if data is None else data._momentum
+    if model._total_mass > 0.0:
+        ibuf, fbuf = model._ibuf, model._fbuf
+        try:
+            status = momentum_exact(ibuf, fbuf, work, q, qd, False, out)
+        except TypeError:
+            status = learn(momentum_exact, centroidal_momentum_kernel)
+        if not status:
+            return out[0] if data is None else data.h_G
+    names = ("centroidal_momentum", "h_G")
+    return _momentum_checked(model, q, qd, False, (work, data, out), names)
 
 
 def centroidal_momentum_rate_bias(model, q, qd, data=None):
@@ -377,8 +435,18 @@ def centroidal_momentum_rate_bias(model, q, qd, data=None):
     data: optional Data of this model (single states): returns data.Adot_G_qd, allocating
     nothing (data.h_G holds h_G).
     """
+    work = checks.work_of(model, data, "centroidal_momentum_rate_bias")  # checks model, data
+    out = np.empty((2, 6)) if data is None else data._momentum
+    if model._total_mass > 0.0:
+        ibuf, fbuf = model._ibuf, model._fbuf
+        try:
+            status = momentum_exact(ibuf, fbuf, work, q, qd, True, out)
+        except TypeError:
+            status = learn(momentum_exact, centroidal_momentum_kernel)
+        if not status:
+            return out[1] if data is None else data.Adot_G_qd
     names = ("centroidal_momentum_rate_bias", "Adot_G qd")
-    return _momentum_or_rate(model, q, qd, True, data, names)
+    return _momentum_checked(model, q, qd, True, (work, data, out), names)
 
 
 def centroidal_record(model, q, qd):
@@ -396,25 +464,17 @@ def centroidal_record(model, q, qd):
     return out[:, :3].copy(), out[:, 3:].copy()
 
 
-def _momentum_or_rate(model, q, qd, rate, data, names):
-    """h_G (rate False) or Adot_G qd (rate True) for a single state or a batch: names = (the
-    function, its result) for errors."""
+def _momentum_checked(model, q, qd, rate, buffers, names):
+    """h_G (rate False) or Adot_G qd (rate True) by the checked path, after the public
+    function's exact call: a single state (converted, or refused naming the argument) or a
+    batch. buffers = (work, data, out) of the public function; names = (the function, its
+    result) for errors."""
     what, result = names
-    work = checks.work_of(model, data, what)  # checks model and data
+    work, data, out = buffers
     k = 1 if rate else 0
-    out = np.empty((2, 6)) if data is None else data._momentum
-    if model._total_mass > 0.0:
-        ibuf, fbuf, zero = model._ibuf, model._fbuf, model._zero_v
-        try:
-            status = centroidal_momentum_exact(ibuf, fbuf, work, q, qd, zero, rate, out)
-        except TypeError:
-            status = learn(centroidal_momentum_exact, centroidal_momentum_kernel)
-        if not status:
-            return out[k] if data is None else (data.Adot_G_qd if rate else data.h_G)
     kernels = (centroidal_momentum_kernel, centroidal_momentum_batch_kernel, work, data)
     out = _evaluate(
-        model, what, result, kernels, out, q, ("qd", qd), ("qdd", model._zero_v),
-        options=(rate,),
+        model, what, result, kernels, out, q, ("qd", qd), options=(rate,)
     )
     if out.ndim == 3:
         return out[:, k, :]

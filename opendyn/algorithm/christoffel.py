@@ -82,9 +82,7 @@ def space_axes_and_inertias(ibuf, fbuf, work, q):
     nb = parent.shape[0]
     terms = coriolis_terms(work, nb)
     S_s, G_s, Gc = terms.S_s, terms.G_s, terms.Gc
-    # every body: last = -1, typed int64 as the other callers' body index (a literal -1
-    # would compile forward_kinematics a second time)
-    forward_kinematics(body_tree, work, q, np.int64(-1))
+    forward_kinematics(ibuf, fbuf, work, q)
     R_s, p_s = world_poses(work, nb)
     scratch = scratch_rows(work, nb, dof_count(ibuf))
     for i in range(nb):

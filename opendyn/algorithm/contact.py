@@ -206,7 +206,7 @@ def contact_kernel(ibuf, fbuf, work, contacts, q, qd, tau, linear, record):
     Data's buffer: the world poses R_s, p_s of every body). Returns sum_p k delta_p
     delta_dot_p (W), the spring's share of the power. Written out where it is called (the
     record's kernel): the step calls contact_on_poses, on the poses it placed."""
-    forward_kinematics(tree(ibuf, fbuf), work, q, np.int64(-1))
+    forward_kinematics(ibuf, fbuf, work, q)
     return contact_on_poses(ibuf, fbuf, work, contacts, qd, tau, linear, record)
 
 
@@ -289,7 +289,7 @@ def contact_jacobians_kernel(ibuf, fbuf, contacts, q, J):
     body_tree = tree(ibuf, fbuf)
     nb = body_count(ibuf)
     work = new_work(nb, dof_count(ibuf))  # the world poses R_s, p_s
-    forward_kinematics(body_tree, work, q, np.int64(-1))
+    forward_kinematics(ibuf, fbuf, work, q)
     R_s, p_s = world_poses(work, nb)
     x_s = np.empty(3)
     S = np.empty(6)  # a joint axis in {s}

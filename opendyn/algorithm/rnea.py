@@ -51,9 +51,18 @@ def forward_pass(body_tree, q, qd, qdd, dV_0, R, p, V, dV, s):
 def motion_pass(body_tree, qd, qdd, dV_0, R, p, V, dV, s):
     """forward_pass on the joint poses R[i], p[i] = T_{lambda,i} already placed
     (joints.place_joints): V[i], dV[i] twist and its rate in {i}."""
+    velocity_pass(body_tree, qd, R, p, V, s)
+    acceleration_pass(body_tree, qd, qdd, dV_0, R, p, V, dV, s)
+
+
+@njit(**INLINE)
+def velocity_pass(body_tree, qd, R, p, V, s):
+    """V[i] <- the twist of body i in {i}, on the joint poses R[i], p[i] = T_{lambda,i}: the
+    first half of motion_pass (the momentum kernel stops here). s: scratch of at least two
+    rows of 6."""
     parent, nv_j, iv = body_tree.parent, body_tree.nv_j, body_tree.iv
     mult, S = body_tree.mult, body_tree.S
-    a, V_0 = s[0], s[1]
+    V_0 = s[1]
     fill(V_0, 0.0)  # the world does not move
     for i in range(parent.shape[0]):
         lam = parent[i]
@@ -64,6 +73,17 @@ def motion_pass(body_tree, qd, qdd, dV_0, R, p, V, dV, s):
             qd_k = mult[i] * qd[iv[i] + k]
             for r in range(6):
                 V[i, r] += S[i, k, r] * qd_k
+
+
+@njit(**INLINE)
+def acceleration_pass(body_tree, qd, qdd, dV_0, R, p, V, dV, s):
+    """dV[i] <- the rate of body i's twist in {i}, after velocity_pass (V[i]): the second half
+    of motion_pass. s: scratch of at least one row of 6."""
+    parent, nv_j, iv = body_tree.parent, body_tree.nv_j, body_tree.iv
+    mult, S = body_tree.mult, body_tree.S
+    a = s[0]
+    for i in range(parent.shape[0]):
+        lam = parent[i]
         # dV_i = Ad_{T_{i,lambda}} dV_lambda + sum_k (ad_{V_i} s_k) qd_k + s_k qdd_k over the
         # rows s_k of S_i
         twist_to_child(R[i], p[i], dV_0 if lam < 0 else dV[lam], dV[i])

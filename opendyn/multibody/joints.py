@@ -139,11 +139,12 @@ def joint_transform(S_i, R_home, p_home, theta, R, p):
 
 
 @njit(**JIT)
-def free_joint_transforms(body_tree, q, R, p):
-    """R[i], p[i] <- T_{lambda(i), i}(q_i) = M X_J(q_i) of every free joint i."""
-    parent, jtype, iq = body_tree.parent, body_tree.jtype, body_tree.iq
-    R_home, p_home = body_tree.R_home, body_tree.p_home
-    for i in range(parent.shape[0]):
+def free_joint_transforms(jtype, iq, home, q, R, p):
+    """R[i], p[i] <- T_{lambda(i), i}(q_i) = M X_J(q_i) of every free joint i; home = the
+    BodyTree's (R_home, p_home). Takes only the arrays it reads: a compiled call updates the
+    reference count of each array it takes, twice."""
+    R_home, p_home = home
+    for i in range(jtype.shape[0]):
         if jtype[i] == FREE:
             free_transform(R_home[i], p_home[i], q, iq[i], R[i], p[i])
 
@@ -157,7 +158,8 @@ def prepare_joint_transforms(body_tree, q, R, p):
     kernel's loop calls joint_transform for each body. A fixed-base model's kernels compile
     nothing here, and their loops hold only the 1-dof calc (measured: a free-joint branch with
     a call inside RNEA's loop made talos 10-20% slower)."""
-    transform_free_joints(body_tree[0], body_tree, q, R, p)
+    home = (body_tree.R_home, body_tree.p_home)
+    transform_free_joints(body_tree.jtype, body_tree.jtype, body_tree.iq, home, q, R, p)
 
 
 @njit(**INLINE)
