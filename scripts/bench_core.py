@@ -3,19 +3,19 @@
     python scripts/bench_core.py [--quick] [--no-startup] [--centroidal] [--docs]
 
 Prints, for UR5, Panda and talos_full_v2 with a fixed base and for solo12, anymal and
-talos_full_v2 with a floating base (Pinocchio with a JointModelFreeFlyer root), microseconds
-per call and the ratio opendyn / Pinocchio for inverse dynamics, the mass matrix, forward
-dynamics (each method), the Coriolis matrix, the derivatives of inverse and forward dynamics
+talos_full_v2 with a floating base (Pinocchio with a JointModelFreeFlyer root), microseconds per
+call and the ratio opendyn / Pinocchio for inverse dynamics, the mass matrix, forward dynamics
+(each method), the Coriolis matrix, the derivatives of inverse and forward dynamics
 (computeRNEADerivatives, computeABADerivatives) and a frame Jacobian, each without and with a
 Data (data=); then the derivatives against central differences of our own functions; then the
 centroidal functions and the joint-torque regressor (UR5, Panda, talos fixed, solo12 and talos
-floating; --centroidal prints only that table); then batched inverse dynamics
-over N = 10,000 states against a Python loop over pin.rnea and against pin.rneaInParallel; then
-numba's first-call compile time and the start-up time with the on-disk cache, measured in
-fresh processes. States are converted to Pinocchio's conventions by opendyn.verify's adapter.
-Every call goes through the public API with the argument checks a user gets. Each pair of
-functions is timed in alternation (best of 25 rounds each), so that a slow spell of a shared
-machine hits both sides alike.
+floating; the centroidal functions also with data=; --centroidal prints only that table); then
+batched inverse dynamics over N = 10,000 states against a Python loop over pin.rnea and against
+pin.rneaInParallel; then numba's first-call compile time and the start-up time with the on-disk
+cache, measured in fresh processes. States are converted to Pinocchio's conventions by
+opendyn.verify's adapter. Every call goes through the public API with the argument checks a user
+gets. Each pair of functions is timed in alternation (best of 25 rounds each), so that a slow
+spell of a shared machine hits both sides alike.
 
 With --docs it also writes what it prints to docs/performance/core.md, under a header that says
 when, on what machine and with which versions it ran and the command that reproduces it
@@ -166,15 +166,7 @@ def single_state_rows(name, floating_base, budget):
             lambda: pin.computeFrameJacobian(pmodel, pdata, qp, fid, pin.LOCAL),
         ),
     ]
-    rows = []
-    for ours_name, ours, ours_with_data, pin_name, theirs in cases:
-        functions = (ours, theirs) if ours_with_data is None else (ours, theirs, ours_with_data)
-        for fn in functions:
-            fn()
-        times = paired_us(*functions, budget_s=budget)
-        t_data = times[2] if ours_with_data is not None else None
-        rows.append((label, model.nv, ours_name, times[0], t_data, pin_name, times[1]))
-    return rows
+    return timed_rows(label, model.nv, cases, budget)
 
 
 # the centroidal functions and the regressor: (robot, floating base)
@@ -191,69 +183,94 @@ def centroidal_rows(name, floating_base, budget):
     """The centroidal functions and the joint-torque regressor against Pinocchio's
     centerOfMass, jacobianCenterOfMass, ccrba, computeCentroidalMomentum,
     computeCentroidalMomentumTimeVariation (its dh_g at a = 0 is Adot_G qd) and
-    computeJointTorqueRegressor, paired."""
+    computeJointTorqueRegressor, paired; the centroidal functions also with a Data (data=),
+    as Pinocchio's calls are (the regressor takes none)."""
     model, oracle, label = load_pair(name, floating_base)
     pmodel, pdata = oracle.model, oracle.data
     q, qd, qdd = random_states(model, np.random.default_rng(0))
     qp, vp, ap = oracle.q(q), oracle.v(qd), oracle.v(qdd)
     zero = np.zeros(pmodel.nv)
+    data = model.data()
     cases = [
         (
             "center_of_mass",
             lambda: od.center_of_mass(model, q),
+            lambda: od.center_of_mass(model, q, data=data),
             "centerOfMass",
             lambda: pin.centerOfMass(pmodel, pdata, qp),
         ),
         (
             "center_of_mass_jacobian",
             lambda: od.center_of_mass_jacobian(model, q),
+            lambda: od.center_of_mass_jacobian(model, q, data=data),
             "jacobianCenterOfMass",
             lambda: pin.jacobianCenterOfMass(pmodel, pdata, qp),
         ),
         (
             "centroidal_momentum_matrix",
             lambda: od.centroidal_momentum_matrix(model, q),
+            lambda: od.centroidal_momentum_matrix(model, q, data=data),
             "ccrba",
             lambda: pin.ccrba(pmodel, pdata, qp, vp),
         ),
         (
             "centroidal_momentum",
             lambda: od.centroidal_momentum(model, q, qd),
+            lambda: od.centroidal_momentum(model, q, qd, data=data),
             "computeCentroidalMomentum",
             lambda: pin.computeCentroidalMomentum(pmodel, pdata, qp, vp),
         ),
         (
             "centroidal_momentum_rate_bias",
             lambda: od.centroidal_momentum_rate_bias(model, q, qd),
+            lambda: od.centroidal_momentum_rate_bias(model, q, qd, data=data),
             "computeCentroidalMomentumTimeVariation (a = 0)",
             lambda: pin.computeCentroidalMomentumTimeVariation(pmodel, pdata, qp, vp, zero),
         ),
         (
             "torque_regressor",
             lambda: od.torque_regressor(model, q, qd, qdd),
+            None,
             "computeJointTorqueRegressor",
             lambda: pin.computeJointTorqueRegressor(pmodel, pdata, qp, vp, ap),
         ),
     ]
+    return timed_rows(label, model.nv, cases, budget)
+
+
+def timed_rows(label, nv, cases, budget):
+    """(label, nv, name, us, us with data= or None, Pinocchio's name, its us) per case
+    (name, ours, ours with data= or None, Pinocchio's name, theirs), timed in alternation."""
     rows = []
-    for ours_name, ours, pin_name, theirs in cases:
-        ours(), theirs()
-        t_ours, t_pin = paired_us(ours, theirs, budget_s=budget)
-        rows.append((label, model.nv, ours_name, t_ours, pin_name, t_pin))
+    for ours_name, ours, ours_with_data, pin_name, theirs in cases:
+        functions = (ours, theirs) if ours_with_data is None else (ours, theirs, ours_with_data)
+        for fn in functions:
+            fn()
+        times = paired_us(*functions, budget_s=budget)
+        t_data = times[2] if ours_with_data is not None else None
+        rows.append((label, nv, ours_name, times[0], t_data, pin_name, times[1]))
     return rows
 
 
+def print_rows(rows):
+    """The table of single-state rows (timed_rows), with and without data=."""
+    print(
+        "| robot | nv | opendyn | us | us with data= | Pinocchio | us | ratio | ratio with data= |"
+    )
+    print("|---|---:|---|---:|---:|---|---:|---:|---:|")
+    for robot, nv, ours_name, t_ours, t_data, pin_name, t_pin in rows:
+        with_data = ("", "") if t_data is None else (f"{t_data:.2f}", f"{t_data / t_pin:.2f}")
+        print(
+            f"| {robot} | {nv} | {ours_name} | {t_ours:.2f} | {with_data[0]} | {pin_name} "
+            f"| {t_pin:.2f} | {t_ours / t_pin:.2f} | {with_data[1]} |"
+        )
+
+
 def print_centroidal_table(budget):
-    print("| robot | nv | opendyn | us | Pinocchio | us | ratio |")
-    print("|---|---:|---|---:|---|---:|---:|")
+    rows = []
     for name, floating_base in CENTROIDAL_ROBOTS:
-        for robot, nv, ours_name, t_ours, pin_name, t_pin in centroidal_rows(
-            name, floating_base, budget
-        ):
-            print(
-                f"| {robot} | {nv} | {ours_name} | {t_ours:.2f} | {pin_name} | {t_pin:.2f} "
-                f"| {t_ours / t_pin:.2f} |"
-            )
+        rows += centroidal_rows(name, floating_base, budget)
+    print_rows(rows)
 
 
 def batch_rows(name, floating_base, n_states, budget):
@@ -374,18 +391,10 @@ def print_tables(args):
     if args.centroidal:
         print_centroidal_table(budget)
         return
-    print(
-        "| robot | nv | opendyn | us | us with data= | Pinocchio | us | ratio | ratio with data= |"
-    )
-    print("|---|---:|---|---:|---:|---|---:|---:|---:|")
+    rows = []
     for name, floating_base in ROBOTS:
-        rows = single_state_rows(name, floating_base, budget)
-        for robot, nv, ours_name, t_ours, t_data, pin_name, t_pin in rows:
-            with_data = ("", "") if t_data is None else (f"{t_data:.2f}", f"{t_data / t_pin:.2f}")
-            print(
-                f"| {robot} | {nv} | {ours_name} | {t_ours:.2f} | {with_data[0]} | {pin_name} "
-                f"| {t_pin:.2f} | {t_ours / t_pin:.2f} | {with_data[1]} |"
-            )
+        rows += single_state_rows(name, floating_base, budget)
+    print_rows(rows)
 
     print(
         "\nAnalytical derivatives against central differences of opendyn's own inverse or "
