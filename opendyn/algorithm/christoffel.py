@@ -67,7 +67,7 @@ from ..multibody.joints import configuration_status
 from ..multibody.layout import body_count, dof_count, spatial_inertias, tree
 from ..spatial.compiled import ad_twist, add_inertia_to_parent, dot6, mat6_vec
 from . import checks
-from .kinematics import forward_kinematics, space_axis
+from .kinematics import forward_kinematics, place_space_axes
 
 
 @njit(**JIT)
@@ -76,8 +76,7 @@ def space_axes_and_inertias(ibuf, fbuf, work, q):
     S_i[k] for its joint's rows k < nv_i; G_s[i] = Ad_{T_is}^T G_i Ad_{T_is}; Gc[i] = the sum
     of G_s over the subtree of i (all in the world frame)."""
     body_tree = tree(ibuf, fbuf)
-    parent, nv_j, mult = body_tree.parent, body_tree.nv_j, body_tree.mult
-    S = body_tree.S
+    parent = body_tree.parent
     G = spatial_inertias(ibuf, fbuf)
     nb = parent.shape[0]
     terms = coriolis_terms(work, nb)
@@ -85,11 +84,8 @@ def space_axes_and_inertias(ibuf, fbuf, work, q):
     forward_kinematics(ibuf, fbuf, work, q)
     R_s, p_s = world_poses(work, nb)
     scratch = scratch_rows(work, nb, dof_count(ibuf))
+    place_space_axes(body_tree, R_s, p_s, S_s)
     for i in range(nb):
-        for k in range(nv_j[i]):
-            space_axis(R_s[i], p_s[i], S[i, k], S_s[i, k])
-            for r in range(6):
-                S_s[i, k, r] *= mult[i]
         zero_matrix(G_s[i])
         add_inertia_to_parent(R_s[i], p_s[i], G[i], G_s[i], scratch)
         for r in range(6):

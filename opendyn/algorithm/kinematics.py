@@ -123,6 +123,19 @@ def space_axis(R_s, p_s, A_i, S):
 
 
 @njit(**INLINE)
+def place_space_axes(body_tree, R_s, p_s, S_s):
+    """S_s[i, k] <- mult_i Ad_{T_{s,i}} S_i[k] for every body i and row k < nv_i of its joint's
+    S_i: the joints' motion axes in {s} at the world poses R_s, p_s, each coordinate's share
+    (mult) included."""
+    nv_j, mult, S = body_tree.nv_j, body_tree.mult, body_tree.S
+    for i in range(nv_j.shape[0]):
+        for k in range(nv_j[i]):
+            space_axis(R_s[i], p_s[i], S[i, k], S_s[i, k])
+            for r in range(6):
+                S_s[i, k, r] *= mult[i]
+
+
+@njit(**INLINE)
 def add_point_jacobian(body_tree, R_s, p_s, body, p_w, sign, J, S_s):
     """J (3, nv) += sign * d(world velocity of the world point p_w fixed to `body`)/d v:
     column iv[i] + k gets mult[i] (v_i + w_i x p_w) with (w_i, v_i) = Ad_{T_{s,i}} S[i, k]

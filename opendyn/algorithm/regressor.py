@@ -15,8 +15,11 @@ in its axes (Model.inertial_parameters; Pinocchio's order). The net wrench on bo
 and joint j transmits the wrenches of the bodies it carries, so the columns of body i are
 
     Y[j's rows, 10 i + c] = mult_j S_j^T Ad_{T_{i,j}}^T B_i[:, c]   for j = i and its ancestors
+                          = S_{s,j}^T Ad_{T_{i,s}}^T B_i[:, c]
 
-(zero elsewhere). Gravity enters as the base acceleration dV_0 = (0, -g), as in the RNEA.
+(zero elsewhere), S_{s,j} = mult_j Ad_{T_{s,j}} S_j the joint's axes in the world frame {s}: each
+column moves to {s} once, and each joint's share is a dot product. Gravity enters as the base
+acceleration dV_0 = (0, -g), as in the RNEA.
 (Atkeson, An and Hollerbach, "Estimation of inertial parameters of manipulator loads and links",
 IJRR 5(3), 1986; Khalil and Dombre, Modeling, Identification and Control of Robots, 2002.)
 """
@@ -30,12 +33,21 @@ from .._runtime.arrays import result_status, zero_matrix
 from .._runtime.entry import exact, learn
 from .._runtime.kernel_cache import BATCH, INLINE, JIT
 from .._runtime.options import flag
-from ..multibody.data import body_motion, joint_poses, new_work, scratch_rows, temp_vectors
+from ..multibody.data import (
+    body_motion,
+    joint_poses,
+    new_work,
+    scratch_rows,
+    space_axes,
+    temp_vectors,
+    world_poses,
+)
 from ..multibody.joints import motion_status
 from ..multibody.layout import body_count, dof_count, tree
 from ..spatial.algebra import linear
 from ..spatial.compiled import dot6, wrench_to_parent
 from . import checks
+from .kinematics import place_bodies, place_space_axes
 from .rnea import forward_pass
 
 # the entries (r, c) of I in a body's parameters 4 .. 9
@@ -90,32 +102,36 @@ def body_regressor_column(V, dV, c, F):
 @njit(**JIT)
 def regressor_kernel(ibuf, fbuf, work, q, qd, qdd, dV_0, Y):
     """Y (nv, 10 nb) <- the joint-torque regressor at one state under the base acceleration
-    dV_0 = (0, -g), in `work` (R, p, V and dV are left as this state's). Returns a Status: OK,
-    Q/QD/QDD_NOT_FINITE, Q_NOT_UNIT_QUATERNION or RESULT_NOT_FINITE."""
+    dV_0 = (0, -g), in `work` (R, p, R_s, p_s, V, dV and the axes S_s are left as this
+    state's). Returns a Status: OK, Q/QD/QDD_NOT_FINITE, Q_NOT_UNIT_QUATERNION or
+    RESULT_NOT_FINITE."""
     status = motion_status(ibuf, q, qd, qdd)
     if status:
         return status
     body_tree = tree(ibuf, fbuf)
     parent, nv_j, iv = body_tree.parent, body_tree.nv_j, body_tree.iv
-    mult, S = body_tree.mult, body_tree.S
     nb, nv = body_count(ibuf), dof_count(ibuf)
     R, p = joint_poses(work, nb)
+    R_s, p_s = world_poses(work, nb)
     V, dV, _ = body_motion(work, nb)
+    S_s = space_axes(work, nb)
     forward_pass(body_tree, q, qd, qdd, dV_0, R, p, V, dV, scratch_rows(work, nb, nv))
+    place_bodies(body_tree, work)
+    place_space_axes(body_tree, R_s, p_s, S_s)
     F = temp_vectors(work, nb, nv)[0]
     zero_matrix(Y)
-    # column c of body i: B_i[:, c], carried from {i} up to the root, each joint's share
+    # column c of body i: F = Ad_{T_{i,s}}^T B_i[:, c], its wrench moved to {s} once; joint j
+    # carrying body i transmits mult_j s_k^T F_j = S_s[j, k]^T F (the power of a twist and a
+    # wrench is the same in every frame), for j = i and its ancestors
     for i in range(nb):
         for c in range(PARAMETERS_PER_BODY):
             column = PARAMETERS_PER_BODY * i + c
             body_regressor_column(V[i], dV[i], c, F)
+            wrench_to_parent(R_s[i], p_s[i], F)
             j = i
-            while True:
+            while j >= 0:
                 for k in range(nv_j[j]):
-                    Y[iv[j] + k, column] += mult[j] * dot6(S[j, k], F)
-                if parent[j] < 0:
-                    break
-                wrench_to_parent(R[j], p[j], F)
+                    Y[iv[j] + k, column] += dot6(S_s[j, k], F)
                 j = parent[j]
     return result_status(Y)
 

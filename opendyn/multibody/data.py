@@ -29,6 +29,7 @@ Per body, as the last evaluation that computes them left them:
                           body i, in {i}: mass (kg), first moment m c (kg m), rotational inertia
                           about {i}'s origin (kg m^2) (CRBA)
   S_s           (nb, 6, 6) rows k < nv_i: joint i's motion axes mult_i Ad_{T_si} S_i[k] in {s}
+                          (torque_regressor leaves them too)
                           (Coriolis matrix, Christoffel symbols)
   G_s, Gc       (nb, 6, 6) body i's spatial inertia in {s}, and the sum over its subtree
   dS            (nb, 6, 6) rows k < nv_i: the axes' rates ad_{V_s[i]} S_s[i, k] in {s}
@@ -380,6 +381,13 @@ def composite_inertias(work, nb):
 CoriolisTerms = namedtuple(
     "CoriolisTerms", ("S_s", "G_s", "Gc", "dS", "Bc", "V_s", "idle", "still")
 )
+
+
+@njit(**JIT)
+def space_axes(work, nb):
+    """S_s (nb, 6, 6): rows k < nv_i, joint i's motion axes mult_i Ad_{T_si} S_i[k] in {s} (the
+    Coriolis terms' first field, which the regressor fills too)."""
+    return shaped(body_field(work, nb, _S_S), (nb, 6, 6))
 
 
 @njit(**JIT)
