@@ -167,7 +167,6 @@ def momentum_matrix_kernel(ibuf, fbuf, work, q, A_G):
     R_s, p_s = world_poses(work, nb)
     mass, h, I_o = rigid_inertias(ibuf, fbuf)
     mass_c, h_c, I_c = composite_inertias(work, nb)
-    scratch = scratch_rows(work, nb, nv)[:3, :3]
     temp = temp_vectors(work, nb, nv)
     S_G, F, c = temp[0], temp[1], temp[2, :3]
     p_G = temp[2, 3:]
@@ -179,7 +178,7 @@ def momentum_matrix_kernel(ibuf, fbuf, work, q, A_G):
     for i in range(nb):
         relative_to(p_s[i], c, p_G)
         add_rigid_inertia_to_parent(
-            R_s[i], p_G, mass[i], h[i], I_o[i], mass_c[i : i + 1], h_c[i], I_c[i], scratch
+            R_s[i], p_G, mass[i], h[i], I_o[i], mass_c[i : i + 1], h_c[i], I_c[i]
         )
     for i in range(nb - 1, -1, -1):
         lam = parent[i]

@@ -23,7 +23,6 @@ from ..multibody.data import (
     composite_inertias,
     joint_poses,
     new_work,
-    scratch_rows,
     temp_vectors,
 )
 from ..multibody.joints import configuration_status, place_joints
@@ -61,7 +60,6 @@ def crba_on_poses(ibuf, fbuf, work, M):
     nb, nv = body_count(ibuf), dof_count(ibuf)
     R, p = joint_poses(work, nb)
     mass_c, h_c, I_c = composite_inertias(work, nb)
-    scratch = scratch_rows(work, nb, nv)[:3, :3]
     F = temp_vectors(work, nb, nv)[0]
     for i in range(nb):
         mass_c[i] = mass[i]
@@ -82,7 +80,6 @@ def crba_on_poses(ibuf, fbuf, work, M):
                 mass_c[lam : lam + 1],
                 h_c[lam],
                 I_c[lam],
-                scratch,
             )
     # M_ab = (Ad^T ... Ic_i s_a)^T s_b along the path from i to the root, s_a a row of S_i and
     # s_b a row of S_j for each j on the path (one row for a 1-dof joint, written out)

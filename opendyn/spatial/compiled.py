@@ -149,13 +149,14 @@ def rigid_inertia_times(mass, h, I_o, V, out):
 
 
 @njit(**INLINE)
-def add_rigid_inertia_to_parent(R, p, mass, h, I_o, mass_p, h_p, I_p, S):
+def add_rigid_inertia_to_parent(R, p, mass, h, I_o, mass_p, h_p, I_p):
     """(mass_p, h_p, I_p) += the rigid-body inertia (mass, h, I_o) of {i} expressed in {lambda}.
 
     With u = R h:  m' = m,  h' = u + m p,
     I' = R I_o R^T - ([u][p] + [p][u]) - m [p][p]
        = R I_o R^T - (p u^T + u p^T) + 2 (u . p) 1 - m (p p^T - |p|^2 1).
-    S is (3, 3) scratch for I_o R^T.
+    I_o R^T is kept in registers (a 3 x 3 tuple), not in a scratch array: stores to a scratch
+    that may alias I_p would have to be read back.
     """
     u0 = R[0, 0] * h[0] + R[0, 1] * h[1] + R[0, 2] * h[2]
     u1 = R[1, 0] * h[0] + R[1, 1] * h[1] + R[1, 2] * h[2]
@@ -167,15 +168,18 @@ def add_rigid_inertia_to_parent(R, p, mass, h, I_o, mass_p, h_p, I_p, S):
     diag = 2.0 * (u0 * p[0] + u1 * p[1] + u2 * p[2]) + mass * (
         p[0] * p[0] + p[1] * p[1] + p[2] * p[2]
     )
-    for k in range(3):
-        for c in range(3):
-            S[k, c] = I_o[k, 0] * R[c, 0] + I_o[k, 1] * R[c, 1] + I_o[k, 2] * R[c, 2]
+    # IR[k][c] = (I_o R^T)[k, c] = I_o[k] . R[c]
+    IR = (
+        row_times_rows(I_o, 0, R),
+        row_times_rows(I_o, 1, R),
+        row_times_rows(I_o, 2, R),
+    )
     for r in range(3):
         for c in range(r, 3):
             v = (
-                R[r, 0] * S[0, c]
-                + R[r, 1] * S[1, c]
-                + R[r, 2] * S[2, c]
+                R[r, 0] * IR[0][c]
+                + R[r, 1] * IR[1][c]
+                + R[r, 2] * IR[2][c]
                 - p[r] * u[c]
                 - u[r] * p[c]
                 - mass * p[r] * p[c]
@@ -185,6 +189,17 @@ def add_rigid_inertia_to_parent(R, p, mass, h, I_o, mass_p, h_p, I_p, S):
             else:
                 I_p[r, c] += v
                 I_p[c, r] += v
+
+
+@njit(**INLINE)
+def row_times_rows(A, k, B):
+    """(A[k] . B[0], A[k] . B[1], A[k] . B[2]): row k of A B^T for 3 x 3 A, B."""
+    a0, a1, a2 = A[k, 0], A[k, 1], A[k, 2]
+    return (
+        a0 * B[0, 0] + a1 * B[0, 1] + a2 * B[0, 2],
+        a0 * B[1, 0] + a1 * B[1, 1] + a2 * B[1, 2],
+        a0 * B[2, 0] + a1 * B[2, 1] + a2 * B[2, 2],
+    )
 
 
 @njit(**INLINE)
