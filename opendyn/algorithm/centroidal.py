@@ -408,18 +408,7 @@ def centroidal_momentum(model, q, qd, data=None):
     q, qd: (nq,), (nv,), or batches (N, nq), (N, nv) -> (6,) or (N, 6).
     data: optional Data of this model (single states): returns data.h_G, allocating nothing.
     """
-    work = checks.work_of(model, data, "centroidal_momentum")  # checks model and data
-    out = np.empty((2, 6)) if data is None else data._momentum
-    if model._total_mass > 0.0:
-        ibuf, fbuf = model._ibuf, model._fbuf
-        try:
-            status = momentum_exact(ibuf, fbuf, work, q, qd, False, out)
-        except TypeError:
-            status = learn(momentum_exact, centroidal_momentum_kernel)
-        if not status:
-            return out[0] if data is None else data.h_G
-    names = ("centroidal_momentum", "h_G")
-    return _momentum_checked(model, q, qd, False, (work, data, out), names)
+    return _momentum(model, q, qd, False, data)
 
 
 def centroidal_momentum_rate_bias(model, q, qd, data=None):
@@ -434,18 +423,7 @@ def centroidal_momentum_rate_bias(model, q, qd, data=None):
     data: optional Data of this model (single states): returns data.Adot_G_qd, allocating
     nothing (data.h_G holds h_G).
     """
-    work = checks.work_of(model, data, "centroidal_momentum_rate_bias")  # checks model, data
-    out = np.empty((2, 6)) if data is None else data._momentum
-    if model._total_mass > 0.0:
-        ibuf, fbuf = model._ibuf, model._fbuf
-        try:
-            status = momentum_exact(ibuf, fbuf, work, q, qd, True, out)
-        except TypeError:
-            status = learn(momentum_exact, centroidal_momentum_kernel)
-        if not status:
-            return out[1] if data is None else data.Adot_G_qd
-    names = ("centroidal_momentum_rate_bias", "Adot_G qd")
-    return _momentum_checked(model, q, qd, True, (work, data, out), names)
+    return _momentum(model, q, qd, True, data)
 
 
 def centroidal_record(model, q, qd):
@@ -463,18 +441,29 @@ def centroidal_record(model, q, qd):
     return out[:, :3].copy(), out[:, 3:].copy()
 
 
-def _momentum_checked(model, q, qd, rate, buffers, names):
-    """h_G (rate False) or Adot_G qd (rate True) by the checked path, after the public
-    function's exact call: a single state (converted, or refused naming the argument) or a
-    batch. buffers = (work, data, out) of the public function; names = (the function, its
-    result) for errors."""
-    what, result = names
-    work, data, out = buffers
-    k = 1 if rate else 0
+# (function, result) of the momentum kernel's two results, for errors: h_G, then Adot_G qd
+MOMENTUM_NAMES = (("centroidal_momentum", "h_G"), ("centroidal_momentum_rate_bias", "Adot_G qd"))
+
+
+def _momentum(model, q, qd, rate, data):
+    """h_G (rate False) or Adot_G qd (rate True) for a single state or a batch: a float64 state
+    goes straight to the kernel's exact twin; anything else through _evaluate (which converts,
+    raises naming the argument, or runs the batch)."""
+    what, result = MOMENTUM_NAMES[rate]
+    work = checks.work_of(model, data, what)  # checks model and data
+    out = np.empty((2, 6)) if data is None else data._momentum
+    if model._total_mass > 0.0:
+        try:
+            status = momentum_exact(model._ibuf, model._fbuf, work, q, qd, rate, out)
+        except TypeError:
+            status = learn(momentum_exact, centroidal_momentum_kernel)
+        if not status:
+            if data is None:
+                return out[1] if rate else out[0]
+            return data.Adot_G_qd if rate else data.h_G
     kernels = (centroidal_momentum_kernel, centroidal_momentum_batch_kernel, work, data)
-    out = _evaluate(
-        model, what, result, kernels, out, q, ("qd", qd), options=(rate,)
-    )
+    out = _evaluate(model, what, result, kernels, out, q, ("qd", qd), options=(rate,))
+    k = 1 if rate else 0
     if out.ndim == 3:
         return out[:, k, :]
     return out[k] if data is None else (data.Adot_G_qd if rate else data.h_G)
