@@ -56,6 +56,17 @@ from .rnea import acceleration_pass, velocity_pass
 
 
 @njit(**INLINE)
+def world_first_moment(R_s, p_s, mass, h):
+    """A body's first moment in {s}, R_s h + m p_s (kg m, a 3-tuple), for its pose (R_s, p_s)
+    in {s}, mass m and first moment h in its own frame."""
+    return (
+        R_s[0, 0] * h[0] + R_s[0, 1] * h[1] + R_s[0, 2] * h[2] + mass * p_s[0],
+        R_s[1, 0] * h[0] + R_s[1, 1] * h[1] + R_s[1, 2] * h[2] + mass * p_s[1],
+        R_s[2, 0] * h[0] + R_s[2, 1] * h[1] + R_s[2, 2] * h[2] + mass * p_s[2],
+    )
+
+
+@njit(**INLINE)
 def centre_of_mass_of(R_s, p_s, mass, h, c):
     """c (3,) <- (1/M) sum_i (R_s[i] h_i + m_i p_s[i]), the centre of mass in {s} of bodies at
     world poses (R_s, p_s); returns M = sum_i m_i (kg). The caller makes sure M > 0."""
@@ -63,13 +74,9 @@ def centre_of_mass_of(R_s, p_s, mass, h, c):
     total = 0.0
     for i in range(mass.shape[0]):
         total += mass[i]
+        m_s = world_first_moment(R_s[i], p_s[i], mass[i], h[i])
         for r in range(3):
-            c[r] += (
-                R_s[i, r, 0] * h[i, 0]
-                + R_s[i, r, 1] * h[i, 1]
-                + R_s[i, r, 2] * h[i, 2]
-                + mass[i] * p_s[i, r]
-            )
+            c[r] += m_s[r]
     for r in range(3):
         c[r] /= total
     return total
@@ -125,13 +132,9 @@ def center_of_mass_jacobian_kernel(ibuf, fbuf, work, q, J_c):
     for i in range(nb):
         total += mass[i]
         mass_c[i] = mass[i]
+        m_s = world_first_moment(R_s[i], p_s[i], mass[i], h[i])
         for r in range(3):
-            h_c[i, r] = (
-                R_s[i, r, 0] * h[i, 0]
-                + R_s[i, r, 1] * h[i, 1]
-                + R_s[i, r, 2] * h[i, 2]
-                + mass[i] * p_s[i, r]
-            )
+            h_c[i, r] = m_s[r]
     for i in range(nb - 1, -1, -1):
         lam = parent[i]
         if lam >= 0:

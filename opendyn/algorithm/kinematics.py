@@ -91,11 +91,12 @@ def path_kinematics(body_tree, work, q, last):
         wanted[i] = 1.0
         i = parent[i]
     for i in range(last + 1):
-        if wanted[i] != 0.0 and jtype[i] != FREE:
+        if wanted[i] == 0.0:
+            continue
+        if jtype[i] != FREE:
             theta = mult[i] * q[iq[i]] + offset[i]
             joint_transform(S[i], R_home[i], p_home[i], theta, R[i], p[i])
-        if wanted[i] != 0.0:
-            world_pose(R_s, p_s, parent[i], R[i], p[i], i)
+        world_pose(R_s, p_s, parent[i], R[i], p[i], i)
 
 
 @njit(**INLINE)

@@ -29,8 +29,7 @@ Per body, as the last evaluation that computes them left them:
                           body i, in {i}: mass (kg), first moment m c (kg m), rotational inertia
                           about {i}'s origin (kg m^2) (CRBA)
   S_s           (nb, 6, 6) rows k < nv_i: joint i's motion axes mult_i Ad_{T_si} S_i[k] in {s}
-                          (torque_regressor leaves them too)
-                          (Coriolis matrix, Christoffel symbols)
+                          (Coriolis matrix, Christoffel symbols, torque_regressor)
   G_s, Gc       (nb, 6, 6) body i's spatial inertia in {s}, and the sum over its subtree
   dS            (nb, 6, 6) rows k < nv_i: the axes' rates ad_{V_s[i]} S_s[i, k] in {s}
   Bc            (nb, 6, 3) the angular columns of the subtree's sum of
@@ -394,7 +393,7 @@ def space_axes(work, nb):
 def coriolis_terms(work, nb):
     """The CoriolisTerms views of a work buffer."""
     return CoriolisTerms(
-        shaped(body_field(work, nb, _S_S), (nb, 6, 6)),
+        space_axes(work, nb),
         shaped(body_field(work, nb, _G_S), (nb, 6, 6)),
         shaped(body_field(work, nb, _GC), (nb, 6, 6)),
         shaped(body_field(work, nb, _DS), (nb, 6, 6)),
