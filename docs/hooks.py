@@ -25,6 +25,7 @@ _LAYERS = {
     "algorithm": "Dynamics and kinematics",
     "io": "Robots and scenes",
     "sim": "Simulation",
+    "api": "Running a scene (a Scene, a scene file or a shipped scene's name)",
     "sweep": "Sweeps",
     "errors": "Errors and warnings",
 }

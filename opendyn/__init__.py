@@ -23,7 +23,7 @@ from .errors import (
 
 # every module that defines kernels is imported inside this block, so that they cache in the
 # folder named by the hash of the package's sources (opendyn._runtime.kernel_cache); by layer:
-# multibody -> algorithm -> io -> sim -> sweep
+# multibody -> algorithm -> sim -> io -> api -> sweep
 with kernel_cache():
     from .algorithm.aba_derivatives import forward_dynamics_derivatives
     from .algorithm.centroidal import (
@@ -59,8 +59,8 @@ with kernel_cache():
     from .algorithm.rnea import bias_forces, coriolis_forces, gravity_forces, inverse_dynamics
     from .algorithm.rnea_derivatives import inverse_dynamics_derivatives
     from .algorithm.task_space import frame_acceleration, task_space_bias, task_space_mass_matrix
+    from .api import Simulator, linearize, rollout, simulate
     from .io.scene.files import default_scene, load_scene, scene_from_dict
-    from .io.scene.schema import Scene
     from .io.urdf import available_robots, load_urdf
     from .io.urdf_xml import FidelityReport
     from .multibody.constraint_objects import (
@@ -72,11 +72,8 @@ with kernel_cache():
     )
     from .multibody.data import Data
     from .multibody.model import CollisionSphere, Frame, Model
-    from .sim.linearize import linearize
-    from .sim.rollout import rollout
     from .sim.rollout_result import RolloutResult
-    from .sim.simulate import simulate
-    from .sim.simulator import Simulator
+    from .sim.scene import Scene
     from .sim.trajectory import Trajectory
     from .sweep.engine import sweep
     from .sweep.plot import plot_sweep

@@ -27,14 +27,14 @@ import time
 
 import docs_page
 
-# The first call of each function (opendyn._runtime.compile_notice.core_calls, the list `opendyn
+# The first call of each function (opendyn.cli.cache.core_calls, the list `opendyn
 # compile` runs), in one process; prints {name: seconds} as JSON. Run as a child process so that
 # every measurement starts with nothing loaded.
 FIRST_CALLS = r"""
 import json, time
 t0 = time.perf_counter()
 import opendyn as od
-from opendyn._runtime.compile_notice import core_calls
+from opendyn.cli.cache import core_calls
 times = {"import opendyn": time.perf_counter() - t0}
 t0 = time.perf_counter()
 model = od.load_urdf("ur5")

@@ -173,7 +173,7 @@ def test_compile_ahead_runs_every_core_call_and_the_scenes_named(capsys):
     """`opendyn compile` runs the list of core calls (each must accept its arguments on any
     robot: a wrong call would only show on a user's machine) and simulates and rolls out each
     named scene (a sweep's workers roll its runs out)."""
-    from opendyn._runtime.compile_notice import core_calls
+    from opendyn.cli.cache import core_calls
 
     model = od.load_urdf("double_pendulum")
     names = []

@@ -17,7 +17,7 @@ import pytest
 import opendyn as od
 from opendyn.cli.main import main
 from opendyn.sim import effects
-from opendyn.sim.simulate import first_stage
+from opendyn.sim.driver import Stepper
 
 # the four-bar's closure with Baumgarte alpha = beta = 20 1/s, RK4 at 1 ms over 10 s: measured
 # max 4.2e-10 m, 1.4e-10 m at the end
@@ -27,7 +27,7 @@ CLOSURE_BOUND = 1e-8  # m
 def _qdd(scene, t, q, qd):
     nv = scene.model.nv
     k, power, tau = np.empty((2, nv)), np.empty(2), np.empty(nv)
-    assert first_stage(scene, effects.stage_table(scene), t, q, qd, k, power, tau) == 0
+    assert Stepper(scene, effects.stage_table(scene)).first_stage(t, q, qd, k, power, tau) == 0
     return k[1]
 
 

@@ -12,7 +12,7 @@ import pytest
 import opendyn as od
 from opendyn.algorithm.contact import contact_kernel
 from opendyn.errors import SceneError
-from opendyn.io.scene.schema import thaw
+from opendyn.sim.scene import thaw
 from opendyn.io.urdf import shipped_robots_dir
 from opendyn.sim import effects
 
@@ -251,7 +251,7 @@ def _solo_in_contact(friction, damping):
 
 def _contact_tau(scene, q, qd, jac=False):
     model = scene.model
-    bodies, params = effects.contact_table(model, scene.contact)
+    bodies, params = effects.contact.contact_table(model, scene.contact)
     n = len(bodies)
     tau, K, D = np.zeros(model.nv), np.zeros((model.nv,) * 2), np.zeros((model.nv,) * 2)
     x, f, delta = np.empty((n, 3)), np.empty((n, 3)), np.empty(n)

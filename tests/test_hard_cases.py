@@ -23,7 +23,7 @@ from randtree import random_chain_urdf, write_random_tree
 
 import opendyn as od
 from opendyn.cli.main import main
-from opendyn.io.scene.schema import thaw
+from opendyn.sim.scene import thaw
 from opendyn.io.urdf import shipped_robots_dir
 
 EPS = np.finfo(float).eps

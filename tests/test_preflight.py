@@ -13,7 +13,7 @@ import pytest
 
 import opendyn as od
 from opendyn.cli.main import main
-from opendyn.io.scene.schema import thaw
+from opendyn.sim.scene import thaw
 from opendyn.io.urdf import shipped_robots_dir
 from opendyn.sim import preflight
 

@@ -101,7 +101,7 @@ def test_a_floating_robot_on_contact_is_simulate_bit_for_bit():
 
 def test_params_set_each_runs_keys_as_a_scene_file_would():
     scene = od.default_scene("ur5", duration=0.2, integrator="rk4", dt=0.001, output_dt=0.01)
-    settings = od.io.scene.schema.thaw(scene.settings)
+    settings = od.sim.scene.thaw(scene.settings)
     settings["robot"]["payload"] = {"frame": "wrist_3_link", "mass": 1.0}
     scene = od.scene_from_dict(settings)
     params = {

@@ -24,8 +24,8 @@ from opendyn.io.scene.files import (
     scene_from_dict,
     shipped_scenes,
 )
-from opendyn.io.scene.schema import EFFECTS
-from opendyn.io.scene.sections_run import INTEGRATORS, Run
+from opendyn.sim.effects import registry
+from opendyn.sim.run import Run, integrator_names
 from opendyn.io.urdf import shipped_robots_dir
 
 PENDULUM = '[robot]\nname = "double_pendulum"\n'
@@ -415,7 +415,7 @@ def test_an_unknown_frame_is_named_with_the_frames(tmp_path):
 @pytest.mark.parametrize(
     "body, key, choices",
     [
-        ('[run]\nintegrator = "rk45"\n', "run.integrator", ", ".join(INTEGRATORS)),
+        ('[run]\nintegrator = "rk45"\n', "run.integrator", ", ".join(integrator_names())),
         ('[control]\ntype = "PID"\n', "control.type", "none, constant, pd, computed_torque"),
         (
             '[[effects.wrench]]\nframe = "tip"\nexpressed_in = "body"\nvalue = [0,0,0,0,0,0]\n',
@@ -755,7 +755,7 @@ def test_without_switches_effects_off_and_keeps_the_rest(tmp_path):
     assert "friction" not in lean.settings["effects"] and "control" not in lean.settings
     assert "friction" in scene.settings["effects"]  # the original is untouched
     assert scene.effects == ("gravity", "damping", "friction", "control")
-    assert load_scene("double_pendulum_push").without(*EFFECTS).effects == ()
+    assert load_scene("double_pendulum_push").without(*registry.names()).effects == ()
 
 
 def test_without_an_unknown_effect_lists_the_effects():

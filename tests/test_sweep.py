@@ -22,7 +22,7 @@ import pytest
 import opendyn as od
 from conftest import ctrl_c_default
 from opendyn.errors import SweepError
-from opendyn.io.scene.schema import thaw
+from opendyn.sim.scene import thaw
 from opendyn.sweep.specs import Axis, combinations, parse_axis
 
 ROBOTS = os.path.join(os.path.dirname(__file__), "..", "robots")

@@ -21,6 +21,7 @@ import os
 import numpy as np
 
 from .._runtime.batch import run_rows
+from .._runtime.options import as_float_array, short_repr
 from .._runtime.status import NOT_FINITE_ARGUMENT, Status, decode
 from ..errors import NonFiniteResultError, SingularMassMatrixError
 from ..multibody.data import Data
@@ -28,18 +29,6 @@ from ..multibody.joints import FREE
 from ..multibody.model import Model
 from ..spatial.algebra import angular, linear
 
-F64 = np.dtype(np.float64)
-# what an array holds, by numpy dtype kind, when it is not real numbers (kinds i, u, f)
-NOT_NUMBERS = {
-    "b": "booleans",
-    "c": "complex numbers",
-    "U": "text",
-    "S": "bytes",
-    "O": "Python objects",
-    "M": "dates",
-    "m": "time spans",
-    "V": "raw records",
-}
 
 
 def check_model(model, what):
@@ -53,15 +42,10 @@ def check_model(model, what):
         hint = f"; a {type(model).__name__}'s model is its .model"
     else:
         hint = ""
-    found = "None" if model is None else f"{type(model).__name__} {_short_repr(model)}"
+    found = "None" if model is None else f"{type(model).__name__} {short_repr(model)}"
     raise TypeError(
         f"{what}: model must be an opendyn Model (from od.load_urdf), got {found}{hint}"
     )
-
-
-def _short_repr(value, limit=40):
-    text = repr(value)
-    return text if len(text) <= limit else text[: limit - 3] + "..."
 
 
 def work_of(model, data, what):
@@ -80,7 +64,7 @@ def work_of(model, data, what):
     if type(data) is not Data:
         raise TypeError(
             f"{what}: data must be an opendyn Data (od.Data(model) or model.data()), got "
-            f"{type(data).__name__} {_short_repr(data)}"
+            f"{type(data).__name__} {short_repr(data)}"
         )
     raise ValueError(
         f"{what}: data was made for model {data.model.name!r} (nv={data.model.nv}), not "
@@ -95,37 +79,6 @@ def single_state_only(data, what):
             f"{what}: data= works for a single state (it holds one state's results); call "
             "without data= for a batch (N, nq)"
         )
-
-
-def as_float_array(x, name, expected="an array of numbers (integers or floats)"):
-    """x as a float64 array (no copy when it is one already). Its entries must be real
-    numbers, integers or floats: booleans, complex numbers, text (['0.3', '-0.2']) or objects
-    are a TypeError naming `name`, what was `expected` and what was found, never converted; a
-    ragged nesting of lists is a ValueError."""
-    try:
-        a = np.asarray(x)
-    except (TypeError, ValueError):
-        raise ValueError(
-            f"{name} must be an array of numbers, got {type(x).__name__} {_short_repr(x)} "
-            "(rows of different lengths?)"
-        ) from None
-    if a.dtype is F64:
-        return a
-    if a.dtype.kind not in "iuf":
-        found = NOT_NUMBERS.get(a.dtype.kind, "something else")
-        raise TypeError(
-            f"{name} must be {expected}, got {found} (dtype {a.dtype}): {_short_repr(x)}"
-        )
-    return a.astype(np.float64, copy=False)
-
-
-def as_real(x, name):
-    """x as a float: a real number (an int, a float or a 0-d array of one), else a TypeError
-    (or, for an array of several, a ValueError) naming `name`."""
-    a = as_float_array(x, name, "a real number (an int or a float)")
-    if a.ndim != 0:
-        raise ValueError(f"{name} must be a single number, got shape {a.shape}")
-    return float(a)
 
 
 def as_state(model, x, name, n=None):
@@ -195,7 +148,7 @@ def loads(model, gravity, f_tip, n_states=None):
     if f_tip is not None and not isinstance(f_tip, dict):
         raise TypeError(
             "f_tip must be a dict {frame_name: (6,) wrench (m, f) in that frame}, "
-            f"got {type(f_tip).__name__} {_short_repr(f_tip)}"
+            f"got {type(f_tip).__name__} {short_repr(f_tip)}"
         )
     if not f_tip:
         return dV_0[None] if n_states is None else dV_0[None, None]

@@ -14,6 +14,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from .._runtime.options import as_real
 from .._runtime.kernel_cache import INLINE, JIT
 from ..multibody.joints import (
     FREE,
@@ -110,7 +111,7 @@ def integrate(model, q, v, dt):
     checks.check_model(model, "integrate")
     q = _checked_q(model, q, "q", "integrate")
     (q, v), batch = checks.as_states(model, q, ("v", v))
-    dt = checks.as_real(dt, "integrate: dt")
+    dt = as_real(dt, "integrate: dt")
     if not np.isfinite(dt):
         raise ValueError(f"integrate: dt must be finite, got {dt}")
     if not np.all(np.isfinite(v)):

@@ -26,6 +26,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from .._runtime.options import as_real
 from .._runtime.arrays import all_finite, fill, result_status
 from .._runtime.kernel_cache import JIT
 from .._runtime.status import Status
@@ -200,7 +201,7 @@ def task_space_mass_matrix(model, q, frame, damping=0.0, data=None):
     what = "task_space_mass_matrix"
     work = checks.work_of(model, data, what)  # checks model and data
     q = _single_q(model, q, data, what)
-    damping = checks.as_real(damping, f"{what}: damping")
+    damping = as_real(damping, f"{what}: damping")
     if damping < 0 or not np.isfinite(damping):
         raise ValueError(f"{what}: damping must be finite and >= 0, got {damping}")
     Lambda = np.empty((6, 6)) if data is None else data.Lambda

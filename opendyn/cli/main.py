@@ -26,8 +26,8 @@ import warnings
 from .._runtime.signals import SigtermAsInterrupt, signal_name
 from ..errors import SceneError, SceneWarning, URDFError
 from ..io.scene.files import DEFAULT_SCENE, shipped_scenes
-from ..io.scene.sections_run import INTEGRATORS
 from ..sim.effects import registry
+from ..sim.run import integrator_names
 from .cache import _compile_ahead
 from .interrupts import _Interrupted
 from .robot import DEFAULT_ROBOT, _demo, _info, _verify
@@ -88,7 +88,7 @@ def command_line() -> argparse.ArgumentParser:
     )
     sim.add_argument("--duration", type=number, help="simulated time (s)")
     sim.add_argument("--dt", type=number, help="step (s); the first trial step of dopri5")
-    sim.add_argument("--integrator", choices=INTEGRATORS)
+    sim.add_argument("--integrator", choices=integrator_names())
     sim.add_argument("--rtol", type=number, help="dopri5 relative tolerance")
     sim.add_argument("--atol", type=number, help="dopri5 absolute tolerance")
     sim.add_argument("--output-dt", type=number, help="sample interval of the record (s)")

@@ -21,7 +21,7 @@ from ..io.scene.files import (
     shipped_scenes,
 )
 from ..errors import SceneError, URDFError
-from ..io.scene.schema import thaw
+from ..sim.scene import thaw
 from ..io.urdf import load_urdf
 from ..sim.effects import registry
 from ..sim.integrators import INTEGRATORS
@@ -305,7 +305,7 @@ def _momentum_line(scene, traj):
     """How well a floating robot kept its momentum, when nothing outside it acts but gravity:
     dh_G/dt = (0, M g), so k_G stays k_G(0) and l_G is l_G(0) + M g t (joint torques, damping
     and friction are internal)."""
-    from ..sim.simulate import gravity_of
+    from ..sim.record import gravity_of
 
     h = traj.centroidal_momentum
     t = traj.t - traj.t[0]

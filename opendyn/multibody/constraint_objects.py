@@ -35,7 +35,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..algorithm.checks import as_float_array
+from .._runtime.options import as_float_array
 
 # kinds, as in the rows of the compiled constraint table (column 0)
 POINT_TO_WORLD = 0

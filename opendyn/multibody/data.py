@@ -244,9 +244,8 @@ class Data:
     """
 
     def __init__(self, model):
-        from .model import Model  # here: model.py imports this module's work_size
-
-        if not isinstance(model, Model):
+        # a Model by what it holds (model.py imports this module, for Model.data())
+        if not all(hasattr(model, name) for name in ("nb", "nv", "_ibuf", "_fbuf", "_work")):
             raise TypeError(
                 f"Data: model must be an opendyn Model (from od.load_urdf), got "
                 f"{type(model).__name__}"

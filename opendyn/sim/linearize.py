@@ -24,7 +24,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.linalg
 
-from .._runtime.options import finite, flag
+from .._runtime.options import as_real, finite, flag
 from ..algorithm import checks
 from ..algorithm.aba_derivatives import aba_derivatives_kernel, coupled_switch
 from ..multibody.joints import FREE
@@ -33,7 +33,6 @@ from .effects import registry
 from .effects.interface import CONTROL
 from .effects.tangent import LinearAt, space_axes
 from .record import gravity_of
-from .simulate import as_scene
 from .simulator import checked_configuration, checked_torque, checked_vector
 
 
@@ -61,31 +60,17 @@ def effect_forces(scene, t, q, qd):
 
 
 def linearize(scene, t=0.0, q=None, qd=None, tau=None, discrete=False):
-    """The scene's dynamics, every effect it names included, linearized at (t, q, qd) under the
-    joint torques tau (module docstring for the equations).
-
-    Args:
-      scene: a Scene, a scene file or a shipped scene's name (constraints are refused).
-      t: time (s), for effects that change with it (a wrench table, a reference trajectory).
-      q: (nq,) configuration, default the scene's initial q0; qd: (nv,) velocity, default qd0.
-      tau: the joint torques u held at the point, (nv,), or the joints' (nv - 6,) on a
-        floating base (whose base is not actuated); default zero.
-      discrete: False for the continuous-time (A, B); True for the zero-order-hold
-        discretisation over the scene's step run.dt.
-    Returns (A, B): A (2 nv, 2 nv) on the state error dx = (dq, dqd), dq in the tangent space
-      (q = integrate(q_0, dq)); B (2 nv, n) on the n joint torques (model.v_index), n = nv for
-      a fixed base. Units: per s (continuous), none (discrete).
-    Raises ValueError for a scene with constraints, a Python controller (no derivatives), bad
-    arguments (named), or a singular mass matrix (SingularMassMatrixError).
-    """
-    scene = as_scene(scene, "linearize")
+    """The scene's (a Scene's) dynamics linearized at (t, q, qd) under the joint
+    torques tau: the driver of od.linearize (opendyn.api.linearize), which documents the
+    arguments and also takes a scene file or a shipped scene's name (module docstring for the
+    equations)."""
     model = scene.model
     if scene.constraints:
         raise ValueError(
             f"linearize: scene {scene.name!r} has constraints, whose linearization is not built "
             "yet; linearize it without them (scene.without('constraints'))"
         )
-    t = finite(checks.as_real(t, "linearize: t"), "linearize: t")
+    t = finite(as_real(t, "linearize: t"), "linearize: t")
     discrete = flag(discrete, "linearize: discrete")
     q = scene.q0.copy() if q is None else checked_configuration(model, q, "linearize: q")
     qd = scene.qd0.copy() if qd is None else checked_vector(model, qd, "linearize: qd")

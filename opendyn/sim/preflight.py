@@ -23,7 +23,7 @@ import numpy as np
 from .._runtime.memory import available_memory
 from ..algorithm.energy import energies
 from ..errors import SceneError, SceneWarning
-from ..io.scene.sections_run import MAX_STEPS, check_fixed_steps
+from .run import MAX_STEPS, check_fixed_steps
 from ..multibody.joints import FREE
 from . import effects
 from .record import contact_record
@@ -37,7 +37,7 @@ START_DEPTH = 1e-3
 
 
 def preflight(scene, integ):
-    """Check `scene` (opendyn.io.scene.schema.Scene) can run with `integ` (its Integrator). Returns
+    """Check `scene` (opendyn.sim.scene.Scene) can run with `integ` (its Integrator). Returns
     (nsteps, every, rows): the fixed steps (0 for adaptive methods), the steps between samples
     and the number of samples. Raises SceneError naming the key to change; warns SceneWarning."""
     nsteps, every, rows = run_size(scene, integ)

@@ -17,7 +17,7 @@ from ..algorithm.centroidal import centroidal_record
 from ..algorithm.constraints import ROW_COUNT, constraint_terms_kernel
 from ..algorithm.contact import contact_record_kernel
 from ..algorithm.energy import energies
-from ..io.scene.schema import thaw
+from .scene import thaw
 from ..multibody.joints import FREE
 from . import effects, integrators
 

@@ -4,7 +4,8 @@ per step.
     rollout(scene, q0 (N, nq), qd0 (N, nv), params {key: (N,) or (N, k)}) -> RolloutResult
 
 Run i is simulate(scene_i), bit for bit, where scene_i is the scene with run i's params set (as
-a scene file with those values would be read: opendyn.io.scene.variants) and its initial state
+a scene file with those values would be read: opendyn.io.scene.variants, which od.rollout passes
+as `vary`) and its initial state
 replaced by q0[i], qd0[i]. Only the state: a PD setpoint that the scene takes from its
 initial.q stays the scene's.
 
@@ -43,7 +44,6 @@ from .._runtime.signals import signal_name
 from ..algorithm.checks import as_float_array
 from ..algorithm.configuration import check_unit_quaternions
 from ..errors import RolloutInterrupted, SceneError, SceneWarning
-from ..io.scene.variants import Variants
 from . import effects, integrators
 from .diagnostics import check_contact_step, failure_message
 from .effects import python_control
@@ -58,7 +58,7 @@ from .rollout_loops import (
     run_list,
 )
 from .rollout_result import COMPLETE, FAILED, INTERRUPTED, RolloutResult
-from .simulate import Interrupt, as_scene, error_size_index, free_joints, integrator_of
+from .driver import Interrupt, error_size_index, free_joints, integrator_of
 from .step import scene_data
 
 RECORDS = ("samples", "final")
@@ -68,31 +68,13 @@ _SLICES_PER_THREAD = 4  # a block's slices per thread, so that a thread that end
 
 
 def rollout(scene, q0=None, qd0=None, params=None, threads=None, record="samples", *,
-            progress=False):
-    """N runs of `scene` in compiled loops over the cores; returns a RolloutResult.
-
-    scene: a Scene, or a scene file or shipped scene's name.
-    q0 (N, nq), qd0 (N, nv): the initial states (rad or m, rad/s or m/s; a floating base's
-      q as simulate takes it, its quaternion of unit norm); default: the scene's, repeated.
-    params: {dotted scene key: values (N,) or (N, k)}: run i sets the key to values[i] (a
-      number, or a list of k) as a scene file would, e.g. "control.kp", "effects.damping.
-      coefficients", "effects.contact.stiffness", "robot.payload.mass",
-      "robot.payload.com", "initial.q.shoulder_lift_joint". run.* keys and words or true/false
-      are refused (od.sweep varies them); a run whose step would compile differently from
-      run 0's fails, saying so.
-    threads: threads to run on (default: one per core).
-    record: "samples" keeps every run's rows at the scene's output_dt, (N, K, ...) arrays;
-      "final" only each run's last state, (N, 1, ...): memory does not grow with duration.
-    progress: a progress bar over the runs (tqdm, on stderr) after a second.
-    N is the length of q0, qd0 and params (which must agree), 1 when none is given. Values that
-    are not finite numbers are refused before anything runs (ValueError or TypeError naming the
-    argument and the run); a value the scene refuses (a negative mass) or a start simulate
-    refuses fails its run only. A run that fails keeps its rows up to the failure (status
-    "failed", message the cause, as simulate states it) and the others go on. Ctrl-C stops
-    after the runs under way and raises RolloutInterrupted carrying the result so far.
-    """
+            progress=False, vary=None):
+    """N runs of `scene`, a Scene, in compiled loops over the cores; returns a
+    RolloutResult: the driver of od.rollout (opendyn.api.rollout), which documents the
+    arguments and also takes a scene file or a shipped scene's name. vary: run i's values
+    {dotted key: value} -> its Scene, read as a scene file with those values would be
+    (opendyn.io.scene.variants.Variants.scene_for); needed when params is given."""
     progress = flag(progress, "rollout: progress")
-    scene = as_scene(scene, "rollout")
     if python_control.record(scene) is not None:
         raise SceneError(
             f"{scene.source}: control.type: a Python controller runs in Python at every control "
@@ -100,7 +82,7 @@ def rollout(scene, q0=None, qd0=None, params=None, threads=None, record="samples
         )
     if record not in RECORDS:
         raise ValueError(f"rollout: record must be 'samples' or 'final', got {record!r}")
-    return run_batch(Runs.of(scene, q0, qd0, params), _threads(threads), record, progress)
+    return run_batch(Runs.of(scene, q0, qd0, params, vary), _threads(threads), record, progress)
 
 
 class Runs:
@@ -112,15 +94,15 @@ class Runs:
         self._values, self._scene_and_table = values, scene_and_table
 
     @classmethod
-    def of(cls, scene, q0=None, qd0=None, params=None):
+    def of(cls, scene, q0=None, qd0=None, params=None, vary=None):
         """The runs od.rollout describes (arguments checked: TypeError or ValueError naming the
-        argument, SceneError naming a key that does not fit the scene)."""
+        argument, SceneError naming a key that does not fit the scene); vary(values) -> run
+        i's Scene with its params set (rollout's `vary`)."""
         model = scene.model
         params = _params(params)
         n = _count(q0, qd0, params)
         q0 = None if q0 is None else _states(model, q0, "q0", model.nq)
         qd0 = None if qd0 is None else _states(model, qd0, "qd0", model.nv)
-        variants = Variants.of(scene) if params else None
         shared = not params and not scene.constraints
         table = effects.stage_table(scene) if shared else None
 
@@ -128,7 +110,7 @@ class Runs:
             return {key: _plain(v[i]) for key, v in params.items()}
 
         def scene_of(i):
-            run_scene = variants.scene_for(values(i)) if params else scene
+            run_scene = vary(values(i)) if params else scene
             changes = {}
             if q0 is not None:
                 changes["q0"] = immutable(q0[i])

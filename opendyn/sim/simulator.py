@@ -29,22 +29,22 @@ import time
 
 import numpy as np
 
+from .._runtime.options import as_real
 from .._runtime.compile_notice import compile_seconds
 from .._runtime.entry import entry_for
 from .._runtime.signals import signal_name
 from ..algorithm import checks
 from ..algorithm.configuration import check_unit_quaternions
 from ..errors import SceneError, SimulationError
-from ..io.scene.sections_run import whole_steps
+from .run import whole_steps
 from ..multibody.joints import FREE
 from . import effects, integrators, step
 from .diagnostics import check_contact_step, failure_message
 from .effects import python_control
 from .preflight import preflight
 from .record import Samples, trajectory_of
-from .simulate import (
+from .driver import (
     Interrupt,
-    as_scene,
     error_size_index,
     free_joints,
     integrator_of,
@@ -55,18 +55,14 @@ from .simulate import (
 
 
 class Simulator:
-    """A scene you step: the state (t, q, qd), `step(tau, duration)`, `reset`, `trajectory()`.
+    """A Scene you step: the state (t, q, qd), `step(tau, duration)`, `reset`,
+    `trajectory()`. od.Simulator (opendyn.api.Simulator), which also takes a scene file or a
+    shipped scene's name, documents its arguments.
 
-    scene: a Scene, a shipped scene's name or a scene file (as simulate takes). controller,
-    control_dt: a Python controller fn(t, q, qd) -> tau and its period (s), which `step` calls
-    at the start of every control period and adds to its own tau; by default the scene's own
-    ([control] type = "python", its control_dt or the run's, else run.dt). The scene's
-    run.duration does not bound a Simulator: it steps as far as it is asked.
     Attributes: model, scene, control_dt (s: the default duration of a step).
     """
 
     def __init__(self, scene, *, controller=None, control_dt=None):
-        scene = as_scene(scene)
         self.scene, self.model = scene, scene.model
         self._integ = integrator_of(scene)
         _, self._every, _ = preflight(scene, self._integ)
@@ -121,7 +117,7 @@ class Simulator:
             self.scene.qd0 if qd is None else checked_vector(model, qd, "Simulator.reset: qd"),
             dtype=np.float64,
         )
-        t = checks.as_real(t, "Simulator.reset: t")
+        t = as_real(t, "Simulator.reset: t")
         if not math.isfinite(t):
             raise ValueError(f"Simulator.reset: t must be a finite time (s), got {t}")
         self._x = integrators.State(q, qd, np.zeros(2))
@@ -191,7 +187,7 @@ class Simulator:
         self._advance(duration)
 
     def _duration(self, duration):
-        duration = checks.as_real(duration, "Simulator.step: duration")
+        duration = as_real(duration, "Simulator.step: duration")
         if not (math.isfinite(duration) and duration > 0):
             raise ValueError(f"Simulator.step: duration must be a time > 0 (s), got {duration}")
         return duration
@@ -395,7 +391,7 @@ def _controller_of(scene, integ, controller, control_dt):
         control_dt = next(
             (dt for dt in (own and own.control_dt, run.control_dt) if dt is not None), run.dt
         )
-    control_dt = checks.as_real(control_dt, "control_dt")
+    control_dt = as_real(control_dt, "control_dt")
     if not (math.isfinite(control_dt) and control_dt > 0):
         raise ValueError(f"control_dt must be a time > 0 (s), got {control_dt}")
     if not integ.adaptive and whole_steps(control_dt / run.dt) is None:

@@ -44,12 +44,13 @@ from .._runtime.files import atomic_write, name_too_long, unwritable
 from .._runtime.options import flag
 from .._runtime.signals import unswallowed_interrupt
 from .._runtime.version import __version__
+from ..api import as_scene
 from ..errors import SceneError, SweepError, SweepInterrupted, SweepWriteError
-from ..io.scene.schema import Scene
 from ..io.scene.variants import Variants
+from ..sim.driver import integrator_of
 from ..sim.effects import python_control, registry
 from ..sim.metrics import METRICS, applicable
-from ..sim.simulate import as_scene, integrator_of
+from ..sim.scene import Scene
 from .cluster import LocalOrGiven
 from .results import Unwritten, written
 from .specs import check_whole, combinations, parse_axis, spans_decades
@@ -342,12 +343,23 @@ def _runnable(scenes):
 
 def _compile(scenes, progress):
     """Compile (or load from the cache) each distinct step before the workers start, so that
-    they load it rather than each compile it; the compile notice says so only when something
-    compiles."""
-    from .._runtime.compile_notice import compile_ahead, quiet
+    they load it rather than each compile it: one step of each scene, rolled out (a scene with
+    a Python controller, which only simulate runs, simulated). The compile notice says so only
+    when something compiles."""
+    from .._runtime.compile_notice import compiling, quiet
+    from ..sim.rollout import rollout
+    from ..sim.simulate import simulate
 
     with contextlib.nullcontext() if progress else quiet():
-        compile_ahead(scenes, functions=False, simulations=False, announce=False)
+        with compiling(f"{len(scenes)} steps ahead of time", len(scenes), "20-80 s each") as done:
+            for scene in scenes:
+                run = scene.run
+                one_step = scene.replace_run(duration=run.dt, output_dt=run.dt)
+                if python_control.record(scene) is None:
+                    rollout(one_step, threads=1)
+                else:
+                    simulate(one_step)
+                done()
 
 
 def _run_seconds(scenes):

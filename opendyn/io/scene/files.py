@@ -14,8 +14,8 @@ from ...errors import SceneError, URDFError
 from ...multibody.model import Model
 from ..urdf import available_robots, load_urdf, shipped_robots_dir
 from .reader import _build
-from .schema import Scene, thaw
-from .values import _suggest
+from ...sim.scene import Scene, thaw
+from ...sim.values import suggest
 
 try:
     import tomllib
@@ -112,6 +112,6 @@ def _resolve_scene(path) -> pathlib.Path:
         else ""
     )
     raise SceneError(
-        f"{path}: no such scene file{_suggest(str(path), shipped)}; "
+        f"{path}: no such scene file{suggest(str(path), shipped)}; "
         f"shipped scenes: {', '.join(shipped) or '(none)'}{robot}"
     )

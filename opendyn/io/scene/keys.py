@@ -9,7 +9,7 @@ from .reader import TOP_KEYS
 from .sections_constraints import BAUMGARTE_KEYS, CONSTRAINT_KEYS
 from .sections_control import control_keys
 from .sections_robot import INITIAL_KEYS, PAYLOAD_KEYS, ROBOT_KEYS
-from .sections_run import RUN_KEYS
+from ...sim.run import RUN_KEYS
 
 # the tables of tables: their keys are listed under their own dotted names
 _TABLES = ("robot", "initial", "run", "effects", "control", "constraints", "baumgarte")

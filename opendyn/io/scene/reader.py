@@ -141,12 +141,12 @@ import warnings
 from ...errors import SceneWarning
 from ...sim.effects.registry import scene_fields
 from ..urdf import welded_mobile_warning
-from .schema import Scene
+from ...sim.scene import Scene
 from .sections_constraints import ConstraintsSection
 from .sections_control import ControlSection
 from .sections_effects import EffectsSection
 from .sections_robot import RobotSection
-from .sections_run import RunSection
+from ...sim.run import RunSection
 
 TOP_KEYS = (
     "name",

@@ -22,7 +22,7 @@ from ...multibody.constraint_objects import (
     PointToPoint,
     PointToWorld,
 )
-from .values import ValueReader, _found
+from ...sim.values import ValueReader, what_is
 
 CONSTRAINT_TYPES = (
     "point_to_world",
@@ -57,7 +57,7 @@ class ConstraintsSection(ValueReader):
             self.fail(
                 "constraints",
                 f"expected tables [[constraints]] with type = one of "
-                f"{', '.join(CONSTRAINT_TYPES)}, found {_found(value)}",
+                f"{', '.join(CONSTRAINT_TYPES)}, found {what_is(value)}",
             )
         out = tuple(self.constraint(c, f"constraints[{i}]") for i, c in enumerate(value))
         self._check_initial_state(out, q0, qd0)
@@ -138,7 +138,7 @@ class ConstraintsSection(ValueReader):
             return row
         rows = table["matrix"]
         if not isinstance(rows, list) or not rows:
-            self.fail(f"{key}.matrix", f"expected a list of rows, found {_found(rows)}")
+            self.fail(f"{key}.matrix", f"expected a list of rows, found {what_is(rows)}")
         return np.array([self.vector(r, f"{key}.matrix[{i}]", nv) for i, r in enumerate(rows)])
 
     def _check_initial_state(self, constraints, q0, qd0):

@@ -9,7 +9,7 @@ import dataclasses
 
 from ...sim.effects import registry
 from ...sim.effects.control import Control
-from .values import ValueReader
+from ...sim.values import ValueReader
 
 
 def _laws():

@@ -6,7 +6,7 @@ table that is absent leaves its effect off (None, or () for wrenches)."""
 from __future__ import annotations
 
 from ...sim.effects import registry
-from .values import ValueReader
+from ...sim.values import ValueReader
 
 
 class EffectsSection(ValueReader):

@@ -19,7 +19,7 @@ from ...errors import URDFError
 from ...multibody.joints import FREE, QUATERNION_TOLERANCE
 from ...multibody.model import Model
 from ..urdf import load_urdf
-from .values import ValueReader, _found
+from ...sim.values import ValueReader, what_is
 
 ROBOT_KEYS = ("urdf", "name", "mimic", "check_inertia", "floating_base", "payload")
 PAYLOAD_KEYS = ("frame", "mass", "com", "inertia")
@@ -100,7 +100,7 @@ class RobotSection(ValueReader):
                 self.fail(
                     f"{key}.inertia",
                     f"expected a table {{{', '.join(_INERTIA_ENTRIES)}}} (kg m^2, about the "
-                    f"centre of mass in the frame's axes), found {_found(entries)}",
+                    f"centre of mass in the frame's axes), found {what_is(entries)}",
                 )
             self.keys(entries, f"{key}.inertia", tuple(_INERTIA_ENTRIES))
             inertia = np.zeros((3, 3))

@@ -20,7 +20,7 @@ import os
 
 from ...errors import SceneError
 from .reader import _build, _Reader
-from .schema import Scene, thaw
+from ...sim.scene import Scene, thaw
 
 _MODELS: dict = {}  # each process's robots, by their [robot] table (payload apart) and folder
 _MAX_MODELS = 16

@@ -29,7 +29,7 @@ from ...algorithm.contact import (
     contact_jacobians_kernel,
     contact_on_poses,
 )
-from ...io.scene.values import _found
+from ..values import what_is
 from .interface import OK, PASSIVE, floats
 from .tangent import bracket, path_axes, point_velocities, wrench_tangent
 
@@ -44,6 +44,13 @@ DOC = (
     "on the ground"
 )
 ENABLE = None
+EXAMPLE = {
+    "ground_height": 1.0,
+    "stiffness": 1e3,
+    "damping": 10.0,
+    "friction": 0.3,
+    "points": [{"frame": "tip", "radius": 0.05}],
+}
 STAGE = "contact"
 ENERGY = PASSIVE
 WORLD_POSES = True  # its force reads the world poses the step places (contact_on_poses)
@@ -128,7 +135,7 @@ def read_points(r, value, key) -> tuple[ContactPoint, ...]:
             r.fail(
                 key,
                 f'expected "urdf" or tables [[effects.contact.points]] (frame, position, '
-                f"radius), found {_found(value)}",
+                f"radius), found {what_is(value)}",
             )
         found = []
         for i, point in enumerate(value):

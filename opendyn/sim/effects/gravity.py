@@ -14,7 +14,7 @@ from numba import njit
 
 from ..._runtime.arrays import immutable
 from ..._runtime.kernel_cache import JIT
-from ...io.scene.values import _found
+from ..values import what_is
 from .interface import CONSERVATIVE, OK, floats
 
 NAME = "gravity"
@@ -24,6 +24,7 @@ FIELD = "gravity"
 OFF = None
 DOC = "base acceleration dV_0 = (0, -g): the same recursion gives -g(q) at no extra cost"
 ENABLE = True
+EXAMPLE = True
 STAGE = "gravity"
 ENERGY = CONSERVATIVE
 DERIVATIVES = ()
@@ -44,7 +45,7 @@ def read(r, value) -> np.ndarray | None:
     if not isinstance(value, list):
         r.fail(
             "effects.gravity",
-            f"expected true, false or a vector [gx, gy, gz] (m/s^2), found {_found(value)}",
+            f"expected true, false or a vector [gx, gy, gz] (m/s^2), found {what_is(value)}",
         )
     return r.vector(value, "effects.gravity", 3)
 

@@ -20,7 +20,7 @@ from numba import njit
 from ..._runtime.arrays import copy_into, immutable
 from ..._runtime.kernel_cache import JIT
 from ...algorithm.kinematics import frame_jacobian
-from ...io.scene.values import _found
+from ..values import what_is
 from ...multibody.data import frame_pose_field
 from ...multibody.layout import body_count
 from .interface import APPLIED, OK, floats
@@ -36,6 +36,7 @@ DOC = (
     "functions)"
 )
 ENABLE = None
+EXAMPLE = [{"frame": "tip", "expressed_in": "world", "value": [0, 0, 0, 1, 0, 2]}]
 STAGE = "wrench"
 ENERGY = APPLIED
 WORLD_POSES = True  # its force reads the world poses the step places (frame_jacobian)
@@ -88,7 +89,7 @@ def read(r, value) -> tuple[Wrench, ...]:
         r.fail(
             "effects.wrench",
             f"expected tables [[effects.wrench]] (frame, value or times/values), "
-            f"found {_found(value)}",
+            f"found {what_is(value)}",
         )
     return tuple(_read_one(r, w, f"effects.wrench[{i}]") for i, w in enumerate(value))
 
@@ -122,7 +123,7 @@ def _read_one(r, table, key) -> Wrench:
         raw_t, raw_v = table["times"], table["values"]
         if not isinstance(raw_t, list) or not raw_t:
             r.fail(
-                f"{key}.times", f"expected a non-empty list of times (s), found {_found(raw_t)}"
+                f"{key}.times", f"expected a non-empty list of times (s), found {what_is(raw_t)}"
             )
         times = r.vector(raw_t, f"{key}.times", len(raw_t))
         bad = np.flatnonzero(np.diff(times) <= 0)
@@ -133,7 +134,7 @@ def _read_one(r, table, key) -> Wrench:
                 f"times must be strictly increasing; {times[k]:g} follows {times[k - 1]:g}",
             )
         if not isinstance(raw_v, list) or len(raw_v) != len(times):
-            found = f"a list of {len(raw_v)}" if isinstance(raw_v, list) else _found(raw_v)
+            found = f"a list of {len(raw_v)}" if isinstance(raw_v, list) else what_is(raw_v)
             r.fail(
                 f"{key}.values",
                 f"expected one wrench [m, f] of 6 numbers per time ({len(times)} times), "

@@ -1,30 +1,16 @@
-"""What a scene is: the frozen ``Scene`` (a robot, its initial state, the run settings, the
-physical effects that exist and the control), the records of its effects and control (each
-defined by its effect's module in opendyn.sim.effects, and importable from here), and ``thaw``,
-which turns its read-only settings back into a plain dict. An effect that a scene does not name
-is off: the simulator never computes it.
+"""What a scene is: the frozen ``Scene`` that the simulation runs (a robot, its initial state, the
+run settings, the physical effects that exist and the control) and ``thaw``, which turns its
+read-only settings back into a plain dict. A scene file is read into one by opendyn.io.scene;
+each effect's record is defined by its module in opendyn.sim.effects, which also states its
+generalized force (the effects table, ``registry.effects_table()``). An effect that a scene does
+not name is off: the simulator never computes it.
 
 Conventions (as in the rest of opendyn): SI units (rad or m, N m or N, s); twists (omega, v) and
 wrenches (m, f), moment first; per-joint arrays are ordered as ``model.joint_names``
 (depth-first over the URDF tree); gravity is the world-frame vector g (the acceleration of a
-falling body, default (0, 0, -9.81) m/s^2). The generalized forces of the effects, on the right
-of M(q) qdd + h(q, qd) = tau + ..., are:
-
-    damping      -b * qd                          b >= 0 per joint (N m s/rad or N s/m)
-    friction     -c * tanh(qd / smoothing)        c >= 0 per joint (N m or N), smoothing > 0
-    armature     M(q) + diag(a)                   a >= 0 per joint (kg m^2 or kg)
-    limits       -k (q - upper) - d qd  where q > upper;  -k (q - lower) - d qd  where q < lower
-    wrench       J_b(frame)^T F  (or the world-aligned Jacobian for expressed_in = "world")
-    contact      sum_p J_p^T f_p at each contact sphere's lowest point x_p (world frame):
-                 delta = max(0, ground_height - x_z), f_n = max(0, k delta + d delta_dot) along
-                 +z, f_t = -mu f_n v_t / sqrt(|v_t|^2 + slip_velocity^2)
-    control      tau of the controller, optionally clipped to +-effort_limit
-
-A wrench F = (m, f) of a scene is the wrench the environment applies TO THE ROBOT at the
-frame's origin (a push), the opposite sign of the dynamics functions' ``f_tip``, which is the
-wrench the frame applies to the environment (so ``f_tip = {frame: -F}`` in frame coordinates).
-``expressed_in = "frame"`` gives m and f in the frame's own axes; ``"world"`` gives them in
-axes parallel to the world's, still about the frame's origin.
+falling body, default (0, 0, -9.81) m/s^2). A wrench F = (m, f) of a scene is the wrench the
+environment applies TO THE ROBOT at the frame's origin (a push), the opposite sign of the
+dynamics functions' ``f_tip`` (opendyn.sim.effects.wrench).
 """
 
 from __future__ import annotations
@@ -37,23 +23,16 @@ from types import MappingProxyType
 
 import numpy as np
 
-from ...errors import SceneError
-from ...multibody.model import Model
-from ...sim.effects import registry
-from ...sim.effects.contact import Contact, ContactPoint
-from ...sim.effects.control import Control
-from ...sim.effects.friction import Friction
-from ...sim.effects.limits import Limits
-from ...sim.effects.wrench import Wrench
-from .sections_run import RUN_KEYS, Run, RunSection
-from .values import _suggest
-
-__all__ = [
-    "EFFECTS", "Contact", "ContactPoint", "Control", "Friction", "Limits", "Scene", "Wrench", "thaw"
-]
-
-# the effects' names, in the order of opendyn.sim.effects.registry, which defines them
-EFFECTS = registry.names()
+from ..errors import SceneError
+from ..multibody.model import Model
+from .effects import registry
+from .effects.contact import Contact
+from .effects.control import Control
+from .effects.friction import Friction
+from .effects.limits import Limits
+from .effects.wrench import Wrench
+from .run import RUN_KEYS, Run, RunSection
+from .values import suggest
 
 
 @dataclass(frozen=True, eq=False)
@@ -104,17 +83,17 @@ class Scene:
 
     @property
     def effects(self) -> tuple[str, ...]:
-        """The names from EFFECTS that are on, in EFFECTS order."""
+        """The names of the effects that are on, in the registry's order (registry.names())."""
         return tuple(name for name in registry.names() if registry.is_on(self, name))
 
     def without(self, *effects: str) -> Scene:
-        """The same scene with these effects (names from EFFECTS) off; ``settings`` follows."""
+        """The same scene with these effects (names from registry.names()) off; ``settings`` follows."""
         known = registry.names()
         for name in effects:
             if name not in known:
                 raise SceneError(
                     f"{self.source}: Scene.without: unknown effect {name!r}"
-                    f"{_suggest(name, known)}; effects: {', '.join(known)}"
+                    f"{suggest(name, known)}; effects: {', '.join(known)}"
                 )
         changes, settings = {}, thaw(self.settings)
         table = settings.get("effects") if isinstance(settings.get("effects"), dict) else {}
@@ -138,7 +117,7 @@ class Scene:
             if key not in RUN_KEYS:
                 raise SceneError(
                     f"{self.source}: Scene.replace_run: unknown run setting {key!r}"
-                    f"{_suggest(key, RUN_KEYS)}; valid: {', '.join(RUN_KEYS)}"
+                    f"{suggest(key, RUN_KEYS)}; valid: {', '.join(RUN_KEYS)}"
                 )
         settings = thaw(self.settings)
         table = settings.get("run") or {}

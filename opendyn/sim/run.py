@@ -1,7 +1,8 @@
-"""[run]: how a scene is advanced in time. The ``Run`` record, reading it from a scene's settings
-(``Scene.replace_run`` reads with it too), and the check that a fixed-step run records every k-th
-step and ends on a step (``check_fixed_steps``, which opendyn.sim.preflight repeats for a Run built
-directly)."""
+"""How a scene is advanced in time: the ``Run`` record, reading it from a scene's [run] settings
+(the scene reader and ``Scene.replace_run`` read with it), and the check that a fixed-step run
+records every k-th step and ends on a step (``check_fixed_steps``, which opendyn.sim.preflight
+repeats for a Run built directly). The integrators a run may name are the rows of
+opendyn.sim.integrators.INTEGRATORS, read when a run is read (``integrator_names``)."""
 
 from __future__ import annotations
 
@@ -9,10 +10,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from . import integrators
 from .values import ValueReader
 
-INTEGRATORS = ("euler", "semi_implicit_euler", "rk4", "dopri5", "implicit_euler")
-ADAPTIVE_INTEGRATORS = ("dopri5",)
 RUN_KEYS = (
     "duration", "integrator", "dt", "output_dt", "rtol", "atol", "max_speed", "control_dt"
 )
@@ -26,7 +26,7 @@ MAX_STEPS = 2**53
 class Run:
     """How to advance a scene in time.
 
-    duration: s, > 0. integrator: one of INTEGRATORS. dt: s, the step of fixed-step integrators,
+    duration: s, > 0. integrator: one of integrator_names(). dt: s, the step of fixed-step integrators,
     the first trial step of "dopri5". rtol, atol: "dopri5"'s tolerances. output_dt: s, the
     sample interval of the recorded trajectory (a whole multiple of dt for fixed-step
     integrators). max_speed: rad/s or m/s; any |qd| above it stops the run as diverging.
@@ -44,6 +44,11 @@ class Run:
     control_dt: float | None = None
 
 
+def integrator_names() -> tuple[str, ...]:
+    """The integrators a run may name: the rows of opendyn.sim.integrators.INTEGRATORS."""
+    return tuple(integrators.INTEGRATORS)
+
+
 class RunSection(ValueReader):
     """Reads [run] into a Run."""
 
@@ -53,7 +58,7 @@ class RunSection(ValueReader):
         d = Run()
         duration = self.number(table.get("duration", d.duration), "run.duration", positive=True)
         integrator = self.string(
-            table.get("integrator", d.integrator), "run.integrator", INTEGRATORS
+            table.get("integrator", d.integrator), "run.integrator", integrator_names()
         )
         dt = self.number(table.get("dt", d.dt), "run.dt", positive=True)
         rtol = self.number(table.get("rtol", d.rtol), "run.rtol", positive=True)
@@ -85,7 +90,7 @@ def check_fixed_steps(run: Run, source: str) -> None:
     """A fixed-step run records every k-th step and ends on a step: run.output_dt and
     run.duration must be whole numbers of steps run.dt, and the steps countable (at most
     MAX_STEPS). Raises SceneError naming `source` and the key; adaptive runs pass."""
-    if run.integrator in ADAPTIVE_INTEGRATORS:
+    if integrators.INTEGRATORS[run.integrator].adaptive:
         return
     r = ValueReader(source)
     duration, dt, output_dt = run.duration, run.dt, run.output_dt

@@ -1,4 +1,5 @@
-"""The basic values of a scene's settings, checked: tables and their keys, strings and choices,
+"""The basic values of a scene's settings, checked (by the scene reader, opendyn.io.scene, and by
+each effect's module, which reads its own settings): tables and their keys, strings and choices,
 booleans, numbers, vectors, per-joint arrays and frame names. Every section reader builds on
 these, so every error (``SceneError``) names the source (the scene file, "<dict>" or
 "<robot NAME>"), the dotted key (``effects.damping.coefficients``), what was expected and what
@@ -12,9 +13,9 @@ import numbers
 
 import numpy as np
 
-from ..._runtime.arrays import immutable
-from ...errors import SceneError
-from ...multibody.model import Model
+from .._runtime.arrays import immutable
+from ..errors import SceneError
+from ..multibody.model import Model
 
 
 class ValueReader:
@@ -32,7 +33,7 @@ class ValueReader:
 
     def table(self, value, key) -> dict:
         if not isinstance(value, dict):
-            self.fail(key, f"expected a table, found {_found(value)}")
+            self.fail(key, f"expected a table, found {what_is(value)}")
         return value
 
     def keys(self, table, key, valid):
@@ -43,27 +44,27 @@ class ValueReader:
                 level = f"in [{key}]" if key else "at the top level"
                 self.fail(
                     full,
-                    f"unknown key{_suggest(str(k), valid)}; valid keys {level}: {', '.join(valid)}",
+                    f"unknown key{suggest(str(k), valid)}; valid keys {level}: {', '.join(valid)}",
                 )
 
     def string(self, value, key, choices=None) -> str:
         if not isinstance(value, str):
             expected = f"one of {', '.join(choices)}" if choices else "a string"
-            self.fail(key, f"expected {expected}, found {_found(value)}")
+            self.fail(key, f"expected {expected}, found {what_is(value)}")
         if choices is not None and value not in choices:
             self.fail(
-                key, f"{value!r} is not one of {', '.join(choices)}{_suggest(value, choices)}"
+                key, f"{value!r} is not one of {', '.join(choices)}{suggest(value, choices)}"
             )
         return value
 
     def boolean(self, value, key) -> bool:
         if not isinstance(value, bool):
-            self.fail(key, f"expected true or false, found {_found(value)}")
+            self.fail(key, f"expected true or false, found {what_is(value)}")
         return value
 
     def number(self, value, key, minimum=None, positive=False) -> float:
         if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
-            self.fail(key, f"expected a number, found {_found(value)}")
+            self.fail(key, f"expected a number, found {what_is(value)}")
         try:
             x = float(value)
         except OverflowError:  # an integer of hundreds of digits
@@ -82,7 +83,7 @@ class ValueReader:
 
     def vector(self, value, key, n, minimum=None) -> np.ndarray:
         if not isinstance(value, list):
-            self.fail(key, f"expected a list of {n} numbers, found {_found(value)}")
+            self.fail(key, f"expected a list of {n} numbers, found {what_is(value)}")
         if len(value) != n:
             self.fail(key, f"expected a list of {n} numbers, found a list of {len(value)}")
         return immutable([self.number(v, f"{key}[{i}]", minimum) for i, v in enumerate(value)])
@@ -102,7 +103,7 @@ class ValueReader:
                         f"{key}.{joint}",
                         f"{joint!r} is not a joint of {self.model.name!r}"
                         + (
-                            f"{_suggest(str(joint), names)}; joints: {', '.join(names)}"
+                            f"{suggest(str(joint), names)}; joints: {', '.join(names)}"
                             if names else ", which has no joints"
                         ),
                     )
@@ -123,7 +124,7 @@ class ValueReader:
         self.fail(
             key,
             f"expected {shapes}a list of {nv} numbers{sign} or a table {{joint = number}}, "
-            f"found {_found(value)}",
+            f"found {what_is(value)}",
         )
 
     def coefficients(self, table, key, field, urdf_values, element) -> np.ndarray:
@@ -137,7 +138,7 @@ class ValueReader:
                 self.fail(
                     full,
                     f'expected "urdf", a number, a list of {len(self.model.joint_names)} '
-                    f"numbers or a table {{joint = number}}, found {_found(value)}",
+                    f"numbers or a table {{joint = number}}, found {what_is(value)}",
                 )
             if not np.any(urdf_values > 0):
                 self.fail(
@@ -172,18 +173,18 @@ class ValueReader:
             frames = self.model.frame_names
             self.fail(
                 key,
-                f"{name!r} is not a frame of {self.model.name!r}{_suggest(name, frames)}; "
+                f"{name!r} is not a frame of {self.model.name!r}{suggest(name, frames)}; "
                 f"frames: {', '.join(frames)} (a joint name also finds its child link)",
             )
         return name
 
 
-def _suggest(name: str, choices) -> str:
+def suggest(name: str, choices) -> str:
     close = difflib.get_close_matches(str(name), [str(c) for c in choices], n=1)
     return f" (did you mean {close[0]!r}?)" if close else ""
 
 
-def _found(value) -> str:
+def what_is(value) -> str:
     """What a TOML value is, for error messages: its text and its TOML type."""
     if isinstance(value, (bool, np.bool_)):
         kind = "a boolean"

@@ -1,0 +1,198 @@
+"""What the drivers share (simulate, Simulator, rollout): Ctrl-C during a run, the scene's
+integrator, getting the compiled pieces ready, the free joints and the error's size index, the
+progress bar, and a Stepper: one run's step, its SceneData built once, advanced in compiled
+chunks (opendyn.sim.integrators) and evaluated at a state."""
+
+from __future__ import annotations
+
+import signal
+import sys
+import threading
+
+import numpy as np
+
+from .._runtime.compile_notice import compiling
+from ..algorithm.energy import energies
+from ..errors import SceneError
+from ..multibody.joints import FREE
+from . import effects, integrators, step
+from .record import contact_record, gravity_of, violation
+
+# what compiling a scene's pieces takes on a 2-core machine, by integrator (measured by
+# scripts/bench_coldstart.py; constraints add about half again)
+_COMPILE_ESTIMATE = {
+    integrators.EXPLICIT_RK: "about 15 s",
+    integrators.SEMI_IMPLICIT: "about 20 s",
+    integrators.IMPLICIT: "about 20 s",
+}
+
+
+class Interrupt:
+    """While a run is on (in the main thread), Ctrl-C sets `requested` instead of raising; the
+    loops stop after the current chunk, so that the record stays consistent. `signum` is the
+    signal that asked (SIGINT, or SIGTERM when the command line hands it over).
+
+    A process that started with Ctrl-C ignored (a background job of a script, nohup) keeps it
+    ignored, as Python itself does: SIGINT changes nothing, and SIGTERM still stops the run."""
+
+    requested = False
+    signum = signal.SIGINT
+
+    def __enter__(self):
+        self._previous = None
+        if threading.current_thread() is threading.main_thread():
+            self._ctrl_c_ignored = signal.getsignal(signal.SIGINT) == signal.SIG_IGN
+            self._previous = signal.signal(signal.SIGINT, self._handler)
+        return self
+
+    def _handler(self, signum, frame):
+        if signum == signal.SIGINT and self._ctrl_c_ignored:
+            return
+        self.requested = True
+        self.signum = signum
+
+    def __exit__(self, *exc):
+        if self._previous is not None:
+            signal.signal(signal.SIGINT, self._previous)
+
+
+def integrator_of(scene):
+    """The Integrator the scene's run names, checked against the scene (semi-implicit Euler
+    takes no constraints: SceneError)."""
+    integ = integrators.INTEGRATORS[scene.run.integrator]
+    if scene.constraints and integ.kind == integrators.SEMI_IMPLICIT:
+        raise SceneError(
+            f"{scene.source}: run.integrator: semi_implicit_euler (symplectic, in momentum form) "
+            "does not support constraints; use rk4, dopri5, euler or implicit_euler"
+        )
+    return integ
+
+
+def load_kernels(scene, integ, table, data, x, loop):
+    """Get the run's compiled pieces ready before the clock starts, one by one: forward
+    dynamics, the effects, one evaluation, the loop (loop(): the run's loop called for zero
+    steps) and the energies of the record. data: the run's step.SceneData; x: its State.
+    numba loads each from its on-disk cache or, the first time on a machine, compiles it; then
+    a notice and a bar over these pieces show on stderr."""
+    model = scene.model
+    nv = model.nv
+    KD = data.KD
+    q, qd = x.q, x.qd
+    tau, qdd = np.zeros(nv), np.empty(nv)
+    state = (q[None].copy(), qd[None].copy())
+    pieces = [
+        lambda: step.dynamics(data, q, qd, tau, qdd),
+        lambda: step.generalized_forces(
+            data, 0.0, q, qd, np.empty(nv), np.empty(nv), np.empty(2), KD[0], KD[1], False
+        ),
+        lambda: step.evaluate(data, 0.0, q, qd, qdd, tau, np.empty(2)),
+        loop,
+        lambda: energies(model, *state, gravity_of(scene)),
+    ]
+    if scene.constraints:
+        pieces.append(lambda: violation(model, table, *state))
+    if scene.contact is not None:
+        pieces.append(lambda: contact_record(model, table.params(effects.contact), *state))
+    what = f"the simulation step for {integ.name} with {', '.join(table.names) or 'no effects'}"
+    with compiling(what, len(pieces), _COMPILE_ESTIMATE[integ.kind]) as done:
+        for piece in pieces:
+            piece()
+            done()
+
+
+def free_joints(model):
+    """None for a fixed base (the loops then compile no Munthe-Kaas correction), else the
+    first v index of each free joint (int64), for integrators.rk_stages."""
+    if not model.floating_base:
+        return None
+    return np.array([model.iv[i] for i in range(model.nb) if model.jtype[i] == FREE], np.int64)
+
+
+def error_size_index(model):
+    """(nv,) int64 for run_adaptive's error norm: for each v coordinate, the q index whose
+    magnitude sets its tolerance atol + rtol |q_k| (a joint's own coordinate; a floating base's
+    position for its translation rows), -1 for a floating base's rotation rows (1 rad)."""
+    index = np.full(model.nv, -1, dtype=np.int64)
+    index[model.v_index] = model.q_index
+    for i in np.flatnonzero(model.jtype == FREE):
+        index[model.iv[i] + 3 : model.iv[i] + 6] = model.iq[i] + np.arange(3)
+    return index
+
+
+def progress_bar(duration):
+    """A tqdm bar over `duration` s of simulated time, on stderr, shown after a second."""
+    from tqdm import tqdm
+
+    return tqdm(
+        total=duration,
+        unit="s",
+        unit_scale=False,
+        delay=1.0,
+        desc="simulating",
+        file=sys.stderr,
+        bar_format="{desc}: {percentage:3.0f}%|{bar}| {n:.2f}/{total:.2f} s simulated "
+        "[{elapsed}<{remaining}]",
+    )
+
+
+class Stepper:
+    """One run of `scene` with its stage table: the integrator, the step's SceneData (built
+    once, here), the free joints; chunks of fixed or adaptive steps on a State, and the
+    evaluation at a state."""
+
+    def __init__(self, scene, table, integ=None):
+        self.scene, self.table = scene, table
+        self.integ = integrator_of(scene) if integ is None else integ
+        self.data = step.scene_data(scene.model, table)
+        self.free = free_joints(scene.model)
+
+    def fixed_chunk(self, step0, nsteps, every, x, out, counters):
+        """integrators.run_fixed on the State x, the record `out` (record.Samples) and
+        Counters: up to nsteps steps from global step step0, recording every `every`-th.
+        Returns (status, steps done)."""
+        run = self.scene.run
+        settings = integrators.FixedSettings(
+            t0=0.0, dt=run.dt, every=every, max_speed=run.max_speed
+        )
+        return integrators.run_fixed(
+            self.integ.switches(), self.data, settings, step0, nsteps, x, out.arrays(),
+            counters, self.free,
+        )
+
+    def adaptive_chunk(self, at, t_stop, x, first, out, counters):
+        """integrators.run_adaptive on the State x, record and Counters from the Progress
+        `at` (time, first trial step, next output row) to t_stop; first: the FSAL Stage.
+        Returns (status, Progress reached)."""
+        run = self.scene.run
+        settings = integrators.AdaptiveSettings(
+            t0=0.0,
+            t_end=run.duration,
+            rtol=run.rtol,
+            atol=run.atol,
+            output_dt=run.output_dt,
+            max_speed=run.max_speed,
+            size_index=error_size_index(self.scene.model),
+            land=False,
+        )
+        return integrators.run_adaptive(
+            self.integ.tableau(), self.data, settings, at, t_stop, x, first, out.arrays(),
+            counters, self.free,
+        )
+
+    def first_stage(self, t, q, qd, k_first, power, tau):
+        """k_first (2, nv) <- (qd, qdd), power (2,) <- (applied, passive) power and tau <- the
+        control torque, at (t, q, qd). Returns the dynamics' status."""
+        k_first[0] = qd
+        return step.evaluate(self.data, t, q, qd, k_first[1], tau, power)
+
+    def record_state(self, t, x, out):
+        """Append (t, x) to `out` with the control torque there (NaN when the dynamics fail
+        there)."""
+        nv = self.scene.model.nv
+        k, tau = np.empty((2, nv)), np.empty(nv)
+        if self.first_stage(t, x.q, x.qd, k, np.empty(2), tau):
+            tau[:] = np.nan
+        r = out.filled
+        out.grow(r + 1)
+        out.put(r, t, x, tau)
+        out.filled = r + 1
