@@ -364,7 +364,7 @@ def kernel_time(model, method, q, qd, budget):
     """Seconds per forward-dynamics call of `method` inside a compiled loop over the states
     (q, qd): the stage-cost loop of the simulation step, with no stage rows and zero torque."""
     table = effects.StageTable(
-        effects=(None,) * len(effects.SLOT_NAMES),
+        effects=(None,) * len(effects.registry.stages()),
         names=(),
         slots=(),
         method=method,

@@ -3,8 +3,9 @@ effects derives from the registry, every effect is read from a scene, packed int
 reached by the step's dispatch, and adds only to the force vector of its energy class and to
 the derivatives it declares.
 
-A new effect fails here until it is complete: give it settings in SCENES below (the module's
-own closed-form test is for its law; docs/developing.md)."""
+A new effect fails here until it is complete; the scenes here are built from the modules' own
+EXAMPLE settings, so a new effect needs no line here (the module's own closed-form test is for
+its law; docs/developing.md)."""
 
 from __future__ import annotations
 
@@ -18,7 +19,7 @@ from numba.core.registry import CPUDispatcher
 
 import opendyn as od
 from opendyn.cli import simulate as cli_simulate
-from opendyn.io.scene.schema import EFFECTS, Scene
+from opendyn.sim.scene import Scene
 from opendyn.io.urdf import shipped_robots_dir
 from opendyn.sim import effects, step
 from opendyn.sim.effects import registry
@@ -30,48 +31,28 @@ SCENES_GUIDE = (
 ).read_text(encoding="utf-8")
 SCENE_FIELDS = {field.name for field in dataclasses.fields(Scene)}
 
-# the double pendulum (limits +-3.14 rad, effort limits 50 and 20 N m); scenes that together
-# switch on every effect of the registry: a scene names one control law
+# the double pendulum (limits +-3.14 rad, effort limits 50 and 20 N m); one scene per module of
+# [control], each with every effect of [effects] on, all from the modules' own EXAMPLE settings
 PENDULUM = {"urdf": str(shipped_robots_dir() / "double_pendulum.urdf")}
-EVERY_FORCE = {
-    "gravity": True,
-    "damping": {"coefficients": 0.3},
-    "friction": {"coefficients": 0.2, "smoothing": 0.05},
-    "armature": {"values": 0.01},
-    "limits": {"stiffness": 1e3, "damping": 5.0},
-    "wrench": [{"frame": "tip", "expressed_in": "world", "value": [0, 0, 0, 1, 0, 2]}],
-    "contact": {
-        "ground_height": 1.0,
-        "stiffness": 1e3,
-        "damping": 10.0,
-        "friction": 0.3,
-        "points": [{"frame": "tip", "radius": 0.05}],
-    },
-}
-SCENES = {
-    "pd": {"effects": EVERY_FORCE, "control": {"type": "pd", "kp": 5.0, "kd": 1.0}},
-    "constant, clip": {
-        "effects": {"gravity": True},
-        "control": {"type": "constant", "tau": [80.0, -30.0], "clip": True},
-    },
-    "python": {
-        "effects": {"gravity": True},
-        "control": {"type": "python", "function": "math:cos", "control_dt": 0.01},
-    },
-    "computed torque": {
-        "effects": {"gravity": True, "armature": {"values": 0.01}},
-        "control": {"type": "computed_torque", "kp": 5.0, "kd": 1.0, "amplitude": 0.3},
-    },
-}
+
+
+def scene_settings():
+    """{control module's name: the scene's settings}: together they switch on every effect of
+    the registry, a scene naming one control law."""
+    every_force = {effect.NAME: effect.EXAMPLE for effect in registry.in_section("effects")}
+    return {
+        ids([effect])[0]: {"effects": every_force, "control": effect.EXAMPLE}
+        for effect in registry.in_section("control")
+    }
 
 
 def scene_named(key):
-    return od.scene_from_dict({"robot": PENDULUM, **SCENES[key]})
+    return od.scene_from_dict({"robot": PENDULUM, **scene_settings()[key]})
 
 
 def scenes_naming(effect):
-    """The scenes of SCENES that name `effect` (a module of the registry)."""
-    found = [scene_named(key) for key in SCENES]
+    """The scenes of scene_settings() that name `effect` (a module of the registry)."""
+    found = [scene_named(key) for key in scene_settings()]
     return [scene for scene in found if effect.record(scene) is not None]
 
 
@@ -108,6 +89,9 @@ def assert_declares_every_part(effect):
     assert callable(effect.read) and callable(effect.record) and callable(effect.pack)
     assert isinstance(effect.DOC, str) and effect.DOC and "\n" not in effect.DOC, "DOC line"
     assert effect.ENABLE is None or effect.ENABLE is True or isinstance(effect.ENABLE, dict)
+    assert effect.EXAMPLE not in (None, False), "EXAMPLE: settings that switch it on"
+    if effect.SECTION == "control":
+        assert isinstance(effect.EXAMPLE, dict) and "type" in effect.EXAMPLE, "a [control] table"
     assert effect.ENERGY in ENERGY_CLASSES, "ENERGY: how its power enters the energy balance"
     assert set(effect.DERIVATIVES) <= {"K", "D"}
     assert effect.Params is None or hasattr(effect.Params, "_fields"), "Params: a namedtuple"
@@ -137,13 +121,9 @@ def test_modules_of_one_name_agree_on_where_it_lives():
 
 
 def test_the_lists_of_effects_derive_from_the_registry():
-    assert EFFECTS == registry.names()
-    assert effects.SLOT_NAMES == tuple(effect.STAGE for effect in registry.stages())
     assert registry.stages() == tuple(e for e in registry.EFFECTS if e.apply is not None)
-    for stage in registry.stages():
-        slot = registry.slot(stage)
-        assert effects.SLOT_NAMES[slot] == stage.STAGE
-        assert getattr(effects, stage.__name__.rsplit(".", 1)[1] + "_effect") is stage.apply
+    scene = scene_named("pd")
+    assert scene.effects == tuple(n for n in registry.names() if registry.is_on(scene, n))
     assert cli_simulate.ENABLE_FROM_URDF == registry.enable_settings()
     assert set(registry.enable_settings()) == {"gravity", "damping", "friction"}
 
@@ -161,7 +141,7 @@ def test_the_documentations_effects_table_is_the_registry_s():
 @pytest.mark.parametrize("effect", registry.EFFECTS, ids=ids(registry.EFFECTS))
 def test_every_effect_is_read_from_a_scene_and_packed_into_fresh_arrays(effect):
     scenes = scenes_naming(effect)
-    assert scenes, f"no scene of SCENES names {effect.__name__}: give it settings there"
+    assert scenes, f"no scene names {effect.__name__}: its EXAMPLE must switch it on"
     for scene in scenes:
         assert effect.NAME in scene.effects
         record = effect.record(scene)

@@ -14,7 +14,7 @@ import opendyn as od
 from opendyn.io.urdf import shipped_robots_dir
 from opendyn.sim import effects, step
 from opendyn.sim.linearize import effect_forces
-from test_effects_registry import SCENES, scene_named  # noqa: E402
+from test_effects_registry import scene_named, scene_settings  # noqa: E402
 
 
 def scene_qdd(scene, t, q, qd, u):
@@ -106,13 +106,13 @@ def test_linearize_matches_differences_while_in_contact(name):
         assert_matches_differences(scene, t, q, qd, rtol=1e-5)
 
 
-@pytest.mark.parametrize("key", sorted(SCENES))
+@pytest.mark.parametrize("key", sorted(scene_settings()))
 def test_linearize_matches_differences_with_every_effect(key):
     """The registry's scenes, which together name every effect: gravity, damping, friction,
     armature, limits, a world-aligned wrench, contact, PD, a clipped constant torque and
     computed torque (the Python controller is refused below)."""
     scene = scene_named(key)
-    if key == "python":
+    if key == "python_control":
         with pytest.raises(ValueError, match="Python function"):
             od.linearize(scene)
         return
@@ -127,7 +127,7 @@ def test_every_effects_tangent_is_its_compiled_force():
     """The tangents' forces add up to the step's own generalized force, effect by effect's
     scene (what their derivatives are taken of)."""
     rng = np.random.default_rng(4)
-    for key in sorted(set(SCENES) - {"python"}):
+    for key in sorted(set(scene_settings()) - {"python_control"}):
         scene = scene_named(key)
         model = scene.model
         data = step.scene_data(model, effects.stage_table(scene))

@@ -22,7 +22,9 @@ import pytest
 import opendyn as od
 from opendyn.errors import SimulationError
 from opendyn.sim import effects, integrators
-from opendyn.sim.simulate import first_stage, _fixed_chunk, Samples
+from opendyn.sim.effects import registry
+from opendyn.sim.driver import Stepper
+from opendyn.sim.record import Samples
 
 pin = pytest.importorskip("pinocchio")
 from pin_adapter import PinOracle  # noqa: E402
@@ -102,36 +104,27 @@ def test_damping_dissipates_energy_at_rate_qd_b_qd():
 
 
 def _full_scene():
-    """The double pendulum with every effect on."""
+    """The double pendulum with every effect of the registry on: each [effects] entry its
+    module's EXAMPLE, the contact's floor raised so that the tip swings down into it (it starts
+    at 2.82 m), and PD control about the hanging pose."""
+    every = {effect.NAME: effect.EXAMPLE for effect in registry.in_section("effects")}
+    every["contact"] = {**every["contact"], "ground_height": 2.6, "slip_velocity": 1.0}
     return od.scene_from_dict(
         {
             "robot": {"urdf": str(od.io.urdf.shipped_robots_dir() / "double_pendulum.urdf")},
             "initial": {"q": [2.0, 0.5], "qd": [0.3, -0.2]},
             "run": {"duration": 0.5, "dt": 1e-3, "output_dt": 1e-2},
-            "effects": {
-                "gravity": True,
-                "damping": {"coefficients": 0.3},
-                "friction": {"coefficients": 0.2, "smoothing": 0.05},
-                "armature": {"values": 0.01},
-                "limits": {"stiffness": 1e3, "damping": 5.0},
-                "wrench": [{"frame": "tip", "expressed_in": "world", "value": [0, 0, 0, 1, 0, 2]}],
-                "contact": {  # a raised floor the tip swings down into (it starts at 2.82 m)
-                    "ground_height": 2.6,
-                    "stiffness": 1e3,
-                    "damping": 10.0,
-                    "friction": 0.3,
-                    "slip_velocity": 1.0,
-                    "points": [{"frame": "tip", "radius": 0.05}],
-                },
-            },
+            "effects": every,
             "control": {"type": "pd", "kp": 5.0, "kd": 1.0, "setpoint": [0.0, 0.0]},
         }
     )
 
 
-@pytest.mark.parametrize(
-    "effect", ["gravity", "damping", "friction", "limits", "wrench", "contact", "control"]
-)
+# every effect with a stage, by its name in a scene (the control laws share "control")
+STAGED = tuple(dict.fromkeys(effect.NAME for effect in registry.stages()))
+
+
+@pytest.mark.parametrize("effect", STAGED)
 def test_disabled_effect_never_runs(effect):
     """A scene without an effect has None in its slot of the effects tuple, which the compiled
     step never reads: the full scene's table with that slot emptied runs to the same result as
@@ -141,7 +134,8 @@ def test_disabled_effect_never_runs(effect):
     off = full.without(effect)
     table_full = effects.stage_table(full)
     table_off = effects.stage_table(off)
-    slot = effects.PD if effect == "control" else effects.SLOT_NAMES.index(effect)
+    (slot,) = [k for k, stage in enumerate(registry.stages()) if stage.NAME == effect
+               and table_full.effects[k] is not None]
     assert table_full.effects[slot] is not None and table_off.effects[slot] is None
     assert len(table_off.names) == len(table_full.names) - 1
 
@@ -153,10 +147,7 @@ def test_disabled_effect_never_runs(effect):
     emptied[slot] = None
     table_emptied = dataclasses.replace(table_off, effects=tuple(emptied))
     q, qd, w = full.q0.copy(), full.qd0.copy(), np.zeros(2)
-    status, steps = _fixed_chunk(
-        full,
-        integrators.INTEGRATORS["rk4"],
-        table_emptied,
+    status, steps = Stepper(full, table_emptied, integrators.INTEGRATORS["rk4"]).fixed_chunk(
         0,
         500,
         1,
@@ -178,14 +169,14 @@ def test_disabled_effect_never_runs(effect):
 _COMPILED_FOR_DEFAULT_SCENE = r"""
 import json
 import opendyn as od
-from opendyn.sim import effects
+from opendyn.sim.effects import registry
 from opendyn.algorithm import aba, contact, crba, forward, rnea
 od.simulate(od.load_scene("double_pendulum_swing").replace_run(duration=0.01))
-functions = {name: getattr(effects, name) for name in dir(effects) if name.endswith("_effect")}
+functions = {stage.__name__.rsplit(".", 1)[1]: stage.apply for stage in registry.stages()}
 functions.update(
     aba=aba.aba_on_poses, crba=crba.crba_kernel, rnea=rnea.rnea_kernel,
     newton_euler=forward.newton_euler_mass_matrix, mass_matrix_solve=forward.mass_matrix_solve,
-    contact=contact.contact_on_poses, crba_on_poses=crba.crba_on_poses,
+    contact_on_poses=contact.contact_on_poses, crba_on_poses=crba.crba_on_poses,
     rnea_on_poses=rnea.rnea_on_poses, aba_kernel=aba.aba_kernel,
 )
 print(json.dumps({name: [str(sig[0]) for sig in f.signatures] for name, f in functions.items()}))
@@ -206,24 +197,16 @@ def test_a_scene_compiles_no_effect_it_does_not_name(tmp_path):
     )
     assert proc.returncode == 0, proc.stderr
     compiled = json.loads(proc.stdout.strip().splitlines()[-1])
-    assert set(compiled["gravity_effect"]) == {"array(float64, 1d, C)"}
-    for name in (
-        "damping_effect",
-        "friction_effect",
-        "limits_effect",
-        "wrench_effect",
-        "contact_effect",
-        "constant_effect",
-        "pd_effect",
-        "computed_torque_effect",
-        "clip_effect",
-    ):
-        assert compiled[name] == [], f"{name} compiled for {compiled[name]}"
+    assert set(compiled["gravity"]) == {"array(float64, 1d, C)"}
+    for stage in registry.stages():
+        name = stage.__name__.rsplit(".", 1)[1]
+        if name != "gravity":
+            assert compiled[name] == [], f"{name}'s force compiled for {compiled[name]}"
     # the step runs ABA on the poses it placed (opendyn.sim.step), and nothing else of it
     assert compiled["aba"] and compiled["rnea"] == [] and compiled["aba_kernel"] == []
     assert compiled["crba_on_poses"] == [] and compiled["rnea_on_poses"] == []
     assert compiled["crba"] == [] and compiled["newton_euler"] == []
-    assert compiled["mass_matrix_solve"] == [] and compiled["contact"] == []
+    assert compiled["mass_matrix_solve"] == [] and compiled["contact_on_poses"] == []
     # and the run said so, once, on stderr
     assert proc.stderr.count("opendyn: compiling the simulation step for rk4 with gravity") == 1
 
@@ -232,7 +215,7 @@ def _evaluate(scene, t, q, qd):
     """(qdd, control torque, (applied, passive) power) of the scene's step at one state."""
     nv = scene.model.nv
     k, power, tau_ctrl = np.empty((2, nv)), np.empty(2), np.empty(nv)
-    assert first_stage(scene, effects.stage_table(scene), t, q, qd, k, power, tau_ctrl) == 0
+    assert Stepper(scene, effects.stage_table(scene)).first_stage(t, q, qd, k, power, tau_ctrl) == 0
     return k[1], tau_ctrl, power
 
 
@@ -357,9 +340,7 @@ def test_clip_limits_control_torque_to_effort_limits():
 
 def test_armature_adds_to_the_mass_matrix_diagonal():
     scene = _full_scene()
-    only = scene.without(
-        "gravity", "damping", "friction", "limits", "wrench", "contact", "control"
-    )
+    only = scene.without(*(name for name in registry.names() if name != "armature"))
     assert only.effects == ("armature",)
     q, qd = np.array([0.4, -0.3]), np.array([1.0, 2.0])
     qdd, _, _ = _evaluate(only, 0.0, q, qd)

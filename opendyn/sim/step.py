@@ -52,9 +52,12 @@ from ..algorithm.kinematics import place_bodies
 from ..multibody.data import joint_poses
 from ..multibody.joints import place_joints, state_status
 from ..multibody.layout import body_count, tree
-from .effects import GRAVITY
+from .effects import gravity, registry
 from .effects.dispatch import EVERY, run_stages
 from .effects.interface import Context, Out
+
+# the gravity stage's slot: it runs first, setting the base acceleration dV_0 the others read
+GRAVITY = registry.slot(gravity)
 
 
 @njit(**JIT)

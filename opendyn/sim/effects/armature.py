@@ -21,6 +21,7 @@ FIELD = "armature"
 OFF = None
 DOC = "M + diag(I_a) in forward dynamics"
 ENABLE = None
+EXAMPLE = {"values": 0.01}
 STAGE = None
 ENERGY = CONSERVATIVE
 DERIVATIVES = ()

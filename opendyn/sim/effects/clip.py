@@ -24,6 +24,7 @@ FIELD = "control"
 OFF = None
 DOC = "clipped to +-effort_limit with clip = true"
 ENABLE = None
+EXAMPLE = {"type": "constant", "tau": [80.0, -30.0], "clip": True}
 STAGE = "clip"
 ENERGY = CONTROL
 DERIVATIVES = ()

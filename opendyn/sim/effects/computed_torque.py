@@ -36,6 +36,7 @@ FIELD = "control"
 OFF = None
 DOC = "computed torque M (qdd_r + kd e' + kp e) + h by RNEA (on the joints)"
 ENABLE = None
+EXAMPLE = {"type": "computed_torque", "kp": 5.0, "kd": 1.0, "amplitude": 0.3}
 STAGE = "control (computed torque)"
 ENERGY = CONTROL
 DERIVATIVES = ()

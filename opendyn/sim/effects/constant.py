@@ -26,6 +26,7 @@ FIELD = "control"
 OFF = None
 DOC = "constant"
 ENABLE = None
+EXAMPLE = {"type": "constant", "tau": [3.0, -1.0]}
 STAGE = "control (constant)"
 ENERGY = CONTROL
 DERIVATIVES = ()

@@ -23,6 +23,7 @@ FIELD = "damping"
 OFF = None
 DOC = "-b qd"
 ENABLE = {}  # coefficients = "urdf": <dynamics damping>
+EXAMPLE = {"coefficients": 0.3}
 STAGE = "damping"
 ENERGY = PASSIVE
 DERIVATIVES = ("D",)

@@ -25,6 +25,7 @@ FIELD = "friction"
 OFF = None
 DOC = "-f_c tanh(qd / v_s), Coulomb smoothed over the velocity scale v_s (default 0.01)"
 ENABLE = {}  # coefficients = "urdf": <dynamics friction>
+EXAMPLE = {"coefficients": 0.2, "smoothing": 0.05}
 STAGE = "friction"
 ENERGY = PASSIVE
 DERIVATIVES = ("D",)

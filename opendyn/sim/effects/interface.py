@@ -22,6 +22,10 @@ An effect is one module of this package, listed once in registry.EFFECTS. The mo
   DOC          its line in the effects table (the scenes guide): the generalized force, in words
   ENABLE       what `opendyn simulate --enable NAME` puts in [effects.NAME] (values from the
                URDF), or None: no switch
+  EXAMPLE      its settings in a scene of the shipped double pendulum (robots/
+               double_pendulum.urdf: joints shoulder and elbow, frame tip) that switch it on:
+               the value of [effects.NAME], or a control module's whole [control] table; the
+               registry's tests build their scenes from these
   STAGE        the stage's name in reports, or None when the effect is no stage (armature)
   ENERGY       how its power enters the energy balance (CONTROL, APPLIED, PASSIVE or
                CONSERVATIVE below): the force vector of `out` its compiled force adds to

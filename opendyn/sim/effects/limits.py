@@ -29,6 +29,7 @@ FIELD = "limits"
 OFF = None
 DOC = "-k (q - limit) - d qd, only while past a URDF limit"
 ENABLE = None
+EXAMPLE = {"stiffness": 1e3, "damping": 5.0}
 STAGE = "limits"
 ENERGY = PASSIVE
 DERIVATIVES = ("K", "D")

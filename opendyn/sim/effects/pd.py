@@ -25,6 +25,7 @@ FIELD = "control"
 OFF = None
 DOC = "PD kp (q* - q) - kd qd"
 ENABLE = None
+EXAMPLE = {"type": "pd", "kp": 5.0, "kd": 1.0}
 STAGE = "control (pd)"
 ENERGY = CONTROL
 DERIVATIVES = ("K", "D")

@@ -27,6 +27,7 @@ FIELD = "control"
 OFF = None
 DOC = "python: fn(t, q, qd) -> tau, called every control_dt and held in between"
 ENABLE = None
+EXAMPLE = {"type": "python", "function": "math:cos", "control_dt": 0.01}
 STAGE = None
 ENERGY = CONTROL
 DERIVATIVES = ()
