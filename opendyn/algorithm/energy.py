@@ -19,7 +19,7 @@ import numpy as np
 from numba import njit
 
 from .._runtime.arrays import fill
-from .._runtime.entry import exact, learn
+from .._runtime.entry import exact
 from .._runtime.kernel_cache import BATCH, INLINE, JIT
 from .._runtime.status import Status
 from ..multibody.data import body_motion, joint_poses, new_work, temp_vectors, world_poses
@@ -33,6 +33,7 @@ from ..spatial.compiled import (
     twist_to_child,
 )
 from . import checks
+from .calls import Call, checked_call
 from .kinematics import world_pose
 from .rnea import forward_pass
 
@@ -137,6 +138,7 @@ def energy_batch_kernel(ibuf, fbuf, q, qd, gravity, out, status, start, stop):
 
 
 energy_exact = exact(energy_kernel)
+ENERGY = Call(energy_kernel, energy_exact, energy_batch_kernel, ("q", "qd"))
 
 
 def energies(model, q, qd, gravity=None, what="energies", data=None):
@@ -147,28 +149,19 @@ def energies(model, q, qd, gravity=None, what="energies", data=None):
     An energy that overflows float64 is returned as it is (inf): a simulation records the
     energies of its states with this; kinetic_energy and potential_energy refuse it."""
     work = checks.work_of(model, data, what)
-    if data is not None and gravity is None:
+    out = np.empty(2) if data is None else data.energy
+    if gravity is None:
         # float64 vectors of the model's sizes go to the kernel's exact twin
-        ibuf, fbuf, g, out = model._ibuf, model._fbuf, model._gravity, data.energy
         try:
-            status = energy_exact(ibuf, fbuf, work, q, qd, g, out)
-        except TypeError:
-            status = learn(energy_exact, energy_kernel)
-        if not status:
-            return float(out[0]), float(out[1])
-        if status != Status.CONVERT:
-            checks.raise_status(status, model, what)
-    (q, qd), batch = checks.as_states(model, q, ("qd", qd))
+            if not energy_exact(model._ibuf, model._fbuf, work, q, qd, model._gravity, out):
+                return float(out[0]), float(out[1])
+        except TypeError:  # arguments to convert: the checked path
+            pass
     g = checks.as_gravity(model, gravity)
-    if not batch:
-        out = np.empty(2) if data is None else data.energy
-        status = energy_kernel(model._ibuf, model._fbuf, work, q, qd, g, out)
-        if status:
-            checks.raise_status(status, model, what)
-        return float(out[0]), float(out[1])
-    checks.single_state_only(data, what)
-    out = checks.run_batch(model, energy_batch_kernel, (q, qd, g), np.empty((q.shape[0], 2)), what)
-    return out[:, 0], out[:, 1]
+    out = checked_call(ENERGY, model, data, (q, qd), out, what, None, (g,))
+    if out.ndim == 2:
+        return out[:, 0], out[:, 1]
+    return float(out[0]), float(out[1])
 
 
 def kinetic_energy(model, q, qd, data=None):
