@@ -20,9 +20,16 @@ from numba import njit
 
 from .._runtime.arrays import fill
 from .._runtime.entry import exact
-from .._runtime.kernel_cache import BATCH, INLINE, JIT
+from .._runtime.kernel_cache import BATCH, JIT
 from .._runtime.status import Status
-from ..multibody.data import body_motion, joint_poses, new_work, temp_vectors, world_poses
+from ..multibody.data import (
+    body_motion,
+    joint_poses,
+    new_work,
+    scratch_rows,
+    temp_vectors,
+    world_poses,
+)
 from ..multibody.joints import joint_motion, place_joints, state_status
 from ..multibody.layout import body_count, rigid_inertias, tree
 from ..spatial.compiled import (
@@ -35,25 +42,14 @@ from ..spatial.compiled import (
 from . import checks
 from .calls import Call, checked_call
 from .kinematics import world_pose
-from .rnea import forward_pass
-
-
-@njit(**INLINE)
-def body_twists(ibuf, fbuf, q, qd):
-    """(R, p, V): each body's pose in its parent (nb, 3, 3), (nb, 3) and twist V_i in {i}
-    (nb, 6), from the RNEA forward pass."""
-    body_tree = tree(ibuf, fbuf)
-    nb = body_tree[0].shape[0]
-    R, p = np.empty((nb, 3, 3)), np.empty((nb, 3))
-    V, dV = np.empty((nb, 6)), np.empty((nb, 6))
-    forward_pass(body_tree, q, qd, np.zeros_like(qd), np.zeros(6), R, p, V, dV, np.empty((2, 6)))
-    return R, p, V
+from .rnea import velocity_pass
 
 
 @njit(**JIT)
-def kinetic_gradient_kernel(ibuf, fbuf, q, qd, dK_dq):
-    """dK_dq (nv,) <- dK/dq at fixed qd (N m or N). Returns a Status: OK, Q/QD_NOT_FINITE or
-    Q_NOT_UNIT_QUATERNION."""
+def kinetic_gradient_kernel(ibuf, fbuf, work, q, qd, dK_dq):
+    """dK_dq (nv,) <- dK/dq at fixed qd (N m or N), in `work` (a Data's buffer: R, p and V are
+    left as this state's joint poses and body twists, F as the momenta P). Returns a Status:
+    OK, Q/QD_NOT_FINITE or Q_NOT_UNIT_QUATERNION."""
     status = state_status(ibuf, q, qd)
     if status:
         return status
@@ -62,9 +58,13 @@ def kinetic_gradient_kernel(ibuf, fbuf, q, qd, dK_dq):
     mult, S = body_tree.mult, body_tree.S
     mass, h, I_o = rigid_inertias(ibuf, fbuf)
     nb = mass.shape[0]
-    R, p, V = body_twists(ibuf, fbuf, q, qd)
-    P = np.empty((nb, 6))
-    s = np.empty(6)
+    # T_{lambda,i} and V_i = Ad_{T_{i,lambda}} V_lambda + S_i qd_i (RNEA's velocity pass)
+    R, p = joint_poses(work, nb)
+    V, _, P = body_motion(work, nb)
+    scratch = scratch_rows(work, nb, qd.shape[0])
+    place_joints(body_tree, q, R, p)
+    velocity_pass(body_tree, qd, R, p, V, scratch)
+    s = scratch[0]
     # backward pass: P_j = G_j V_j + sum_children Ad_{T_cj}^T P_c
     for i in range(nb):
         rigid_inertia_times(mass[i], h[i], I_o[i], V[i], P[i])
