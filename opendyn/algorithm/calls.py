@@ -65,7 +65,6 @@ def checked_call(call, model, data, states, out, what, result, options=(), given
     Returns out, or for a batch (N, *shape) (a tuple of them for several results)."""
     given = given or {}
     arrays, batch = checks.as_states(model, states[0], *zip(call.states[1:], states[1:]))
-    arguments = {**dict(zip(call.states, arrays)), **given}
     n = arrays[0].shape[0] if batch else None
     if call.loads:
         loads = checks.loads(model, given.get("gravity"), given.get("f_tip"), n)
@@ -77,11 +76,16 @@ def checked_call(call, model, data, states, out, what, result, options=(), given
         status = call.kernel(model._ibuf, model._fbuf, work, *inputs, *options, *outs)
         learn(call.twin, call.kernel)  # the next such call takes the fast path
         if status:
-            checks.raise_status(status, model, what, result, arguments)
+            checks.raise_status(status, model, what, result, _named(call, arrays, given))
         return out
     checks.single_state_only(data, what)
     several = () if len(outs) == 1 else (len(outs),)
     rows = np.empty((n, *several, *outs[0].shape))
     inputs = ((tuple(arrays),) if call.packed[1] else tuple(arrays)) + tuple(options)
-    checks.run_batch(model, call.batch, inputs, rows, what, result, arguments)
+    checks.run_batch(model, call.batch, inputs, rows, what, result, _named(call, arrays, given))
     return tuple(rows[:, k] for k in range(len(outs))) if several else rows
+
+
+def _named(call, arrays, given):
+    """{name: value} of a call's converted states and its other arguments, for errors."""
+    return {**dict(zip(call.states, arrays)), **given}

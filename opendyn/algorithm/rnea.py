@@ -159,11 +159,19 @@ _NO_GRAVITY = np.zeros(3)
 
 
 def run_rnea(model, q, qd, qdd, f_tip, gravity, what, result, data=None):
-    """Checked RNEA for single states (nv,) or batches (N, nv); the public functions' core.
-    what, result: the function and its result (e.g. "tau") as error messages name them, and
-    the Data field that holds it with data=."""
-    checks.work_of(model, data, what)  # checks model and data
+    """RNEA for single states (nv,) or batches (N, nv), by the exact twin or checked_call: the
+    core of gravity_forces, coriolis_forces and bias_forces. what, result: the function and its
+    result (e.g. "g") as error messages name them, and the Data field that holds it with
+    data=."""
+    work = checks.work_of(model, data, what)  # checks model and data
     tau = np.empty(model._vector_shape) if data is None else getattr(data, result)
+    if gravity is None and f_tip is None:
+        # float64 vectors of the model's sizes go to the kernel's exact twin
+        try:
+            if not rnea_exact(model._ibuf, model._fbuf, work, q, qd, qdd, model._loads, tau):
+                return tau
+        except TypeError:  # arguments to convert: the checked path
+            pass
     given = {"gravity": gravity, "f_tip": f_tip}
     return checked_call(RNEA, model, data, (q, qd, qdd), tau, what, result, given=given)
 
@@ -185,15 +193,17 @@ def inverse_dynamics(model, q, qd, qdd, f_tip=None, gravity=None, data=None):
     (m_b, f_b) on a floating base in its own frame.
     """
     work = checks.work_of(model, data, "inverse_dynamics")  # checks model and data
+    tau = np.empty(model._vector_shape) if data is None else data.tau
     if gravity is None and f_tip is None:
         # the common call: float64 vectors of the model's sizes go to the kernel's exact twin
-        tau = np.empty(model._vector_shape) if data is None else data.tau
         try:
             if not rnea_exact(model._ibuf, model._fbuf, work, q, qd, qdd, model._loads, tau):
                 return tau
         except TypeError:  # arguments to convert: the checked path
             pass
-    return run_rnea(model, q, qd, qdd, f_tip, gravity, "inverse_dynamics", "tau", data)
+    given = {"gravity": gravity, "f_tip": f_tip}
+    what = "inverse_dynamics"
+    return checked_call(RNEA, model, data, (q, qd, qdd), tau, what, "tau", given=given)
 
 
 def _zeros_like_state(model, q):
