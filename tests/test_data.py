@@ -238,8 +238,8 @@ for method in forward.METHODS:
     calls["forward_dynamics " + method] = (
         lambda method=method, **kw: od.forward_dynamics(model, q, qd, qdd, method=method, **kw),
         forward.forward_kernel,
-        (*buffers, q, qd, qdd, model._loads, data.qdd, forward.NO_ARMATURE,
-         forward.method_switches(model, method)),
+        (*buffers, q, qd, qdd, model._loads, forward.NO_ARMATURE,
+         forward.method_switches(model, method), data.qdd),
     )
 calls["coriolis_matrix"] = (
     lambda **kw: od.coriolis_matrix(model, q, qd, **kw),

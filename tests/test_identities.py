@@ -217,7 +217,7 @@ def test_kinetic_energy_gradient_is_coriolis_matrix_transpose_times_velocity(tre
     _, model = tree
     for q, qd, _, _ in random_states(tree):
         dK_dq = np.empty(model.nv)
-        assert kinetic_gradient_kernel(model._ibuf, model._fbuf, q, qd, dK_dq) == 0
+        assert kinetic_gradient_kernel(model._ibuf, model._fbuf, model._work, q, qd, dK_dq) == 0
         expected = od.coriolis_matrix(model, q, qd).T @ qd
         # relative to the size of the terms: |qd|^2 |M| (dK/dq may vanish, e.g. on a chain's
         # first joint, where nothing depends on q_1)

@@ -7,17 +7,24 @@ qdd, against 0.68 us for RNEA itself), while numba's dispatcher types every argu
 C, to choose the compiled version. The twin is a second dispatcher of the kernel's function
 that shares the kernel's compiled versions and never compiles: an argument of another type (a
 list, float32, a read-only or strided array, a batch) raises TypeError where the kernel would
-compile a version for it. So the fast path is
+compile a version for it. So the fast path, written at each public function, is one call:
 
     try:
-        status = twin(...)                    # dtype, dimensions and layout checked in C
-    except TypeError:
-        status = learn(twin, kernel)          # Status.CONVERT: convert, check, call kernel
+        if not twin(ibuf, fbuf, work, *arguments, out):   # dtype, dimensions, layout checked in C
+            return out                                    # Status.OK
+    except TypeError:                                     # another type
+        pass
+    return checked_call(...)                              # everything else, in one function
 
 and the kernel itself reports Status.CONVERT when a vector's length is not the model's (the
-status helpers of opendyn.multibody.joints check lengths first). The public function then
-converts the arguments, which raises the error naming a bad one, and calls the kernel, which
-compiles what it needs; the next TypeError copies that version over to the twin.
+status helpers of opendyn.multibody.joints check lengths first), or another failing Status for
+a bad value. Every public function then takes the same checked path
+(opendyn.algorithm.calls.checked_call): it converts the arguments, which raises the error
+naming a bad one, calls the kernel, which compiles what it needs, and `learn`s: copies that
+version over to the twin, so that the next such call takes the fast path; or it runs the batch.
+A try block costs nothing while nothing is raised, and the fast path adds no Python call to
+the kernel's: an extra Python call on it was measured earlier at about 0.05 us, 4% of a UR5's
+inverse_dynamics (a shared wrapper making the try for every site would add one).
 
 Entry points, for a caller that makes the same call many times over (a control loop). For
 named tuples of arrays (a simulation step's SceneData, State, Record) numba works out the
@@ -34,6 +41,8 @@ from numba.core.typing.typeof import Purpose, typeof
 
 from .status import Status
 
+CONVERT = Status.CONVERT.value  # a module constant: Status.CONVERT.value is an enum look-up
+
 
 def exact(kernel):
     """A dispatcher of kernel's Python function that runs the versions `kernel` has compiled
@@ -46,11 +55,15 @@ def exact(kernel):
 
 def learn(twin, kernel):
     """Give `twin` every version `kernel` has compiled so far; returns Status.CONVERT, the
-    status of a call the twin refused (its arguments need converting)."""
+    status of a call the twin refused (its arguments need converting). The twin holds only
+    versions of the kernel, so equal counts mean it has them all: the test costs 0.1 us, where
+    comparing the signatures (tuples of numba types, hashed) takes 8 us on a UR5's RNEA."""
+    if len(twin.overloads) == len(kernel.overloads):
+        return CONVERT
     for signature, compiled in kernel.overloads.items():
         if signature not in twin.overloads:
             twin.add_overload(compiled)
-    return Status.CONVERT.value
+    return CONVERT
 
 
 def entry_for(dispatcher, *args):

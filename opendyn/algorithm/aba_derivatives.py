@@ -29,6 +29,7 @@ from ..multibody.data import (
 from ..multibody.joints import state_status, vector_status
 from ..multibody.layout import body_count, dof_count
 from . import checks
+from .calls import Call
 from .christoffel import space_axes_and_inertias, velocity_terms
 from .crba import crba_kernel
 from .forward import NO_ARMATURE
@@ -138,6 +139,14 @@ def coupled_switch(model):
 
 
 aba_derivatives_exact = exact(aba_derivatives_kernel)
+ABA_DERIVATIVES = Call(
+    aba_derivatives_kernel,
+    aba_derivatives_exact,
+    aba_derivatives_batch_kernel,
+    ("q", "qd", "tau"),
+    (True, True),
+    True,
+)
 
 
 def forward_dynamics_derivatives(model, q, qd, tau, f_tip=None, gravity=None, data=None):
@@ -162,15 +171,13 @@ def forward_dynamics_derivatives(model, q, qd, tau, f_tip=None, gravity=None, da
     Models with coupled (mimic) joints invert M by its Cholesky factor (no ABA for them).
     """
     checks.check_model(model, "forward_dynamics_derivatives")
-    extra = (NO_ARMATURE, coupled_switch(model))
-    kernels = (aba_derivatives_kernel, aba_derivatives_exact, aba_derivatives_batch_kernel, extra)
     return derivatives_at(
         model,
-        ("q", "qd", "tau"),
+        ABA_DERIVATIVES,
         (q, qd, tau),
         (f_tip, gravity),
         data,
         ("ddq_dq", "ddq_dqd", "Minv"),
-        kernels,
+        (NO_ARMATURE, coupled_switch(model)),
         "forward_dynamics_derivatives",
     )

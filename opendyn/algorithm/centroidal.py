@@ -28,7 +28,7 @@ import numpy as np
 from numba import njit
 
 from .._runtime.arrays import fill, result_status, zero_matrix
-from .._runtime.entry import exact, learn
+from .._runtime.entry import exact
 from .._runtime.kernel_cache import BATCH, INLINE, JIT
 from ..multibody.data import (
     body_motion,
@@ -51,6 +51,7 @@ from ..spatial.compiled import (
     rigid_inertia_times,
 )
 from . import checks
+from .calls import Call, checked_call
 from .kinematics import forward_kinematics, place_bodies, space_axis
 from .rnea import acceleration_pass, velocity_pass
 
@@ -293,41 +294,34 @@ def centroidal_record_batch_kernel(ibuf, fbuf, q, qd, out, status, start, stop):
             out[n, 3 + r] = momentum[0, r]
 
 
-def _evaluate(model, what, result, kernels, out, q, *named, options=()):
-    """The kernel at a single state into out (the result's array for one state: a fresh one,
-    or a Data's), or the batch kernel over a batch (N, ...): kernels = (kernel, batch_kernel),
-    named the (name, value) velocity-like arguments after q (at most two), options the
-    kernel's arguments after them. Returns the result, out or (N, *out.shape). ValueError when
-    nothing that moves has mass: there is no centre of mass. The checked path, after the public
-    function's exact call (or instead of it); the caller has checked the model, and out is a
-    Data's only with a Data's work buffer, `work`."""
+def _evaluate(call, model, data, states, out, what, result, options=()):
+    """checked_call of `call` at states = (q, ...) into out, after the check that the model
+    has a centre of mass: ValueError when nothing that moves has mass. The checked path, after
+    the public function's exact call (or instead of it)."""
     if not model._total_mass > 0.0:
         raise ValueError(
             f"{what}: model {model.name!r} has no moving mass (its bodies' masses sum to "
             f"{model._total_mass:g} kg), so it has no centre of mass"
         )
-    kernel, batch_kernel, work, data = kernels
-    if named:
-        arrays, batch = checks.as_states(model, q, *named)
-    else:
-        arrays = [checks.as_q(model, q)]
-        batch = arrays[0].ndim == 2
-    arguments = dict(zip(["q"] + [name for name, _ in named], arrays))
-    if not batch:
-        status = kernel(model._ibuf, model._fbuf, work, *arrays, *options, out)
-        if status:
-            checks.raise_status(status, model, what, result, arguments)
-        return out
-    checks.single_state_only(data, what)
-    out = np.empty((arrays[0].shape[0], *out.shape))
-    inputs = (*arrays, *options)
-    return checks.run_batch(model, batch_kernel, inputs, out, what, result, arguments)
+    return checked_call(call, model, data, states, out, what, result, options)
 
 
 center_of_mass_exact = exact(center_of_mass_kernel)
 jacobian_exact = exact(center_of_mass_jacobian_kernel)
 momentum_matrix_exact = exact(momentum_matrix_kernel)
 momentum_exact = exact(centroidal_momentum_kernel)
+CENTER_OF_MASS = Call(
+    center_of_mass_kernel, center_of_mass_exact, center_of_mass_batch_kernel, ("q",)
+)
+COM_JACOBIAN = Call(
+    center_of_mass_jacobian_kernel, jacobian_exact, center_of_mass_jacobian_batch_kernel, ("q",)
+)
+MOMENTUM_MATRIX = Call(
+    momentum_matrix_kernel, momentum_matrix_exact, momentum_matrix_batch_kernel, ("q",)
+)
+MOMENTUM = Call(
+    centroidal_momentum_kernel, momentum_exact, centroidal_momentum_batch_kernel, ("q", "qd")
+)
 
 
 def center_of_mass(model, q, data=None):
@@ -342,13 +336,11 @@ def center_of_mass(model, q, data=None):
     c = np.empty(3) if data is None else data.com
     if model._total_mass > 0.0:
         try:
-            status = center_of_mass_exact(model._ibuf, model._fbuf, work, q, c)
-        except TypeError:
-            status = learn(center_of_mass_exact, center_of_mass_kernel)
-        if not status:
-            return c
-    kernels = (center_of_mass_kernel, center_of_mass_batch_kernel, work, data)
-    return _evaluate(model, "center_of_mass", "c", kernels, c, q)
+            if not center_of_mass_exact(model._ibuf, model._fbuf, work, q, c):
+                return c
+        except TypeError:  # arguments to convert: the checked path
+            pass
+    return _evaluate(CENTER_OF_MASS, model, data, (q,), c, "center_of_mass", "c")
 
 
 def center_of_mass_jacobian(model, q, data=None):
@@ -366,13 +358,11 @@ def center_of_mass_jacobian(model, q, data=None):
     J_c = np.empty((3, model.nv)) if data is None else data.J_c
     if model._total_mass > 0.0:
         try:
-            status = jacobian_exact(model._ibuf, model._fbuf, work, q, J_c)
-        except TypeError:
-            status = learn(jacobian_exact, center_of_mass_jacobian_kernel)
-        if not status:
-            return J_c
-    kernels = (center_of_mass_jacobian_kernel, center_of_mass_jacobian_batch_kernel, work, data)
-    return _evaluate(model, "center_of_mass_jacobian", "J_c", kernels, J_c, q)
+            if not jacobian_exact(model._ibuf, model._fbuf, work, q, J_c):
+                return J_c
+        except TypeError:  # arguments to convert: the checked path
+            pass
+    return _evaluate(COM_JACOBIAN, model, data, (q,), J_c, "center_of_mass_jacobian", "J_c")
 
 
 def centroidal_momentum_matrix(model, q, data=None):
@@ -394,13 +384,12 @@ def centroidal_momentum_matrix(model, q, data=None):
     A_G = np.empty((6, model.nv)) if data is None else data.A_G
     if model._total_mass > 0.0:
         try:
-            status = momentum_matrix_exact(model._ibuf, model._fbuf, work, q, A_G)
-        except TypeError:
-            status = learn(momentum_matrix_exact, momentum_matrix_kernel)
-        if not status:
-            return A_G
-    kernels = (momentum_matrix_kernel, momentum_matrix_batch_kernel, work, data)
-    return _evaluate(model, "centroidal_momentum_matrix", "A_G", kernels, A_G, q)
+            if not momentum_matrix_exact(model._ibuf, model._fbuf, work, q, A_G):
+                return A_G
+        except TypeError:  # arguments to convert: the checked path
+            pass
+    what = "centroidal_momentum_matrix"
+    return _evaluate(MOMENTUM_MATRIX, model, data, (q,), A_G, what, "A_G")
 
 
 def centroidal_momentum(model, q, qd, data=None):
@@ -457,15 +446,13 @@ def _momentum(model, q, qd, rate, data):
     out = np.empty((2, 6)) if data is None else data._momentum
     if model._total_mass > 0.0:
         try:
-            status = momentum_exact(model._ibuf, model._fbuf, work, q, qd, rate, out)
-        except TypeError:
-            status = learn(momentum_exact, centroidal_momentum_kernel)
-        if not status:
-            if data is None:
-                return out[1] if rate else out[0]
-            return data.Adot_G_qd if rate else data.h_G
-    kernels = (centroidal_momentum_kernel, centroidal_momentum_batch_kernel, work, data)
-    out = _evaluate(model, what, result, kernels, out, q, ("qd", qd), options=(rate,))
+            if not momentum_exact(model._ibuf, model._fbuf, work, q, qd, rate, out):
+                if data is None:
+                    return out[1] if rate else out[0]
+                return data.Adot_G_qd if rate else data.h_G
+        except TypeError:  # arguments to convert: the checked path
+            pass
+    out = _evaluate(MOMENTUM, model, data, (q, qd), out, what, result, (rate,))
     k = 1 if rate else 0
     if out.ndim == 3:
         return out[:, k, :]

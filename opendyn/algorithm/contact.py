@@ -45,7 +45,7 @@ from numba import njit
 
 from .._runtime.arrays import zero_matrix
 from .._runtime.kernel_cache import BATCH, INLINE, JIT
-from ..multibody.data import new_work, world_poses
+from ..multibody.data import effect_rows, new_work, scratch_rows, world_poses
 from ..multibody.layout import body_count, dof_count, tree
 from .kinematics import add_point_jacobian, forward_kinematics, space_axis
 
@@ -199,15 +199,33 @@ def add_contact_tangent(body_tree, poses, b, at, params, qd, point, K, D):
 def contact_kernel(ibuf, fbuf, work, contacts, q, qd, tau, linear, record):
     """The contact forces at (q, qd): tau (nv,) += sum_p J_p^T f_p; record = (x_c (P, 3),
     f_c (P, 3), delta (P,)) <- the points' lowest points x_p (m, {s}), their forces f_p
-    (N, {s}) and their penetrations (m). linear = (K, D, jac): with jac, K, D (nv, nv) += the
-    contacts' stiffness and damping (module docstring). contacts = (bodies (P,) int64: each
-    point's body; params: SHARED values (ground height, k, d, mu, v_s), then (c_b (3,) m in
-    the body's frame, r m) per point). q must be a valid configuration. Works in `work` (a
-    Data's buffer: the world poses R_s, p_s of every body). Returns sum_p k delta_p
-    delta_dot_p (W), the spring's share of the power. Written out where it is called (the
-    record's kernel): the step calls contact_on_poses, on the poses it placed."""
+    (N, {s}) and their penetrations (m), or record None: nothing kept (the step's call).
+    linear = (K, D, jac): with jac, K, D (nv, nv) += the contacts' stiffness and damping
+    (module docstring). contacts = (bodies (P,) int64: each point's body; params: SHARED
+    values (ground height, k, d, mu, v_s), then (c_b (3,) m in the body's frame, r m) per
+    point). q must be a valid configuration. Works in `work` (a Data's buffer: the world poses
+    R_s, p_s of every body, its scratch rows and effect rows), allocating nothing. Returns
+    sum_p k delta_p delta_dot_p (W), the spring's share of the power. Written out where it is
+    called (the record's kernel): the step calls contact_on_poses, on the poses it placed."""
     forward_kinematics(ibuf, fbuf, work, q)
     return contact_on_poses(ibuf, fbuf, work, contacts, qd, tau, linear, record)
+
+
+@njit(**JIT)
+def point_rows(record, p, x_s, f_s):
+    """(x, f) (3,) each: where contact point p's lowest point and force go, the record's rows
+    p, or x_s, f_s (scratch) when record is None (numba drops the other branch)."""
+    if record is None:
+        return x_s, f_s
+    return record[0][p], record[1][p]
+
+
+@njit(**JIT)
+def keep_penetration(record, p, delta):
+    """record's delta[p] <- delta (m); nothing when record is None."""
+    if record is None:
+        return
+    record[2][p] = delta
 
 
 @njit(**JIT)
@@ -216,50 +234,51 @@ def contact_on_poses(ibuf, fbuf, work, contacts, qd, tau, linear, record):
     (forward_kinematics at a valid q). Returns the springs' power as contact_kernel's."""
     bodies, params = contacts
     K, D, jac = linear
-    x_c, f_c, delta = record
     body_tree = tree(ibuf, fbuf)
     nb = body_count(ibuf)
     nv = qd.shape[0]
     R_s, p_s = world_poses(work, nb)
     h, k, d = params[GROUND], params[STIFFNESS], params[DAMPING]
     mu, v_s = params[FRICTION], params[SLIP]
-    J_p = np.empty((3, nv))
-    S = np.empty(6)  # a joint axis in {s}
-    v_p = np.empty(3)
-    c_s = np.empty(3)
+    J_p = effect_rows(work, nb, nv)  # (3, nv)
+    s = scratch_rows(work, nb, nv)
+    S = s[0]  # a joint axis in {s}
+    v_p, c_s, x_s, f_s = s[1, :3], s[2, :3], s[3, :3], s[4, :3]
     spring = 0.0
     for p in range(bodies.shape[0]):
         # x_p = p_sb + R_sb c_b - r e_z; delta = max(0, h - x_z)
-        b = lowest_point(R_s, p_s, bodies, params, p, x_c[p])
-        f_c[p, :] = 0.0
-        delta[p] = max(0.0, h - x_c[p, 2])
-        if delta[p] == 0.0:
+        x_p, f_p = point_rows(record, p, x_s, f_s)
+        b = lowest_point(R_s, p_s, bodies, params, p, x_p)
+        f_p[:] = 0.0
+        delta = max(0.0, h - x_p[2])
+        keep_penetration(record, p, delta)
+        if delta == 0.0:
             continue
         # v_p = J_p v
         zero_matrix(J_p)
-        add_point_jacobian(body_tree, R_s, p_s, b, x_c[p], 1.0, J_p, S)
+        add_point_jacobian(body_tree, R_s, p_s, b, x_p, 1.0, J_p, S)
         for r in range(3):
             v_p[r] = 0.0
             for j in range(nv):
                 v_p[r] += J_p[r, j] * qd[j]
         delta_dot = -v_p[2]
-        spring += k * delta[p] * delta_dot
+        spring += k * delta * delta_dot
         # f_n = max(0, k delta + d delta_dot); f_t = -mu f_n v_t / s
-        f_n = k * delta[p] + d * delta_dot
+        f_n = k * delta + d * delta_dot
         if f_n <= 0.0:
             continue
-        s = np.sqrt(v_p[0] * v_p[0] + v_p[1] * v_p[1] + v_s * v_s)
-        f_c[p, 0] = -mu * f_n * v_p[0] / s
-        f_c[p, 1] = -mu * f_n * v_p[1] / s
-        f_c[p, 2] = f_n
+        slip = np.sqrt(v_p[0] * v_p[0] + v_p[1] * v_p[1] + v_s * v_s)
+        f_p[0] = -mu * f_n * v_p[0] / slip
+        f_p[1] = -mu * f_n * v_p[1] / slip
+        f_p[2] = f_n
         # tau += J_p^T f_p
         for j in range(nv):
-            tau[j] += J_p[0, j] * f_c[p, 0] + J_p[1, j] * f_c[p, 1] + J_p[2, j] * f_c[p, 2]
+            tau[j] += J_p[0, j] * f_p[0] + J_p[1, j] * f_p[1] + J_p[2, j] * f_p[2]
         if jac:
-            c_s[:] = x_c[p]
+            c_s[:] = x_p
             c_s[2] += params[SHARED + PER_POINT * p + 3]  # the centre, r above
             add_contact_tangent(
-                body_tree, (R_s, p_s), b, (x_c[p], c_s), params, qd, (v_p, f_c[p]), K, D
+                body_tree, (R_s, p_s), b, (x_p, c_s), params, qd, (v_p, f_p), K, D
             )
     return spring
 

@@ -16,9 +16,8 @@ import numpy as np
 from numba import njit
 
 from .._runtime.arrays import result_status, zero_matrix
-from .._runtime.entry import exact, learn
+from .._runtime.entry import exact
 from .._runtime.kernel_cache import BATCH, JIT
-from .._runtime.status import Status
 from ..multibody.data import (
     composite_inertias,
     joint_poses,
@@ -34,6 +33,7 @@ from ..spatial.compiled import (
     wrench_to_parent,
 )
 from . import checks
+from .calls import Call, checked_call
 
 
 @njit(**JIT)
@@ -117,6 +117,7 @@ def crba_batch_kernel(ibuf, fbuf, q, M, status, start, stop):
 
 
 crba_exact = exact(crba_kernel)
+CRBA = Call(crba_kernel, crba_exact, crba_batch_kernel, ("q",))
 
 
 def mass_matrix(model, q, data=None):
@@ -130,22 +131,11 @@ def mass_matrix(model, q, data=None):
     base's block is the spatial inertia of the whole robot in the base frame.
     """
     work = checks.work_of(model, data, "mass_matrix")  # checks model and data
-    # the common call: a float64 (nq,) vector goes straight to the kernel
+    # the common call: a float64 (nq,) vector goes straight to the kernel's exact twin
     M = np.empty(model._matrix_shape) if data is None else data.M
     try:
-        status = crba_exact(model._ibuf, model._fbuf, work, q, M)
-    except TypeError:
-        status = learn(crba_exact, crba_kernel)
-    if not status:
-        return M
-    if status != Status.CONVERT:
-        checks.raise_status(status, model, "mass_matrix", "M", {"q": q})
-    q = checks.as_q(model, q)
-    if q.ndim == 1:
-        status = crba_kernel(model._ibuf, model._fbuf, work, q, M)
-        if status:
-            checks.raise_status(status, model, "mass_matrix", "M", {"q": q})
-        return M
-    checks.single_state_only(data, "mass_matrix")
-    M = np.empty((q.shape[0], model.nv, model.nv))
-    return checks.run_batch(model, crba_batch_kernel, (q,), M, "mass_matrix", "M", {"q": q})
+        if not crba_exact(model._ibuf, model._fbuf, work, q, M):
+            return M
+    except TypeError:  # arguments to convert: the checked path
+        pass
+    return checked_call(CRBA, model, data, (q,), M, "mass_matrix", "M")

@@ -19,10 +19,17 @@ import numpy as np
 from numba import njit
 
 from .._runtime.arrays import fill
-from .._runtime.entry import exact, learn
-from .._runtime.kernel_cache import BATCH, INLINE, JIT
+from .._runtime.entry import exact
+from .._runtime.kernel_cache import BATCH, JIT
 from .._runtime.status import Status
-from ..multibody.data import body_motion, joint_poses, new_work, temp_vectors, world_poses
+from ..multibody.data import (
+    body_motion,
+    joint_poses,
+    new_work,
+    scratch_rows,
+    temp_vectors,
+    world_poses,
+)
 from ..multibody.joints import joint_motion, place_joints, state_status
 from ..multibody.layout import body_count, rigid_inertias, tree
 from ..spatial.compiled import (
@@ -33,26 +40,16 @@ from ..spatial.compiled import (
     twist_to_child,
 )
 from . import checks
+from .calls import Call, checked_call
 from .kinematics import world_pose
-from .rnea import forward_pass
-
-
-@njit(**INLINE)
-def body_twists(ibuf, fbuf, q, qd):
-    """(R, p, V): each body's pose in its parent (nb, 3, 3), (nb, 3) and twist V_i in {i}
-    (nb, 6), from the RNEA forward pass."""
-    body_tree = tree(ibuf, fbuf)
-    nb = body_tree[0].shape[0]
-    R, p = np.empty((nb, 3, 3)), np.empty((nb, 3))
-    V, dV = np.empty((nb, 6)), np.empty((nb, 6))
-    forward_pass(body_tree, q, qd, np.zeros_like(qd), np.zeros(6), R, p, V, dV, np.empty((2, 6)))
-    return R, p, V
+from .rnea import velocity_pass
 
 
 @njit(**JIT)
-def kinetic_gradient_kernel(ibuf, fbuf, q, qd, dK_dq):
-    """dK_dq (nv,) <- dK/dq at fixed qd (N m or N). Returns a Status: OK, Q/QD_NOT_FINITE or
-    Q_NOT_UNIT_QUATERNION."""
+def kinetic_gradient_kernel(ibuf, fbuf, work, q, qd, dK_dq):
+    """dK_dq (nv,) <- dK/dq at fixed qd (N m or N), in `work` (a Data's buffer: R, p and V are
+    left as this state's joint poses and body twists, F as the momenta P). Returns a Status:
+    OK, Q/QD_NOT_FINITE or Q_NOT_UNIT_QUATERNION."""
     status = state_status(ibuf, q, qd)
     if status:
         return status
@@ -61,9 +58,13 @@ def kinetic_gradient_kernel(ibuf, fbuf, q, qd, dK_dq):
     mult, S = body_tree.mult, body_tree.S
     mass, h, I_o = rigid_inertias(ibuf, fbuf)
     nb = mass.shape[0]
-    R, p, V = body_twists(ibuf, fbuf, q, qd)
-    P = np.empty((nb, 6))
-    s = np.empty(6)
+    # T_{lambda,i} and V_i = Ad_{T_{i,lambda}} V_lambda + S_i qd_i (RNEA's velocity pass)
+    R, p = joint_poses(work, nb)
+    V, _, P = body_motion(work, nb)
+    scratch = scratch_rows(work, nb, qd.shape[0])
+    place_joints(body_tree, q, R, p)
+    velocity_pass(body_tree, qd, R, p, V, scratch)
+    s = scratch[0]
     # backward pass: P_j = G_j V_j + sum_children Ad_{T_cj}^T P_c
     for i in range(nb):
         rigid_inertia_times(mass[i], h[i], I_o[i], V[i], P[i])
@@ -137,6 +138,7 @@ def energy_batch_kernel(ibuf, fbuf, q, qd, gravity, out, status, start, stop):
 
 
 energy_exact = exact(energy_kernel)
+ENERGY = Call(energy_kernel, energy_exact, energy_batch_kernel, ("q", "qd"))
 
 
 def energies(model, q, qd, gravity=None, what="energies", data=None):
@@ -147,28 +149,19 @@ def energies(model, q, qd, gravity=None, what="energies", data=None):
     An energy that overflows float64 is returned as it is (inf): a simulation records the
     energies of its states with this; kinetic_energy and potential_energy refuse it."""
     work = checks.work_of(model, data, what)
-    if data is not None and gravity is None:
+    out = np.empty(2) if data is None else data.energy
+    if gravity is None:
         # float64 vectors of the model's sizes go to the kernel's exact twin
-        ibuf, fbuf, g, out = model._ibuf, model._fbuf, model._gravity, data.energy
         try:
-            status = energy_exact(ibuf, fbuf, work, q, qd, g, out)
-        except TypeError:
-            status = learn(energy_exact, energy_kernel)
-        if not status:
-            return float(out[0]), float(out[1])
-        if status != Status.CONVERT:
-            checks.raise_status(status, model, what)
-    (q, qd), batch = checks.as_states(model, q, ("qd", qd))
+            if not energy_exact(model._ibuf, model._fbuf, work, q, qd, model._gravity, out):
+                return float(out[0]), float(out[1])
+        except TypeError:  # arguments to convert: the checked path
+            pass
     g = checks.as_gravity(model, gravity)
-    if not batch:
-        out = np.empty(2) if data is None else data.energy
-        status = energy_kernel(model._ibuf, model._fbuf, work, q, qd, g, out)
-        if status:
-            checks.raise_status(status, model, what)
-        return float(out[0]), float(out[1])
-    checks.single_state_only(data, what)
-    out = checks.run_batch(model, energy_batch_kernel, (q, qd, g), np.empty((q.shape[0], 2)), what)
-    return out[:, 0], out[:, 1]
+    out = checked_call(ENERGY, model, data, (q, qd), out, what, None, (g,))
+    if out.ndim == 2:
+        return out[:, 0], out[:, 1]
+    return float(out[0]), float(out[1])
 
 
 def kinetic_energy(model, q, qd, data=None):

@@ -13,13 +13,14 @@ import numpy as np
 from numba import njit
 
 from .._runtime.arrays import result_status
-from .._runtime.entry import exact, learn
+from .._runtime.entry import exact
 from .._runtime.kernel_cache import BATCH, JIT
 from .._runtime.status import Status
 from ..multibody.data import joint_vectors, mass_matrix_field, new_work, no_loads
 from ..multibody.joints import vector_status
 from ..multibody.layout import body_count, dof_count
 from . import checks
+from .calls import Call, checked_call
 from .aba import aba_kernel
 from .cholesky import cholesky_solve
 from .crba import crba_kernel
@@ -93,7 +94,7 @@ def solve_by(aba, crba, newton_euler, ibuf, fbuf, work, state, loads, qdd, armat
 
 
 @njit(**JIT)
-def forward_kernel(ibuf, fbuf, work, q, qd, tau, loads, qdd, armature, method):
+def forward_kernel(ibuf, fbuf, work, q, qd, tau, loads, armature, method, qdd):
     """qdd (nv,) <- forward dynamics at one state by the method whose switch in method =
     (aba, crba, newton_euler) is True (solve_by); armature (nv,) rotor inertias on M's
     diagonal, or an empty array for none. Works in `work` (a Data's buffer). Returns a
@@ -120,15 +121,16 @@ def forward_batch_kernel(ibuf, fbuf, states, loads, armature, method, qdd, statu
             qd[n],
             tau[n],
             loads[0] if shared else loads[n],
-            qdd[n],
             armature,
             method,
+            qdd[n],
         )
 
 
 forward_exact = exact(forward_kernel)
-# what forward_dynamics' error messages may name, in the order it keeps them
-_ARGUMENTS = ("q", "qd", "tau", "gravity", "f_tip")
+FORWARD = Call(
+    forward_kernel, forward_exact, forward_batch_kernel, ("q", "qd", "tau"), (False, True), True
+)
 _SWITCHES = {m: tuple(True if m == k else None for k in METHODS) for m in (*METHODS, None)}
 
 
@@ -167,39 +169,17 @@ def forward_dynamics(model, q, qd, tau, f_tip=None, gravity=None, method="aba", 
     """
     work = checks.work_of(model, data, "forward_dynamics")  # checks model and data
     switches = method_switches(model, method)
-    # the common call: float64 vectors of the model's sizes go straight to the kernel
     qdd = np.empty(model._vector_shape) if data is None else data.qdd
     if gravity is None and f_tip is None:
+        # the common call: float64 vectors of the model's sizes go to the kernel's exact twin
         ibuf, fbuf, loads = model._ibuf, model._fbuf, model._loads
         try:
-            status = forward_exact(ibuf, fbuf, work, q, qd, tau, loads, qdd, NO_ARMATURE, switches)
-        except TypeError:
-            status = learn(forward_exact, forward_kernel)
-        if not status:
-            return qdd
-        if status != Status.CONVERT:
-            _raise_status(status, model, (q, qd, tau, gravity, f_tip))
-    (q, qd, tau), batch = checks.as_states(model, q, ("qd", qd), ("tau", tau))
-    arguments = (q, qd, tau, gravity, f_tip)
-    if not batch:
-        loads = checks.loads(model, gravity, f_tip)
-        status = forward_kernel(
-            model._ibuf, model._fbuf, work, q, qd, tau, loads, qdd, NO_ARMATURE, switches
-        )
-        if status:
-            _raise_status(status, model, arguments)
-        return qdd
-    checks.single_state_only(data, "forward_dynamics")
-    n = q.shape[0]
-    inputs = ((q, qd, tau), checks.loads(model, gravity, f_tip, n), NO_ARMATURE, switches)
-    arguments = dict(zip(_ARGUMENTS, arguments))
-    qdd = np.empty((n, model.nv))
-    return checks.run_batch(
-        model, forward_batch_kernel, inputs, qdd, "forward_dynamics", "qdd", arguments
+            if not forward_exact(ibuf, fbuf, work, q, qd, tau, loads, NO_ARMATURE, switches, qdd):
+                return qdd
+        except TypeError:  # arguments to convert: the checked path
+            pass
+    given = {"gravity": gravity, "f_tip": f_tip}
+    options = (NO_ARMATURE, switches)
+    return checked_call(
+        FORWARD, model, data, (q, qd, tau), qdd, "forward_dynamics", "qdd", options, given
     )
-
-
-def _raise_status(status, model, arguments):
-    """raise_status for forward_dynamics, with arguments = (q, qd, tau, gravity, f_tip)."""
-    arguments = dict(zip(_ARGUMENTS, arguments))
-    checks.raise_status(status, model, "forward_dynamics", "qdd", arguments)

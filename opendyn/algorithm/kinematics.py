@@ -17,9 +17,8 @@ import numpy as np
 from numba import njit
 
 from .._runtime.arrays import copy_into, fill, result_status, zero_matrix
-from .._runtime.entry import exact, learn
+from .._runtime.entry import exact
 from .._runtime.kernel_cache import BATCH, INLINE, JIT
-from .._runtime.status import Status
 from ..multibody.data import (
     body_flags,
     frame_pose_field,
@@ -38,6 +37,7 @@ from ..multibody.joints import (
 from ..multibody.layout import body_count, dof_count, tree
 from ..spatial.compiled import twist_to_child
 from . import checks
+from .calls import Call, checked_call
 
 
 @njit(**INLINE)
@@ -256,36 +256,26 @@ def frame_pose_batch_kernel(ibuf, fbuf, q, body, T_bf, T_sf, status, start, stop
 
 frame_pose_exact = exact(frame_pose_kernel)
 jacobian_exact = exact(jacobian_kernel)
+FRAME_POSE = Call(frame_pose_kernel, frame_pose_exact, frame_pose_batch_kernel, ("q",))
+JACOBIAN = Call(jacobian_kernel, jacobian_exact, jacobian_batch_kernel, ("q",))
 
 
-def _at_configurations(model, q, data, kernels, a, b, what, result):
-    """The result of a frame function at q (nq,), or at each row of a batch (N, nq):
-    kernels = (kernel, its exact twin, batch kernel), each taking (ibuf, fbuf, [work,] q, a,
-    b, out); result "T_sf" (4, 4) or "J" (6, nv), the Data field that data= returns. A
-    float64 (nq,) q goes straight to the twin; anything else is converted and checked."""
-    kernel, twin, batch_kernel = kernels
+def _at_configurations(call, model, q, data, a, b, what, result):
+    """The result of a frame function at q (nq,), or at each row of a batch (N, nq): call's
+    kernels take (ibuf, fbuf, [work,] q, a, b, out); result "T_sf" (4, 4) or "J" (6, nv), the
+    Data field that data= returns. A float64 (nq,) q goes straight to the twin; anything else
+    through checked_call."""
     work = checks.work_of(model, data, what)
     if data is not None:
         out = getattr(data, result)
     else:
         out = np.empty((4, 4) if result == "T_sf" else (6, model.nv))
     try:
-        status = twin(model._ibuf, model._fbuf, work, q, a, b, out)
-    except TypeError:
-        status = learn(twin, kernel)
-    if not status:
-        return out
-    if status == Status.CONVERT:
-        q = checks.as_q(model, q)
-        if q.ndim == 2:
-            checks.single_state_only(data, what)
-            out = np.empty((q.shape[0], *out.shape))
-            inputs = (q, a, b)
-            return checks.run_batch(model, batch_kernel, inputs, out, what, result, {"q": q})
-        status = kernel(model._ibuf, model._fbuf, work, q, a, b, out)
-    if status:
-        checks.raise_status(status, model, what, result, {"q": q})
-    return out
+        if not call.twin(model._ibuf, model._fbuf, work, q, a, b, out):
+            return out
+    except TypeError:  # arguments to convert: the checked path
+        pass
+    return checked_call(call, model, data, (q,), out, what, result, (a, b))
 
 
 def _frame(model, frame):
@@ -308,8 +298,7 @@ def frame_pose(model, q, frame, data=None):
     """
     checks.check_model(model, "frame_pose")
     body, T_bf = _frame(model, frame)
-    kernels = (frame_pose_kernel, frame_pose_exact, frame_pose_batch_kernel)
-    return _at_configurations(model, q, data, kernels, body, T_bf, "frame_pose", "T_sf")
+    return _at_configurations(FRAME_POSE, model, q, data, body, T_bf, "frame_pose", "T_sf")
 
 
 def jacobian(model, q, frame, expressed_in="space", data=None):
@@ -324,6 +313,5 @@ def jacobian(model, q, frame, expressed_in="space", data=None):
     checks.check_model(model, "jacobian")
     if expressed_in not in ("space", "body"):
         raise ValueError(f"jacobian: expressed_in must be 'space' or 'body', got {expressed_in!r}")
-    kernels = (jacobian_kernel, jacobian_exact, jacobian_batch_kernel)
     frame_at, body_frame = _frame(model, frame), expressed_in == "body"
-    return _at_configurations(model, q, data, kernels, frame_at, body_frame, "jacobian", "J")
+    return _at_configurations(JACOBIAN, model, q, data, frame_at, body_frame, "jacobian", "J")

@@ -30,7 +30,7 @@ import numpy as np
 from numba import njit
 
 from .._runtime.arrays import result_status, zero_matrix
-from .._runtime.entry import exact, learn
+from .._runtime.entry import exact
 from .._runtime.kernel_cache import BATCH, INLINE, JIT
 from .._runtime.options import flag
 from ..multibody.data import (
@@ -44,9 +44,9 @@ from ..multibody.data import (
 )
 from ..multibody.joints import motion_status
 from ..multibody.layout import body_count, dof_count, tree
-from ..spatial.algebra import linear
 from ..spatial.compiled import dot6, wrench_to_parent
 from . import checks
+from .calls import Call, checked_call
 from .kinematics import place_bodies, place_space_axes
 from .rnea import forward_pass
 
@@ -158,6 +158,9 @@ def friction_columns(model, qd):
 
 
 regressor_exact = exact(regressor_kernel)
+REGRESSOR = Call(
+    regressor_kernel, regressor_exact, regressor_batch_kernel, ("q", "qd", "qdd")
+)
 
 
 def torque_regressor(model, q, qd, qdd, gravity=None, friction=False):
@@ -180,30 +183,19 @@ def torque_regressor(model, q, qd, qdd, gravity=None, friction=False):
     what = "torque_regressor"
     checks.check_model(model, what)
     friction = flag(friction, "torque_regressor: friction")
+    Y = np.empty((model.nv, PARAMETERS_PER_BODY * model.nb))
     if gravity is None and not friction:
         # the common call: float64 vectors of the model's sizes go to the kernel's exact twin
-        Y = np.empty((model.nv, PARAMETERS_PER_BODY * model.nb))
         ibuf, fbuf, work, dV_0 = model._ibuf, model._fbuf, model._work, model._loads[0]
         try:
-            status = regressor_exact(ibuf, fbuf, work, q, qd, qdd, dV_0, Y)
-        except TypeError:
-            status = learn(regressor_exact, regressor_kernel)
-        if not status:
-            return Y
-    (q, qd, qdd), batch = checks.as_states(model, q, ("qd", qd), ("qdd", qdd))
-    dV_0 = np.zeros(6)
-    linear(dV_0)[:] = -checks.as_gravity(model, gravity)
-    arguments = {"q": q, "qd": qd, "qdd": qdd, "gravity": gravity}
-    columns = PARAMETERS_PER_BODY * model.nb
-    if batch:
-        Y = np.empty((q.shape[0], model.nv, columns))
-        inputs = (q, qd, qdd, dV_0)
-        checks.run_batch(model, regressor_batch_kernel, inputs, Y, what, "Y", arguments)
-    else:
-        Y = np.empty((model.nv, columns))
-        status = regressor_kernel(model._ibuf, model._fbuf, model._work, q, qd, qdd, dV_0, Y)
-        if status:
-            checks.raise_status(status, model, what, "Y", arguments)
+            if not regressor_exact(ibuf, fbuf, work, q, qd, qdd, dV_0, Y):
+                return Y
+        except TypeError:  # arguments to convert: the checked path
+            pass
+    dV_0 = checks.loads(model, gravity, None)[0]
+    given = {"gravity": gravity}
+    Y = checked_call(REGRESSOR, model, None, (q, qd, qdd), Y, what, "Y", (dV_0,), given)
     if friction:
+        qd = np.broadcast_to(checks.as_state(model, qd, "qd"), (*Y.shape[:-2], model.nv))
         Y = np.concatenate([Y, friction_columns(model, qd)], axis=-1)
-    return Y.reshape(-1, Y.shape[-1]) if batch else Y
+    return Y.reshape(-1, Y.shape[-1]) if Y.ndim == 3 else Y

@@ -20,7 +20,7 @@ import numpy as np
 from numba import njit
 
 from .._runtime.arrays import fill, result_status
-from .._runtime.entry import exact, learn
+from .._runtime.entry import exact
 from .._runtime.kernel_cache import BATCH, INLINE, JIT
 from ..multibody.data import body_motion, joint_poses, new_work, scratch_rows
 from ..multibody.joints import add_joint_force, motion_status, place_joints
@@ -33,6 +33,7 @@ from ..spatial.compiled import (
     twist_to_child,
 )
 from . import checks
+from .calls import Call, checked_call
 
 
 @njit(**INLINE)
@@ -153,37 +154,26 @@ def rnea_batch_kernel(ibuf, fbuf, q, qd, qdd, loads, tau, status, start, stop):
 
 
 rnea_exact = exact(rnea_kernel)
+RNEA = Call(rnea_kernel, rnea_exact, rnea_batch_kernel, ("q", "qd", "qdd"), loads=True)
 _NO_GRAVITY = np.zeros(3)
 
 
 def run_rnea(model, q, qd, qdd, f_tip, gravity, what, result, data=None):
-    """Checked RNEA for single states (nv,) or batches (N, nv); the public functions' core.
-    what, result: the function and its result (e.g. "tau") as error messages name them, and
-    the Data field that holds it with data=."""
-    work = checks.work_of(model, data, what)
+    """RNEA for single states (nv,) or batches (N, nv), by the exact twin or checked_call: the
+    core of gravity_forces, coriolis_forces and bias_forces. what, result: the function and its
+    result (e.g. "g") as error messages name them, and the Data field that holds it with
+    data=."""
+    work = checks.work_of(model, data, what)  # checks model and data
     tau = np.empty(model._vector_shape) if data is None else getattr(data, result)
-    (q, qd, qdd), batch = checks.as_states(model, q, ("qd", qd), ("qdd", qdd))
-    arguments = {"q": q, "qd": qd, "qdd": qdd, "gravity": gravity, "f_tip": f_tip}
-    if not batch:
-        status = rnea_kernel(
-            model._ibuf,
-            model._fbuf,
-            work,
-            q,
-            qd,
-            qdd,
-            checks.loads(model, gravity, f_tip),
-            tau,
-        )
-        if status:
-            checks.raise_status(status, model, what, result, arguments)
-        return tau
-    checks.single_state_only(data, what)
-    n = q.shape[0]
-    inputs = (q, qd, qdd, checks.loads(model, gravity, f_tip, n))
-    return checks.run_batch(
-        model, rnea_batch_kernel, inputs, np.empty((n, model.nv)), what, result, arguments
-    )
+    if gravity is None and f_tip is None:
+        # float64 vectors of the model's sizes go to the kernel's exact twin
+        try:
+            if not rnea_exact(model._ibuf, model._fbuf, work, q, qd, qdd, model._loads, tau):
+                return tau
+        except TypeError:  # arguments to convert: the checked path
+            pass
+    given = {"gravity": gravity, "f_tip": f_tip}
+    return checked_call(RNEA, model, data, (q, qd, qdd), tau, what, result, given=given)
 
 
 def inverse_dynamics(model, q, qd, qdd, f_tip=None, gravity=None, data=None):
@@ -203,16 +193,17 @@ def inverse_dynamics(model, q, qd, qdd, f_tip=None, gravity=None, data=None):
     (m_b, f_b) on a floating base in its own frame.
     """
     work = checks.work_of(model, data, "inverse_dynamics")  # checks model and data
+    tau = np.empty(model._vector_shape) if data is None else data.tau
     if gravity is None and f_tip is None:
         # the common call: float64 vectors of the model's sizes go to the kernel's exact twin
-        tau = np.empty(model._vector_shape) if data is None else data.tau
         try:
-            status = rnea_exact(model._ibuf, model._fbuf, work, q, qd, qdd, model._loads, tau)
-        except TypeError:
-            status = learn(rnea_exact, rnea_kernel)
-        if not status:
-            return tau
-    return run_rnea(model, q, qd, qdd, f_tip, gravity, "inverse_dynamics", "tau", data)
+            if not rnea_exact(model._ibuf, model._fbuf, work, q, qd, qdd, model._loads, tau):
+                return tau
+        except TypeError:  # arguments to convert: the checked path
+            pass
+    given = {"gravity": gravity, "f_tip": f_tip}
+    what = "inverse_dynamics"
+    return checked_call(RNEA, model, data, (q, qd, qdd), tau, what, "tau", given=given)
 
 
 def _zeros_like_state(model, q):

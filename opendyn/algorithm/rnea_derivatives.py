@@ -46,9 +46,8 @@ import numpy as np
 from numba import njit
 
 from .._runtime.arrays import result_status, zero_matrix
-from .._runtime.entry import exact, learn
+from .._runtime.entry import exact
 from .._runtime.kernel_cache import BATCH, INLINE, JIT
-from .._runtime.status import Status
 from ..multibody.data import (
     axis_rates,
     coriolis_terms,
@@ -67,6 +66,7 @@ from ..spatial.compiled import (
     mat6_vec,
 )
 from . import checks
+from .calls import Call, checked_call
 from .christoffel import space_axes_and_inertias, velocity_terms
 
 
@@ -234,52 +234,38 @@ def rnea_derivatives_batch_kernel(ibuf, fbuf, states, loads, out, status, start,
 
 
 rnea_derivatives_exact = exact(rnea_derivatives_kernel)
+RNEA_DERIVATIVES = Call(
+    rnea_derivatives_kernel,
+    rnea_derivatives_exact,
+    rnea_derivatives_batch_kernel,
+    ("q", "qd", "qdd"),
+    (True, True),
+    True,
+)
 
 
-def derivatives_at(model, names, state, extra_loads, data, fields, kernels, what):
-    """The three (nv, nv) derivative matrices that kernels = (kernel, its exact twin,
-    batch_kernel, extra) compute at state = (q, x, y) named `names`, for a single state or a
-    batch (N, nv, nv) each: kernel(ibuf, fbuf, work, (q, x, y), loads, *extra, *out) and
-    batch_kernel(ibuf, fbuf, (q, x, y), loads, *extra, out (N, 3, nv, nv), status, start,
-    stop); extra_loads = (f_tip, gravity); with data (single states) the Data's `fields`. The
-    public derivative functions' one path (after their check_model): a single float64 state
-    goes straight to the kernel's twin (opendyn._runtime.entry)."""
+def derivatives_at(model, call, state, extra_loads, data, fields, extra, what):
+    """The three (nv, nv) derivative matrices that `call` (a Call of kernels taking the state
+    (q, x, y) as one tuple, then the loads, then `extra`, then the three results) computes at
+    state = (q, x, y), for a single state or a batch (N, nv, nv) each; extra_loads = (f_tip,
+    gravity); with data (single states) the Data's `fields`. The public derivative functions'
+    one path (after their check_model): a single float64 state goes straight to the kernel's
+    twin (opendyn._runtime.entry), anything else through checked_call."""
     work = checks.work_of(model, data, what)
-    kernel, twin, batch_kernel, extra = kernels
     f_tip, gravity = extra_loads
-    q, x, y = state
-    nv = model.nv
     if data is None:
-        held = np.empty((3, nv, nv))
+        held = np.empty((3, model.nv, model.nv))
         out = (held[0], held[1], held[2])
     else:
         out = (getattr(data, fields[0]), getattr(data, fields[1]), getattr(data, fields[2]))
-    status = Status.CONVERT
     if gravity is None and f_tip is None:
         try:
-            status = twin(model._ibuf, model._fbuf, work, (q, x, y), model._loads, *extra, *out)
-        except TypeError:
-            status = learn(twin, kernel)
-        if not status:
-            return out
-    batch = False
-    if status == Status.CONVERT:
-        (q, x, y), batch = checks.as_states(model, q, (names[1], x), (names[2], y))
-        if not batch:
-            loads = checks.loads(model, gravity, f_tip)
-            status = kernel(model._ibuf, model._fbuf, work, (q, x, y), loads, *extra, *out)
-    arguments = {names[0]: q, names[1]: x, names[2]: y, "gravity": gravity, "f_tip": f_tip}
-    if not batch:
-        if status:
-            checks.raise_status(status, model, what, fields[0], arguments)
-        return out
-    checks.single_state_only(data, what)
-    n = q.shape[0]
-    inputs = ((q, x, y), checks.loads(model, gravity, f_tip, n), *extra)
-    out = checks.run_batch(
-        model, batch_kernel, inputs, np.empty((n, 3, nv, nv)), what, fields[0], arguments
-    )
-    return out[:, 0], out[:, 1], out[:, 2]
+            if not call.twin(model._ibuf, model._fbuf, work, state, model._loads, *extra, *out):
+                return out
+        except TypeError:  # arguments to convert: the checked path
+            pass
+    given = {"gravity": gravity, "f_tip": f_tip}
+    return checked_call(call, model, data, state, out, what, fields[0], extra, given)
 
 
 def inverse_dynamics_derivatives(model, q, qd, qdd, f_tip=None, gravity=None, data=None):
@@ -302,14 +288,13 @@ def inverse_dynamics_derivatives(model, q, qd, qdd, f_tip=None, gravity=None, da
       dtau_dqdd = M(q), full and symmetric (kg m^2, kg m, kg).
     """
     checks.check_model(model, "inverse_dynamics_derivatives")
-    kernels = (rnea_derivatives_kernel, rnea_derivatives_exact, rnea_derivatives_batch_kernel, ())
     return derivatives_at(
         model,
-        ("q", "qd", "qdd"),
+        RNEA_DERIVATIVES,
         (q, qd, qdd),
         (f_tip, gravity),
         data,
         ("dtau_dq", "dtau_dqd", "M"),
-        kernels,
+        (),
         "inverse_dynamics_derivatives",
     )

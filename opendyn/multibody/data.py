@@ -160,6 +160,7 @@ WORK_FIELDS = (
     ("JMinv", (6,), "nv"),
     ("J_c", (3,), "nv"),
     ("A_G", (6,), "nv"),
+    ("effect_rows", (3,), "nv"),
     ("M", (), "nv2"),
     ("C", (), "nv2"),
     ("P", (), "nv2"),
@@ -191,6 +192,7 @@ SCRATCH_FIELDS = (
     "zero_v",
     "e_k",
     "unit_responses",
+    "effect_rows",
     "no_loads",
     "scratch",
     "temp",
@@ -298,6 +300,7 @@ _S_S, _G_S, _GC, _DS = (_where(n) for n in ("S_s", "G_s", "Gc", "dS"))
 _BC, _V_S, _IDLE, _STILL = (_where(n) for n in ("Bc", "V_s", "idle", "still"))
 _NO_LOADS, _SCRATCH, _TEMP = _where("no_loads"), _where("scratch"), _where("temp")
 _JMINV, _LAMBDA, _DV_F = _where("JMinv"), _where("Lambda"), _where("dV_f")
+_EFFECT_ROWS = _where("effect_rows")
 
 
 @njit(**INLINE)
@@ -425,6 +428,14 @@ def temp_vectors(work, nb, nv):
 def skew_scratch(work, nb, nv):
     """(4, 3, 3): four 3 x 3 matrices of scratch (the first 36 numbers of the scratch rows)."""
     return shaped(work_field(work, nb, nv, _SCRATCH)[:36], (4, 3, 3))
+
+
+@njit(**JIT)
+def effect_rows(work, nb, nv):
+    """(3, nv) scratch for a simulation effect's compiled force, one effect at a time (the
+    step runs them in turn): a contact point's Jacobian J_p, computed torque's qdd_c and
+    tau_c."""
+    return shaped(work_field(work, nb, nv, _EFFECT_ROWS), (3, nv))
 
 
 @njit(**JIT)

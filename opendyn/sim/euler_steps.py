@@ -134,7 +134,7 @@ def symplectic_euler_step(scene, t, dt, x, x1, tau_ctrl):
     p1 = np.empty(nv)
     converged = False
     for _ in range(FIXED_POINT_MAX):
-        status = kinetic_gradient_kernel(ibuf, fbuf, q, v, dK_dq)
+        status = kinetic_gradient_kernel(ibuf, fbuf, work, q, v, dK_dq)
         if status:
             return status
         for j in range(nv):

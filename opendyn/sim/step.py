@@ -165,8 +165,8 @@ def solve_with(con, aba, crba, newton_euler, scene, q, qd, tau, qdd):
         return status if status else result_status(qdd)
     if crba is not None or newton_euler is not None:
         return forward_kernel(
-            scene.ibuf, scene.fbuf, scene.work, q, qd, tau, scene.loads, qdd, scene.armature,
-            scene.method,
+            scene.ibuf, scene.fbuf, scene.work, q, qd, tau, scene.loads, scene.armature,
+            scene.method, qdd,
         )
     return Status.OK.value
 

@@ -20,11 +20,13 @@ from collections import namedtuple
 import numpy as np
 from numba import njit
 
-from ..._runtime.arrays import copy_into
+from ..._runtime.arrays import fill, shaped
 from ..._runtime.kernel_cache import JIT
 from ...algorithm.cholesky import cholesky_solve
 from ...algorithm.crba import crba_on_poses
 from ...algorithm.rnea import rnea_on_poses
+from ...multibody.data import effect_rows, mass_matrix_field, scratch_rows
+from ...multibody.layout import body_count
 from .control import Control, of_kind, optional, required
 from .interface import CONTROL, OK, floats, q_indices, v_indices
 
@@ -91,19 +93,21 @@ def base_reaction(floating, ctx, tau_c):
     """A floating base is unactuated: given tau_c (nv,) = RNEA(q, qd, (0, qdd_c)) = M_{:,j} qdd_c
     + h, the base accelerates with a_b = -M_bb^-1 tau_c[:6] (its rows of M a + h vanish), and
     the joints need tau_j = tau_c[j] + M_jb a_b. tau_c <- (0, tau_j). floating None (a fixed
-    base): nothing. Returns a Status (SINGULAR when the whole body has no inertia)."""
+    base): nothing. Works in ctx.work: M in its mass-matrix field, M_bb (6, 6), -h_b and a_b
+    (6,) in its scratch rows. Returns a Status (SINGULAR when the whole body has no
+    inertia)."""
     if floating is None:
         return OK
     nv = tau_c.shape[0]
-    M = np.empty((nv, nv))
+    nb = body_count(ctx.ibuf)
+    M = mass_matrix_field(ctx.work, nb, nv)
     crba_on_poses(ctx.ibuf, ctx.fbuf, ctx.work, M)
-    M_bb = np.empty((6, 6))
-    minus_h_b = np.empty(6)
+    s = scratch_rows(ctx.work, nb, nv)
+    M_bb, minus_h_b, a_b = s[:6], s[6], s[7]
     for r in range(6):
         minus_h_b[r] = -tau_c[r]
         for c in range(6):
             M_bb[r, c] = M[r, c]
-    a_b = np.empty(6)
     status = cholesky_solve(M_bb, minus_h_b, a_b)
     if status:
         return status
@@ -118,11 +122,15 @@ def base_reaction(floating, ctx, tau_c):
 @njit(**JIT)
 def apply(p, ctx, out):
     """out.control += the computed torques (module docstring) at each joint's velocity. p:
-    Params, or None. Returns a Status."""
+    Params, or None. Works in ctx.work (qdd_c and tau_c in its effect rows, and RNEA's and
+    CRBA's fields), allocating nothing. Returns a Status."""
     if p is None:
         return OK
     q, qd, t = ctx.q, ctx.qd, ctx.t
-    qdd_c = np.zeros(qd.shape[0])  # the base's rows stay 0 in the RNEA call
+    nv = qd.shape[0]
+    rows = effect_rows(ctx.work, body_count(ctx.ibuf), nv)
+    qdd_c, tau_c = rows[0], rows[1]
+    fill(qdd_c, 0.0)  # the base's rows stay 0 in the RNEA call
     for k in range(p.iv.shape[0]):
         i, j = p.iq[k], p.iv[k]
         w = 2.0 * np.pi * p.frequency[k]
@@ -132,9 +140,7 @@ def apply(p, ctx, out):
         qd_r = a * w * c
         qdd_r = -a * w * w * s
         qdd_c[j] = qdd_r + p.kp[k] * (q_r - q[i]) + p.kd[k] * (qd_r - qd[j])
-    loads = np.empty((1, 6))
-    copy_into(ctx.dV_0, loads[0])
-    tau_c = np.empty(qd.shape[0])
+    loads = shaped(ctx.dV_0, (1, 6))  # dV_0 = (0, -g) as RNEA's loads, a view
     status = rnea_on_poses(ctx.ibuf, ctx.fbuf, ctx.work, qd, qdd_c, loads, tau_c)
     if status:
         return status

@@ -198,15 +198,15 @@ def apply(p, ctx, out):
     out.power[1] += their springs' share sum_p k delta_p delta_dot_p (with qd . tau it makes
     the contacts' non-conservative power); with out.jac, out.K, out.D (nv, nv) += their
     linearisation (opendyn.algorithm.contact). p = (bodies (P,) int64, params), or None.
-    Works on the world poses the step placed in ctx.work (WORLD_POSES). Returns a Status."""
+    Works on the world poses the step placed in ctx.work (WORLD_POSES) and in its scratch,
+    allocating nothing; keeps no record of the points (the run's record recomputes them at
+    its samples). Returns a Status."""
     if p is None:
         return OK
-    n = p[0].shape[0]
-    record = (np.empty((n, 3)), np.empty((n, 3)), np.empty(n))
     # np.bool_(jac): a run-time flag, so that the kernel compiles once for both values
     linear = (out.K, out.D, np.bool_(out.jac))
     out.power[1] += contact_on_poses(
-        ctx.ibuf, ctx.fbuf, ctx.work, p, ctx.qd, out.passive, linear, record
+        ctx.ibuf, ctx.fbuf, ctx.work, p, ctx.qd, out.passive, linear, None
     )
     return OK
 
