@@ -59,7 +59,7 @@ class SingularMassMatrixError(ValueError):
       beside M's largest for float64's 16 digits (the message says which). Empty when every
       joint moves some inertia but a combination of them moves none; `together` then names
       the joints of that combination.
-    (opendyn.algorithm.checks.singular_mass_matrix finds them and builds the error.)
+    (opendyn.algorithm.singular.singular_mass_matrix finds them and builds the error.)
     """
 
     def __init__(self, what, model_name, joints, together, why):

@@ -40,6 +40,7 @@ from .rnea_derivatives import (
     derivatives_at,
     joint_space_forces,
 )
+from .singular import singular_mass_matrix
 
 
 @njit(**JIT)
@@ -146,6 +147,7 @@ ABA_DERIVATIVES = Call(
     ("q", "qd", "tau"),
     (True, True),
     True,
+    singular_mass_matrix,
 )
 
 

@@ -41,6 +41,8 @@ class Call(NamedTuple):
       which keeps its arguments within ten.
     loads: whether the kernels take the external loads (checks.loads of the call's gravity and
       f_tip) as their first option, (rows, 6) for a state and (1 or N, rows, 6) for a batch.
+    singular: for a kernel that solves with M(q), the diagnosis of a singular M
+      (opendyn.algorithm.singular.singular_mass_matrix), which checks.raise_status raises.
     """
 
     kernel: Any
@@ -49,6 +51,7 @@ class Call(NamedTuple):
     states: tuple[str, ...]
     packed: tuple[bool, bool] = (False, False)
     loads: bool = False
+    singular: Any = None
 
 
 def checked_call(call, model, data, states, out, what, result, options=(), given=None):
@@ -76,13 +79,17 @@ def checked_call(call, model, data, states, out, what, result, options=(), given
         status = call.kernel(model._ibuf, model._fbuf, work, *inputs, *options, *outs)
         learn(call.twin, call.kernel)  # the next such call takes the fast path
         if status:
-            checks.raise_status(status, model, what, result, _named(call, arrays, given))
+            checks.raise_status(
+                status, model, what, result, _named(call, arrays, given), call.singular
+            )
         return out
     checks.single_state_only(data, what)
     several = () if len(outs) == 1 else (len(outs),)
     rows = np.empty((n, *several, *outs[0].shape))
     inputs = ((tuple(arrays),) if call.packed[1] else tuple(arrays)) + tuple(options)
-    checks.run_batch(model, call.batch, inputs, rows, what, result, _named(call, arrays, given))
+    checks.run_batch(
+        model, call.batch, inputs, rows, what, result, _named(call, arrays, given), call.singular
+    )
     return tuple(rows[:, k] for k in range(len(outs))) if several else rows
 
 

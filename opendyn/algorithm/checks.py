@@ -23,7 +23,7 @@ import numpy as np
 from .._runtime.batch import run_rows
 from .._runtime.options import as_float_array, short_repr
 from .._runtime.status import NOT_FINITE_ARGUMENT, Status, decode
-from ..errors import NonFiniteResultError, SingularMassMatrixError
+from ..errors import NonFiniteResultError
 from ..multibody.data import Data
 from ..multibody.joints import FREE
 from ..multibody.model import Model
@@ -176,11 +176,14 @@ def loads(model, gravity, f_tip, n_states=None):
     return out if per_state or n_states is None else out[None]
 
 
-def raise_status(status, model, what, result=None, arguments=None):
+def raise_status(status, model, what, result=None, arguments=None, singular=None):
     """Turn a kernel's failing Status into a ValueError naming the argument, the joints or,
     for RESULT_NOT_FINITE, the result (its name, e.g. "tau") and the likely cause among the
     arguments ({name: value} of the call: needed where the kernel reports RESULT_NOT_FINITE,
-    and its configuration "q" where it reports SINGULAR, as a kernel solving with M(q) does)."""
+    and its configuration "q" where it reports SINGULAR, as a kernel solving with M(q) does).
+    singular: for a call that solves with M(q), the diagnosis of a singular M,
+    singular(model, q, what) -> the error to raise (opendyn.algorithm.singular, which sits
+    above CRBA: these checks run below it)."""
     status, _ = decode(status)
     if status in NOT_FINITE_ARGUMENT:
         raise ValueError(
@@ -190,8 +193,8 @@ def raise_status(status, model, what, result=None, arguments=None):
         raise NonFiniteResultError(what, result, arguments)
     if status == Status.Q_NOT_UNIT_QUATERNION:
         raise ValueError(f"{what}: {quaternion_problem(model)}")
-    if status == Status.SINGULAR:
-        raise singular_mass_matrix(model, arguments["q"], what)
+    if status == Status.SINGULAR and singular is not None:
+        raise singular(model, arguments["q"], what)
     raise RuntimeError(f"{what}: kernel failed with status {status.name}")
 
 
@@ -219,17 +222,18 @@ def quaternion_problem(model, name="q"):
     )
 
 
-def run_batch(model, batch_kernel, inputs, out, what, result=None, arguments=None):
+def run_batch(model, batch_kernel, inputs, out, what, result=None, arguments=None,
+              singular=None):
     """out (N, ...) <- batch_kernel(ibuf, fbuf, *inputs, out, status, start, stop) over the
     rows of a batch, one slice per core (opendyn._runtime.batch.run_rows); the first failing
     row raises as raise_batch_status. The one path of every public function's batches."""
     status = np.zeros(out.shape[0], dtype=np.int64)
     run_rows(batch_kernel, out.shape[0], model._ibuf, model._fbuf, *inputs, out, status)
-    raise_batch_status(status, model, what, result, arguments)
+    raise_batch_status(status, model, what, result, arguments, singular)
     return out
 
 
-def raise_batch_status(statuses, model, what, result=None, arguments=None):
+def raise_batch_status(statuses, model, what, result=None, arguments=None, singular=None):
     """The first failing state of a batch, named by its row, as raise_status with that row of
     every (N, n) argument."""
     bad = np.flatnonzero(statuses)
@@ -239,81 +243,8 @@ def raise_batch_status(statuses, model, what, result=None, arguments=None):
             name: x[k] if isinstance(x, np.ndarray) and x.ndim == 2 and len(x) == n else x
             for name, x in (arguments or {}).items()
         }
-        raise_status(int(statuses[k]), model, f"{what} (state {k} of the batch)", result, row)
-
-
-def mass_matrix_with_armature(model, q, armature=None):
-    """M(q) (nv, nv), plus diag(armature) on the joints' coordinates (model.v_index) as a
-    scene's armature effect adds it; armature: (n,) or None."""
-    from .crba import mass_matrix
-
-    M = mass_matrix(model, q)
-    if armature is not None:
-        M[model.v_index, model.v_index] += armature
-    return M
-
-
-def singular_mass_matrix(model, q, what, armature=None):
-    """The SingularMassMatrixError for M(q) (+ diag(armature)) of `model`, raised by `what`,
-    naming the joints that move no inertia (singular_coordinates)."""
-    joints, together, why = singular_coordinates(model, q, armature)
-    return SingularMassMatrixError(what, model.name, joints, together, why)
-
-
-def singular_coordinates(model, q, armature=None):
-    """Why M(q) (+ diag(armature) on the joints, as a scene adds it) is singular:
-    (massless, together, sentence).
-
-    massless: the coordinates k whose diagonal entry M_kk = S_k^T Ic_k S_k (Ic_k the composite
-    inertia of everything below joint k) is zero to the forward dynamics' pivot tolerance;
-    M is positive semi-definite, so their whole column of M is zero. When none of them is
-    exactly zero, the sentence says that M's entries span more than float64's digits (a 1e30 kg
-    payload beside 1 kg links), not that nothing moves. When there are none,
-    together: the coordinates of M's null direction (of M scaled to a unit diagonal, so that
-    revolute and prismatic units do not matter): joints whose combined motion moves nothing
-    with inertia, as two joints moving one body along or about the same axis. The sentence
-    says so.
-    """
-    from .cholesky import SINGULAR_PIVOT
-
-    M = mass_matrix_with_armature(model, q, armature)
-    d = np.diag(M)
-    small = np.flatnonzero(d <= SINGULAR_PIVOT * d.max(initial=0))
-    if small.size and not (d[small] <= 0.0).any():
-        # each moves some inertia, too little beside the largest for float64's 16 digits
-        k, j = int(small[np.argmin(d[small])]), int(np.argmax(d))
-        heaviest = int(np.argmax(model.mass))
-        inertia = np.abs(model.I_o).max(axis=(1, 2))  # about each body's frame origin
-        widest = int(np.argmax(inertia))
-        return [model.v_names[k] for k in small], [], (
-            f"joint {model.v_names[k]!r} moves an inertia M_kk = {d[k]:.3g}, {d[k] / d[j]:.1g} "
-            f"times the largest on M's diagonal ({d[j]:.3g}, {model.v_names[j]!r}): M's entries "
-            "span more digits than float64 keeps (16), so M is singular to working precision "
-            f"although everything moves some mass; the masses or inertias differ too much (the "
-            f"heaviest body: {model.body_names[heaviest]!r}, {model.mass[heaviest]:.3g} kg; the "
-            f"largest inertia about its frame: {model.body_names[widest]!r}, "
-            f"{inertia[widest]:.3g} kg m^2, as a payload's centre of mass far from its frame "
-            "makes)"
+        raise_status(
+            int(statuses[k]), model, f"{what} (state {k} of the batch)", result, row, singular
         )
-    massless = [model.v_names[k] for k in small]
-    if massless:
-        names = ", ".join(map(repr, massless))
-        if len(massless) == 1:
-            subject, pronoun = f"joint {names}, so its acceleration is", "it"
-        else:
-            subject, pronoun = f"joints {names}, so their accelerations are", "them"
-        return massless, [], (
-            f"nothing with mass or inertia moves with {subject} undetermined (give the links "
-            f"below {pronoun} inertia, or name the armature effect for {pronoun} in a scene)"
-        )
-    scale = 1 / np.sqrt(d)
-    null = np.linalg.eigh(scale[:, None] * M * scale)[1][:, 0] * scale
-    null /= null[np.argmax(np.abs(null))]
-    involved = np.flatnonzero(np.abs(null) > 1e-6)
-    together = [model.v_names[k] for k in involved]
-    ratio = ", ".join(f"{x:.3g}" for x in null[involved])
-    return [], together, (
-        f"every joint moves some inertia, but joints {', '.join(map(repr, together))} moving "
-        f"together, with velocities in the ratio ({ratio}), move none (as two joints moving one "
-        f"body along or about the same axis), so that motion's acceleration is undetermined"
-    )
+
+

@@ -21,6 +21,7 @@ from ..multibody.joints import vector_status
 from ..multibody.layout import body_count, dof_count
 from . import checks
 from .calls import Call, checked_call
+from .singular import singular_mass_matrix
 from .aba import aba_kernel
 from .cholesky import cholesky_solve
 from .crba import crba_kernel
@@ -129,7 +130,8 @@ def forward_batch_kernel(ibuf, fbuf, states, loads, armature, method, qdd, statu
 
 forward_exact = exact(forward_kernel)
 FORWARD = Call(
-    forward_kernel, forward_exact, forward_batch_kernel, ("q", "qd", "tau"), (False, True), True
+    forward_kernel, forward_exact, forward_batch_kernel, ("q", "qd", "tau"), (False, True), True,
+    singular_mass_matrix,
 )
 _SWITCHES = {m: tuple(True if m == k else None for k in METHODS) for m in (*METHODS, None)}
 

@@ -48,6 +48,7 @@ from .crba import crba_kernel, mass_matrix
 from .eigen import symmetric_eigen
 from .kinematics import _frame, jacobian, jacobian_kernel
 from .rnea import forward_pass, rnea_kernel
+from .singular import singular_mass_matrix
 
 TASK_SPACE_RCOND = 1e-10  # J_b M^-1 J_b^T is singular when e_min <= this times e_max
 
@@ -175,7 +176,7 @@ def _raise(status, model, q, frame, what, result, arguments):
     """The error of a failing task-space kernel: SingularTaskSpaceError naming the frame and
     the singular values of J_b M^-1 J_b^T, or as checks.raise_status."""
     if status != Status.SINGULAR_TASK_SPACE:
-        checks.raise_status(status, model, what, result, arguments)
+        checks.raise_status(status, model, what, result, arguments, singular_mass_matrix)
     J_b = jacobian(model, q, frame, expressed_in="body")
     sv = np.linalg.svd(J_b @ np.linalg.solve(mass_matrix(model, q), J_b.T), compute_uv=False)
     raise SingularTaskSpaceError(
@@ -232,7 +233,7 @@ def frame_acceleration(model, q, qd, qdd, frame, data=None):
     status = frame_acceleration_kernel(model._ibuf, model._fbuf, work, tuple(state), frame_at, dV_f)
     if status:
         arguments = dict(zip(("q", "qd", "qdd"), state))
-        checks.raise_status(status, model, what, "dV_b", arguments)
+        checks.raise_status(status, model, what, "dV_b", arguments, singular_mass_matrix)
     return dV_f
 
 

@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from .._runtime.status import Status, decode
-from ..algorithm.checks import mass_matrix_with_armature, singular_coordinates
+from ..algorithm.singular import mass_matrix_with_armature, singular_coordinates
 from ..errors import SceneError
 from ..multibody.joints import FREE, REVOLUTE
 from . import effects, integrators, step

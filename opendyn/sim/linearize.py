@@ -27,6 +27,7 @@ import scipy.linalg
 from .._runtime.options import as_real, finite, flag
 from ..algorithm import checks
 from ..algorithm.aba_derivatives import aba_derivatives_kernel, coupled_switch
+from ..algorithm.singular import singular_mass_matrix
 from ..multibody.joints import FREE
 from ..spatial.algebra import ad
 from .effects import registry
@@ -94,7 +95,9 @@ def linearize(scene, t=0.0, q=None, qd=None, tau=None, discrete=False):
     )
     if status:
         arguments = {"q": q, "qd": qd, "tau": tau_e + u}
-        checks.raise_status(status, model, "linearize", "dqdd_dq", arguments)
+        checks.raise_status(
+            status, model, "linearize", "dqdd_dq", arguments, singular_mass_matrix
+        )
     A = np.zeros((2 * nv, 2 * nv))
     A[:nv, nv:] = np.eye(nv)
     for i in np.flatnonzero(model.jtype == FREE):

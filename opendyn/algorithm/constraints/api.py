@@ -28,6 +28,7 @@ from ..crba import crba_kernel, mass_matrix
 from ..eigen import symmetric_eigen
 from ..kinematics import jacobian
 from ..rnea import rnea_kernel
+from ..singular import singular_mass_matrix
 from .arguments import _configuration, _matrix_A, _state, _vector_k
 from .solve import (
     NO_STABILISATION,
@@ -208,7 +209,7 @@ def constrained_forward_dynamics(
         "f_tip": f_tip,
     }
     if status:
-        checks.raise_status(status, model, what, "qdd", arguments)
+        checks.raise_status(status, model, what, "qdd", arguments, singular_mass_matrix)
     return (
         checks.check_result(qdd, what, "qdd", arguments),
         checks.check_result(lam, what, "lam", arguments),
@@ -248,7 +249,7 @@ def _projection(model, q, A, what):
     try:
         L = np.linalg.cholesky(M)
     except np.linalg.LinAlgError:
-        raise checks.singular_mass_matrix(model, q, what) from None
+        raise singular_mass_matrix(model, q, what) from None
     M_inv = np.linalg.solve(L.T, np.linalg.solve(L, np.eye(model.nv)))
     M_inv = 0.5 * (M_inv + M_inv.T)
     G_pinv = _pseudo_inverse(A @ M_inv @ A.T)
@@ -310,7 +311,7 @@ def constrained_inverse_dynamics(model, q, qd, qdd, A, lam=None, gravity=None, d
         tau_free,
     )
     if status:
-        checks.raise_status(status, model, what, "tau", arguments)
+        checks.raise_status(status, model, what, "tau", arguments, singular_mass_matrix)
     P, G_pinv, M_inv = _projection(model, q, A, what)
     tau = P @ tau_free
     if lam is not None:
