@@ -390,23 +390,23 @@ def test_the_command_runs_on_an_existing_scheduler(client, tmp_path, monkeypatch
     assert "--scheduler tcp://127.0.0.1:9: cannot connect" in capsys.readouterr().err
 
 
-def test_outputs_that_cannot_be_written_are_refused_before_anything_runs(tmp_path):
+def test_outputs_that_cannot_be_written_are_refused_before_anything_runs(
+    tmp_path, read_only_folder, read_only_file
+):
     """od.sweep checks its results file and trajectories' folder first, as the command does
     (it ran chunks and then failed, dropping them or naming a temporary file)."""
     scene = limits_scene(duration=0.1)
     vary = {"effects.limits.stiffness": "1e3"}
-    read_only = tmp_path / "read-only"
-    read_only.mkdir()
-    read_only.chmod(0o500)
     a_file = tmp_path / "a-file"
     a_file.write_text("")
     cases = [
         (dict(parquet=tmp_path), "parquet", "is a folder, not a file"),
         (dict(parquet=tmp_path / "missing" / "r.parquet"), "parquet", "does not exist"),
         (dict(trajectories=a_file), "trajectories", "is a file, not a folder"),
+        (dict(parquet=read_only_folder / "r.parquet"), "parquet", "no file can be written"),
+        (dict(parquet=read_only_file), "parquet", "the file is read-only"),
+        (dict(trajectories=read_only_folder), "trajectories", "no file can be written"),
     ]
-    if os.geteuid() != 0:  # root writes anywhere
-        cases.append((dict(parquet=read_only / "r.parquet"), "parquet", "no file can be"))
     for kwargs, argument, words in cases:
         with pytest.raises(SweepError) as refused:
             od.sweep(scene, vary, **kwargs)
@@ -490,6 +490,42 @@ def _service(answer):
     return f"tcp://127.0.0.1:{server.getsockname()[1]}", stop
 
 
+def _bounded_waits(monkeypatch, timeout):
+    """The timeouts (s) of every connection to a scheduler and every read from it, as a list
+    that fills as they are made; a connection or a read that could wait longer than `timeout`
+    (or for ever: None) fails at once instead of waiting."""
+    connect = socket.create_connection
+    waits = []
+
+    def bounded(wait):
+        waits.append(wait)
+        assert wait is not None and wait <= timeout, f"a wait of {wait} s, past {timeout} s"
+
+    class Peer:
+        def __init__(self, sock):
+            self.sock = sock
+
+        def __enter__(self):
+            return self
+
+        def __exit__(self, *exc):
+            self.sock.close()
+
+        def settimeout(self, wait):
+            self.sock.settimeout(wait)
+
+        def recv(self, size):
+            bounded(self.sock.gettimeout())
+            return self.sock.recv(size)
+
+    def create_connection(address, timeout=None, *args, **kwargs):
+        bounded(timeout)
+        return Peer(connect(address, timeout, *args, **kwargs))
+
+    monkeypatch.setattr(socket, "create_connection", create_connection)
+    return waits
+
+
 @pytest.mark.parametrize(
     "answer, words",
     [
@@ -506,14 +542,16 @@ def test_a_scheduler_address_that_is_not_dask_is_one_line_within_the_timeout(
 
     monkeypatch.chdir(tmp_path)
     monkeypatch.setattr(sweep_command, "SCHEDULER_TIMEOUT", 1.0)
+    waits = _bounded_waits(monkeypatch, 1.0)
     address, stop = _service(answer)
     try:
-        tic = time.monotonic()
         argv = ["sweep", "planar_3r_limits", "--vary", "run.duration=0.1", "--scheduler", address]
         assert main(argv) == 2
-        assert time.monotonic() - tic < 10.0
     finally:
         stop()
+    # it connected and read, every wait bounded by the timeout (a read without one would
+    # wait on the silent service for ever)
+    assert len(waits) >= 2 and all(w is not None and 0 < w <= 1.0 for w in waits), waits
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and f"--scheduler {address}: " in err and words in err, err
     assert not (tmp_path / "planar_3r_limits-sweep.parquet").exists()
