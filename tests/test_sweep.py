@@ -21,6 +21,7 @@ import pytest
 
 import opendyn as od
 from conftest import ctrl_c_default
+from plotcheck import assert_lines_shown, read_png, saved_figures
 from opendyn.errors import SweepError
 from opendyn.io.scene.schema import thaw
 from opendyn.sweep.specs import Axis, combinations, parse_axis
@@ -330,14 +331,44 @@ def test_tracking_error_follows_the_closed_loop_and_grows_with_friction(client):
 
 
 def test_plots_draw_a_line_and_a_heat_map(client, tmp_path):
+    """The line is the table's metric against the stiffness (log axis), in order; the heat map
+    has one panel per integrator whose cells are the metric at (stiffness, dt), empty where
+    the run failed; and each PNG is its figure, drawn (its line's colour shown)."""
     scene = limits_scene(duration=0.2)
     line = od.sweep(scene, {"effects.limits.stiffness": "log:1e3:1e6:4"}, client=client)
-    od.plot_sweep(line, tmp_path / "line.png")
     grid = od.sweep(scene, {"effects.limits.stiffness": "log:1e3:1e6:3", "run.dt": "0.001,0.005",
                             "run.integrator": "rk4,implicit_euler"}, client=client)
-    od.plot_sweep(grid, tmp_path / "map.png", metric="energy_error_max")
-    for name in ("line.png", "map.png"):
-        assert (tmp_path / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    with saved_figures() as saved:
+        od.plot_sweep(line, tmp_path / "line.png")
+        od.plot_sweep(grid, tmp_path / "map.png", metric="energy_error_max")
+    (line_fig, line_dpi), (map_fig, map_dpi) = saved
+
+    (ax,) = line_fig.axes
+    drawn = ax.lines[0]
+    rows = line.to_pydict()
+    metric = ax.get_ylabel()
+    order = np.argsort(rows["effects.limits.stiffness"])
+    np.testing.assert_allclose(drawn.get_xdata(), [1e3, 1e4, 1e5, 1e6])
+    np.testing.assert_array_equal(drawn.get_ydata(), np.array(rows[metric], float)[order])
+    assert ax.get_xscale() == "log" and ax.get_xlabel() == "effects.limits.stiffness"
+    image = read_png(tmp_path / "line.png", line_fig, line_dpi)
+    assert_lines_shown(image, [drawn])
+
+    rows = grid.to_pydict()
+    panels = [a for a in map_fig.axes if a.get_xlabel() == "effects.limits.stiffness"]
+    assert len(panels) == 2 and len(map_fig.axes) == 3  # and the colour bar
+    for panel in panels:
+        integrator = panel.get_title().rpartition(" = ")[2]
+        expected = np.full((2, 3), np.nan)  # rows: dt; columns: stiffness
+        for k in range(grid.num_rows):
+            if rows["run.integrator"][k] == integrator and rows["status"][k] == "complete":
+                i = [0.001, 0.005].index(rows["run.dt"][k])
+                j = int(np.argmin(np.abs(np.log10(rows["effects.limits.stiffness"][k]) - [3, 4.5, 6])))
+                expected[i, j] = rows["energy_error_max"][k]
+        cells = np.ma.filled(panel.collections[0].get_array(), np.nan).reshape(2, 3)
+        np.testing.assert_array_equal(cells, expected)
+    image = read_png(tmp_path / "map.png", map_fig, map_dpi)
+    assert len(np.unique(np.round(image * 255).reshape(-1, 3), axis=0)) > 50  # a colour map
     with pytest.raises(ValueError, match="not a metric of this sweep"):
         od.plot_sweep(grid, tmp_path / "x.png", metric="tracking_rms")
 
