@@ -237,3 +237,49 @@ def test_physically_invalid_inertias_are_refused_unless_asked():
             assert "check_inertia=False" in str(e) and Path(path).name in str(e)
             refused.append(Path(path).stem)
     assert "pr2" in refused and "ur5_robot" not in refused
+
+
+@pytest.mark.parametrize("seed", range(4))
+@pytest.mark.parametrize("floating_base", [False, True])
+def test_the_adapters_wrench_convention_is_the_jacobian_transpose(tmp_path, seed, floating_base):
+    """The tests' adapter sends f_tip to Pinocchio as fext; Pinocchio's RNEA with it must add
+    J_b^T F, J_b being Pinocchio's LOCAL Jacobian of the frame in the adapter's angular-first
+    order: two routes through the adapter's conventions that meet only if both are right."""
+    model, P = _load(str(write_random_tree(tmp_path, seed)), floating_base=floating_base)
+    rng = np.random.default_rng(seed)
+    for q, (qd, qdd, _) in _states(model, seed):
+        for name in _test_frames(model):
+            F = rng.normal(size=6)
+            J_b = P.jacobian(q, name, "body")
+            expected = P.rnea(q, qd, qdd) + J_b.T @ F
+            assert_close(P.rnea(q, qd, qdd, f_tip={name: F}), expected, f"f_tip at {name}")
+
+
+@pytest.mark.parametrize("seed", range(4))
+@pytest.mark.parametrize("floating_base", [False, True])
+def test_opendyn_verify_converts_as_the_tests_adapter_does(tmp_path, seed, floating_base):
+    """`opendyn verify`'s oracle (opendyn.verify.oracle) and the tests' adapter, whose
+    conversions are written apart, agree on q (continuous joints' cos/sin, the free joint's
+    (p, quat)), on the velocity order, on the external forces and on angular-first rows."""
+    from opendyn.verify.oracle import PinocchioOracle
+
+    path = str(write_random_tree(tmp_path, seed))
+    model = od.load_urdf(path, check_inertia=False, floating_base=floating_base)
+    ours, package = PinOracle(path, model), PinocchioOracle(path, model)
+    assert (ours.perm_v == package.perm_v).all()
+    rng = np.random.default_rng(seed)
+    for q, (qd, _, _) in _states(model, seed):
+        np.testing.assert_array_equal(ours.q(q), package.q(q))
+        np.testing.assert_array_equal(ours.v(qd), package.v(qd))
+        np.testing.assert_array_equal(package.back(ours.v(qd)), qd)
+        for name in _test_frames(model):
+            f_tip = {name: rng.normal(size=6)}
+            for a, b in zip(ours.fext(q, f_tip), package.fext(q, f_tip)):
+                np.testing.assert_allclose(a.vector, b.vector, rtol=0, atol=1e-12)
+            for where in ("space", "body"):
+                np.testing.assert_array_equal(
+                    ours.jacobian(q, name, where), package.jacobian(q, name, where)
+                )
+        np.testing.assert_array_equal(
+            ours.centroidal_momentum_matrix(q), package.centroidal_momentum_matrix(q)
+        )
