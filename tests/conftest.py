@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import os
+import pathlib
 import signal
 
 import pytest
@@ -21,3 +23,34 @@ def ctrl_c_default():
     """preexec_fn of a child process that a test sends Ctrl-C: the default disposition, so
     that the child's Python turns it into KeyboardInterrupt however the suite was started."""
     signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
+@pytest.fixture
+def read_only_folder(tmp_path):
+    """A folder no file can be created in, whoever runs the suite: one without write
+    permission, or, for root (whom permissions do not stop), /proc, where the kernel creates
+    no file for anyone."""
+    if os.geteuid() == 0:
+        yield pathlib.Path("/proc")
+        return
+    folder = tmp_path / "read-only"
+    folder.mkdir()
+    folder.chmod(0o555)
+    yield folder
+    folder.chmod(0o755)
+
+
+@pytest.fixture
+def read_only_file(tmp_path):
+    """An existing file nobody may write, whoever runs the suite: one without write
+    permission, or, for root, a read-only kernel setting (/proc/sys/kernel/ostype, mode 0444,
+    which binds root too)."""
+    if os.geteuid() == 0:
+        path = pathlib.Path("/proc/sys/kernel/ostype")
+        if not path.is_file():
+            pytest.skip("no /proc/sys/kernel/ostype: not Linux")
+        return path
+    path = tmp_path / "locked"
+    path.write_text("")
+    path.chmod(0o444)
+    return path

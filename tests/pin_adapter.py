@@ -1,10 +1,115 @@
-"""Pinocchio as an oracle for the tests: a re-export of opendyn.verify's PinocchioOracle, where
-every conversion between Pinocchio's conventions and opendyn's is written once (angular/linear
-order, cos/sin continuous joints, joint order by name, external-force sign and frame)."""
+"""Pinocchio as an oracle for the tests, with the conversions between Pinocchio's conventions and
+opendyn's written here, apart from opendyn.verify.oracle's: a convention slip there (which
+`opendyn verify` uses) must not hide the same slip in opendyn.
+
+PinOracle takes opendyn.verify's PinocchioOracle for which Pinocchio function answers what
+(and the compositions for coupled mimic joints), and replaces every conversion it makes:
+
+- q: a continuous joint is one angle in opendyn, (cos, sin) in Pinocchio; a free joint is
+  (p, quat (x, y, z, w)) in both.
+- velocities, accelerations, generalized forces: matched joint by joint by name; a free joint's
+  (omega_b, v_b) in opendyn is (v_b, omega_b) in Pinocchio (both in the body frame).
+- spatial rows (Jacobians, centroidal momentum): angular first in opendyn, linear first in
+  Pinocchio.
+- f_tip[frame] = (m, f), the wrench the frame applies TO THE ENVIRONMENT, in the frame's axes
+  (tau = M a + h + J_b^T F); Pinocchio's fext[joint] is the force ON the body, in the joint
+  frame (tau = M a + h - J^T fext).
+"""
 
 from __future__ import annotations
 
-from opendyn.verify.oracle import PinocchioOracle as PinOracle
-from opendyn.verify.oracle import swap_halves
+import numpy as np
+import pinocchio as pin
 
-__all__ = ["PinOracle", "swap_halves"]
+from opendyn.verify.oracle import PinocchioOracle
+
+
+def angular_first(x, axis=0):
+    """Pinocchio's linear-first 6-vectors (along `axis`) reordered angular first."""
+    x = np.asarray(x)
+    angular, linear = np.take(x, [3, 4, 5], axis=axis), np.take(x, [0, 1, 2], axis=axis)
+    return np.concatenate([angular, linear], axis=axis)
+
+
+# kept for the tests that import it
+swap_halves = angular_first
+
+
+class PinOracle(PinocchioOracle):
+    """PinocchioOracle with the conversions of this module (see its docstring)."""
+
+    def __init__(self, urdf_path, od_model, mimic=False):
+        super().__init__(urdf_path, od_model, mimic)
+        model = self.model
+        order = np.full(od_model.nv, -1)  # order[k]: Pinocchio's index of opendyn's v_k
+        self.free_q = []  # (opendyn q index, Pinocchio q index) of each free joint
+        self.angles = []  # (opendyn q index, Pinocchio q index, continuous?) of each named joint
+        for b, name in enumerate(od_model.body_joints):
+            joint = model.joints[model.getJointId(name)]
+            if name in od_model.joint_names or joint.nq != 7:
+                continue
+            iq, iv = od_model.iq[b], od_model.iv[b]
+            self.free_q.append((iq, joint.idx_q))
+            order[iv : iv + 3] = joint.idx_v + np.arange(3, 6)  # omega_b
+            order[iv + 3 : iv + 6] = joint.idx_v + np.arange(3)  # v_b
+        for k, name in enumerate(od_model.joint_names):
+            joint = model.joints[model.getJointId(name)]
+            assert joint.nv == 1, name
+            order[od_model.v_index[k]] = joint.idx_v
+            self.angles.append((od_model.q_index[k], joint.idx_q, joint.nq == 2))
+        assert sorted(order) == list(range(model.nv)), order
+        self.perm_v = order
+
+    # conversions -------------------------------------------------------------------------
+    def q(self, q):
+        out = pin.neutral(self.model)
+        for ours, theirs in self.free_q:
+            out[theirs : theirs + 7] = q[ours : ours + 7]
+        for ours, theirs, continuous in self.angles:
+            if continuous:
+                out[theirs], out[theirs + 1] = np.cos(q[ours]), np.sin(q[ours])
+            else:
+                out[theirs] = q[ours]
+        return out
+
+    def v(self, x):
+        out = np.zeros(self.model.nv)
+        out[self.perm_v] = x
+        return out
+
+    def back(self, x):
+        return np.asarray(x)[self.perm_v]
+
+    def back_matrix(self, X):
+        return np.asarray(X)[self.perm_v][:, self.perm_v]
+
+    def fext(self, q, f_tip):
+        fext = [pin.Force.Zero() for _ in range(self.model.njoints)]
+        for name, F in (f_tip or {}).items():
+            frame = self.model.frames[self.frame_id(name)]
+            R, p = frame.placement.rotation, frame.placement.translation  # joint <- frame
+            m, f = np.asarray(F[:3], float), np.asarray(F[3:], float)
+            f_joint = R @ f
+            m_joint = R @ m + np.cross(p, f_joint)  # the moment moved to the joint's origin
+            fext[frame.parentJoint] += pin.Force(-f_joint, -m_joint)  # on the body: -F
+        return pin.StdVec_Force(fext)
+
+    def jacobian(self, q, frame, expressed_in="space"):
+        ref = pin.WORLD if expressed_in == "space" else pin.LOCAL
+        J = pin.computeFrameJacobian(self.model, self.data, self.q(q), self.frame_id(frame), ref)
+        return angular_first(J)[:, self.perm_v]
+
+    def centroidal_momentum_matrix(self, q):
+        A_g = pin.ccrba(self.model, self.data, self.q(q), np.zeros(self.model.nv))
+        return angular_first(A_g)[:, self.perm_v]
+
+    def centroidal_momentum(self, q, qd):
+        h_g = pin.computeCentroidalMomentum(self.model, self.data, self.q(q), self.v(qd))
+        return angular_first(h_g.vector)
+
+    def centroidal_momentum_rate_bias(self, q, qd):
+        v = self.v(qd)
+        return angular_first(pin.dccrba(self.model, self.data, self.q(q), v) @ v)
+
+
+__all__ = ["PinOracle", "angular_first", "swap_halves"]

@@ -13,6 +13,7 @@ import pytest
 
 import opendyn as od
 from opendyn.cli.simulate import summary
+from plotcheck import assert_lines_shown, read_png, saved_figures
 
 pytest.importorskip("pinocchio")  # solo12 and the UR5 come from example-robot-data with it
 
@@ -82,7 +83,20 @@ def test_the_record_is_saved_loaded_and_written_with_its_columns(tmp_path):
     assert header[first : first + 9] == columns
     table = np.loadtxt(tmp_path / "run.csv", delimiter=",", skiprows=1)
     np.testing.assert_array_equal(table[:, first : first + 3], traj.com)
-    assert traj.plot(tmp_path / "run.png").read_bytes()[:4] == b"\x89PNG"
+    with saved_figures() as saved:
+        png = traj.plot(tmp_path / "run.png")
+    ((figure, dpi),) = saved
+    momentum = figure.axes[-1]
+    assert len(figure.axes) == 4  # q, qd, energy and h_G: nothing touches the falling robot
+    drawn = np.column_stack([line.get_ydata() for line in momentum.lines])
+    np.testing.assert_array_equal(drawn, traj.centroidal_momentum)
+    # what Newton says the panel shows: nothing outside acts but gravity, from rest, so
+    # k_G = 0 and l_G = (0, 0, -m g t) (to the free-fall test's tolerances above)
+    m = float(np.sum(od.load_scene("solo12_falling").model.mass))
+    np.testing.assert_allclose(drawn[:, :5], 0.0, rtol=0, atol=1e-8)
+    np.testing.assert_allclose(drawn[:, 5], -m * 9.81 * traj.t, rtol=0, atol=1e-6 * m * 9.81)
+    image = read_png(png, figure, dpi)
+    assert_lines_shown(image, momentum.lines)
     fixed = od.simulate(od.load_scene("ur5_falling").replace_run(duration=0.05))
     assert fixed.com.shape == (0, 3) and fixed.centroidal_momentum.shape == (0, 6)
     assert "com_x" not in fixed.to_csv(tmp_path / "fixed.csv").read_text().splitlines()[0]

@@ -20,13 +20,15 @@ import textwrap
 import threading
 import urllib.request
 
+import matplotlib.image
+import numpy as np
 import pytest
 
 import opendyn as od
 from opendyn.cli.main import main
 from opendyn.io.scene.files import tomllib
 from opendyn.io.scene.keys import scene_keys
-from opendyn.io.urdf import shipped_robots_dir
+from opendyn.io.urdf import resolve_robot, shipped_robots_dir
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 DOCS = ROOT / "docs"
@@ -130,14 +132,122 @@ CHECKS = {
         ns["table"].num_rows == 6 and (tmp / "pendulum.png").is_file()
     ),
 }
+
+
+def _free_fall(ns, tmp):
+    """centroidal.md: a free-falling robot's momentum changes by gravity alone, dh_G = (0, m g);
+    the payload found is the one added; the base parameters are the loaded UR5's own (noise-free
+    torques)."""
+    m = float(np.sum(ns["solo"].mass))
+    np.testing.assert_allclose(ns["dh_G"], [0, 0, 0, 0, 0, -9.81 * m], rtol=0, atol=1e-9 * m)
+    found = ns["found"]
+    assert abs(found.mass - 2.5) < 1e-8
+    np.testing.assert_allclose(found.com, [0, 0, 0.05], atol=1e-8)
+    base = ns["base"]
+    truth = base.base @ ns["payload"].inertial_parameters()
+    np.testing.assert_allclose(base.parameters, truth, rtol=1e-6, atol=1e-8)
+    return True
+
+
+def _held_still(ns, tmp):
+    """controllers.md: gravity compensation plus PD about the start, from rest, holds the arm
+    where it started (its gravity torque is met exactly, so qdd = 0)."""
+    traj, q_ref = ns["traj"], ns["q_ref"]
+    assert traj.t[-1] >= 1.0 - 1e-9
+    assert np.abs(traj.q - q_ref).max() < 1e-9 and np.abs(traj.qd).max() < 1e-9
+    return True
+
+
+def _inverse_pairs(ns, tmp):
+    """derivatives.md: dtau/dqdd = M and d qdd/d tau = M^-1 (two algorithms) are inverses; the
+    discrete pendulum linearised upright is unstable (an eigenvalue outside the unit circle)
+    and at rest in its own coordinates (x = 0 maps to 0: A's top right block is ~dt I)."""
+    M, Minv = ns["M"], ns["Minv"]
+    np.testing.assert_allclose(M @ Minv, np.eye(6), atol=1e-9)
+    eigenvalues = np.linalg.eigvals(ns["A"])
+    assert np.abs(eigenvalues).max() > 1.0 and np.abs(eigenvalues).min() < 1.0
+    return True
+
+
+def _summary(ns, tmp, out):
+    """robots.md: the summary counts the URDF's moving joints (six revolute ones, read from the
+    file by xml.etree) and names each."""
+    import xml.etree.ElementTree as ET
+
+    root = ET.parse(resolve_robot("ur5"))
+    moving = [j.get("name") for j in root.findall("joint") if j.get("type") != "fixed"]
+    assert len(moving) == 6 and "nq=6, nv=6" in out
+    assert all(name in out for name in moving)
+    return True
+
+
+def _sag(ns, tmp):
+    """rollouts.md: the runs settle towards the PD's static equilibrium under gravity,
+    kp (q0 - q) = g(q), solved here by fixed-point iteration: the mean offset has its sign and
+    size (to 10%: at 1 s the runs, started up to 0.5 rad away, are still settling)."""
+    scene, sag = ns["scene"], ns["sag"]
+    q = scene.q0.copy()
+    for _ in range(50):
+        q = scene.q0 - od.gravity_forces(scene.model, q) / 300.0
+    expected = q - scene.q0
+    assert np.abs(expected).max() > 0.1  # gravity does hold the arm off its setpoint
+    assert np.abs(sag - expected).max() < 0.1 * np.abs(expected).max(), (sag, expected)
+    return True
+
+
+def _scene_run(ns, tmp):
+    """scenes.md: the saved run is the run; the energy balance closes (E - E(0) = the work of
+    the applied and passive forces); the plot is drawn."""
+    traj = ns["traj"]
+    loaded = od.Trajectory.load(tmp / "run.npz")
+    np.testing.assert_array_equal(loaded.q, traj.q)
+    balance = traj.energy - traj.energy[0] - traj.work_applied - traj.work_passive
+    assert np.abs(balance).max() < 1e-6 * np.abs(traj.kinetic).max()
+    image = matplotlib.image.imread(tmp / "run.png")[..., :3]
+    assert (image < 0.95).any(axis=-1).mean() > 0.02  # not blank
+    scene = ns["scene"]
+    assert scene.run.integrator == "dopri5" and scene.run.duration == 2.0
+    return True
+
+
+def _exp_map(ns, tmp):
+    """conventions.md: spinning at 1 rad/s about its own x axis for 1 ms, the base turns by
+    1e-3 rad about x and stays where it was; in free fall its momentum changes by m g alone."""
+    model, q, v, q_next = ns["model"], ns["q"], ns["v"], ns["q_next"]
+    np.testing.assert_allclose(q_next[:3], [0, 0, 0.3], atol=1e-15)
+    np.testing.assert_allclose(q_next[3:7], [np.sin(5e-4), 0, 0, np.cos(5e-4)], atol=1e-15)
+    np.testing.assert_array_equal(q_next[7:], q[7:])
+    dh = od.centroidal_momentum_matrix(model, q) @ ns["qdd"] + od.centroidal_momentum_rate_bias(
+        model, q, v
+    )
+    m = float(np.sum(model.mass))
+    np.testing.assert_allclose(dh, [0, 0, 0, 0, 0, -9.81 * m], rtol=0, atol=1e-9 * m)
+    return True
+
+
+CHECKS.update({
+    "docs/guides/centroidal.md": _free_fall,
+    "docs/guides/controllers.md": _held_still,
+    "docs/guides/derivatives.md": _inverse_pairs,
+    "docs/guides/rollouts.md": _sag,
+    "docs/guides/scenes.md": _scene_run,
+    "docs/reference/conventions.md": _exp_map,
+})
+PRINTING_CHECKS = {"docs/guides/robots.md": _summary}  # checks of what the page prints
 PYTHON_PAGES = [page for page in PAGES if blocks(page, "python")]
 
 
 @pytest.mark.parametrize("page", PYTHON_PAGES)
-def test_every_pages_python_examples_run_in_order(page, tmp_path, monkeypatch):
+def test_every_pages_python_examples_run_in_order(page, tmp_path, monkeypatch, capsys):
+    """Each page's examples run, and what they compute is checked: every page with python
+    blocks has a check (CHECKS, or PRINTING_CHECKS of its printed text)."""
     namespace = run_page(page, tmp_path, monkeypatch)
+    out = capsys.readouterr().out
+    assert page in CHECKS or page in PRINTING_CHECKS, f"{page}: no check of its examples"
     if page in CHECKS:
         assert CHECKS[page](namespace, tmp_path)
+    else:
+        assert PRINTING_CHECKS[page](namespace, tmp_path, out)
 
 
 def test_the_checked_pages_have_their_examples():

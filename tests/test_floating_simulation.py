@@ -133,8 +133,27 @@ def test_one_quaternion_tolerance_for_scene_files_the_simulator_linearize_and_th
     sim = od.Simulator(scene)
     sim.reset(q=q)
     np.testing.assert_allclose(sim.q[3:7], unit, atol=1e-15)
-    od.linearize(scene, q=q)
-    od.mass_matrix(scene.model, q)
+    # the typed quaternion is taken as the rotation of its unit one, scipy's (which normalises)
+    R = Rotation.from_quat(typed).as_matrix()
+    root = scene.model.frames[0].name
+    np.testing.assert_allclose(od.frame_pose(scene.model, q, root)[:3, :3], R, atol=1e-15)
+    # and so by linearize: a free body at rest under gravity has omega' = 0 and
+    # v_b' = R^T g, so along e = (dtheta, dp) (T = T_0 exp(e)) v_b' moves by [R^T g]x dtheta
+    falling = _scene(
+        {
+            "robot": {"urdf": "t_handle.urdf", "floating_base": True},
+            "effects": {"gravity": True},
+            "initial": {"base_orientation": typed},
+        }
+    )
+    A, B = od.linearize(falling, q=q, qd=np.zeros(6))
+    g_b = R.T @ np.array([0.0, 0.0, -9.81])
+    K = np.zeros((6, 6))
+    K[3:, :3] = [[0.0, -g_b[2], g_b[1]], [g_b[2], 0.0, -g_b[0]], [-g_b[1], g_b[0], 0.0]]
+    expected = np.block([[np.zeros((6, 6)), np.eye(6)], [K, np.zeros((6, 6))]])
+    np.testing.assert_allclose(A, expected, rtol=0, atol=1e-12)
+    assert B.shape == (12, 0)  # the handle has no actuated joint
+    od.mass_matrix(scene.model, q)  # taken (M of a lone free body does not depend on its pose)
     far = np.array([0.0, 0.0, 0.0, 1.002])
     with pytest.raises(SceneError, match="initial.base_orientation: .*unit quaternion"):
         _handle_scene(base_orientation=list(far))

@@ -106,21 +106,38 @@ def test_linearize_matches_differences_while_in_contact(name):
         assert_matches_differences(scene, t, q, qd, rtol=1e-5)
 
 
-@pytest.mark.parametrize("key", sorted(scene_settings()))
+@pytest.mark.parametrize("key", sorted(set(scene_settings()) - {"python_control"}))
 def test_linearize_matches_differences_with_every_effect(key):
     """The registry's scenes, which together name every effect: gravity, damping, friction,
     armature, limits, a world-aligned wrench, contact, PD, a clipped constant torque and
-    computed torque (the Python controller is refused below)."""
+    computed torque (the Python controller, which linearize refuses, is the next test's)."""
     scene = scene_named(key)
-    if key == "python_control":
-        with pytest.raises(ValueError, match="Python function"):
-            od.linearize(scene)
-        return
     rng = np.random.default_rng(3)
     for _ in range(4):
         q = rng.uniform(-3.5, 3.5, scene.model.nq)
         qd = rng.normal(size=scene.model.nv)
         assert_matches_differences(scene, 0.3, q, qd)
+
+
+def test_a_python_controller_is_refused_and_the_scene_without_it_matches_its_dynamics():
+    """A Python controller has no derivative: linearize refuses it, naming the function and
+    the way out it gives (linearize the scene without the controller); that linearisation is
+    the differences of the Python scene's own compiled step with its held torque as the input
+    (the controller's zero-order hold does not move with the state)."""
+    scene = scene_named("python_control")
+    with pytest.raises(ValueError, match=r"Python function 'math:cos'.*scene\.without\('control'\)"):
+        od.linearize(scene)
+    without = scene.without("control")
+    nv = scene.model.nv
+    rng = np.random.default_rng(3)
+    for _ in range(3):
+        q = rng.uniform(-3.5, 3.5, scene.model.nq)
+        qd = rng.normal(size=nv)
+        A, B = od.linearize(without, 0.3, q, qd)
+        dq, dqd, du = differenced(scene, 0.3, q, qd)
+        for ours, ref in ((A[nv:, :nv], dq), (A[nv:, nv:], dqd), (B[nv:], du)):
+            assert np.abs(ours - ref).max() <= 2e-6 * max(1.0, np.abs(ref).max())
+        np.testing.assert_array_equal(A[:nv, nv:], np.eye(nv))
 
 
 def test_every_effects_tangent_is_its_compiled_force():

@@ -63,26 +63,6 @@ def no_run(monkeypatch):
     monkeypatch.setattr(SIMULATE, "simulate", refuse)
 
 
-@pytest.fixture
-def read_only_folder(tmp_path):
-    """A folder no file can be created in: a folder without write permission, or, for root
-    (whom permissions do not stop), /sys."""
-    if os.geteuid() != 0:
-        folder = tmp_path / "read-only"
-        folder.mkdir()
-        folder.chmod(0o555)
-        yield folder
-        folder.chmod(0o755)
-        return
-    folder = pathlib.Path("/sys")
-    try:
-        tempfile.TemporaryFile(dir=folder).close()
-    except OSError:
-        yield folder
-        return
-    pytest.skip("no read-only folder here: running as root and /sys is writable")
-
-
 def test_simulate_saves_by_default_and_no_save_skips_it(tmp_path, monkeypatch, capsys):
     monkeypatch.chdir(tmp_path)
     assert main(["simulate", *SHORT]) == 0
@@ -188,18 +168,15 @@ def test_a_name_longer_than_the_file_system_allows_is_refused_before_the_run(
 
 
 def test_read_only_places_are_refused_before_the_run(
-    read_only_folder, tmp_path, monkeypatch, capsys, no_run
+    read_only_folder, read_only_file, capsys, no_run
 ):
     target = str(read_only_folder / "run.csv")
     assert main(["simulate", "--csv", target]) == 2
     err = capsys.readouterr().err
     assert f"--csv {target!r}: no file can be written in the folder {read_only_folder}" in err
-    if os.geteuid() != 0:  # root writes read-only files
-        locked = tmp_path / "locked.npz"
-        locked.write_text("")
-        locked.chmod(0o444)
-        assert main(["simulate", "-o", str(locked)]) == 2
-        assert "the file is read-only" in capsys.readouterr().err
+    assert main(["simulate", "--csv", str(read_only_file)]) == 2
+    err = capsys.readouterr().err
+    assert f"--csv {str(read_only_file)!r}: the file is read-only" in err, err
 
 
 def test_default_save_place_is_checked_before_the_run(

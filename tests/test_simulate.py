@@ -28,6 +28,7 @@ from opendyn.sim.record import Samples
 
 pin = pytest.importorskip("pinocchio")
 from pin_adapter import PinOracle  # noqa: E402
+from plotcheck import assert_lines_shown, read_png, saved_figures  # noqa: E402
 
 
 def ur5_scene(duration=1.0, **effect_tables):
@@ -474,8 +475,19 @@ def test_trajectory_round_trips_with_provenance(tmp_path):
     assert header[:3] == ["t", "q_shoulder", "q_elbow"] and len(header) == 1 + 3 * 2 + 4
     data = np.loadtxt(csv, delimiter=",", skiprows=1)
     np.testing.assert_array_equal(data[:, 0], traj.t)
-    png = traj.plot(tmp_path / "run.png")
-    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    with saved_figures() as saved:
+        png = traj.plot(tmp_path / "run.png")
+    ((figure, dpi),) = saved
+    positions, velocities, energy = figure.axes
+    for k in range(2):
+        np.testing.assert_array_equal(positions.lines[k].get_xdata(), traj.t)
+        np.testing.assert_array_equal(positions.lines[k].get_ydata(), traj.q[:, k])
+        np.testing.assert_array_equal(velocities.lines[k].get_ydata(), traj.qd[:, k])
+    drawn = {line.get_label(): line.get_ydata() for line in energy.lines}
+    np.testing.assert_array_equal(drawn["E - E(0)"], traj.energy - traj.energy[0])
+    np.testing.assert_array_equal(drawn["work applied"], traj.work_applied)
+    image = read_png(png, figure, dpi)
+    assert_lines_shown(image, positions.lines + velocities.lines + energy.lines)
 
 
 def test_integrate_is_q_plus_v_dt():

@@ -21,6 +21,7 @@ import pytest
 
 import opendyn as od
 from conftest import ctrl_c_default
+from plotcheck import assert_lines_shown, read_png, saved_figures
 from opendyn.errors import SweepError
 from opendyn.sim.scene import thaw
 from opendyn.sweep.specs import Axis, combinations, parse_axis
@@ -330,14 +331,44 @@ def test_tracking_error_follows_the_closed_loop_and_grows_with_friction(client):
 
 
 def test_plots_draw_a_line_and_a_heat_map(client, tmp_path):
+    """The line is the table's metric against the stiffness (log axis), in order; the heat map
+    has one panel per integrator whose cells are the metric at (stiffness, dt), empty where
+    the run failed; and each PNG is its figure, drawn (its line's colour shown)."""
     scene = limits_scene(duration=0.2)
     line = od.sweep(scene, {"effects.limits.stiffness": "log:1e3:1e6:4"}, client=client)
-    od.plot_sweep(line, tmp_path / "line.png")
     grid = od.sweep(scene, {"effects.limits.stiffness": "log:1e3:1e6:3", "run.dt": "0.001,0.005",
                             "run.integrator": "rk4,implicit_euler"}, client=client)
-    od.plot_sweep(grid, tmp_path / "map.png", metric="energy_error_max")
-    for name in ("line.png", "map.png"):
-        assert (tmp_path / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    with saved_figures() as saved:
+        od.plot_sweep(line, tmp_path / "line.png")
+        od.plot_sweep(grid, tmp_path / "map.png", metric="energy_error_max")
+    (line_fig, line_dpi), (map_fig, map_dpi) = saved
+
+    (ax,) = line_fig.axes
+    drawn = ax.lines[0]
+    rows = line.to_pydict()
+    metric = ax.get_ylabel()
+    order = np.argsort(rows["effects.limits.stiffness"])
+    np.testing.assert_allclose(drawn.get_xdata(), [1e3, 1e4, 1e5, 1e6])
+    np.testing.assert_array_equal(drawn.get_ydata(), np.array(rows[metric], float)[order])
+    assert ax.get_xscale() == "log" and ax.get_xlabel() == "effects.limits.stiffness"
+    image = read_png(tmp_path / "line.png", line_fig, line_dpi)
+    assert_lines_shown(image, [drawn])
+
+    rows = grid.to_pydict()
+    panels = [a for a in map_fig.axes if a.get_xlabel() == "effects.limits.stiffness"]
+    assert len(panels) == 2 and len(map_fig.axes) == 3  # and the colour bar
+    for panel in panels:
+        integrator = panel.get_title().rpartition(" = ")[2]
+        expected = np.full((2, 3), np.nan)  # rows: dt; columns: stiffness
+        for k in range(grid.num_rows):
+            if rows["run.integrator"][k] == integrator and rows["status"][k] == "complete":
+                i = [0.001, 0.005].index(rows["run.dt"][k])
+                j = int(np.argmin(np.abs(np.log10(rows["effects.limits.stiffness"][k]) - [3, 4.5, 6])))
+                expected[i, j] = rows["energy_error_max"][k]
+        cells = np.ma.filled(panel.collections[0].get_array(), np.nan).reshape(2, 3)
+        np.testing.assert_array_equal(cells, expected)
+    image = read_png(tmp_path / "map.png", map_fig, map_dpi)
+    assert len(np.unique(np.round(image * 255).reshape(-1, 3), axis=0)) > 50  # a colour map
     with pytest.raises(ValueError, match="not a metric of this sweep"):
         od.plot_sweep(grid, tmp_path / "x.png", metric="tracking_rms")
 
@@ -390,23 +421,23 @@ def test_the_command_runs_on_an_existing_scheduler(client, tmp_path, monkeypatch
     assert "--scheduler tcp://127.0.0.1:9: cannot connect" in capsys.readouterr().err
 
 
-def test_outputs_that_cannot_be_written_are_refused_before_anything_runs(tmp_path):
+def test_outputs_that_cannot_be_written_are_refused_before_anything_runs(
+    tmp_path, read_only_folder, read_only_file
+):
     """od.sweep checks its results file and trajectories' folder first, as the command does
     (it ran chunks and then failed, dropping them or naming a temporary file)."""
     scene = limits_scene(duration=0.1)
     vary = {"effects.limits.stiffness": "1e3"}
-    read_only = tmp_path / "read-only"
-    read_only.mkdir()
-    read_only.chmod(0o500)
     a_file = tmp_path / "a-file"
     a_file.write_text("")
     cases = [
         (dict(parquet=tmp_path), "parquet", "is a folder, not a file"),
         (dict(parquet=tmp_path / "missing" / "r.parquet"), "parquet", "does not exist"),
         (dict(trajectories=a_file), "trajectories", "is a file, not a folder"),
+        (dict(parquet=read_only_folder / "r.parquet"), "parquet", "no file can be written"),
+        (dict(parquet=read_only_file), "parquet", "the file is read-only"),
+        (dict(trajectories=read_only_folder), "trajectories", "no file can be written"),
     ]
-    if os.geteuid() != 0:  # root writes anywhere
-        cases.append((dict(parquet=read_only / "r.parquet"), "parquet", "no file can be"))
     for kwargs, argument, words in cases:
         with pytest.raises(SweepError) as refused:
             od.sweep(scene, vary, **kwargs)
@@ -490,6 +521,42 @@ def _service(answer):
     return f"tcp://127.0.0.1:{server.getsockname()[1]}", stop
 
 
+def _bounded_waits(monkeypatch, timeout):
+    """The timeouts (s) of every connection to a scheduler and every read from it, as a list
+    that fills as they are made; a connection or a read that could wait longer than `timeout`
+    (or for ever: None) fails at once instead of waiting."""
+    connect = socket.create_connection
+    waits = []
+
+    def bounded(wait):
+        waits.append(wait)
+        assert wait is not None and wait <= timeout, f"a wait of {wait} s, past {timeout} s"
+
+    class Peer:
+        def __init__(self, sock):
+            self.sock = sock
+
+        def __enter__(self):
+            return self
+
+        def __exit__(self, *exc):
+            self.sock.close()
+
+        def settimeout(self, wait):
+            self.sock.settimeout(wait)
+
+        def recv(self, size):
+            bounded(self.sock.gettimeout())
+            return self.sock.recv(size)
+
+    def create_connection(address, timeout=None, *args, **kwargs):
+        bounded(timeout)
+        return Peer(connect(address, timeout, *args, **kwargs))
+
+    monkeypatch.setattr(socket, "create_connection", create_connection)
+    return waits
+
+
 @pytest.mark.parametrize(
     "answer, words",
     [
@@ -506,14 +573,16 @@ def test_a_scheduler_address_that_is_not_dask_is_one_line_within_the_timeout(
 
     monkeypatch.chdir(tmp_path)
     monkeypatch.setattr(sweep_command, "SCHEDULER_TIMEOUT", 1.0)
+    waits = _bounded_waits(monkeypatch, 1.0)
     address, stop = _service(answer)
     try:
-        tic = time.monotonic()
         argv = ["sweep", "planar_3r_limits", "--vary", "run.duration=0.1", "--scheduler", address]
         assert main(argv) == 2
-        assert time.monotonic() - tic < 10.0
     finally:
         stop()
+    # it connected and read, every wait bounded by the timeout (a read without one would
+    # wait on the silent service for ever)
+    assert len(waits) >= 2 and all(w is not None and 0 < w <= 1.0 for w in waits), waits
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and f"--scheduler {address}: " in err and words in err, err
     assert not (tmp_path / "planar_3r_limits-sweep.parquet").exists()
