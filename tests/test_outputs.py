@@ -207,7 +207,7 @@ def test_failed_write_after_the_run_goes_to_a_fallback_file(
         (tmp_path / name).mkdir()
     monkeypatch.chdir(tmp_path / "cwd")
     monkeypatch.setattr(tempfile, "tempdir", str(tmp_path / "temp"))
-    run = od.simulate
+    run = SIMULATE.simulate
 
     def run_then_remove_folders(*a, **kw):
         traj = run(*a, **kw)
