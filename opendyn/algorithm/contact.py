@@ -43,9 +43,15 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .._runtime.arrays import zero_matrix
+from .._runtime.arrays import fill, zero_matrix
 from .._runtime.kernel_cache import BATCH, INLINE, JIT
-from ..multibody.data import effect_rows, new_work, scratch_rows, world_poses
+from ..multibody.data import (
+    contact_axes,
+    effect_rows,
+    new_work,
+    scratch_rows,
+    world_poses,
+)
 from ..multibody.layout import body_count, dof_count, tree
 from .kinematics import add_point_jacobian, forward_kinematics, space_axis
 
@@ -96,103 +102,110 @@ def force_change(params, v_p, f_p, ddelta, dv, df):
 
 
 @njit(**JIT)
-def add_contact_tangent(body_tree, poses, b, at, params, qd, point, K, D):
+def add_contact_tangent(body_tree, work, b, at, params, qd, point, K, D):
     """K (nv, nv) -= dtau_p/dq, D (nv, nv) -= dtau_p/dqd: the exact derivatives of one contact
     point's generalized force tau_p = J_p^T f_p (module docstring), q in the tangent space,
-    for a point of body b touching the ground with f_n > 0; poses = (R_s, p_s) every body's,
-    at = (x (3,), c (3,)) the sphere's lowest point and centre in {s}, point = (v_p (3,),
-    f_p (3,)) the velocity of the body's material at x and the ground's force there."""
-    R_s, p_s = poses
+    for a point of body b touching the ground with f_n > 0; at = (x (3,), c (3,)) the sphere's
+    lowest point and centre in {s}, point = (v_p (3,), f_p (3,)) the velocity of the body's
+    material at x and the ground's force there. Works in `work`, allocating nothing: it reads
+    the world poses R_s, p_s of every body and writes the contact axes' rows (ContactAxes, row
+    j for each velocity coordinate j from b up to the root) and scratch rows 0 and 5-8 (rows
+    1-4 hold at and point: contact_on_poses)."""
+    nb, nv = body_tree.parent.shape[0], qd.shape[0]
+    parent, nv_j, iv = body_tree.parent, body_tree.nv_j, body_tree.iv
+    R_s, p_s = world_poses(work, nb)
+    S, moved, dF_dq, J_x, df_dqd = contact_axes(work, nb, nv)
+    s = scratch_rows(work, nb, nv)
+    J_c, df_dq = s[0, :3], s[0, 3:]
+    twist, W = s[5], s[6]
+    u, w_jW, dv, m_s = s[7, :3], s[7, 3:], s[8, :3], s[8, 3:]
     x, c = at
     v_p, f_p = point
-    # the axes from b up to the root: S (n, 6) in {s} (times the mimic multipliers), their
-    # velocity coordinates and levels (0 for b's joint, 1 for its parent's, ...)
-    n = 0
+    # the axes from b up to the root: S_j in {s} (times the mimic multipliers), in the row of
+    # their velocity coordinate j; twist = sum_j qd_j S_j, b's twist (w_b its angular part)
+    fill(twist, 0.0)
     i = b
     while i >= 0:
-        n += body_tree.nv_j[i]
-        i = body_tree.parent[i]
-    S = np.empty((n, 6))
-    coordinate = np.empty(n, dtype=np.int64)
-    level = np.empty(n, dtype=np.int64)
-    a, i, up = 0, b, 0
-    while i >= 0:
-        for k in range(body_tree.nv_j[i]):
-            space_axis(R_s[i], p_s[i], body_tree.S[i, k], S[a])
+        for k in range(nv_j[i]):
+            j = iv[i] + k
+            space_axis(R_s[i], p_s[i], body_tree.S[i, k], S[j])
             for r in range(6):
-                S[a, r] *= body_tree.mult[i]
-            coordinate[a] = body_tree.iv[i] + k
-            level[a] = up
-            a += 1
-        i = body_tree.parent[i]
-        up += 1
-    # W_j = sum of qd_i S_i over the axes at or below j's body: the twist of b relative to the
-    # body j's joint hangs from; over the whole path, b's twist (w_b its angular part)
-    W = np.empty((n, 6))
-    twist = np.zeros(6)
-    a = 0
-    while a < n:
-        e = a
-        while e < n and level[e] == level[a]:
-            for r in range(6):
-                twist[r] += qd[coordinate[e]] * S[e, r]
-            e += 1
-        for g in range(a, e):
-            W[g] = twist
-        a = e
-    # per axis j: J_j(x), J_j(c) = v_j + w_j x y (x moves as c does: dx/dq_j = J_j(c));
-    # dv_p/dq_j = (S_j x W_j) at x + w_b x J_j(c); the force's changes df/dq_j, df/dqd_j;
-    # dF_s/dq_j = (J_j(c) x f + x x df/dq_j, df/dq_j) of F_s = (x x f, f); ad_{S_j}^T F_s
-    J_x, J_c = np.empty((n, 3)), np.empty((n, 3))
-    df_dq, df_dqd = np.empty((n, 3)), np.empty((n, 3))
-    dF_dq, moved = np.empty((n, 6)), np.empty((n, 6))
-    m_s = np.empty(3)
+                S[j, r] *= body_tree.mult[i]
+                twist[r] += qd[j] * S[j, r]
+        i = parent[i]
+    # per axis j, W = sum of qd_i S_i over the axes at or below j's body (the twist of b
+    # relative to the body j's joint hangs from): J_j(x), J_j(c) = v_j + w_j x y (x moves as c
+    # does: dx/dq_j = J_j(c)); dv_p/dq_j = (S_j x W) at x + w_b x J_j(c); the force's changes
+    # df/dq_j, df/dqd_j; dF_s/dq_j = (J_j(c) x f + x x df/dq_j, df/dq_j) of F_s = (x x f, f);
+    # ad_{S_j}^T F_s
     cross(x, f_p, m_s)
-    u, w_jW, dv = np.empty(3), np.empty(3), np.empty(3)
-    for j in range(n):
-        w_j, v_j = S[j, :3], S[j, 3:]
-        cross(w_j, x, u)
-        for r in range(3):
-            J_x[j, r] = v_j[r] + u[r]
-        cross(w_j, c, u)
-        for r in range(3):
-            J_c[j, r] = v_j[r] + u[r]
-        # S_j x W_j = (w_j x w_W, v_j x w_W + w_j x v_W), taken at x: its v + w x x
-        cross(v_j, W[j, :3], dv)
-        cross(w_j, W[j, 3:], u)
-        dv += u
-        cross(w_j, W[j, :3], w_jW)  # the bracket's angular part
-        cross(w_jW, x, u)
-        dv += u
-        cross(twist[:3], J_c[j], u)
-        dv += u
-        force_change(params, v_p, f_p, -J_c[j, 2], dv, df_dq[j])
-        force_change(params, v_p, f_p, 0.0, J_x[j], df_dqd[j])
-        cross(J_c[j], f_p, u)
-        cross(x, df_dq[j], dv)
-        for r in range(3):
-            dF_dq[j, r] = u[r] + dv[r]
-            dF_dq[j, 3 + r] = df_dq[j, r]
-        # ad_{S_j}^T F_s = -(w_j x m + v_j x f, w_j x f)
-        cross(w_j, m_s, u)
-        cross(v_j, f_p, dv)
-        for r in range(3):
-            moved[j, r] = -(u[r] + dv[r])
-        cross(w_j, f_p, u)
-        for r in range(3):
-            moved[j, 3 + r] = -u[r]
-    # dtau_i/dq_j = [j at or above i] S_i . ad_{S_j}^T F_s + S_i . dF_s/dq_j,
-    # dtau_i/dqd_j = J_i(x) . df/dqd_j
-    for a in range(n):
-        for j in range(n):
-            dq = 0.0
+    fill(W, 0.0)
+    i = b
+    while i >= 0:
+        for k in range(nv_j[i]):
+            j = iv[i] + k
             for r in range(6):
-                dq += S[a, r] * dF_dq[j, r]
-                if level[j] >= level[a]:
-                    dq += S[a, r] * moved[j, r]
-            dqd = J_x[a, 0] * df_dqd[j, 0] + J_x[a, 1] * df_dqd[j, 1] + J_x[a, 2] * df_dqd[j, 2]
-            K[coordinate[a], coordinate[j]] -= dq
-            D[coordinate[a], coordinate[j]] -= dqd
+                W[r] += qd[j] * S[j, r]
+        for k in range(nv_j[i]):
+            j = iv[i] + k
+            w_j, v_j = S[j, :3], S[j, 3:]
+            cross(w_j, x, u)
+            for r in range(3):
+                J_x[j, r] = v_j[r] + u[r]
+            cross(w_j, c, u)
+            for r in range(3):
+                J_c[r] = v_j[r] + u[r]
+            # S_j x W = (w_j x w_W, v_j x w_W + w_j x v_W), taken at x: its v + w x x
+            cross(v_j, W[:3], dv)
+            cross(w_j, W[3:], u)
+            dv += u
+            cross(w_j, W[:3], w_jW)  # the bracket's angular part
+            cross(w_jW, x, u)
+            dv += u
+            cross(twist[:3], J_c, u)
+            dv += u
+            force_change(params, v_p, f_p, -J_c[2], dv, df_dq)
+            force_change(params, v_p, f_p, 0.0, J_x[j], df_dqd[j])
+            cross(J_c, f_p, u)
+            cross(x, df_dq, dv)
+            for r in range(3):
+                dF_dq[j, r] = u[r] + dv[r]
+                dF_dq[j, 3 + r] = df_dq[r]
+            # ad_{S_j}^T F_s = -(w_j x m + v_j x f, w_j x f)
+            cross(w_j, m_s, u)
+            cross(v_j, f_p, dv)
+            for r in range(3):
+                moved[j, r] = -(u[r] + dv[r])
+            cross(w_j, f_p, u)
+            for r in range(3):
+                moved[j, 3 + r] = -u[r]
+        i = parent[i]
+    # dtau_a/dq_j = [j at or above a] S_a . ad_{S_j}^T F_s + S_a . dF_s/dq_j,
+    # dtau_a/dqd_j = J_a(x) . df/dqd_j, for the axes a, j of the path
+    i_a = b
+    while i_a >= 0:
+        for k_a in range(nv_j[i_a]):
+            a = iv[i_a] + k_a
+            above = False  # the inner walk has reached a's body
+            i_j = b
+            while i_j >= 0:
+                above = above or i_j == i_a
+                for k_j in range(nv_j[i_j]):
+                    j = iv[i_j] + k_j
+                    dq = 0.0
+                    for r in range(6):
+                        dq += S[a, r] * dF_dq[j, r]
+                        if above:
+                            dq += S[a, r] * moved[j, r]
+                    dqd = (
+                        J_x[a, 0] * df_dqd[j, 0]
+                        + J_x[a, 1] * df_dqd[j, 1]
+                        + J_x[a, 2] * df_dqd[j, 2]
+                    )
+                    K[a, j] -= dq
+                    D[a, j] -= dqd
+                i_j = parent[i_j]
+        i_a = parent[i_a]
 
 
 @njit(**INLINE)
@@ -277,9 +290,7 @@ def contact_on_poses(ibuf, fbuf, work, contacts, qd, tau, linear, record):
         if jac:
             c_s[:] = x_p
             c_s[2] += params[SHARED + PER_POINT * p + 3]  # the centre, r above
-            add_contact_tangent(
-                body_tree, (R_s, p_s), b, (x_p, c_s), params, qd, (v_p, f_p), K, D
-            )
+            add_contact_tangent(body_tree, work, b, (x_p, c_s), params, qd, (v_p, f_p), K, D)
     return spring
 
 

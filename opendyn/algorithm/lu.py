@@ -74,10 +74,9 @@ def lu_substitute(LU, piv, b, x):
 
 
 @njit(**JIT)
-def lu_solve(A, b, x):
-    """x (n,) <- A^-1 b for a general (n, n) A (overwritten by its factors). Returns
-    Status.OK.value or SINGULAR + k (lu_factor)."""
-    piv = np.empty(A.shape[0], dtype=np.int64)
+def lu_solve(A, piv, b, x):
+    """x (n,) <- A^-1 b for a general (n, n) A (overwritten by its factors; piv (n,) int64 <-
+    its row swaps). Returns Status.OK.value or SINGULAR + k (lu_factor)."""
     status = lu_factor(A, piv)
     if status == Status.OK.value:
         lu_substitute(A, piv, b, x)

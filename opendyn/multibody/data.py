@@ -161,6 +161,7 @@ WORK_FIELDS = (
     ("J_c", (3,), "nv"),
     ("A_G", (6,), "nv"),
     ("effect_rows", (3,), "nv"),
+    ("contact_axes", (24,), "nv"),
     ("M", (), "nv2"),
     ("C", (), "nv2"),
     ("P", (), "nv2"),
@@ -193,6 +194,7 @@ SCRATCH_FIELDS = (
     "e_k",
     "unit_responses",
     "effect_rows",
+    "contact_axes",
     "no_loads",
     "scratch",
     "temp",
@@ -300,7 +302,7 @@ _S_S, _G_S, _GC, _DS = (_where(n) for n in ("S_s", "G_s", "Gc", "dS"))
 _BC, _V_S, _IDLE, _STILL = (_where(n) for n in ("Bc", "V_s", "idle", "still"))
 _NO_LOADS, _SCRATCH, _TEMP = _where("no_loads"), _where("scratch"), _where("temp")
 _JMINV, _LAMBDA, _DV_F = _where("JMinv"), _where("Lambda"), _where("dV_f")
-_EFFECT_ROWS = _where("effect_rows")
+_EFFECT_ROWS, _CONTACT_AXES = _where("effect_rows"), _where("contact_axes")
 
 
 @njit(**INLINE)
@@ -436,6 +438,27 @@ def effect_rows(work, nb, nv):
     step runs them in turn): a contact point's Jacobian J_p, computed torque's qdd_c and
     tau_c."""
     return shaped(work_field(work, nb, nv, _EFFECT_ROWS), (3, nv))
+
+
+# The contact's derivatives per velocity coordinate j on the path from a touching point's body
+# to the root (opendyn.algorithm.contact.add_contact_tangent), row j of each, in {s}: the joint
+# axis S_j and ad_{S_j}^T F_s, dF_s/dq_j (nv, 6) of the point's wrench F_s = (x x f, f), and
+# J_j(x) = v_j + w_j x x, df/dqd_j (nv, 3) of its force f. Views of a work buffer.
+ContactAxes = namedtuple("ContactAxes", ("S", "moved", "dF_dq", "J_x", "df_dqd"))
+
+
+@njit(**JIT)
+def contact_axes(work, nb, nv):
+    """The ContactAxes views of a work buffer (its contact_axes field, 24 numbers a velocity
+    coordinate)."""
+    rows = work_field(work, nb, nv, _CONTACT_AXES)
+    return ContactAxes(
+        shaped(rows[: 6 * nv], (nv, 6)),
+        shaped(rows[6 * nv : 12 * nv], (nv, 6)),
+        shaped(rows[12 * nv : 18 * nv], (nv, 6)),
+        shaped(rows[18 * nv : 21 * nv], (nv, 3)),
+        shaped(rows[21 * nv :], (nv, 3)),
+    )
 
 
 @njit(**JIT)

@@ -87,15 +87,6 @@ def quaternion_rows(x, y, z, w):
 
 
 @njit(**INLINE)
-def quaternion_rotation(x, y, z, w, R):
-    """R (3, 3) <- the rotation of the quaternion (x, y, z, w) (quaternion_rows)."""
-    rows = quaternion_rows(x, y, z, w)
-    for r in range(3):
-        for c in range(3):
-            R[r, c] = rows[r][c]
-
-
-@njit(**INLINE)
 def free_transform(R_home, p_home, q, iq, R, p):
     """(R, p) = M X_J for a free joint: X_J = (R(quat), p_J), (p_J, quat) = q[iq : iq + 7]."""
     R_J = quaternion_rows(q[iq + 3], q[iq + 4], q[iq + 5], q[iq + 6])
@@ -293,12 +284,10 @@ def free_integrate(q, iq, v, iv, dt, q_next):
       a = sin(theta)/theta, b = (1 - cos theta)/theta^2, c = (theta - sin theta)/theta^3,
       p' = p + R (position part), quat' = quat (sin(theta/2) phi/theta, cos(theta/2)), normalised.
     (Lynch & Park, Proposition 3.25; series for theta < 1e-2.)"""
-    phi = np.empty(3)
-    rho = np.empty(3)
-    for k in range(3):
-        phi[k] = v[iv + k] * dt
-        rho[k] = v[iv + 3 + k] * dt
-    t2 = phi[0] ** 2 + phi[1] ** 2 + phi[2] ** 2
+    # in registers: phi, rho and the products below are 3-vectors of scalars
+    phi0, phi1, phi2 = v[iv] * dt, v[iv + 1] * dt, v[iv + 2] * dt
+    rho0, rho1, rho2 = v[iv + 3] * dt, v[iv + 4] * dt, v[iv + 5] * dt
+    t2 = phi0**2 + phi1**2 + phi2**2
     theta = np.sqrt(t2)
     if theta < 1e-2:
         b = 0.5 - t2 / 24.0 + t2 * t2 / 720.0
@@ -308,30 +297,21 @@ def free_integrate(q, iq, v, iv, dt, q_next):
         b = 2.0 * np.sin(0.5 * theta) ** 2 / t2
         c = (theta - np.sin(theta)) / (t2 * theta)
         half = np.sin(0.5 * theta) / theta
-    # p_e = rho + b phi x rho + c phi x (phi x rho)
-    x1 = np.empty(3)
-    x2 = np.empty(3)
-    x1[0] = phi[1] * rho[2] - phi[2] * rho[1]
-    x1[1] = phi[2] * rho[0] - phi[0] * rho[2]
-    x1[2] = phi[0] * rho[1] - phi[1] * rho[0]
-    x2[0] = phi[1] * x1[2] - phi[2] * x1[1]
-    x2[1] = phi[2] * x1[0] - phi[0] * x1[2]
-    x2[2] = phi[0] * x1[1] - phi[1] * x1[0]
-    R = np.empty((3, 3))
+    # p_e = rho + b phi x rho + c phi x (phi x rho), with x1 = phi x rho and x2 = phi x x1
+    x10 = phi1 * rho2 - phi2 * rho1
+    x11 = phi2 * rho0 - phi0 * rho2
+    x12 = phi0 * rho1 - phi1 * rho0
+    x20 = phi1 * x12 - phi2 * x11
+    x21 = phi2 * x10 - phi0 * x12
+    x22 = phi0 * x11 - phi1 * x10
+    e0, e1, e2 = rho0 + b * x10 + c * x20, rho1 + b * x11 + c * x21, rho2 + b * x12 + c * x22
     quat = q[iq + 3 : iq + 7]
-    quaternion_rotation(quat[0], quat[1], quat[2], quat[3], R)
+    R = quaternion_rows(quat[0], quat[1], quat[2], quat[3])
     for r in range(3):
-        s = 0.0
-        for k in range(3):
-            s += R[r, k] * (rho[k] + b * x1[k] + c * x2[k])
-        q_next[iq + r] = q[iq + r] + s
-    unit = np.empty(4)
-    for k in range(4):
-        unit[k] = quat[k]
-    normalize_quaternion(unit)
-    step = np.empty(4)
-    step[0], step[1], step[2] = half * phi[0], half * phi[1], half * phi[2]
-    step[3] = np.cos(0.5 * theta)
+        q_next[iq + r] = q[iq + r] + (R[r][0] * e0 + R[r][1] * e1 + R[r][2] * e2)
+    n = np.sqrt(quat[0] ** 2 + quat[1] ** 2 + quat[2] ** 2 + quat[3] ** 2)
+    unit = (quat[0] / n, quat[1] / n, quat[2] / n, quat[3] / n)
+    step = (half * phi0, half * phi1, half * phi2, np.cos(0.5 * theta))
     quaternion_multiply(unit, step, q_next[iq + 3 : iq + 7])
     normalize_quaternion(q_next[iq + 3 : iq + 7])
 

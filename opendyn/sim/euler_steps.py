@@ -19,9 +19,9 @@ The work w (2,) (applied, passive; J) advances by dt times the power at the star
 
 from __future__ import annotations
 
-import numpy as np
 from numba import njit
 
+from .._runtime.arrays import copy_into, fill
 from .._runtime.kernel_cache import JIT
 from .._runtime.status import Status
 from ..algorithm.cholesky import (
@@ -31,7 +31,7 @@ from ..algorithm.cholesky import (
     largest_diagonal,
 )
 from ..algorithm.configuration import integrate_kernel
-from ..algorithm.constraints import ROW_COUNT, general_constrained_solve_at
+from ..algorithm.constraints import general_constrained_solve_at
 from ..algorithm.crba import crba_kernel, crba_on_poses
 from ..algorithm.energy import kinetic_gradient_kernel
 from ..algorithm.lu import lu_solve
@@ -43,39 +43,41 @@ FIXED_POINT_MAX = 50
 
 
 @njit(**JIT)
-def velocity_solve(ibuf, fbuf, con, q, qd, M, rhs, qdd):
-    """qdd <- M^-1 rhs, or with constraints con (a ConstraintTable, not None) the constrained
-    solve of M qdd + A^T lambda = rhs (M overwritten), both by LU with partial pivoting: M here
-    is M + diag(armature) + dt D + dt^2 K, not symmetric once contact's exact derivatives are
-    in K and D. A function of its own so that the test on None is decided when it compiles.
-    Returns a Status (SINGULAR + k: M singular at joint k)."""
+def velocity_solve(scene, con, q, qd, M, piv, rhs, qdd):
+    """qdd <- M^-1 rhs, or with constraints con (scene.constraints, not None) the constrained
+    solve of M qdd + A^T lambda = rhs (M overwritten; lambda in scene.lam), both by LU with
+    partial pivoting (piv (nv,) int64: its row swaps): M here is
+    M + diag(armature) + dt D + dt^2 K, not symmetric once contact's exact derivatives are in K
+    and D. A function of its own so that the test on None is decided when it compiles. Returns
+    a Status (SINGULAR + k: M singular at joint k)."""
     if con is None:
-        return lu_solve(M, rhs, qdd)
-    lam = np.empty(con.rows[:, ROW_COUNT].sum())
-    return general_constrained_solve_at(ibuf, fbuf, con, q, qd, M, rhs, qdd, lam)
+        return lu_solve(M, piv, rhs, qdd)
+    return general_constrained_solve_at(
+        scene.ibuf, scene.fbuf, con, q, qd, M, rhs, qdd, scene.lam
+    )
 
 
 @njit(**JIT)
-def implicit_velocity_step(scene, t, dt, x, x1, tau_ctrl):
-    """One linearly implicit Euler step (module docstring) from the State x at t to x1;
-    tau_ctrl (nv,) <- the control torque at its start. Returns a Status."""
-    ibuf, fbuf, work = scene.ibuf, scene.fbuf, scene.work
+def implicit_velocity_step(scene, t, dt, x, x1, work):
+    """One linearly implicit Euler step (module docstring) from the State x at t to x1, in
+    work (the integrator's StepWork: its M, piv, vectors, kv[0] and kw[0]); work.tau <- the
+    control torque at its start. Returns a Status."""
+    ibuf, fbuf, data = scene.ibuf, scene.fbuf, scene.work
     armature, loads = scene.armature, scene.loads
     q, qd = x.q, x.qd
     nv = qd.shape[0]
     tau, K, D = scene.forces[0], scene.KD[0], scene.KD[1]
-    power = np.empty(2)
-    status = generalized_forces(scene, t, q, qd, tau, tau_ctrl, power, K, D, True)
+    M, h, rhs, zero = work.M, work.vectors[0], work.vectors[1], work.vectors[2]
+    qdd, power = work.kv[0], work.kw[0]
+    status = generalized_forces(scene, t, q, qd, tau, work.tau, power, K, D, True)
     if status:
         return status
     # h(q, qd) and M(q) on the poses generalized_forces placed at q
-    h = np.empty(nv)
-    status = rnea_on_poses(ibuf, fbuf, work, qd, np.zeros(nv), loads, h)
+    fill(zero, 0.0)
+    status = rnea_on_poses(ibuf, fbuf, data, qd, zero, loads, h)
     if status:
         return status
-    M = np.empty((nv, nv))
-    crba_on_poses(ibuf, fbuf, work, M)
-    rhs = np.empty(nv)
+    crba_on_poses(ibuf, fbuf, data, M)
     for j in range(nv):
         rhs[j] = tau[j] - h[j]
         for k in range(nv):
@@ -83,8 +85,7 @@ def implicit_velocity_step(scene, t, dt, x, x1, tau_ctrl):
             rhs[j] -= dt * K[j, k] * qd[k]
         if armature.shape[0]:
             M[j, j] += armature[j]
-    qdd = np.empty(nv)
-    status = velocity_solve(ibuf, fbuf, scene.constraints, q, qd, M, rhs, qdd)
+    status = velocity_solve(scene, scene.constraints, q, qd, M, work.piv, rhs, qdd)
     if status:
         return status
     for j in range(nv):
@@ -96,29 +97,30 @@ def implicit_velocity_step(scene, t, dt, x, x1, tau_ctrl):
 
 
 @njit(**JIT)
-def symplectic_euler_step(scene, t, dt, x, x1, tau_ctrl):
+def symplectic_euler_step(scene, t, dt, x, x1, work):
     """One step of symplectic Euler in momentum form (module docstring) from the State x at t to
-    x1; tau_ctrl (nv,) <- the control torque at its start. Returns a Status."""
-    ibuf, fbuf, work = scene.ibuf, scene.fbuf, scene.work
+    x1, in work (the integrator's StepWork: its M, vectors, v and kw[0]); work.tau <- the
+    control torque at its start. Returns a Status."""
+    ibuf, fbuf, data = scene.ibuf, scene.fbuf, scene.work
     armature, loads, KD = scene.armature, scene.loads, scene.KD
     q, qd = x.q, x.qd
     nv = qd.shape[0]
     tau = scene.forces[0]
-    power = np.empty(2)
-    status = generalized_forces(scene, t, q, qd, tau, tau_ctrl, power, KD[0], KD[1], False)
+    M, v, power = work.M, work.v, work.kw[0]
+    rows = work.vectors
+    zero, g, p, p1, dK_dq, v_next = rows[0], rows[1], rows[2], rows[3], rows[4], rows[5]
+    status = generalized_forces(scene, t, q, qd, tau, work.tau, power, KD[0], KD[1], False)
     if status:
         return status
     # g(q): RNEA at qd = qdd = 0 under the base acceleration, on the poses generalized_forces
     # placed at q
-    zero = np.zeros(nv)
-    g = np.empty(nv)
-    status = rnea_on_poses(ibuf, fbuf, work, zero, zero, loads, g)
+    fill(zero, 0.0)
+    status = rnea_on_poses(ibuf, fbuf, data, zero, zero, loads, g)
     if status:
         return status
     # p = (M(q) + diag(armature)) qd
-    M = np.empty((nv, nv))
-    crba_on_poses(ibuf, fbuf, work, M)
-    p = np.zeros(nv)
+    crba_on_poses(ibuf, fbuf, data, M)
+    fill(p, 0.0)
     for r in range(nv):
         if armature.shape[0]:
             M[r, r] += armature[r]
@@ -128,13 +130,10 @@ def symplectic_euler_step(scene, t, dt, x, x1, tau_ctrl):
     if status:
         return status
     # p' = p + dt (dK/dq(q, v) - g + tau), v = M^-1 p': fixed-point iteration from v = qd
-    v = qd.copy()
-    v_next = np.empty(nv)
-    dK_dq = np.empty(nv)
-    p1 = np.empty(nv)
+    copy_into(qd, v)
     converged = False
     for _ in range(FIXED_POINT_MAX):
-        status = kinetic_gradient_kernel(ibuf, fbuf, work, q, v, dK_dq)
+        status = kinetic_gradient_kernel(ibuf, fbuf, data, q, v, dK_dq)
         if status:
             return status
         for j in range(nv):
@@ -153,7 +152,7 @@ def symplectic_euler_step(scene, t, dt, x, x1, tau_ctrl):
         return Status.NO_CONVERGENCE.value
     # q' = q (+) v dt, qd' = (M(q') + diag(armature))^-1 p'
     integrate_kernel(ibuf, q, v, dt, x1.q)
-    crba_kernel(ibuf, fbuf, work, x1.q, M)
+    crba_kernel(ibuf, fbuf, data, x1.q, M)
     if armature.shape[0]:
         for r in range(nv):
             M[r, r] += armature[r]

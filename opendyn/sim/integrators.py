@@ -60,6 +60,8 @@ from .._runtime.arrays import copy_into
 from .._runtime.kernel_cache import JIT
 from .._runtime.status import Status
 from ..algorithm.configuration import integrate_kernel
+from ..multibody.data import scratch_rows
+from ..multibody.layout import body_count
 from ..spatial.compiled import ad_twist
 from .euler_steps import implicit_velocity_step, symplectic_euler_step
 from .step import evaluate
@@ -78,9 +80,13 @@ Switches = namedtuple("Switches", ("tableau", "implicit", "symplectic"))
 # passive; J) done on the robot so far.
 State = namedtuple("State", ("q", "qd", "w"))
 # A step's scratch (rk_work): the stages' rates kq, kv (s, nv) and power kw (s, 2), the stage's
-# state qs (nq,), qds (nv,), the increment v (nv,) and control torque stage_tau (nv,); and
-# tau (nv,) <- the control torque that the step reports (at its start; adaptive: at its end).
-StepWork = namedtuple("StepWork", ("kq", "kv", "kw", "qs", "qds", "v", "stage_tau", "tau"))
+# state qs (nq,), qds (nv,), the increment v (nv,) and control torque stage_tau (nv,);
+# tau (nv,) <- the control torque that the step reports (at its start; adaptive: at its end);
+# and for the Euler steps that solve with the mass matrix (opendyn.sim.euler_steps) their
+# matrix M (nv, nv), its row swaps piv (nv,) int64 and their joint-space vectors (6, nv).
+StepWork = namedtuple(
+    "StepWork", ("kq", "kv", "kw", "qs", "qds", "v", "stage_tau", "tau", "M", "piv", "vectors")
+)
 # run_adaptive's FSAL stage at the current state: k (2, nv) = (qd, qdd), power (2,) (applied,
 # passive; W) and tau (nv,) the control torque.
 Stage = namedtuple("Stage", ("k", "power", "tau"))
@@ -208,20 +214,21 @@ def rk_work(s, nq, nv):
         np.empty(nv),
         np.empty(nv),
         np.empty(nv),
+        np.empty((nv, nv)),
+        np.empty(nv, dtype=np.int64),
+        np.empty((6, nv)),
     )
 
 
 @njit(**JIT)
-def dexp_inverse(free, theta, k):
+def dexp_inverse(free, theta, k, ad):
     """k <- dexp^-1_Theta(k) = k + 1/2 ad_Theta k + 1/12 ad_Theta^2 k - 1/720 ad_Theta^4 k on
     the six rows of each free joint, whose first v index is in `free`; theta (nv,) holds the
-    stage's increments Theta (a body twist times dt for a free joint). The velocity of the
-    increment Theta with which q (+) Theta moves at body twist V (the right-trivialised
-    derivative of exp on SE(3); Hairer, Lubich & Wanner, Lemma III.4.2 with Theta -> -Theta)."""
-    ad1 = np.empty(6)
-    ad2 = np.empty(6)
-    ad3 = np.empty(6)
-    ad4 = np.empty(6)
+    stage's increments Theta (a body twist times dt for a free joint); ad (4, 6) scratch
+    <- ad_Theta^m k, m = 1..4. The velocity of the increment Theta with which q (+) Theta moves
+    at body twist V (the right-trivialised derivative of exp on SE(3); Hairer, Lubich & Wanner,
+    Lemma III.4.2 with Theta -> -Theta)."""
+    ad1, ad2, ad3, ad4 = ad[0], ad[1], ad[2], ad[3]
     for b in free:
         th, v = theta[b : b + 6], k[b : b + 6]
         ad_twist(th, v, ad1)
@@ -258,7 +265,9 @@ def rk_stages(scene, tableau, t, dt, x, work, first, tau_stage, free):
         if free is not None and i > 0:
             for j in range(nv):
                 v[j] *= dt  # Theta_i
-            dexp_inverse(free, v, kq[i])
+            # between evaluations the Data's scratch rows are free
+            nb = body_count(scene.ibuf)
+            dexp_inverse(free, v, kq[i], scratch_rows(scene.work, nb, nv)[:4])
         status = evaluate(
             scene, t + c[i] * dt, work.qs, work.qds, kv[i], work.stage_tau, work.kw[i]
         )
@@ -325,9 +334,9 @@ def fixed_step(tableau, implicit, symplectic, scene, t, dt, x, x1, work, free):
             rk_combine(scene.ibuf, tableau.b, dt, x, work, x1)
         return status, evaluations
     if implicit is not None:
-        return implicit_velocity_step(scene, t, dt, x, x1, work.tau), 1
+        return implicit_velocity_step(scene, t, dt, x, x1, work), 1
     if symplectic is not None:
-        return symplectic_euler_step(scene, t, dt, x, x1, work.tau), 1
+        return symplectic_euler_step(scene, t, dt, x, x1, work), 1
     return Status.OK.value, 0
 
 

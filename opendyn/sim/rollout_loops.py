@@ -29,7 +29,7 @@ from .._runtime.arrays import copy_into, fill
 from .._runtime.kernel_cache import BATCH, JIT
 from .._runtime.status import Status
 from .integrators import Counters, Record, Stage, State, record, run_adaptive, run_fixed
-from .step import SceneData, evaluate
+from .step import SceneData, evaluate, multipliers
 
 # What one run of a batch may change in the step: the model's fbuf (its inertias: a payload per
 # run), the stage table's effects tuple, armature and constraints (ConstraintTable or None).
@@ -73,13 +73,14 @@ def run_views(base, batch, i, start):
     """(SceneData, State, Record, Counters) of run i of the Batch, which a slice from `start`
     runs: base (a SceneData: the model's ibuf, the method, the scratch, whether the world poses
     are placed) with the run's RunData
-    (fbuf, effects, armature, constraints); its state and counters copied out (the loops write
+    (fbuf, effects, armature, constraints) and room for its constraints' multipliers; its state and counters copied out (the loops write
     them at every step, and neighbouring runs' rows share cache lines across threads), its
     record a view of its rows. end_run copies them back."""
     run = batch.runs[batch.which[i - start]]
     scene = SceneData(
         base.ibuf, run.fbuf, run.effects, run.armature, base.method, run.constraints,
-        base.forces, base.loads, base.KD, base.work, base.held, base.world,
+        base.forces, base.loads, base.KD, multipliers(run.constraints), base.work, base.held,
+        base.world,
     )
     x, out, c = batch.x, batch.out, batch.counters
     return (

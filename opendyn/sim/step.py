@@ -153,10 +153,9 @@ def solve_with(con, aba, crba, newton_euler, scene, q, qd, tau, qdd):
     branch whose argument is None when it compiles (only a None argument decides a test at
     compile time), so only the branch a scene selects is compiled. Returns a Status."""
     if con is not None:
-        lam = np.empty(con.rows[:, ROW_COUNT].sum())
         return constrained_on_poses(
             scene.ibuf, scene.fbuf, scene.work, con, (q, qd, tau), scene.loads, scene.armature,
-            (qdd, lam),
+            (qdd, scene.lam),
         )
     if aba is not None:
         status = aba_on_poses(
@@ -176,16 +175,26 @@ def solve_with(con, aba, crba, newton_euler, scene, q, qd, tau, qdd):
 # as the compile-time switches of algorithm.forward.forward_kernel (none with constraints);
 # and the step's own scratch: forces (3, nv) (tau, tau_applied, tau_passive), loads (1, 6)
 # with dV_0, KD (2, nv, nv) the stiffness K and damping D of the effects for the implicit
-# integrator, work, the buffer of a Data of the model that the kernels work in, held, the
-# torque tau_held (nv,) held over a control period, or None, and world, True when an effect
-# the scene names reads the world poses (place puts them in work), or None.
+# integrator, lam (k,) the multipliers of the constraints' k rows (empty without constraints),
+# work, the buffer of a Data of the model that the kernels work in, held, the torque
+# tau_held (nv,) held over a control period, or None, and world, True when an effect the scene
+# names reads the world poses (place puts them in work), or None.
 SceneData = namedtuple(
     "SceneData",
     (
         "ibuf", "fbuf", "effects", "armature", "method", "constraints", "forces", "loads",
-        "KD", "work", "held", "world",
+        "KD", "lam", "work", "held", "world",
     ),
 )
+
+
+@njit(**JIT)
+def multipliers(con):
+    """(k,) room for the multipliers lambda of the k rows of the constraints con (a
+    ConstraintTable); empty for None (no constraints)."""
+    if con is None:
+        return np.empty(0)
+    return np.empty(con.rows[:, ROW_COUNT].sum())
 
 
 def scene_data(model, table, held=None):
@@ -203,6 +212,7 @@ def scene_data(model, table, held=None):
         np.empty((3, model.nv)),
         np.zeros((1, 6)),
         np.empty((2, model.nv, model.nv)),
+        multipliers(table.constraints),
         model.data()._work,
         held,
         True if table.world_poses else None,
