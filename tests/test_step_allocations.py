@@ -21,7 +21,8 @@ import numpy as np
 from numba import njit
 from numba.core.runtime import rtsys
 import opendyn as od
-from opendyn.sim.effects import contact_table, stage_table
+from opendyn.sim.effects import stage_table
+from opendyn.sim.effects.contact import contact_table
 from opendyn.sim.integrators import INTEGRATORS, State, fixed_step, rk_work
 from opendyn.sim.record import contact_record
 from opendyn.sim.simulate import free_joints
