@@ -25,7 +25,7 @@ from opendyn.sim.effects import stage_table
 from opendyn.sim.effects.contact import contact_table
 from opendyn.sim.integrators import INTEGRATORS, State, fixed_step, rk_work
 from opendyn.sim.record import contact_record
-from opendyn.sim.simulate import free_joints
+from opendyn.sim.driver import free_joints
 from opendyn.sim.step import evaluate, generalized_forces, scene_data
 
 SOLO12_COMPUTED_TORQUE = {
