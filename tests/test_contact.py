@@ -2,8 +2,11 @@
 
 Closed forms (a point mass on a linear spring under gravity; Coulomb friction at constant
 deceleration mu g) for the shipped ball_drop and box_slide scenes, statics for the quadruped
-that stands (the ground carries exactly its weight), and the contact law itself recomputed in
-numpy from Jacobians of od.jacobian, with its linearisation against finite differences.
+that stands (the ground carries exactly its weight), the contact law itself recomputed in
+numpy from Jacobians of od.jacobian, with its linearisation against finite differences, and
+independent references integrated by scipy: the spinning ball's Newton-Euler equations, and
+the Solo12 standing and dropped (tests/contact_reference.py: the law in numpy on Pinocchio's
+dynamics).
 """
 
 import numpy as np
