@@ -187,6 +187,16 @@ def test_an_evaluation_and_a_step_allocate_nothing(scene, integrator):
 # Where the step once allocated, and the allocation put back there: a file of the package, the
 # line that takes its array from the preallocated work, and the line that made it instead.
 PLANTED = {
+    "quadruped_drop": (
+        "algorithm/contact.py",
+        "    J_p = effect_rows(work, nb, nv)  # (3, nv)\n",
+        "    J_p = np.empty((3, nv))\n",
+    ),
+    "solo12 computed torque": (
+        "sim/effects/computed_torque.py",
+        "    rows = effect_rows(ctx.work, body_count(ctx.ibuf), nv)\n",
+        "    rows = np.empty((3, nv))\n",
+    ),
     "ur5 wrenches": (
         "sim/effects/wrench.py",
         "    J_b = jacobian_field(ctx.work, nb, nv)\n",
@@ -202,9 +212,10 @@ PLANTED = {
 
 @pytest.mark.parametrize("scene", sorted(PLANTED))
 def test_an_allocation_put_back_is_counted(scene, tmp_path, monkeypatch):
-    """The count above is no vacuous zero: with the allocation that the wrench's force (its
-    Jacobian J_b) or the constrained solve (its mass matrix M) once made put back, in a copy
-    of the package, the same evaluations count one allocation or more each."""
+    """The count above is no vacuous zero: with an allocation that the step once made put
+    back, in a copy of the package (a contact point's Jacobian J_p, computed torque's qdd_c and
+    tau_c, the wrench's Jacobian J_b, the constrained solve's mass matrix M), the same
+    evaluations count one allocation or more each."""
     package = copy_of_the_package(tmp_path)
     path, preallocated, allocated = PLANTED[scene]
     source = (package / path).read_text()
