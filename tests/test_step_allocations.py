@@ -1,7 +1,8 @@
 """The compiled step allocates nothing per evaluation: every effect's force works in the
 scene's Data buffer and scratch (opendyn.sim.effects.interface), as the design asks of the step,
-and so do the effects' derivatives that the implicit integrator asks for, and the whole step of
-the integrators that solve with the mass matrix (in the integrator's StepWork). Counted exactly
+and so do the effects' derivatives that the implicit integrator asks for, the constrained solve
+(in the SceneData's ConstraintWork) and the whole step of the integrators that solve with the
+mass matrix (in the integrator's StepWork). Counted exactly
 by numba's runtime statistics, in a fresh process with them switched on, over evaluations (or
 steps) repeated inside a compiled loop (so that nothing Python passes in is counted): the count
 of 11 less that of 1, over 10, must be zero. That the count sees an allocation inside the step is
