@@ -128,7 +128,7 @@ pushed = {
     "control": float(np.abs(tau_ctrl).max()),
     "applied": float(np.abs(sd.forces[1]).max()),
     "passive": float(np.abs(sd.forces[2]).max()),
-    "constraints": float(np.abs(sd.con_work.lam).max(initial=0.0)),
+    "constraints": 0.0 if sd.con_work is None else float(np.abs(sd.con_work.lam).max()),
 }
 stiff = {"K": float(np.abs(K).max()), "D": float(np.abs(D).max())}  # the derivatives' last
 print(json.dumps({"effects": list(table.names), "pushed": pushed, "stiff": stiff, **counts}))

@@ -176,7 +176,7 @@ def solve_with(con, aba, crba, newton_euler, scene, q, qd, tau, qdd):
 # and the step's own scratch: forces (3, nv) (tau, tau_applied, tau_passive), loads (1, 6)
 # with dV_0, KD (2, nv, nv) the stiffness K and damping D of the effects for the implicit
 # integrator, con_work the constrained solve's ConstraintWork for the constraints' k rows
-# (their multipliers lam (k,), rows and scratch; empty without constraints), work, the buffer
+# (their multipliers lam (k,), rows and scratch; None without constraints), work, the buffer
 # of a Data of the model that the kernels work in, held, the torque tau_held (nv,) held over a
 # control period, or None, and world, True when an effect the scene names reads the world poses
 # (place puts them in work), or None.
@@ -194,9 +194,11 @@ def constraint_room(con, nb, nv):
     """The ConstraintWork of the constraints con (a ConstraintTable) on a model of nb bodies
     and nv velocity coordinates (algorithm.constraints.constraint_work): their k rows, the
     multipliers lambda and the solve's scratch, made once so that the step allocates nothing;
-    empty for None (no constraints)."""
+    None for None (no constraints: numba decides the test when it compiles, and a step without
+    constraints carries none of the twenty arrays, whose references every compiled call that
+    takes the SceneData would count)."""
     if con is None:
-        return constraint_work(0, 0, 0)
+        return None
     return constraint_work(nb, nv, con.rows[:, ROW_COUNT].sum())
 
 
