@@ -71,6 +71,7 @@ with kernel_cache():
         PointToWorld,
     )
     from .multibody.data import Data
+    from .multibody.geometry import Geometry
     from .multibody.model import CollisionSphere, Frame, Model
     from .sim.rollout_result import RolloutResult
     from .sim.scene import Scene
@@ -105,6 +106,7 @@ __all__ = [
     "plot_sweep",
     "FixedPose",
     "CollisionSphere",
+    "Geometry",
     "Frame",
     "JointCoupling",
     "PointOnPlane",

@@ -12,9 +12,10 @@ import os
 import pathlib
 import warnings
 from dataclasses import dataclass, field
-from urllib.parse import unquote, urlparse
 
 import numpy as np
+
+from ..io.meshes import resolve_mesh
 
 MESH_FORMATS = ("stl", "dae", "obj")
 DEFAULT_RGBA = (0.72, 0.72, 0.75, 1.0)  # light grey, for visuals without a <material> colour
@@ -178,59 +179,3 @@ def _colour(material, named_colours):
     if material.color is not None and material.color.rgba is not None:
         return tuple(float(c) for c in np.clip(material.color.rgba, 0.0, 1.0))
     return named_colours.get(material.name, DEFAULT_RGBA)
-
-
-def resolve_mesh(filename: str, urdf_dir) -> tuple[str | None, list[str]]:
-    """The file a URDF mesh name refers to: (absolute path or None, the places tried).
-
-    ``package://PKG/rest``: ``DIR/rest`` for the first folder DIR named PKG among the URDF's
-    folder and its parents, the children of those folders, the ROS_PACKAGE_PATH entries and
-    their children, and ``AMENT_PREFIX_PATH/share``. (example-robot-data names its meshes
-    ``package://example-robot-data/robots/...``: a parent of its URDFs is that folder.)
-    ``file:///abs`` and absolute paths are used as they are; other names are relative to the
-    URDF's folder.
-    """
-    urdf_dir = pathlib.Path(urdf_dir)
-    if filename.startswith("package://"):
-        pkg, _, rest = filename[len("package://") :].partition("/")
-        tried = []
-        for root in _package_candidates(pkg, urdf_dir):
-            candidate = root / rest
-            tried.append(str(root))
-            if candidate.is_file():
-                return str(candidate.resolve()), tried
-        return None, tried
-    if filename.startswith("file://"):
-        parsed = urlparse(filename)
-        path = pathlib.Path(unquote(parsed.netloc + parsed.path))
-    elif "://" in filename:
-        return None, []
-    else:
-        path = pathlib.Path(filename)
-    if not path.is_absolute():
-        path = urdf_dir / path
-    return (str(path.resolve()) if path.is_file() else None), [str(path)]
-
-
-def _package_candidates(pkg, urdf_dir):
-    """Folders that may be the package PKG, in search order (existing ones only, no repeats)."""
-    seen = set()
-
-    def emit(folder):
-        if folder not in seen and folder.is_dir():
-            seen.add(folder)
-            yield folder
-
-    for parent in (urdf_dir, *urdf_dir.parents):
-        if parent.name == pkg:
-            yield from emit(parent)
-        yield from emit(parent / pkg)
-    for entry in os.environ.get("ROS_PACKAGE_PATH", "").split(os.pathsep):
-        if entry:
-            root = pathlib.Path(entry)
-            if root.name == pkg:
-                yield from emit(root)
-            yield from emit(root / pkg)
-    for entry in os.environ.get("AMENT_PREFIX_PATH", "").split(os.pathsep):
-        if entry:
-            yield from emit(pathlib.Path(entry) / "share" / pkg)
