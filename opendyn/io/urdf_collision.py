@@ -10,6 +10,10 @@ link's frame, its shape one of
   <capsule radius length>    -> "capsule" (r, length), axis z (Pinocchio's extension)
   <mesh filename scale>      -> "mesh" (sx, sy, sz), its convex hull's vertices, scaled
 
+Pinocchio's ``<collision_checking><capsule name=.../></collision_checking>`` inside a link makes
+the cylinder of that <collision name> a capsule of the same radius and length (the report says
+so); its ``<convex name>`` changes nothing, every mesh being its convex hull.
+
 A mesh file that cannot be found or read leaves its geometry out of the model and is a line of
 the fidelity report naming the link and the file; the report counts the geometries by shape,
 loaded and not.
@@ -44,14 +48,21 @@ def read_geometries(file, root, report) -> tuple[Geometry, ...]:
     urdf_dir = pathlib.Path(os.path.abspath(file)).parent
     geometries, loaded, missing = [], collections.Counter(), []
     for link in root.iterchildren("link"):
+        capsules = {el.get("name") for el in link.iterfind("collision_checking/capsule")}
         for k, el in enumerate(link.iterchildren("collision")):
             shape_el = el.find("geometry/*")
             name = el.get("name") or f"{link.get('name')}_{k}"
             placement = _origin(file, el.find("origin"))
             if shape_el.tag != "mesh":
-                size = _size(file, shape_el)
-                geometries.append(Geometry(name, link.get("name"), shape_el.tag, size, placement))
-                loaded[shape_el.tag] += 1
+                shape, size = shape_el.tag, _size(file, shape_el)
+                if shape == "cylinder" and el.get("name") in capsules:
+                    shape = "capsule"
+                    report.transformed.append(
+                        f"<link name=\"{link.get('name')}\"> <collision name=\"{name}\">: the "
+                        f"cylinder is a capsule (<collision_checking> <capsule>)"
+                    )
+                geometries.append(Geometry(name, link.get("name"), shape, size, placement))
+                loaded[shape] += 1
                 continue
             try:
                 path, scale, vertices = _mesh(file, urdf_dir, shape_el)

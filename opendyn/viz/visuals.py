@@ -15,9 +15,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..io.meshes import resolve_mesh
+from ..io.meshes import MESH_FORMATS, resolve_mesh
 
-MESH_FORMATS = ("stl", "dae", "obj")
+
 DEFAULT_RGBA = (0.72, 0.72, 0.75, 1.0)  # light grey, for visuals without a <material> colour
 STAND_IN_RGBA = (0.5, 0.5, 0.5, 1.0)
 STAND_IN_SIZE = 0.05  # m, edge of the grey box drawn in place of an unusable mesh
