@@ -291,9 +291,9 @@ def test_pairs_against_coal(code_a, code_b):
     distance equals coal's (1e-6 m separated, 1e-5 m penetrating) or, where coal errs (it does on
     deep contacts of cylinders: depths too large, or -DBL_MAX), the least overlap of the two
     shapes' projections over all directions, min_u h_A(u) + h_B(-u) (a search of its own, to
-    1e-6 m); our normal n realises our depth, h_A(n) + h_B(-n) = -d; p_B - p_A = d n with n a
+    1e-6 m); our normal n realises our depth, h_A(n) + h_B(-n) = -d (to 5e-5 m); p_B - p_A = d n with n a
     unit vector; p_A and p_B on their own shapes' surfaces; n equals coal's where coal's depth is
-    right and its points agree with its distance and normal; swapping a and b swaps the points and
+    right, its points agree with its distance and normal and the normal is determined; swapping a and b swaps the points and
     negates n. EPA may stop at its cap (NO_CONVERGENCE) on a deep contact whose nearest boundary
     is nearly a circle's (a sphere's centre near a cylinder's axis): its estimate must then pass
     the same checks."""
@@ -315,7 +315,9 @@ def test_pairs_against_coal(code_a, code_b):
             assert gap < 1e-6
         if d < 0 and code_b != HALFSPACE:
             record("h_A(n) + h_B(-n) + d", abs(overlap(a, T_a, b, T_b, n) + d))
-            assert abs(overlap(a, T_a, b, T_b, n) + d) < 1e-6
+            # 1e-6 for EPA's face normals; GJK's normal between a flat face and a rounded core
+            # is first-order in its points' error along the face, O(sqrt(2 d_core tol))
+            assert abs(overlap(a, T_a, b, T_b, n) + d) < 5e-5
         d_c, p1, p2, n_c = coal_distance(a, T_a, b, T_b)
         kind = "separated" if d_c > 0 else "penetrating"
         tolerance = 1e-6 if d_c > 0 else 1e-5
@@ -328,7 +330,11 @@ def test_pairs_against_coal(code_a, code_b):
             record("coal wrong (count)", ERRORS.get("coal wrong (count)", 0) + 1)
             record("depth where coal errs, against the search", abs(d - reference))
             assert abs(d - reference) < 1e-6, (d, reference, d_c)
-        if status == Status.OK and coal_right and abs(d_c) > 1e-4 and np.linalg.norm(p2 - p1 - d_c * n_c) < 1e-6:
+        # the normal is determined where coal's does worse than ours: where both realise the
+        # depth to 1e-9 m, the minimum is flat (a sphere's centre near a cylinder's axis)
+        determined = code_b == HALFSPACE or abs(overlap(a, T_a, b, T_b, n_c) - overlap(a, T_a, b, T_b, n)) > 1e-9
+        consistent = np.linalg.norm(p2 - p1 - d_c * n_c) < 1e-6
+        if status == Status.OK and coal_right and abs(d_c) > 1e-4 and consistent and determined:
             record(f"normal, {kind}", np.linalg.norm(n - n_c))
             assert np.linalg.norm(n - n_c) < 1e-4, (n, n_c)
         swapped_status, d_s, p_a_s, p_b_s, n_s = distance(b, T_b, a, T_a)

@@ -94,7 +94,8 @@ def rounded(a, b, out):
     """Sphere or capsule a against sphere or capsule b: the cores' closest points c_A, c_B, the
     normal n = (c_B - c_A)/|c_B - c_A|; cores that meet take n perpendicular to both (any
     perpendicular when they are parallel), turned towards b's centre. The depth r_A + r_B is then
-    exact: moving b along n by it separates the cores' sum with the ball."""
+    exact: moving b along n by it separates the cores' sum with the ball (concentric spheres
+    take z)."""
     p1, q1 = core_segment(a)
     p2, q2 = core_segment(b)
     c_a, c_b = segments_closest(p1, q1, p2, q2)
@@ -103,11 +104,16 @@ def rounded(a, b, out):
     if length > 1e-12:
         n = scale(gap, 1.0 / length)
     else:
-        m = cross(sub(q1, p1), sub(q2, p2))
+        u1, u2 = sub(q1, p1), sub(q2, p2)
+        m = cross(u1, u2)
         if dot(m, m) > TINY:
             n = scale(m, 1.0 / norm(m))
+        elif dot(u1, u1) > TINY:
+            n = perpendicular(u1)
+        elif dot(u2, u2) > TINY:
+            n = perpendicular(u2)
         else:
-            n = perpendicular(sub(q1, p1) if dot(sub(q1, p1), sub(q1, p1)) > TINY else sub(q2, p2))
+            n = (0.0, 0.0, 1.0)  # concentric spheres: every direction is as deep
         if dot(n, sub(origin(b[3]), origin(a[3]))) < 0.0:
             n = scale(n, -1.0)
     write_inflated(out, c_a, c_b, n, core_radius(a[0], a[1]), core_radius(b[0], b[1]))

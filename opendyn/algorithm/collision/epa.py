@@ -31,6 +31,9 @@ from .support import difference_support
 from .vectors import add, cross, dot, norm, perpendicular, row, scale, sub
 
 TOLERANCE = 1e-9  # n.w - delta at which EPA stops, metres
+# w sees a face when it is farther than this beyond its plane (metres): a face w lies on stays,
+# as one on either side of it by rounding would make the horizon ragged
+VISIBLE = 1e-13
 DISTINCT = 1e-10  # a support point nearer than this to the polytope's span adds no dimension
 MAX_VERTICES = 256
 MAX_FACES = 2 * MAX_VERTICES  # a closed triangulated polytope has 2 V - 4 faces
@@ -205,15 +208,15 @@ def epa(a, b, work, n):
         f = nearest_face(work)
         normal, delta = row(work, f, NORMAL), work[f, DELTA]
         w, sa, sb = difference_support(a, b, normal)
-        if dot(normal, w) - delta <= TOLERANCE or known_vertex(work, n, w):
-            status = Status.OK.value  # the gap closed, or float64 allows no nearer point
+        if dot(normal, w) - delta <= TOLERANCE:
+            status = Status.OK.value
             break
-        if n == MAX_VERTICES:
-            break
+        if n == MAX_VERTICES or known_vertex(work, n, w):
+            break  # out of rows, or the polytope cannot grow towards w: the gap stays open
         put_vertex(work, VERTICES + n, w, sa, sb)
         n_edges = 0
         for g in range(FACES, EDGES):  # the faces w sees go; their horizon stays
-            if work[g, ALIVE] != 0.0 and dot(row(work, g, NORMAL), w) - work[g, DELTA] > 0.0:
+            if work[g, ALIVE] != 0.0 and dot(row(work, g, NORMAL), w) - work[g, DELTA] > VISIBLE:
                 work[g, ALIVE] = 0.0
                 for e0, e1 in ((I, J), (J, K), (K, I)):
                     if n_edges >= 0:
