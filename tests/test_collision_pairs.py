@@ -25,7 +25,7 @@ from opendyn._runtime.status import Status
 from opendyn.multibody.shapes import BOX, CAPSULE, CYLINDER, HALFSPACE, MESH, SHAPE_NAMES, SPHERE
 
 with kernel_cache():
-    from opendyn.algorithm.collision import pair_distance, work_array
+    from opendyn.algorithm.collision import MAX_CONTACTS, halfspace_contacts, pair_distance, work_array
 
 coal = pytest.importorskip("coal")
 
@@ -163,6 +163,55 @@ def test_point_to_cylinder_converges_on_the_rim():
 def test_two_halfspaces_are_unbounded():
     h = shape(HALFSPACE, (0, 0, 0))
     assert distance(h, pose(), h, pose(p=(0, 0, 1)))[0] == Status.UNBOUNDED
+
+
+# ---- contact manifolds on a halfspace ----------------------------------------------------------
+
+
+def contacts_on_ground(a, T_a, margin=0.0):
+    """The rows (d, p_A, p_B, n) of shape a's contacts with the ground z <= 0."""
+    rows = np.full((MAX_CONTACTS, 10), np.nan)
+    count = halfspace_contacts(a[0], a[1], a[2], T_a, pose(), margin, rows)
+    return rows[:count]
+
+
+def test_a_box_resting_on_the_ground_touches_at_its_four_bottom_corners():
+    """A 0.4 x 0.6 x 0.2 box turned about z, its bottom 1 cm under the ground: its four bottom
+    corners, each 1 cm deep, normal -z; tilted about its x axis by 0.1 rad, the two corners of the
+    lower edge at depth h - 0.1 cos 0.1 - 0.3 sin 0.1, and the other two only when they sink."""
+    box = shape(BOX, (0.4, 0.6, 0.2))
+    R = rot((0, 0, 1), 0.3)
+    rows = contacts_on_ground(box, pose(R, (0.2, 0.1, 0.09)))
+    corners = np.array([R @ (sx * 0.2, sy * 0.3, -0.1) + (0.2, 0.1, 0.09) for sx in (-1, 1) for sy in (-1, 1)])
+    assert len(rows) == 4
+    np.testing.assert_allclose(rows[:, 0], -0.01, atol=1e-15)
+    np.testing.assert_allclose(rows[:, 7:10], np.tile((0, 0, 1.0), (4, 1)) * -1)
+    assert sorted(map(tuple, rows[:, 1:4].round(12))) == sorted(map(tuple, corners.round(12)))
+    np.testing.assert_allclose(rows[:, 4:7], rows[:, 1:4] * (1, 1, 0), atol=1e-15)
+    h = 0.12
+    low = h - 0.1 * np.cos(0.1) - 0.3 * np.sin(0.1)
+    rows = contacts_on_ground(box, pose(rot((1, 0, 0), 0.1), (0, 0, h)))
+    np.testing.assert_allclose(rows[:, 0], [low, low])
+    rows = contacts_on_ground(box, pose(rot((1, 0, 0), 0.1), (0, 0, h)), margin=0.1)
+    assert len(rows) == 4 and rows[0, 0] == pytest.approx(low) and rows[3, 0] <= 0.1
+
+
+@pytest.mark.parametrize("tilt", [0.0, 0.3])
+def test_a_cylinder_cap_on_the_ground(tilt):
+    """Cylinder r = 0.2, length 0.6, centre at height h, tilted by theta about x: the deepest
+    contact is the lowest rim point (pair_distance's); standing 1 cm deep, four rim points of its
+    bottom cap, each 1 cm deep."""
+    cylinder, ground = shape(CYLINDER, (0.2, 0.6, 0)), shape(HALFSPACE, (0, 0, 0))
+    T = pose(rot((1, 0, 0), tilt), (0.1, 0.2, 0.29))
+    rows = contacts_on_ground(cylinder, T)
+    _, d, p_a, p_b, n = distance(cylinder, T, ground, pose())
+    assert rows[0, 0] == pytest.approx(d, abs=1e-15) and d < 0
+    if tilt:  # (standing, any point of the cap is as deep: pair_distance gives its centre)
+        np.testing.assert_allclose(rows[0, 1:4], p_a, atol=1e-15)
+    else:
+        assert len(rows) == 4
+        np.testing.assert_allclose(rows[:, 0], -0.01, atol=1e-15)
+        np.testing.assert_allclose(np.hypot(rows[:, 1] - 0.1, rows[:, 2] - 0.2), 0.2)
 
 
 # ---- against coal --------------------------------------------------------------------------------
@@ -363,7 +412,7 @@ from numba.core.runtime import rtsys
 import opendyn
 from opendyn._runtime.kernel_cache import kernel_cache
 with kernel_cache():
-    from opendyn.algorithm.collision import pair_distance, work_array
+    from opendyn.algorithm.collision import halfspace_contacts, pair_distance, work_array
 
 rng = np.random.default_rng(0)
 codes = np.array([0, 1, 2, 3, 4, 5])
@@ -374,35 +423,37 @@ poses = np.zeros((6, 4, 4))
 for k in range(6):
     q, _ = np.linalg.qr(rng.normal(size=(3, 3)))
     poses[k, :3, :3], poses[k, :3, 3], poses[k, 3, 3] = q * np.sign(np.linalg.det(q)), rng.uniform(-0.3, 0.3, 3), 1
-out, work = np.zeros(10), work_array()
+out, work, rows = np.zeros(10), work_array(), np.zeros((4, 10))
 
 
 @njit
-def every_pair(codes, sizes, vertices, none, poses, out, work, n):
+def every_pair(codes, sizes, vertices, none, poses, out, work, rows, n):
     status = 0
     for _ in range(n):
         for i in range(6):
+            vi = vertices if codes[i] == 4 else none
             for j in range(5):
-                vi = vertices if codes[i] == 4 else none
                 vj = vertices if codes[j] == 4 else none
                 status |= pair_distance(codes[i], sizes[i], vi, poses[i], codes[j], sizes[j], vj, poses[j], out, work)
+            if codes[i] != 5:
+                halfspace_contacts(codes[i], sizes[i], vi, poses[i], poses[5], 0.1, rows)
     return status
 
 
 def allocations(n):
     before = rtsys.get_allocation_stats().alloc
-    every_pair(codes, sizes, vertices, none, poses, out, work, n)
+    every_pair(codes, sizes, vertices, none, poses, out, work, rows, n)
     return rtsys.get_allocation_stats().alloc - before
 
-every_pair(codes, sizes, vertices, none, poses, out, work, 1)
+every_pair(codes, sizes, vertices, none, poses, out, work, rows, 1)
 print(json.dumps({"per pair": (allocations(11) - allocations(1)) / (10 * 30)}))
 """
 
 
 def test_pair_distance_allocates_nothing():
-    """Every pair of shapes (30 of them, GJK and EPA among them) called 10 more times in a
-    compiled loop: numba's runtime counts not one more allocation (a fresh process with its
-    statistics on)."""
+    """Every pair of shapes (30 of them, GJK and EPA among them) and each shape's contacts with
+    a halfspace, called 10 more times in a compiled loop: numba's runtime counts not one more
+    allocation (a fresh process with its statistics on)."""
     env = dict(os.environ, NUMBA_NRT_STATS="1")
     proc = subprocess.run([sys.executable, "-c", _ALLOCATIONS], env=env, capture_output=True, text=True, timeout=900)
     assert proc.returncode == 0, proc.stderr

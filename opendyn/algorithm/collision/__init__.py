@@ -9,9 +9,14 @@
   closed_forms.py  sphere and capsule pairs, sphere-box, anything against a halfspace
   box_box.py       two overlapping boxes by the separating-axis theorem
   narrow_phase.py  pair_distance: the dispatch by shape codes
+  manifold.py      up to four contact points of a shape against a halfspace
 """
 
 from .closed_forms import DISTANCE, NORMAL, OUT_SIZE, POINT_A, POINT_B
+from .manifold import MAX_CONTACTS, halfspace_contacts
 from .narrow_phase import pair_distance, work_array
 
-__all__ = ["DISTANCE", "NORMAL", "OUT_SIZE", "POINT_A", "POINT_B", "pair_distance", "work_array"]
+__all__ = [
+    "DISTANCE", "MAX_CONTACTS", "NORMAL", "OUT_SIZE", "POINT_A", "POINT_B", "halfspace_contacts",
+    "pair_distance", "work_array",
+]
