@@ -17,6 +17,13 @@ from .manifold import MAX_CONTACTS, halfspace_contacts
 from .narrow_phase import pair_distance, work_array
 
 __all__ = [
-    "DISTANCE", "MAX_CONTACTS", "NORMAL", "OUT_SIZE", "POINT_A", "POINT_B", "halfspace_contacts",
-    "pair_distance", "work_array",
+    "DISTANCE",
+    "MAX_CONTACTS",
+    "NORMAL",
+    "OUT_SIZE",
+    "POINT_A",
+    "POINT_B",
+    "halfspace_contacts",
+    "pair_distance",
+    "work_array",
 ]

@@ -34,7 +34,11 @@ EDGE_BIAS = 1e-12
 @njit(**JIT)
 def projected_radius(T, h, L):
     """r(L) = sum_k h_k |L . u_k|: the half length of a box's projection on L."""
-    return h[0] * abs(dot(L, axis(T, 0))) + h[1] * abs(dot(L, axis(T, 1))) + h[2] * abs(dot(L, axis(T, 2)))
+    return (
+        h[0] * abs(dot(L, axis(T, 0)))
+        + h[1] * abs(dot(L, axis(T, 1)))
+        + h[2] * abs(dot(L, axis(T, 2)))
+    )
 
 
 @njit(**JIT)

@@ -26,9 +26,19 @@ from numba import njit
 from ..._runtime.kernel_cache import JIT
 from .support import core_radius, core_support
 from .vectors import (
-    axis, axpy, cross, dot, norm, origin, perpendicular, rotate, scale, sub, to_local, to_world,
+    axis,
+    axpy,
+    cross,
+    dot,
+    norm,
+    origin,
+    perpendicular,
+    rotate,
+    scale,
+    sub,
+    to_local,
+    to_world,
 )
-
 
 TINY = 1e-14  # squared lengths below this are zero: a segment that is a point, parallel segments
 # out row: d, p_A (3), p_B (3), n (3)
@@ -129,7 +139,11 @@ def sphere_box(a, b, out):
     c = origin(a[3])
     c_l = to_local(T, sub(c, origin(T)))
     h = (0.5 * b[1][0], 0.5 * b[1][1], 0.5 * b[1][2])
-    q = (min(max(c_l[0], -h[0]), h[0]), min(max(c_l[1], -h[1]), h[1]), min(max(c_l[2], -h[2]), h[2]))
+    q = (
+        min(max(c_l[0], -h[0]), h[0]),
+        min(max(c_l[1], -h[1]), h[1]),
+        min(max(c_l[2], -h[2]), h[2]),
+    )
     gap = sub(q, c_l)
     length = norm(gap)
     if length > 0.0:
@@ -140,7 +154,11 @@ def sphere_box(a, b, out):
             if h[j] - abs(c_l[j]) < least:
                 k, least = j, h[j] - abs(c_l[j])
         side = 1.0 if c_l[k] >= 0.0 else -1.0
-        q = (side * h[0] if k == 0 else q[0], side * h[1] if k == 1 else q[1], side * h[2] if k == 2 else q[2])
+        q = (
+            side * h[0] if k == 0 else q[0],
+            side * h[1] if k == 1 else q[1],
+            side * h[2] if k == 2 else q[2],
+        )
         n_l = (-side if k == 0 else 0.0, -side if k == 1 else 0.0, -side if k == 2 else 0.0)
     write_inflated(out, c, to_world(T, q), rotate(T, n_l), a[1][0], 0.0)
 

@@ -26,7 +26,7 @@ from numba import njit
 from ..._runtime.kernel_cache import JIT
 from ..._runtime.status import Status
 from .gjk import put_vertex
-from .simplex import A, B, COLUMNS, W, plane_side
+from .simplex import COLUMNS, A, B, W, plane_side
 from .support import difference_support
 from .vectors import add, cross, dot, norm, perpendicular, row, scale, sub
 
@@ -169,10 +169,14 @@ def face_witnesses(work, f):
     lj = (d11 * d20 - d01 * d21) / denom if denom > 0.0 else 0.0
     lk = (d00 * d21 - d01 * d20) / denom if denom > 0.0 else 0.0
     li = 1.0 - lj - lk
-    p_a = add(add(scale(row(work, VERTICES + i, A), li), scale(row(work, VERTICES + j, A), lj)),
-              scale(row(work, VERTICES + k, A), lk))
-    p_b = add(add(scale(row(work, VERTICES + i, B), li), scale(row(work, VERTICES + j, B), lj)),
-              scale(row(work, VERTICES + k, B), lk))
+    p_a = add(
+        add(scale(row(work, VERTICES + i, A), li), scale(row(work, VERTICES + j, A), lj)),
+        scale(row(work, VERTICES + k, A), lk),
+    )
+    p_b = add(
+        add(scale(row(work, VERTICES + i, B), li), scale(row(work, VERTICES + j, B), lj)),
+        scale(row(work, VERTICES + k, B), lk),
+    )
     half_residue = scale(sub(sub(p_a, p_b), closest), 0.5)
     return sub(p_a, half_residue), add(p_b, half_residue)
 
@@ -183,7 +187,8 @@ def epa(a, b, work, n):
     0 to n - 1 of `work`, which must have ROWS rows of COLUMNS). Returns (status, depth, normal,
     p_A, p_B): depth >= 0, normal the unit direction from A towards B in which moving B by depth
     separates the cores, p_B - p_A = -depth normal. status is Status.OK, or NO_CONVERGENCE when
-    the polytope ran out of rows (the result is then its nearest face's)."""
+    the gap stays open: the polytope ran out of rows, or its support point is a vertex already
+    (the result is then its nearest face's)."""
     for r in range(n):
         for c in range(COLUMNS):
             work[VERTICES + r, c] = work[r, c]
@@ -200,7 +205,10 @@ def epa(a, b, work, n):
     # the tetrahedron's faces, counter-clockwise seen from outside: (0, 1, 2) has vertex 3 behind
     if plane_side(work, VERTICES, VERTICES + 1, VERTICES + 2, vertex(work, 3)) > 0.0:
         for c in range(COLUMNS):
-            work[VERTICES + 1, c], work[VERTICES + 2, c] = work[VERTICES + 2, c], work[VERTICES + 1, c]
+            work[VERTICES + 1, c], work[VERTICES + 2, c] = (
+                work[VERTICES + 2, c],
+                work[VERTICES + 1, c],
+            )
     for i, j, k in ((0, 1, 2), (0, 3, 1), (1, 3, 2), (2, 3, 0)):
         add_face(work, i, j, k)
     status = Status.NO_CONVERGENCE.value

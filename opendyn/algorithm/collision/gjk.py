@@ -24,7 +24,7 @@ from numba import njit
 
 from ..._runtime.kernel_cache import JIT
 from ..._runtime.status import Status
-from .simplex import A, B, W, WEIGHT, reduce_simplex, weighted
+from .simplex import WEIGHT, A, B, W, reduce_simplex, weighted
 from .support import difference_support
 from .vectors import dot, origin, put, row, sub
 

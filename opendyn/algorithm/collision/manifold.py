@@ -65,7 +65,9 @@ def candidate(code, size, vertices, T, n, k):
         length = norm(u)
         u = scale(u, 1.0 / length) if length > 1e-12 else axis(T, 0)
         side = cross(z, u)
-        direction = u if k == 0 else (side if k == 1 else (scale(u, -1.0) if k == 2 else scale(side, -1.0)))
+        direction = (
+            u if k == 0 else (side if k == 1 else (scale(u, -1.0) if k == 2 else scale(side, -1.0)))
+        )
         return axpy(size[0], direction, cap)
     if code == CAPSULE:
         end = axpy((0.5 if k == 0 else -0.5) * size[1], z, origin(T))

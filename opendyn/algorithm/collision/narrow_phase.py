@@ -15,8 +15,8 @@ and normal, by a closed form where one exists and by GJK and EPA otherwise.
               A), out[7:10] = n the unit normal from a towards b; always p_B - p_A = d n, and
               when d < 0 moving b by -d n separates the shapes
   work        (ROWS, COLUMNS) float64 scratch (the GJK simplex, the EPA polytope): `work_array()`
-  status      Status.OK, NO_CONVERGENCE (GJK or EPA stopped at its cap; out holds its last
-              estimate) or UNBOUNDED (two halfspaces)
+  status      Status.OK, NO_CONVERGENCE (GJK or EPA stopped short of its tolerance; out holds
+              its last estimate) or UNBOUNDED (two halfspaces)
 
 It allocates nothing. Swapping a and b swaps p_A and p_B and negates n. The method by pair:
 
@@ -39,7 +39,7 @@ from .box_box import box_box
 from .closed_forms import NORMAL, POINT_A, POINT_B, halfspace, rounded, sphere_box, write_inflated
 from .epa import ROWS, epa
 from .gjk import gjk
-from .simplex import A, B, COLUMNS, weighted
+from .simplex import COLUMNS, A, B, weighted
 from .support import core_radius
 from .vectors import norm, scale, sub
 

@@ -90,7 +90,11 @@ def plane_side(work, i, j, k, x):
     """((w_j - w_i) x (w_k - w_i)) . (x - w_i): which side of the plane (i, j, k) x is on."""
     a = row(work, i, W)
     ab, ac = sub(row(work, j, W), a), sub(row(work, k, W), a)
-    n = (ab[1] * ac[2] - ab[2] * ac[1], ab[2] * ac[0] - ab[0] * ac[2], ab[0] * ac[1] - ab[1] * ac[0])
+    n = (
+        ab[1] * ac[2] - ab[2] * ac[1],
+        ab[2] * ac[0] - ab[0] * ac[2],
+        ab[0] * ac[1] - ab[1] * ac[0],
+    )
     return dot(n, sub(x, a))
 
 
@@ -104,7 +108,10 @@ def tetrahedron_weights(work):
     inside = True
     for f in range(4):
         i, j, k, l = TETRAHEDRON_FACES[f]
-        if plane_side(work, i, j, k, (0.0, 0.0, 0.0)) * plane_side(work, i, j, k, row(work, l, W)) > 0.0:
+        if (
+            plane_side(work, i, j, k, (0.0, 0.0, 0.0)) * plane_side(work, i, j, k, row(work, l, W))
+            > 0.0
+        ):
             continue  # the origin is on the tetrahedron's side of this face
         inside = False
         li, lj, lk = triangle_weights(work, i, j, k)
