@@ -27,6 +27,7 @@ from opendyn.multibody.shapes import BOX, CAPSULE, CYLINDER, HALFSPACE, MESH, SH
 with kernel_cache():
     from opendyn.algorithm.collision import (
         MAX_CONTACTS,
+        box_contacts,
         halfspace_contacts,
         pair_distance,
         work_array,
@@ -243,6 +244,47 @@ def test_a_cylinder_cap_on_the_ground(tilt):
         assert len(rows) == 4
         np.testing.assert_allclose(rows[:, 0], -0.01, atol=1e-15)
         np.testing.assert_allclose(np.hypot(rows[:, 1] - 0.1, rows[:, 2] - 0.2), 0.2)
+
+
+def contacts_of_boxes(size_a, T_a, size_b, T_b):
+    """The rows (d, p_A, p_B, n) of two boxes' contacts."""
+    rows = np.full((MAX_CONTACTS, 10), np.nan)
+    a, b = shape(BOX, size_a), shape(BOX, size_b)
+    count = box_contacts(a[0], a[1], a[2], T_a, b[0], b[1], b[2], T_b, rows, WORK)
+    return rows[:count]
+
+
+def test_a_box_resting_on_a_box_touches_at_four_points():
+    """A 0.2 x 0.4 x 0.1 box on a 1 x 1 x 0.2 slab, 1 cm into its top (z = 0.1): (1) square on
+    it, its four bottom corners, each 1 cm deep, normal -z from the box towards the slab;
+    (2) turned 45 degrees about z, the same corners; (3) hanging over the slab's edge at
+    x = 0.5, the two corners over the slab and the two points where the box's bottom edges
+    cross x = 0.5; (4) tilted by 0.2 rad about x, the lower edge's two corners at its depth
+    (pair_distance's); (5) apart, none."""
+    box, slab = (0.2, 0.4, 0.1), (1.0, 1.0, 0.2)
+    for turn in (0.0, np.pi / 4):
+        R = rot((0, 0, 1), turn)
+        rows = contacts_of_boxes(box, pose(R, (0.1, -0.05, 0.14)), slab, pose())
+        corners = [
+            R @ (sx * 0.1, sy * 0.2, -0.05) + (0.1, -0.05, 0.14) for sx in (-1, 1) for sy in (-1, 1)
+        ]
+        assert len(rows) == 4
+        np.testing.assert_allclose(rows[:, 0], -0.01, atol=1e-14)
+        np.testing.assert_allclose(rows[:, 7:10], np.tile((0.0, 0.0, -1.0), (4, 1)), atol=1e-15)
+        found = sorted(map(tuple, rows[:, 1:4].round(12)))
+        assert found == sorted(map(tuple, np.array(corners).round(12)))
+        np.testing.assert_allclose(rows[:, 6], 0.1, atol=1e-14)  # p_B on the slab's top
+    rows = contacts_of_boxes(box, pose(p=(0.45, 0.0, 0.14)), slab, pose())
+    expected = [(0.35, -0.2), (0.35, 0.2), (0.5, -0.2), (0.5, 0.2)]
+    assert sorted(map(tuple, rows[:, 1:3].round(12))) == expected
+    np.testing.assert_allclose(rows[:, 0], -0.01, atol=1e-14)
+    T = pose(rot((1, 0, 0), 0.2), (0.0, 0.0, 0.17))
+    low = 0.17 - 0.05 * np.cos(0.2) - 0.2 * np.sin(0.2) - 0.1
+    rows = contacts_of_boxes(box, T, slab, pose())
+    assert len(rows) == 2
+    np.testing.assert_allclose(rows[:, 0], low, atol=1e-14)
+    assert distance(shape(BOX, box), T, shape(BOX, slab), pose())[1] == pytest.approx(low)
+    assert len(contacts_of_boxes(box, pose(p=(0, 0, 0.3)), slab, pose())) == 0
 
 
 # ---- against coal --------------------------------------------------------------------------------
@@ -464,7 +506,9 @@ from numba.core.runtime import rtsys
 import opendyn
 from opendyn._runtime.kernel_cache import kernel_cache
 with kernel_cache():
-    from opendyn.algorithm.collision import halfspace_contacts, pair_distance, work_array
+    from opendyn.algorithm.collision import (
+        box_contacts, halfspace_contacts, pair_distance, work_array,
+    )
 
 rng = np.random.default_rng(0)
 codes = np.array([0, 1, 2, 3, 4, 5])
@@ -492,6 +536,7 @@ def every_pair(codes, sizes, vertices, none, poses, out, work, rows, n):
                 )
             if codes[i] != 5:
                 halfspace_contacts(codes[i], sizes[i], vi, poses[i], poses[5], 0.1, rows)
+        box_contacts(1, sizes[1], none, poses[1], 1, sizes[1], none, poses[2], rows, work)
     return status
 
 
@@ -506,9 +551,9 @@ print(json.dumps({"per pair": (allocations(11) - allocations(1)) / (10 * 30)}))
 
 
 def test_pair_distance_allocates_nothing():
-    """Every pair of shapes (30 of them, GJK and EPA among them) and each shape's contacts with
-    a halfspace, called 10 more times in a compiled loop: numba's runtime counts not one more
-    allocation (a fresh process with its statistics on)."""
+    """Every pair of shapes (30 of them, GJK and EPA among them), each shape's contacts with a
+    halfspace and two boxes' contacts, called 10 more times in a compiled loop: numba's runtime
+    counts not one more allocation (a fresh process with its statistics on)."""
     env = dict(os.environ, NUMBA_NRT_STATS="1")
     proc = subprocess.run(
         [sys.executable, "-c", _ALLOCATIONS],

@@ -10,8 +10,10 @@
   box_box.py       two overlapping boxes by the separating-axis theorem
   narrow_phase.py  pair_distance: the dispatch by shape codes
   manifold.py      up to four contact points of a shape against a halfspace
+  box_manifold.py  up to four contact points of two boxes (clipping)
 """
 
+from .box_manifold import box_contacts
 from .closed_forms import DISTANCE, NORMAL, OUT_SIZE, POINT_A, POINT_B
 from .manifold import MAX_CONTACTS, halfspace_contacts
 from .narrow_phase import pair_distance, work_array
@@ -23,6 +25,7 @@ __all__ = [
     "OUT_SIZE",
     "POINT_A",
     "POINT_B",
+    "box_contacts",
     "halfspace_contacts",
     "pair_distance",
     "work_array",

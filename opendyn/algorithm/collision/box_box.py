@@ -55,8 +55,9 @@ def supporting_edge(T, h, i, L):
 
 @njit(**JIT)
 def box_box(a, b, out):
-    """Boxes a and b: False when an axis separates them (out untouched: GJK measures the
-    distance), else True with out = (-depth, p_A, p_B, L) (closed_forms.write_inflated)."""
+    """Boxes a and b: -1 when an axis separates them (out untouched: GJK measures the
+    distance), else the least-overlap axis' index k (0-2 A's faces, 3-5 B's, 6-14 the edge pairs
+    u_(k-6)//3 x v_(k-6)%3) with out = (-depth, p_A, p_B, L) (closed_forms.write_inflated)."""
     T_a, T_b = a[3], b[3]
     h_a = (0.5 * a[1][0], 0.5 * a[1][1], 0.5 * a[1][2])
     h_b = (0.5 * b[1][0], 0.5 * b[1][1], 0.5 * b[1][2])
@@ -76,7 +77,7 @@ def box_box(a, b, out):
         s = dot(L, t)
         overlap = projected_radius(T_a, h_a, L) + projected_radius(T_b, h_b, L) - abs(s)
         if overlap < 0.0:
-            return False
+            return -1
         if overlap < depth - (EDGE_BIAS if k >= 6 else 0.0):
             depth, best, kind = overlap, (L if s >= 0.0 else scale(L, -1.0)), k
     if kind < 3:  # a face of A: B's deepest vertex
@@ -90,4 +91,4 @@ def box_box(a, b, out):
         p2, q2 = supporting_edge(T_b, h_b, (kind - 6) % 3, scale(best, -1.0))
         p_a, p_b = segments_closest(p1, q1, p2, q2)
     write_inflated(out, p_a, p_b, best, 0.0, 0.0)
-    return True
+    return kind

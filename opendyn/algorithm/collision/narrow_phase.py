@@ -80,7 +80,7 @@ def ordered_distance(a, b, out, work):
     if code_a == SPHERE and code_b == BOX:
         sphere_box(a, b, out)
         return Status.OK.value
-    if code_a == BOX and code_b == BOX and box_box(a, b, out):
+    if code_a == BOX and code_b == BOX and box_box(a, b, out) >= 0:
         return Status.OK.value
     return convex(a, b, out, work)
 
