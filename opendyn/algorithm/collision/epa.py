@@ -56,7 +56,8 @@ def vertex(work, i):
 @njit(**JIT)
 def add_face(work, i, j, k):
     """Face (i, j, k), counter-clockwise seen from outside, in the first free face row:
-    n = (w_j - w_i) x (w_k - w_i) / |.|, delta = n . w_i. Returns False when no row is free."""
+    n = (w_j - w_i) x (w_k - w_i) / |.|, delta = n . w_i; a face of no area has no normal and
+    delta = inf, so that it is never the nearest. Returns False when no row is free."""
     a = vertex(work, i)
     n = cross(sub(vertex(work, j), a), sub(vertex(work, k), a))
     length = norm(n)
@@ -66,7 +67,8 @@ def add_face(work, i, j, k):
         if work[f, ALIVE] == 0.0:
             work[f, I], work[f, J], work[f, K] = i, j, k
             work[f, NORMAL], work[f, NORMAL + 1], work[f, NORMAL + 2] = n
-            work[f, DELTA], work[f, ALIVE] = dot(n, a), 1.0
+            work[f, DELTA] = dot(n, a) if length > 0.0 else math.inf
+            work[f, ALIVE] = 1.0
             return True
     return False
 
