@@ -41,6 +41,7 @@ with kernel_cache():
         normalize,
         random_configuration,
     )
+    from .algorithm.collision.queries import Contacts, Distances, collisions, distances
     from .algorithm.constraints import (
         constrained_forward_dynamics,
         constrained_inverse_dynamics,
@@ -107,6 +108,10 @@ __all__ = [
     "FixedPose",
     "CollisionSphere",
     "Geometry",
+    "Distances",
+    "Contacts",
+    "distances",
+    "collisions",
     "Frame",
     "JointCoupling",
     "PointOnPlane",

@@ -37,7 +37,9 @@ def _pinocchio_geometry(path):
     """(pin model, pin geometry model) of a URDF's <collision> elements, or None where
     Pinocchio cannot read it."""
     # meshes are package://example-robot-data/robots/...: the folder above example-robot-data
-    package_dir = next(str(p.parent) for p in pathlib.Path(path).parents if p.name == "example-robot-data")
+    package_dir = next(
+        str(p.parent) for p in pathlib.Path(path).parents if p.name == "example-robot-data"
+    )
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")

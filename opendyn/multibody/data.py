@@ -269,6 +269,7 @@ class Data:
         self.Gamma = np.zeros((nv, nv, nv))
         self._C_e = np.zeros((nv, nv, nv))
         self._constraint_rows = {}
+        self._collision_work = {}
 
     def constraint_rows(self, k: int) -> ConstraintRows:
         """The ConstraintRows of k constraint rows: A (k, nv), Adot_qd (k,), phi (k,), lam (k,),
@@ -280,6 +281,15 @@ class Data:
             rows = ConstraintRows(np.zeros((k, nv)), np.zeros(k), np.zeros(k), np.zeros(k))
             self._constraint_rows[k] = rows
         return rows
+
+    def collision_work(self, make, pair_count: int):
+        """The collision queries' work arrays for pair_count pairs (a CollisionWork of
+        opendyn.algorithm.collision.queries), made by make(model, pair_count) on the first query
+        with that count and the same arrays on every later one."""
+        work = self._collision_work.get(pair_count)
+        if work is None:
+            work = self._collision_work[pair_count] = make(self.model, pair_count)
+        return work
 
     def __repr__(self) -> str:
         return f"Data({self.model.name!r}, nb={self.model.nb}, nv={self.model.nv})"
