@@ -1158,14 +1158,14 @@ def test_floating_compiled_interface_takes_nq_sized_q(solo):
     for gains in (dc.NO_STABILISATION, np.array([5.0, 20.0])):
         gamma = drift + 2 * gains[0] * A @ v + gains[1] ** 2 * phi
         qdd_ref, lam_ref = _kkt(solo, q, v, tau, A, gamma)
-        qdd, lam = np.empty(solo.nv), np.empty(k)
+        qdd, work = np.empty(solo.nv), dc.constraint_work(solo.nb, solo.nv, k)
         con = dc.ConstraintTable(rows, params, gains)
         status = dc.constrained_solve_at(
-            solo._ibuf, solo._fbuf, con, q, v, M.copy(), tau - h, qdd, lam
+            solo._ibuf, solo._fbuf, con, q, v, M.copy(), tau - h, qdd, work
         )
         assert status == Status.OK
         assert_close(qdd, qdd_ref, f"constrained_solve_at qdd, gains {gains}")
-        assert_close(lam, lam_ref, f"constrained_solve_at lam, gains {gains}")
+        assert_close(work.lam, lam_ref, f"constrained_solve_at lam, gains {gains}")
         qdd, lam = np.empty(solo.nv), np.empty(k)
         status = dc.constrained_forward_kernel(
             solo._ibuf, solo._fbuf, con, q, v, tau, solo._loads, np.zeros(0), qdd, lam

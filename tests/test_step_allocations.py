@@ -1,10 +1,13 @@
 """The compiled step allocates nothing per evaluation: every effect's force works in the
 scene's Data buffer and scratch (opendyn.sim.effects.interface), as the design asks of the step,
-and so do the effects' derivatives that the implicit integrator asks for, and the whole step of
-the integrators that solve with the mass matrix (in the integrator's StepWork). Counted exactly
+and so do the effects' derivatives that the implicit integrator asks for, the constrained solve
+(in the SceneData's ConstraintWork) and the whole step of the integrators that solve with the
+mass matrix (in the integrator's StepWork). Counted exactly
 by numba's runtime statistics, in a fresh process with them switched on, over evaluations (or
 steps) repeated inside a compiled loop (so that nothing Python passes in is counted): the count
-of 11 less that of 1, over 10, must be zero."""
+of 11 less that of 1, over 10, must be zero. That the count sees an allocation inside the step is
+shown by putting one back, in a copy of the package, where the step once made it: the count of
+the same evaluations is then one or more."""
 
 from __future__ import annotations
 
@@ -14,6 +17,7 @@ import subprocess
 import sys
 
 import pytest
+from test_adding_an_effect import copy_of_the_package, run_in
 
 _ALLOCATIONS = r"""
 import json, sys
@@ -34,9 +38,20 @@ SOLO12_COMPUTED_TORQUE = {
     "effects": {"gravity": True},
     "control": {"type": "computed_torque", "kp": 100.0, "kd": 20.0, "amplitude": 0.2},
 }
-name, integrator = sys.argv[1], sys.argv[2]
-if name == "solo12 computed torque":
-    scene = od.scene_from_dict(SOLO12_COMPUTED_TORQUE)
+UR5_WRENCHES = {  # one wrench in world-aligned axes, one in the frame's own
+    "robot": {"name": "ur5"},
+    "effects": {
+        "gravity": True,
+        "wrench": [
+            {"frame": "tool0", "expressed_in": "world", "value": [0.1, 0, 0, 0, 5, 10]},
+            {"frame": "forearm_link", "value": [0, 0.5, 0, 2, 0, 0]},
+        ],
+    },
+}
+SCENES = {"solo12 computed torque": SOLO12_COMPUTED_TORQUE, "ur5 wrenches": UR5_WRENCHES}
+name, integrator, parts = sys.argv[1], sys.argv[2], sys.argv[3:]  # parts: all when none
+if name in SCENES:
+    scene = od.scene_from_dict(SCENES[name])
 else:
     scene = od.load_scene(name)
 if integrator != "shipped":
@@ -96,25 +111,34 @@ integ = INTEGRATORS[scene.run.integrator]
 x = State(q, qd, np.zeros(2))
 x1 = State(np.empty(model.nq), np.empty(nv), np.empty(2))
 work = rk_work(len(integ.b), model.nq, nv)  # its stages (1: a step that is no RK method)
-counts = {
-    "evaluate": allocations(lambda n: evaluations(sd, q, qd, qdd, tau_ctrl, power, n)),
-    "generalized_forces": allocations(
-        lambda n: forces(sd, q, qd, tau, tau_ctrl, power, (K, D, False), n)
-    ),
-    "derivatives": allocations(
-        lambda n: forces(sd, q, qd, tau, tau_ctrl, power, (K, D, True), n)
-    ),
-    "step": allocations(
-        lambda n: steps(
-            integ.switches(), sd, scene.run.dt, x, x1, work, free_joints(model), n
-        )
+runs = {
+    "evaluate": lambda n: evaluations(sd, q, qd, qdd, tau_ctrl, power, n),
+    "generalized_forces": lambda n: forces(sd, q, qd, tau, tau_ctrl, power, (K, D, False), n),
+    "derivatives": lambda n: forces(sd, q, qd, tau, tau_ctrl, power, (K, D, True), n),
+    "step": lambda n: steps(
+        integ.switches(), sd, scene.run.dt, x, x1, work, free_joints(model), n
     ),
 }
-# the largest control and passive (contact) generalized forces of the last evaluation
-pushed = {"control": float(np.abs(tau_ctrl).max()), "passive": float(np.abs(sd.forces[2]).max())}
+counts = {part: allocations(runs[part]) for part in parts or runs}
+# at t = 0: the effects' derivatives, then the largest control, applied (wrench) and passive
+# (contact) generalized forces and constraint multipliers of an evaluation
+forces(sd, q, qd, tau, tau_ctrl, power, (K, D, True), 1)
+evaluations(sd, q, qd, qdd, tau_ctrl, power, 1)
+pushed = {
+    "control": float(np.abs(tau_ctrl).max()),
+    "applied": float(np.abs(sd.forces[1]).max()),
+    "passive": float(np.abs(sd.forces[2]).max()),
+    "constraints": float(np.abs(sd.con_work.lam).max(initial=0.0)),
+}
 stiff = {"K": float(np.abs(K).max()), "D": float(np.abs(D).max())}  # the derivatives' last
 print(json.dumps({"effects": list(table.names), "pushed": pushed, "stiff": stiff, **counts}))
 """
+
+
+def counts_of(proc):
+    """The counts that _ALLOCATIONS printed, from its finished process."""
+    assert proc.returncode == 0, proc.stderr
+    return json.loads(proc.stdout.strip().splitlines()[-1])
 
 
 @pytest.mark.parametrize(
@@ -124,31 +148,80 @@ print(json.dumps({"effects": list(table.names), "pushed": pushed, "stiff": stiff
         ("humanoid_stand", "shipped"),
         ("solo12_falling", "semi_implicit_euler"),
         ("solo12 computed torque", "shipped"),
+        ("ur5 wrenches", "shipped"),
+        ("four_bar", "shipped"),
+        ("four_bar", "implicit_euler"),
     ],
 )
 def test_an_evaluation_and_a_step_allocate_nothing(scene, integrator):
     """Ground contact (Solo12's four feet, the humanoid's foot corners pushing into the ground,
-    with PD control and gravity), PD control of a falling Solo12 and computed torque on a
-    floating base (its base reaction by CRBA and Cholesky): not one array per evaluation of the
-    compiled step, nor of its effects alone, nor of their derivatives K and D, nor per step of
-    the shipped integrator (implicit Euler: the effects' derivatives, h, M and an LU solve; RK4)
-    or of semi-implicit Euler (g, M, the momentum's fixed point)."""
+    with PD control and gravity), PD control of a falling Solo12, computed torque on a
+    floating base (its base reaction by CRBA and Cholesky), wrenches applied to a UR5 (in
+    world-aligned axes and in a frame's own: J_b^T F) and the four-bar's loop closure (the
+    constrained solve: its rows A, Adot qd, phi, h, M, the multipliers by Cholesky or, in
+    implicit Euler, by LU): not one array per evaluation of the compiled step, nor of its
+    effects alone, nor of their derivatives K and D, nor per step of the shipped integrator
+    (implicit Euler: the effects' derivatives, h, M and an LU solve; RK4) or of semi-implicit
+    Euler (g, M, the momentum's fixed point)."""
     env = dict(os.environ, NUMBA_NRT_STATS="1")
     proc = subprocess.run(
         [sys.executable, "-c", _ALLOCATIONS, scene, integrator],
         env=env, capture_output=True, text=True, timeout=900,
     )
-    assert proc.returncode == 0, proc.stderr
-    counts = json.loads(proc.stdout.strip().splitlines()[-1])
-    # the effect that must push, the force it adds to, and whether it has derivatives
+    counts = counts_of(proc)
+    # the effect that must act, the force it adds to, and whether it has derivatives
     effect, force, stiff = {
         "quadruped_drop": ("contact", "passive", True),
         "humanoid_stand": ("contact", "passive", True),
         "solo12_falling": ("control (pd)", "control", True),
         "solo12 computed torque": ("control (computed torque)", "control", False),
+        "ur5 wrenches": ("wrench", "applied", False),
+        "four_bar": ("gravity", "constraints", False),  # the multipliers hold the loop
     }[scene]
     assert any(name.startswith(effect) for name in counts["effects"]), counts
     assert counts["pushed"][force] > 0.0, counts  # the effect did push
     assert (counts["stiff"]["K"] > 0.0 and counts["stiff"]["D"] > 0.0) == stiff, counts
     parts = ("evaluate", "generalized_forces", "derivatives", "step")
     assert {part: counts[part] for part in parts} == dict.fromkeys(parts, 0.0), counts
+
+
+# Where the step once allocated, and the allocation put back there: a file of the package, the
+# line that takes its array from the preallocated work, and the line that made it instead.
+PLANTED = {
+    "quadruped_drop": (
+        "algorithm/contact.py",
+        "    J_p = effect_rows(work, nb, nv)  # (3, nv)\n",
+        "    J_p = np.empty((3, nv))\n",
+    ),
+    "solo12 computed torque": (
+        "sim/effects/computed_torque.py",
+        "    rows = effect_rows(ctx.work, body_count(ctx.ibuf), nv)\n",
+        "    rows = np.empty((3, nv))\n",
+    ),
+    "ur5 wrenches": (
+        "sim/effects/wrench.py",
+        "    J_b = jacobian_field(ctx.work, nb, nv)\n",
+        "    J_b = np.empty((6, nv))\n",
+    ),
+    "four_bar": (
+        "algorithm/constraints/solve.py",
+        "    M = mass_matrix_field(work, nb, nv)\n",
+        "    M = np.empty((nv, nv))\n",
+    ),
+}
+
+
+@pytest.mark.parametrize("scene", sorted(PLANTED))
+def test_an_allocation_put_back_is_counted(scene, tmp_path, monkeypatch):
+    """The count above is no vacuous zero: with an allocation that the step once made put
+    back, in a copy of the package (a contact point's Jacobian J_p, computed torque's qdd_c and
+    tau_c, the wrench's Jacobian J_b, the constrained solve's mass matrix M), the same
+    evaluations count one allocation or more each."""
+    package = copy_of_the_package(tmp_path)
+    path, preallocated, allocated = PLANTED[scene]
+    source = (package / path).read_text()
+    assert source.count(preallocated) == 1, path
+    (package / path).write_text(source.replace(preallocated, allocated))
+    monkeypatch.setenv("NUMBA_NRT_STATS", "1")  # run_in passes the environment on
+    counts = counts_of(run_in(package, _ALLOCATIONS, scene, "shipped", "evaluate"))
+    assert counts["evaluate"] >= 1.0, counts

@@ -59,7 +59,8 @@ Joint space, the results (the function that returns each):
   dtau_dq, dtau_dqd (nv, nv) inverse_dynamics_derivatives (with data.M = dtau/dqdd)
   ddq_dq, ddq_dqd, Minv (nv, nv) forward_dynamics_derivatives (Minv = dqdd/dtau = M^-1)
   Gamma         (nv, nv, nv) christoffel_symbols (an array of its own beside the buffer)
-  J             (6, nv)   jacobian; the task-space functions leave the frame's J_b in it
+  J             (6, nv)   jacobian; the task-space functions and the step's applied wrenches
+                          leave a frame's J_b in it
   T_sf          (4, 4)    frame_pose (jacobian and the task-space functions leave the frame's
                           pose in it too)
   energy        (2,)      (K, U) (J): kinetic_energy and potential_energy leave both (with
@@ -516,6 +517,12 @@ def coriolis_matrix_field(work, nb, nv):
 
 
 @njit(**JIT)
+def jacobian_field(work, nb, nv):
+    """J (6, nv): a frame's Jacobian, J_s or J_b."""
+    return shaped(work_field(work, nb, nv, _J), (6, nv))
+
+
+@njit(**JIT)
 def mass_matrix_field(work, nb, nv):
     """M (nv, nv)."""
     return shaped(work_field(work, nb, nv, _M), (nv, nv))
@@ -531,7 +538,7 @@ TaskSpace = namedtuple("TaskSpace", ("J_b", "M", "JMinv", "Lambda", "dV_f"))
 def task_space_fields(work, nb, nv):
     """The TaskSpace views of a work buffer."""
     return TaskSpace(
-        shaped(work_field(work, nb, nv, _J), (6, nv)),
+        jacobian_field(work, nb, nv),
         mass_matrix_field(work, nb, nv),
         shaped(work_field(work, nb, nv, _JMINV), (6, nv)),
         shaped(work_field(work, nb, nv, _LAMBDA), (6, 6)),

@@ -45,15 +45,15 @@ FIXED_POINT_MAX = 50
 @njit(**JIT)
 def velocity_solve(scene, con, q, qd, M, piv, rhs, qdd):
     """qdd <- M^-1 rhs, or with constraints con (scene.constraints, not None) the constrained
-    solve of M qdd + A^T lambda = rhs (M overwritten; lambda in scene.lam), both by LU with
-    partial pivoting (piv (nv,) int64: its row swaps): M here is
-    M + diag(armature) + dt D + dt^2 K, not symmetric once contact's exact derivatives are in K
-    and D. A function of its own so that the test on None is decided when it compiles. Returns
-    a Status (SINGULAR + k: M singular at joint k)."""
+    solve of M qdd + A^T lambda = rhs (M overwritten; lambda in scene.con_work.lam, its row
+    swaps in scene.con_work's own), both by LU with partial pivoting (piv (nv,) int64: its row
+    swaps): M here is M + diag(armature) + dt D + dt^2 K, not symmetric once contact's exact
+    derivatives are in K and D. A function of its own so that the test on None is decided when
+    it compiles. Returns a Status (SINGULAR + k: M singular at joint k)."""
     if con is None:
         return lu_solve(M, piv, rhs, qdd)
     return general_constrained_solve_at(
-        scene.ibuf, scene.fbuf, con, q, qd, M, rhs, qdd, scene.lam
+        scene.ibuf, scene.fbuf, con, q, qd, M, rhs, qdd, scene.con_work
     )
 
 

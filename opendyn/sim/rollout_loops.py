@@ -28,8 +28,9 @@ from numba.typed import List
 from .._runtime.arrays import copy_into, fill
 from .._runtime.kernel_cache import BATCH, JIT
 from .._runtime.status import Status
+from ..multibody.layout import body_count, dof_count
 from .integrators import Counters, Record, Stage, State, record, run_adaptive, run_fixed
-from .step import SceneData, evaluate, multipliers
+from .step import SceneData, constraint_room, evaluate
 
 # What one run of a batch may change in the step: the model's fbuf (its inertias: a payload per
 # run), the stage table's effects tuple, armature and constraints (ConstraintTable or None).
@@ -72,15 +73,17 @@ def push_run(runs, run):
 def run_views(base, batch, i, start):
     """(SceneData, State, Record, Counters) of run i of the Batch, which a slice from `start`
     runs: base (a SceneData: the model's ibuf, the method, the scratch, whether the world poses
-    are placed) with the run's RunData
-    (fbuf, effects, armature, constraints) and room for its constraints' multipliers; its state and counters copied out (the loops write
-    them at every step, and neighbouring runs' rows share cache lines across threads), its
-    record a view of its rows. end_run copies them back."""
+    are placed) with the run's RunData (fbuf, effects, armature, constraints) and its
+    constraints' ConstraintWork (their multipliers and the solve's scratch, made once per run);
+    its state and counters copied out (the loops write them at every step, and neighbouring
+    runs' rows share cache lines across threads), its record a view of its rows. end_run copies
+    them back."""
     run = batch.runs[batch.which[i - start]]
     scene = SceneData(
         base.ibuf, run.fbuf, run.effects, run.armature, base.method, run.constraints,
-        base.forces, base.loads, base.KD, multipliers(run.constraints), base.work, base.held,
-        base.world,
+        base.forces, base.loads, base.KD,
+        constraint_room(run.constraints, body_count(base.ibuf), dof_count(base.ibuf)),
+        base.work, base.held, base.world,
     )
     x, out, c = batch.x, batch.out, batch.counters
     return (

@@ -46,7 +46,7 @@ from .._runtime.arrays import fill, result_status, zero_matrix
 from .._runtime.kernel_cache import INLINE, JIT
 from .._runtime.status import Status
 from ..algorithm.aba import aba_on_poses
-from ..algorithm.constraints import ROW_COUNT, constrained_on_poses
+from ..algorithm.constraints import ROW_COUNT, constrained_on_poses, constraint_work
 from ..algorithm.forward import forward_kernel, method_switches
 from ..algorithm.kinematics import place_bodies
 from ..multibody.data import joint_poses
@@ -155,7 +155,7 @@ def solve_with(con, aba, crba, newton_euler, scene, q, qd, tau, qdd):
     if con is not None:
         return constrained_on_poses(
             scene.ibuf, scene.fbuf, scene.work, con, (q, qd, tau), scene.loads, scene.armature,
-            (qdd, scene.lam),
+            (qdd, scene.con_work),
         )
     if aba is not None:
         status = aba_on_poses(
@@ -175,26 +175,29 @@ def solve_with(con, aba, crba, newton_euler, scene, q, qd, tau, qdd):
 # as the compile-time switches of algorithm.forward.forward_kernel (none with constraints);
 # and the step's own scratch: forces (3, nv) (tau, tau_applied, tau_passive), loads (1, 6)
 # with dV_0, KD (2, nv, nv) the stiffness K and damping D of the effects for the implicit
-# integrator, lam (k,) the multipliers of the constraints' k rows (empty without constraints),
-# work, the buffer of a Data of the model that the kernels work in, held, the torque
-# tau_held (nv,) held over a control period, or None, and world, True when an effect the scene
-# names reads the world poses (place puts them in work), or None.
+# integrator, con_work the constrained solve's ConstraintWork for the constraints' k rows
+# (their multipliers lam (k,), rows and scratch; empty without constraints), work, the buffer
+# of a Data of the model that the kernels work in, held, the torque tau_held (nv,) held over a
+# control period, or None, and world, True when an effect the scene names reads the world poses
+# (place puts them in work), or None.
 SceneData = namedtuple(
     "SceneData",
     (
         "ibuf", "fbuf", "effects", "armature", "method", "constraints", "forces", "loads",
-        "KD", "lam", "work", "held", "world",
+        "KD", "con_work", "work", "held", "world",
     ),
 )
 
 
 @njit(**JIT)
-def multipliers(con):
-    """(k,) room for the multipliers lambda of the k rows of the constraints con (a
-    ConstraintTable); empty for None (no constraints)."""
+def constraint_room(con, nb, nv):
+    """The ConstraintWork of the constraints con (a ConstraintTable) on a model of nb bodies
+    and nv velocity coordinates (algorithm.constraints.constraint_work): their k rows, the
+    multipliers lambda and the solve's scratch, made once so that the step allocates nothing;
+    empty for None (no constraints)."""
     if con is None:
-        return np.empty(0)
-    return np.empty(con.rows[:, ROW_COUNT].sum())
+        return constraint_work(0, 0, 0)
+    return constraint_work(nb, nv, con.rows[:, ROW_COUNT].sum())
 
 
 def scene_data(model, table, held=None):
@@ -212,7 +215,7 @@ def scene_data(model, table, held=None):
         np.empty((3, model.nv)),
         np.zeros((1, 6)),
         np.empty((2, model.nv, model.nv)),
-        multipliers(table.constraints),
+        constraint_room(table.constraints, model.nb, model.nv),
         model.data()._work,
         held,
         True if table.world_poses else None,

@@ -45,6 +45,7 @@ from .solve import (
     constrained_solve_at,
     constrained_solve_kernel,
     constrained_solve_rank_kernel,
+    constraint_work,
     general_constrained_solve_at,
 )
 from .table import BODY_A, BODY_B, KIND, OFFSET, ROW_COUNT, ConstraintTable, constraint_table
@@ -77,6 +78,7 @@ __all__ = [
     "constraint_projection",
     "constraint_table",
     "constraint_terms_kernel",
+    "constraint_work",
     "constraint_wrench",
     "general_constrained_solve_at",
 ]

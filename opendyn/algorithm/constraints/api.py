@@ -14,9 +14,9 @@ k-row results A, Adot qd, phi and lam (made on the first call with k rows), data
 data.P and data.F_tip. What still allocates with data=: the constraint table, built from the
 constraint objects on every call (small arrays, freed when the call returns), the compiled
 kernels' k-sized temporaries (the constraint rows' kinematics and the eigendecomposition of
-A M^-1 A^T; the simulation step shares those kernels), and the numpy factorisations of
-constraint_projection, constrained_inverse_dynamics and constraint_wrench, whose results are
-copied into the Data.
+A M^-1 A^T; the simulation step runs the same kernels in a ConstraintWork it makes once, and
+allocates nothing), and the numpy factorisations of constraint_projection,
+constrained_inverse_dynamics and constraint_wrench, whose results are copied into the Data.
 """
 
 from __future__ import annotations

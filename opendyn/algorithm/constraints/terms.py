@@ -11,9 +11,13 @@ nothing here assumes one coordinate per body.
 Compiled interface:
   constraint_terms_kernel(ibuf, fbuf, rows, params, q (nq,), qd (nv,), A, Adot_qd, phi)
       -> status
+  constraint_terms_in(..., work)   the same in a TermsWork made once (terms_work(nb, nv)):
+                                   the simulation step's, which allocates nothing
 """
 
 from __future__ import annotations
+
+from collections import namedtuple
 
 import numpy as np
 from numba import njit
@@ -28,7 +32,7 @@ from ...multibody.constraint_objects import (
     POINT_TO_WORLD,
 )
 from ...multibody.joints import state_status
-from ...multibody.layout import tree
+from ...multibody.layout import body_count, tree
 from ...spatial.compiled import ad_twist, log_se3
 from ..configuration import difference_kernel
 from ..kinematics import add_point_jacobian, space_axis
@@ -44,6 +48,36 @@ from .frames import (
 from .table import BODY_A, BODY_B, KIND, OFFSET, ROW_COUNT
 
 
+# The rows' scratch at nb bodies and nv coordinates (terms_work): per body the joint and
+# world rotations R, R_s (2, nb, 3, 3), positions p, p_s (2, nb, 3) (m) and the twists V and
+# their velocity-product rates dV (2, nb, 6) in {i}; six 6-vectors S, c6, Va, Vb, X, Y (6, 6),
+# four 3-vectors p_a, a_a, p_b, a_b (4, 3), three frames' rotations R_sa, R_sb, R_ab (3, 3, 3)
+# and positions p_sa, p_sb, p_ab (3, 3), a point's Jacobian J_p (3, nv), a configuration
+# difference dq (nv,), and zeros qdd_0 (nv,) and dV_0 (6,) (kept zero: qdd = 0, no gravity).
+TermsWork = namedtuple(
+    "TermsWork",
+    ("poses", "points", "twists", "s6", "v3", "frames", "t3", "J_p", "dq", "qdd_0", "dV_0"),
+)
+
+
+@njit(**JIT)
+def terms_work(nb, nv):
+    """The TermsWork of a model with nb bodies and nv velocity coordinates."""
+    return TermsWork(
+        np.empty((2, nb, 3, 3)),
+        np.empty((2, nb, 3)),
+        np.empty((2, nb, 6)),
+        np.empty((6, 6)),
+        np.empty((4, 3)),
+        np.empty((3, 3, 3)),
+        np.empty((3, 3)),
+        np.empty((3, nv)),
+        np.empty(nv),
+        np.zeros(nv),
+        np.zeros(6),
+    )
+
+
 @njit(**JIT)
 def constraint_terms_kernel(ibuf, fbuf, rows, params, q, qd, A, Adot_qd, phi):
     """A (k, nv), Adot_qd (k,), phi (k,) <- every constraint's rows at (q (nq,), qd (nv,)),
@@ -51,31 +85,32 @@ def constraint_terms_kernel(ibuf, fbuf, rows, params, q, qd, A, Adot_qd, phi):
     Point rows: world axes; FIXED_POSE: frame b axes, angular first (see
     opendyn.multibody.constraint_objects). Returns a Status: OK, Q_NOT_FINITE,
     Q_NOT_UNIT_QUATERNION or QD_NOT_FINITE."""
+    work = terms_work(body_count(ibuf), qd.shape[0])
+    return constraint_terms_in(ibuf, fbuf, rows, params, q, qd, A, Adot_qd, phi, work)
+
+
+@njit(**JIT)
+def constraint_terms_in(ibuf, fbuf, rows, params, q, qd, A, Adot_qd, phi, work):
+    """constraint_terms_kernel in work, a TermsWork of the model (terms_work): allocates
+    nothing."""
     status = state_status(ibuf, q, qd)
     if status:
         return status
     body_tree = tree(ibuf, fbuf)
     parent = body_tree.parent
-    nb = parent.shape[0]
     nv = qd.shape[0]
-    poses = np.empty((2, nb, 3, 3))
-    R, R_s = poses[0], poses[1]
-    points = np.empty((2, nb, 3))
-    p, p_s = points[0], points[1]
-    twists = np.empty((2, nb, 6))
-    V, dV = twists[0], twists[1]
-    s6 = np.empty((6, 6))
+    R, R_s = work.poses[0], work.poses[1]
+    p, p_s = work.points[0], work.points[1]
+    V, dV = work.twists[0], work.twists[1]
+    s6 = work.s6
     S, c6, Va, Vb, X, Y = s6[0], s6[1], s6[2], s6[3], s6[4], s6[5]
-    v3 = np.empty((4, 3))
+    v3 = work.v3
     p_a, a_a, p_b, a_b = v3[0], v3[1], v3[2], v3[3]
-    frames = np.empty((3, 3, 3))
-    R_sa, R_sb, R_ab = frames[0], frames[1], frames[2]
-    t3 = np.empty((3, 3))
-    p_sa, p_sb, p_ab = t3[0], t3[1], t3[2]
-    J3 = np.empty((3, nv))
-    dq = np.empty(nv)
+    R_sa, R_sb, R_ab = work.frames[0], work.frames[1], work.frames[2]
+    p_sa, p_sb, p_ab = work.t3[0], work.t3[1], work.t3[2]
+    J3, dq = work.J_p, work.dq
     # forward pass at qdd = 0, no gravity: V_i and dV_i = the velocity-product part of the rate
-    forward_pass(body_tree, q, qd, np.zeros(nv), np.zeros(6), R, p, V, dV, s6[:2])
+    forward_pass(body_tree, q, qd, work.qdd_0, work.dV_0, R, p, V, dV, s6[:2])
     world_poses(parent, R, p, R_s, p_s)
 
     zero_matrix(A)

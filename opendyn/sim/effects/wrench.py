@@ -21,7 +21,7 @@ from ..._runtime.arrays import copy_into, immutable
 from ..._runtime.kernel_cache import JIT
 from ...algorithm.kinematics import frame_jacobian
 from ..values import what_is
-from ...multibody.data import frame_pose_field
+from ...multibody.data import frame_pose_field, jacobian_field, scratch_rows
 from ...multibody.layout import body_count
 from .interface import APPLIED, OK, floats
 from .tangent import bracket_transpose, path_axes, point_velocities, wrench_tangent
@@ -197,14 +197,16 @@ def apply(p, ctx, out):
     """out.applied += sum over the wrenches of J_b(frame)^T F_frame. p: Params, or None.
     world: F is given in world-aligned axes at the frame's origin, F_frame = (R^T m, R^T f),
     with R from the pose T_sf that the Jacobian leaves in ctx.work. Works on the world poses
-    the step placed in ctx.work (WORLD_POSES). Returns a Status."""
+    the step placed in ctx.work (WORLD_POSES), and in that Data's fields: J_b (6, nv) in J, F
+    and the world-aligned F_s (6,) in scratch rows 0 and 1 (frame_jacobian uses neither).
+    Returns a Status."""
     if p is None:
         return OK
-    nv = ctx.qd.shape[0]
-    F = np.empty(6)
-    F_s = np.empty(6)
-    J_b = np.empty((6, nv))
-    T_sf = frame_pose_field(ctx.work, body_count(ctx.ibuf), nv)
+    nb, nv = body_count(ctx.ibuf), ctx.qd.shape[0]
+    rows = scratch_rows(ctx.work, nb, nv)
+    F, F_s = rows[0], rows[1]
+    J_b = jacobian_field(ctx.work, nb, nv)
+    T_sf = frame_pose_field(ctx.work, nb, nv)
     for w in range(p.body.shape[0]):
         first, last = p.first[w], p.first[w] + p.count[w]
         wrench_at(p.times[first:last], p.values[first:last], ctx.t, F)
