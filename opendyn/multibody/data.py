@@ -284,13 +284,11 @@ class Data:
         return rows
 
     def collision_work(self, make, pair_count: int):
-        """The collision queries' work arrays for pair_count pairs (a CollisionWork of
-        opendyn.algorithm.collision.queries), made by make(model, pair_count) on the first query
-        with that count and the same arrays on every later one."""
-        work = self._collision_work.get(pair_count)
-        if work is None:
-            work = self._collision_work[pair_count] = make(self.model, pair_count)
-        return work
+        """The collision queries' arrays for pair_count pairs: make(model, pair_count) on the
+        first query with that count, the same arrays on every later one."""
+        if pair_count not in self._collision_work:
+            self._collision_work[pair_count] = make(self.model, pair_count)
+        return self._collision_work[pair_count]
 
     def __repr__(self) -> str:
         return f"Data({self.model.name!r}, nb={self.model.nb}, nv={self.model.nv})"
