@@ -21,6 +21,7 @@ from ..io.meshes import MESH_FORMATS, resolve_mesh
 DEFAULT_RGBA = (0.72, 0.72, 0.75, 1.0)  # light grey, for visuals without a <material> colour
 STAND_IN_RGBA = (0.5, 0.5, 0.5, 1.0)
 STAND_IN_SIZE = 0.05  # m, edge of the grey box drawn in place of an unusable mesh
+COLLISION_RGBA = (0.9, 0.45, 0.1, 0.6)  # translucent orange, for the collision geometry
 
 
 class PlaybackWarning(UserWarning):
@@ -36,11 +37,13 @@ class Visual:
       link           name of the URDF link (a frame of the model) the geometry is attached to
       T_link_visual  (4, 4) pose of the geometry in the link frame, the ``<visual> <origin>``
                      (metres)
-      shape          "box", "cylinder", "sphere" or "mesh"
-      size           box: (x, y, z) edge lengths; cylinder: (radius, length), its axis along the
-                     z axis of the visual frame; sphere: (radius,); all in metres;
-                     mesh: (sx, sy, sz) scale factors
+      shape          "box", "cylinder", "sphere", "mesh", and for the collision geometry
+                     "capsule" and "hull"
+      size           box: (x, y, z) edge lengths; cylinder and capsule: (radius, length), the
+                     axis along the z axis of the visual frame; sphere: (radius,); all in
+                     metres; mesh and hull: (sx, sy, sz) scale factors
       mesh_path      mesh: the resolved file (absolute path); None otherwise
+      vertices       hull: (n, 3) the convex hull's vertices in the visual frame (m, scaled)
       rgba           (4,) colour in [0, 1], from the ``<material>`` (by name or inline), else a
                      default grey
       note           "" for geometry drawn as written; otherwise why a stand-in (a small grey
@@ -54,6 +57,7 @@ class Visual:
     mesh_path: str | None = None
     rgba: tuple[float, float, float, float] = DEFAULT_RGBA
     note: str = field(default="")
+    vertices: np.ndarray | None = None
 
 
 def load_visuals(model) -> list[Visual]:
@@ -98,6 +102,26 @@ def load_visuals(model) -> list[Visual]:
     if not visuals:
         return _body_stand_ins(model, f"{source}: no link has a <visual>")
     return visuals
+
+
+def collision_visuals(model) -> list[Visual]:
+    """The collision geometry of the model (``model.geometries``), ready to draw in a
+    translucent orange: each mesh as the convex hull the collision queries use. A model without
+    collision geometry gets a grey sphere at the frame of each moving body (with a
+    PlaybackWarning)."""
+    if not model.geometries:
+        return _body_stand_ins(model, f"model {model.name!r} has no collision geometry")
+    return [
+        Visual(
+            g.link,
+            g.placement,
+            "hull" if g.shape == "mesh" else g.shape,
+            g.size,
+            rgba=COLLISION_RGBA,
+            vertices=g.vertices,
+        )
+        for g in model.geometries
+    ]
 
 
 def _parse_urdf(source):
