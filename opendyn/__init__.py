@@ -41,6 +41,7 @@ with kernel_cache():
         normalize,
         random_configuration,
     )
+    from .algorithm.collision.queries import Contacts, Distances, collisions, distances
     from .algorithm.constraints import (
         constrained_forward_dynamics,
         constrained_inverse_dynamics,
@@ -71,6 +72,7 @@ with kernel_cache():
         PointToWorld,
     )
     from .multibody.data import Data
+    from .multibody.geometry import Geometry
     from .multibody.model import CollisionSphere, Frame, Model
     from .sim.rollout_result import RolloutResult
     from .sim.scene import Scene
@@ -105,6 +107,11 @@ __all__ = [
     "plot_sweep",
     "FixedPose",
     "CollisionSphere",
+    "Geometry",
+    "Distances",
+    "Contacts",
+    "distances",
+    "collisions",
     "Frame",
     "JointCoupling",
     "PointOnPlane",

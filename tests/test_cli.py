@@ -261,3 +261,20 @@ def test_a_scene_whose_robot_has_an_impossible_inertia_says_which_scene_key_keep
     err = capsys.readouterr().err
     assert "violates the triangle inequality" in err
     assert err.rstrip().endswith("(a scene with robot.check_inertia = false loads it anyway)")
+
+
+def test_simulate_collision_draws_the_collision_geometry_and_needs_a_page(tmp_path, capsys):
+    """--collision puts model.geometries on the page (the UR5's 8: 7 hulls and a box, as
+    triangle-mesh and box objects); alone, without --html or --view, it is refused by name."""
+    pytest.importorskip("meshcat")
+    assert main(["simulate", "ur5", "--duration", "0.01", "--collision", "--no-save"]) == 2
+    assert "--collision" in capsys.readouterr().err
+    page = tmp_path / "run.html"
+    args = ["simulate", "ur5", "--duration", "0.01", "--collision", "--html", str(page)]
+    assert main([*args, "--no-save"]) == 0
+    from test_viz import objects_by_path, page_commands
+
+    objects = objects_by_path(page_commands(page.read_text()))
+    kinds = sorted(o["geometries"][0]["type"] for p, o in objects.items() if "/visual_" in p)
+    assert kinds == ["BoxGeometry"] + ["BufferGeometry"] * 7
+    assert len(od.load_urdf("ur5").geometries) == 8

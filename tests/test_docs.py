@@ -225,8 +225,19 @@ def _exp_map(ns, tmp):
     return True
 
 
+def _nearest_pair(ns, tmp):
+    """collision.md: the nearest pair's points are `distance` apart along the unit normal, and
+    od.collisions gives every default pair closer than the margin (od.distances brute force)."""
+    d, k = ns["d"], ns["k"]
+    np.testing.assert_allclose(d.point_b[k] - d.point_a[k], d.distance[k] * d.normal[k], atol=1e-9)
+    np.testing.assert_allclose(np.linalg.norm(d.normal[k]), 1.0, rtol=1e-12)
+    near = {tuple(p) for p, x in zip(d.pairs, d.distance) if x < 0.005}
+    return {tuple(p) for p in ns["contacts"].pairs} == near
+
+
 CHECKS.update({
     "docs/guides/centroidal.md": _free_fall,
+    "docs/guides/collision.md": _nearest_pair,
     "docs/guides/controllers.md": _held_still,
     "docs/guides/derivatives.md": _inverse_pairs,
     "docs/guides/rollouts.md": _sag,

@@ -897,3 +897,36 @@ def test_the_plot_with_contact_adds_a_panel_of_the_normal_forces_and_their_sum(
     assert tall == matplotlib.image.imread(plain).shape[0] // 3
     for figure in figures:
         close(figure)
+
+
+def test_the_collision_page_draws_each_collision_shape_where_the_link_holds_it(tmp_path, meshcat):
+    """collision=True draws model.geometries: a capsule of its radius and length along z, a mesh
+    as its convex hull (the tetrahedron's four corners, scaled), placed by its <origin>."""
+    write(tmp_path / "tetra.stl", TETRAHEDRON_STL)
+    urdf = write(
+        tmp_path / "one_link.urdf",
+        one_link_urdf(
+            """
+    <collision><origin xyz="0 0 0.5" rpy="0 0 0"/>
+      <geometry><capsule radius="0.05" length="0.4"/></geometry></collision>
+    <collision><geometry><mesh filename="tetra.stl" scale="2 3 4"/></geometry></collision>
+"""
+        ),
+    )
+    model = od.load_urdf(urdf)
+    html = viz.write_html(model, [0.0], [[0.0]], tmp_path / "page.html", collision=True)
+    commands = page_commands(html.read_text())
+    objects, transforms = objects_by_path(commands), transforms_by_path(commands)
+    capsule = objects["/meshcat/one_link/arm/visual_0"]["geometries"][0]
+    points = np.frombuffer(capsule["data"]["attributes"]["position"]["array"].data, np.float32)
+    points = points.reshape(-1, 3)
+    np.testing.assert_allclose(points.min(axis=0), [-0.05, -0.05, -0.25], atol=1e-6)
+    np.testing.assert_allclose(points.max(axis=0), [0.05, 0.05, 0.25], atol=1e-6)
+    np.testing.assert_allclose(transforms["/meshcat/one_link/arm/visual_0"][:3, 3], [0, 0, 0.5])
+    hull = objects["/meshcat/one_link/arm/visual_1"]["geometries"][0]
+    corners = np.frombuffer(hull["data"]["attributes"]["position"]["array"].data, np.float32)
+    tetra = np.array(model.geometries[1].vertices)
+    assert sorted(map(tuple, corners.reshape(-1, 3))) == sorted(
+        map(tuple, tetra.astype(np.float32))
+    )
+    np.testing.assert_allclose(np.ptp(tetra, axis=0), [2, 3, 4])  # TETRAHEDRON_STL spans 1 m

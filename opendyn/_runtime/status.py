@@ -31,6 +31,7 @@ class Status(IntEnum):
     # a vector argument's length is not the model's nq or nv, or (in Python) an argument is not
     # of a type the kernel was compiled for: the public function converts and checks it
     CONVERT = 12
+    UNBOUNDED = 13  # a collision pair with no finite distance (two halfspaces)
     SINGULAR = 100  # + k: nothing with mass or inertia moves with coordinate k
 
 

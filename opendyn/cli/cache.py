@@ -24,6 +24,7 @@ from ..algorithm import (
     rnea,
     task_space,
 )
+from ..algorithm.collision import queries
 from ..errors import SceneError
 from ..io.scene.files import load_scene, shipped_scenes
 from ..io.urdf import load_urdf
@@ -113,6 +114,8 @@ def core_calls(model, batch=64):
         ("centroidal_momentum_matrix", lambda: centroidal.centroidal_momentum_matrix(model, q)),
         ("centroidal_momentum", lambda: centroidal.centroidal_momentum(model, q, qd)),
         ("torque_regressor", lambda: regressor.torque_regressor(model, q, qd, qdd)),
+        ("distances", lambda: queries.distances(model, q)),
+        ("collisions", lambda: queries.collisions(model, q)),
         ("batch inverse_dynamics", lambda: rnea.inverse_dynamics(model, Q, QD, QDD)),
         ("batch mass_matrix", lambda: crba.mass_matrix(model, Q)),
         ("batch bias_forces", lambda: rnea.bias_forces(model, Q, QD)),

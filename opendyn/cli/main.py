@@ -130,6 +130,11 @@ def command_line() -> argparse.ArgumentParser:
     sim.add_argument("--plot", help="PNG of joint positions, velocities and energy")
     sim.add_argument("--html", help="self-contained meshcat playback page (extra viz)")
     sim.add_argument("--view", action="store_true", help="play in the meshcat viewer (extra viz)")
+    sim.add_argument(
+        "--collision",
+        action="store_true",
+        help="with --html or --view: draw the collision geometry instead of the visual geometry",
+    )
     sim.add_argument("--profile", action="store_true", help="time each stage of the step")
     sim.add_argument("-q", "--quiet", action="store_true", help="print only failures")
     sim.set_defaults(run=_simulate)

@@ -102,7 +102,9 @@ def _write_outputs(scene, traj, args, saved) -> bool:
     if args.plot is not None:
         writes.append(("--plot", args.plot, lambda: [traj.plot(args.plot)]))
     if args.html is not None:
-        writes.append(("--html", args.html, lambda: [_write_html(scene, traj, args.html)]))
+        writes.append(
+            ("--html", args.html, lambda: [_write_html(scene, traj, args.html, args.collision)])
+        )
     failed = saved is False
     for option, name, write in writes:
         failed = not _write(option, name, write) or failed
@@ -167,10 +169,12 @@ def _contact(traj):
     return traj.ground_height, traj.contact_point, traj.contact_force
 
 
-def _write_html(scene, traj, path):
+def _write_html(scene, traj, path, collision=False):
     from ..viz import playback as viz
 
-    return viz.write_html(scene.model, traj.t, traj.q, path, contact=_contact(traj))
+    return viz.write_html(
+        scene.model, traj.t, traj.q, path, contact=_contact(traj), collision=collision
+    )
 
 
 def _slug(name):

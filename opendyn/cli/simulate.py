@@ -139,7 +139,7 @@ def _simulate(args) -> int:
         with _doing("timing the stages for --profile; the outputs are written"):
             print(profile(scene))
     if args.view:
-        _view(scene, traj)
+        _view(scene, traj, args.collision)
     if not written:
         return WRITE_FAILED
     return 0 if traj.complete else 1
@@ -185,17 +185,22 @@ def _named_by_its_option(error, source, given):
 
 
 def _check_meshcat(args):
-    """Raise ImportError naming --html or --view, and the install command, without meshcat."""
+    """Raise ImportError naming --html or --view, and the install command, without meshcat;
+    ValueError for --collision without either."""
+    if args.collision and args.html is None and not args.view:
+        raise ValueError("--collision draws the collision geometry in --html or --view: give one")
     if (args.html is not None or args.view) and importlib.util.find_spec("meshcat") is None:
         from ..viz import MESHCAT_HINT
 
         raise ImportError(f"{'--html' if args.html is not None else '--view'}: {MESHCAT_HINT}")
 
 
-def _view(scene, traj):
+def _view(scene, traj, collision=False):
     from ..viz import playback as viz
 
-    url = viz.view(scene.model, traj.t, traj.q, open_browser=True, contact=_contact(traj))
+    url = viz.view(
+        scene.model, traj.t, traj.q, open_browser=True, contact=_contact(traj), collision=collision
+    )
     print(f"meshcat viewer at {url} (Ctrl-C to quit)")
     _wait_for_interrupt()
 

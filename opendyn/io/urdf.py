@@ -22,7 +22,11 @@ from .urdf_xml import FidelityReport, read_urdf
 
 
 def load_urdf(
-    path, floating_base: bool = False, mimic: bool = False, check_inertia: bool = True
+    path,
+    floating_base: bool = False,
+    mimic: bool = False,
+    check_inertia: bool = True,
+    srdf=None,
 ) -> Model:
     """Load a URDF file, or a robot by name, into a frozen Model.
 
@@ -39,6 +43,8 @@ def load_urdf(
       check_inertia: True (default) rejects inertias that no rigid body can have (not positive
         semi-definite, or violating the triangle inequality I_a + I_b >= I_c of the principal
         moments); False keeps them as written and lists them in the fidelity report.
+      srdf: an SRDF file whose ``<disable_collisions link1 link2>`` take those link pairs out of
+        ``model.collision_pairs`` (as Pinocchio's ``removeCollisionPairs``); None: none.
 
     Returns the Model; ``model.report`` is the fidelity report (honoured, transformed, ignored).
     Raises URDFError naming the file, the element and the problem for malformed input.
@@ -49,7 +55,10 @@ def load_urdf(
     file = resolve_robot(path)
     report = FidelityReport(source=file)
     root, robot = read_urdf(file, report)
-    return _Builder(file, root, robot, report, mimic, check_inertia, floating_base).build()
+    if srdf is not None and not isinstance(srdf, (str, os.PathLike)):
+        raise TypeError(f"load_urdf: srdf must be a file path, got {type(srdf).__name__}")
+    builder = _Builder(file, root, robot, report, mimic, check_inertia, floating_base, srdf)
+    return builder.build()
 
 
 def looks_mobile(model) -> bool:

@@ -31,6 +31,8 @@ from ..errors import URDFError
 from ..multibody.joints import FREE, PRISMATIC, REVOLUTE
 from ..multibody.model import CollisionSphere, Frame, Model
 from ..spatial.algebra import spatial_inertia
+from .srdf import disabled_link_pairs
+from .urdf_collision import read_geometries
 from .urdf_xml import CONTACT_GEOMETRIES
 
 MOVING_TYPES = {
@@ -49,8 +51,9 @@ BOX_CORNERS = np.array(list(itertools.product((-0.5, 0.5), repeat=3)))
 class _Builder:
     """Walks the URDF tree depth-first and accumulates bodies, frames and the report."""
 
-    def __init__(self, file, root, robot, report, mimic, check_inertia, floating_base):
+    def __init__(self, file, root, robot, report, mimic, check_inertia, floating_base, srdf):
         self.file, self.root, self.robot, self.report = file, root, robot, report
+        self.srdf = srdf
         self.use_mimic, self.check_inertia = mimic, check_inertia
         self.floating_base = floating_base
 
@@ -104,6 +107,12 @@ class _Builder:
         G = self._body_inertias(links, body_of, T_body_link, len(body_names))
         frames = [Frame(name, body_of[name], T_body_link[name]) for name in links]
         collision_spheres = self._collision_spheres(links)
+        geometries = read_geometries(self.file, self.root, self.report)
+        disabled = (
+            frozenset()
+            if self.srdf is None
+            else disabled_link_pairs(self.srdf, list(links), self.report)
+        )
         self._report_content(links, joints, body_of, collision_spheres)
 
         follows, mult, offset = {}, [], []
@@ -136,6 +145,8 @@ class _Builder:
             report=self.report,
             source=self.file,
             collision_spheres=collision_spheres,
+            geometries=geometries,
+            disabled_links=disabled,
             **limits,
         )
 
@@ -470,7 +481,7 @@ class _Builder:
         if unused:
             r.ignored.append(
                 f"{_collision_counts(unused)} (no contact points: only spheres and box "
-                f"corners are used)"
+                f"corners are used for [effects.contact] points = \"urdf\")"
             )
         for tag, what in (
             ("safety_controller", "soft limits"),

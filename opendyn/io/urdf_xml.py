@@ -10,6 +10,7 @@ lower > upper (Bullet's "no limit": unlimited; read so by opendyn.io.urdf_model)
 from __future__ import annotations
 
 import collections
+import copy
 import io
 import math
 import re
@@ -22,6 +23,9 @@ from .._runtime.signals import held_interrupt
 from ..errors import URDFError
 
 URDF_GEOMETRIES = ("box", "cylinder", "sphere", "mesh")  # the shapes of the URDF spec
+# <collision> shapes read: the URDF's and Pinocchio's <capsule radius length> (yourdfpy does not
+# know it: the copy of the URDF it parses leaves capsules out)
+COLLISION_GEOMETRIES = (*URDF_GEOMETRIES, "capsule")
 CONTACT_GEOMETRIES = ("sphere", "box")  # the <collision> geometries that give contact spheres
 
 
@@ -118,14 +122,16 @@ def _parse_xml(file, report):
 
 def _drop_unknown_geometry(root, report) -> None:
     """Remove each link's <visual> and <collision> whose <geometry> holds no URDF shape (box,
-    cylinder, sphere, mesh): Bullet's <plane> and <cdf>, or nothing at all. Like the other
-    tools, load them as absent and list them in report.ignored, by element and shape."""
+    cylinder, sphere, mesh; a <collision> also Pinocchio's <capsule>): Bullet's <plane> and
+    <cdf>, or nothing at all. Like the other tools, load them as absent and list them in
+    report.ignored, by element and shape."""
     dropped = collections.defaultdict(list)
     for link in root.iterchildren("link"):
         for el in list(link.iterchildren("visual", "collision")):
             geometry = el.find("geometry")
             shape = geometry[0].tag if geometry is not None and len(geometry) else None
-            if shape not in URDF_GEOMETRIES:
+            known = COLLISION_GEOMETRIES if el.tag == "collision" else URDF_GEOMETRIES
+            if shape not in known:
                 dropped[el.tag, shape].append(link.get("name"))
                 link.remove(el)
     for (tag, shape), links in dropped.items():
@@ -138,7 +144,7 @@ def _drop_unknown_geometry(root, report) -> None:
         )
 
 
-def _where(el) -> str:
+def where(el) -> str:
     """'<tag name="..."> (line N)' for the nearest named ancestor of an element."""
     named = el
     while named is not None and named.get("name") is None:
@@ -172,9 +178,9 @@ def _check_numbers(file, root) -> None:
             for attr, count in _NUMERIC[el.tag].items():
                 text = el.get(attr)
                 if text is not None:
-                    _check_values(file, el, attr, text, count)
+                    check_values(file, el, attr, text, count)
             if el.tag in ("mass", "inertia") and el.getparent().tag == "inertial" and not el.attrib:
-                raise URDFError(f"{file}: {_where(el)}: <{el.tag}> has no values")
+                raise URDFError(f"{file}: {where(el)}: <{el.tag}> has no values")
 
 
 def _gives_contact_spheres(el) -> bool:
@@ -183,19 +189,19 @@ def _gives_contact_spheres(el) -> bool:
     return el.tag == "collision" and shape is not None and shape.tag in CONTACT_GEOMETRIES
 
 
-def _check_values(file, el, attr, text, count):
+def check_values(file, el, attr, text, count):
     try:
         values = [float(t) for t in text.split()]
     except ValueError:
         xacro = " (an unexpanded xacro substitution: run xacro on the file)" if "$(" in text else ""
-        raise URDFError(f"{file}: {_where(el)}: {attr}={text!r} is not a number{xacro}") from None
+        raise URDFError(f"{file}: {where(el)}: {attr}={text!r} is not a number{xacro}") from None
     if len(values) != count:
         raise URDFError(
-            f"{file}: {_where(el)}: {attr}={text!r} must have {count} "
+            f"{file}: {where(el)}: {attr}={text!r} must have {count} "
             f"value{'s' if count > 1 else ''}"
         )
     if not all(math.isfinite(v) for v in values):
-        raise URDFError(f"{file}: {_where(el)}: {attr}={text!r} is not finite")
+        raise URDFError(f"{file}: {where(el)}: {attr}={text!r} is not finite")
 
 
 def _parse_yourdfpy(file, root):
@@ -210,7 +216,12 @@ def _parse_yourdfpy(file, root):
         for end in ("parent", "child"):
             sub = el.find(end)
             if sub is None or not sub.get("link"):
-                raise URDFError(f"{file}: {_where(el)}: missing <{end} link=...>")
+                raise URDFError(f"{file}: {where(el)}: missing <{end} link=...>")
+    capsules = root.xpath("link/collision[geometry/capsule]")
+    if capsules:  # yourdfpy reads the URDF's shapes only
+        root = copy.deepcopy(root)
+        for el in root.xpath("link/collision[geometry/capsule]"):
+            el.getparent().remove(el)
     try:
         return yourdfpy.URDF.load(
             io.BytesIO(etree.tostring(root)),

@@ -270,6 +270,7 @@ class Data:
         self.Gamma = np.zeros((nv, nv, nv))
         self._C_e = np.zeros((nv, nv, nv))
         self._constraint_rows = {}
+        self._collision_work = {}
 
     def constraint_rows(self, k: int) -> ConstraintRows:
         """The ConstraintRows of k constraint rows: A (k, nv), Adot_qd (k,), phi (k,), lam (k,),
@@ -281,6 +282,13 @@ class Data:
             rows = ConstraintRows(np.zeros((k, nv)), np.zeros(k), np.zeros(k), np.zeros(k))
             self._constraint_rows[k] = rows
         return rows
+
+    def collision_work(self, make, pair_count: int):
+        """The collision queries' arrays for pair_count pairs: make(model, pair_count) on the
+        first query with that count, the same arrays on every later one."""
+        if pair_count not in self._collision_work:
+            self._collision_work[pair_count] = make(self.model, pair_count)
+        return self._collision_work[pair_count]
 
     def __repr__(self) -> str:
         return f"Data({self.model.name!r}, nb={self.model.nb}, nv={self.model.nv})"

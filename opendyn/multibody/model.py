@@ -49,6 +49,7 @@ from ..spatial.algebra import (
     transform_inertia,
 )
 from .data import Data, work_size
+from .geometry import Geometry, GeometryTable, default_pairs
 from .joints import FREE, FREE_Q_NAMES, FREE_V_NAMES, JOINT_NQ, JOINT_NV, JOINT_TYPE_NAMES
 from .layout import (
     FIXED_JOINTS_INT,
@@ -212,6 +213,12 @@ class Model:
       collision_spheres tuple of CollisionSphere: the spheres and box corners (radius 0) of the
                       URDF's <collision> elements, each centre in its link's frame (m), by link
                       in URDF order, then by <collision> in document order
+      geometries      tuple of Geometry (opendyn.multibody.geometry), one per <collision>
+                      element the loader could read, in the same order
+      collision_pairs (P, 2) int, the pairs of geometries (indices into geometries) checked by
+                      default: on different bodies, neither the other's parent, not disabled by
+                      an SRDF
+      geometry_table  the geometries packed for the collision kernels (GeometryTable)
       gravity         (3,) default gravity vector in the world frame (m/s^2)
       report          the loader's FidelityReport (what was honoured, transformed, ignored)
     """
@@ -236,6 +243,9 @@ class Model:
     report: object = None
     source: str = ""
     collision_spheres: tuple[CollisionSphere, ...] = ()
+    geometries: tuple[Geometry, ...] = ()
+    collision_pairs: np.ndarray | None = None
+    geometry_table: GeometryTable | None = None
     _frame_index: dict = field(default_factory=dict, repr=False)
 
     @classmethod
@@ -268,6 +278,8 @@ class Model:
         source="",
         frame_aliases=None,
         collision_spheres=(),
+        geometries=(),
+        disabled_links=frozenset(),
     ):
         """Pack per-body arrays into the kernels' flat buffers and freeze everything.
 
@@ -278,6 +290,8 @@ class Model:
         frame_aliases: {other name: frame name}, e.g. each URDF joint's name for its child link
         (the URDF joint frame is the child link's frame); a frame's own name always wins.
         collision_spheres: CollisionSpheres, each on a link that is one of the frames.
+        geometries: Geometries, each on a link that is one of the frames; disabled_links: the
+        link pairs (frozensets of two names) whose geometries are not checked by default.
         """
         nb = len(body_names)
         jtype = np.asarray(jtype, dtype=np.int64).reshape(nb)
@@ -323,6 +337,9 @@ class Model:
         # each joint coordinate belongs to the 1-dof joint that carries its name
         owner = {body_joints[i]: i for i in range(nb) if jtype[i] != FREE and i not in follows}
         frames = tuple(frames)
+        geometries = tuple(geometries)
+        table = GeometryTable.of(geometries, {f.name: f for f in frames})
+        links = [g.link for g in geometries]
         return cls(
             name=name,
             joint_names=tuple(joint_names),
@@ -344,6 +361,9 @@ class Model:
             report=report,
             source=source,
             collision_spheres=tuple(collision_spheres),
+            geometries=geometries,
+            collision_pairs=default_pairs(table, parent, disabled_links, links),
+            geometry_table=table,
             _frame_index=_frame_index(frames, frame_aliases or {}),
         )
 
@@ -355,10 +375,16 @@ class Model:
         object.__setattr__(self, "nb", nb)
         object.__setattr__(self, "nv", nv)
         object.__setattr__(self, "nq", nq)
+        if self.geometry_table is None:  # a model made without Model.build
+            table = GeometryTable.of(self.geometries, {f.name: f for f in self.frames})
+            object.__setattr__(self, "geometry_table", table)
         # the per-body fields, copied once from the kernels' buffers
         fields = {key: field_copy(self._ibuf, INT_AT, key, nb, INT_HEADER) for key in INT_AT}
         fields.update((key, field_copy(self._fbuf, FLOAT_AT, key, nb)) for key in FLOAT_AT)
         object.__setattr__(self, "_fields", fields)
+        if self.collision_pairs is None:  # a model made without Model.build
+            pairs = default_pairs(self.geometry_table, fields["parent"])
+            object.__setattr__(self, "collision_pairs", pairs)
         object.__setattr__(self, "floating_base", bool(np.any(self.jtype == FREE)))
         # mimic joints share coordinates: the joints' velocity sizes add up to more than nv
         object.__setattr__(self, "coupled", int(np.sum(self.nv_j)) != nv)

@@ -72,6 +72,19 @@ def _geometry(mg, v):
         # meshcat (three.js) cylinders lie along y, URDF cylinders along z: turn y onto z
         radius, length = v.size
         return mg.Cylinder(length, radius), _rotation_x(math.pi / 2)
+    if v.shape == "capsule":
+        import trimesh
+
+        capsule = trimesh.creation.capsule(height=v.size[1], radius=v.size[0])
+        return mg.TriangularMeshGeometry(capsule.vertices, capsule.faces), np.eye(4)
+    if v.shape == "hull":
+        from scipy.spatial import ConvexHull, QhullError
+
+        try:
+            faces = ConvexHull(v.vertices).simplices
+        except QhullError:  # a flat hull: drawn as its points' fan
+            faces = np.array([(0, k, k + 1) for k in range(1, len(v.vertices) - 1)])
+        return mg.TriangularMeshGeometry(v.vertices, faces), np.eye(4)
     loader = {
         "stl": mg.StlMeshGeometry,
         "dae": mg.DaeMeshGeometry,
@@ -301,11 +314,16 @@ def _clip(animation, times, position, quat, scale=None):
 
 
 def _extent(v):
-    """Radius of a ball about the visual's origin that holds a primitive (0 for meshes)."""
+    """Radius of a ball about the visual's origin that holds a primitive or a hull (0 for
+    meshes)."""
     if v.shape == "box":
         return 0.5 * float(np.linalg.norm(v.size))
     if v.shape == "cylinder":
         return math.hypot(v.size[0], 0.5 * v.size[1])
+    if v.shape == "capsule":
+        return v.size[0] + 0.5 * v.size[1]
     if v.shape == "sphere":
         return v.size[0]
+    if v.shape == "hull":
+        return float(np.max(np.linalg.norm(v.vertices, axis=1)))
     return 0.0

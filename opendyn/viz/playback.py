@@ -17,10 +17,10 @@ from .camera import _camera, _live_camera
 from .meshcat_scene import _build_scene, _meshcat
 from .motion import _check_contact, _check_motion
 from .page import _SceneRecorder
-from .visuals import load_visuals
+from .visuals import collision_visuals, load_visuals
 
 
-def write_html(model, t, q, path, *, fps=None, contact=None) -> pathlib.Path:
+def write_html(model, t, q, path, *, fps=None, contact=None, collision=False) -> pathlib.Path:
     """Write a self-contained HTML page that plays the motion of ``model``.
 
     Args:
@@ -41,6 +41,8 @@ def write_html(model, t, q, path, *, fps=None, contact=None) -> pathlib.Path:
         largest force is drawn 0.16 to 0.4 times the robot's size), stated in the page's title
         and at its bottom left; the arrows are interpolated like q and vanish where the force
         is zero.
+      collision: True draws the collision geometry (``model.geometries``, meshes as their
+        convex hulls, in translucent orange) instead of the visual geometry.
 
     The page is meshcat's static export (viewer JavaScript, geometry, meshes and animation
     inlined; it opens offline, from a file). It loops the motion; the controls at the top
@@ -57,7 +59,8 @@ def write_html(model, t, q, path, *, fps=None, contact=None) -> pathlib.Path:
 
     recorder = _SceneRecorder()
     vis = Visualizer(window=recorder)
-    scene = _build_scene(vis, model, t, q, fps, load_visuals(model), contact)
+    visuals = collision_visuals(model) if collision else load_visuals(model)
+    scene = _build_scene(vis, model, t, q, fps, visuals, contact)
     title = f"{model.name} - opendyn" + (f" ({scene.arrows})" if scene.arrows else "")
     out = pathlib.Path(path)
     with atomic_write(out) as f:
@@ -65,13 +68,14 @@ def write_html(model, t, q, path, *, fps=None, contact=None) -> pathlib.Path:
     return out
 
 
-def view(model, t, q, *, open_browser=False, fps=None, contact=None) -> str:
+def view(model, t, q, *, open_browser=False, fps=None, contact=None, collision=False) -> str:
     """Play the motion of ``model`` in a live meshcat viewer; returns the viewer's URL.
 
     Starts a meshcat server (``meshcat.Visualizer()``, a subprocess that lives as long as this
     Python process), sends the visual geometry and the animation (t (K,) s, q (K, nq), and
     the ground and contact-force arrows for ``contact``, as in ``write_html``; the live viewer
-    has no caption, so the arrows' scale is not stated there), and opens the page in a web
+    has no caption, so the arrows' scale is not stated there; with ``collision`` the collision
+    geometry in place of the visual geometry, as in ``write_html``), and opens the page in a web
     browser when ``open_browser``. The scene stays on the server: a browser that connects
     later sees it and plays it.
     """
@@ -82,7 +86,8 @@ def view(model, t, q, *, open_browser=False, fps=None, contact=None) -> str:
 
     with contextlib.redirect_stdout(io.StringIO()):  # meshcat prints the URL; we return it
         vis = Visualizer()
-    scene = _build_scene(vis, model, t, q, fps, load_visuals(model), contact)
+    visuals = collision_visuals(model) if collision else load_visuals(model)
+    scene = _build_scene(vis, model, t, q, fps, visuals, contact)
     eye = _live_camera(scene)
     # the camera's coordinates are three.js's world (y up): meshcat's (x, y, z) is (x, z, -y)
     vis["/Cameras/default/rotated/<object>"].set_property(

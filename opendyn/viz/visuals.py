@@ -12,14 +12,16 @@ import os
 import pathlib
 import warnings
 from dataclasses import dataclass, field
-from urllib.parse import unquote, urlparse
 
 import numpy as np
 
-MESH_FORMATS = ("stl", "dae", "obj")
+from ..io.meshes import MESH_FORMATS, resolve_mesh
+
+
 DEFAULT_RGBA = (0.72, 0.72, 0.75, 1.0)  # light grey, for visuals without a <material> colour
 STAND_IN_RGBA = (0.5, 0.5, 0.5, 1.0)
 STAND_IN_SIZE = 0.05  # m, edge of the grey box drawn in place of an unusable mesh
+COLLISION_RGBA = (0.9, 0.45, 0.1, 0.6)  # translucent orange, for the collision geometry
 
 
 class PlaybackWarning(UserWarning):
@@ -35,11 +37,13 @@ class Visual:
       link           name of the URDF link (a frame of the model) the geometry is attached to
       T_link_visual  (4, 4) pose of the geometry in the link frame, the ``<visual> <origin>``
                      (metres)
-      shape          "box", "cylinder", "sphere" or "mesh"
-      size           box: (x, y, z) edge lengths; cylinder: (radius, length), its axis along the
-                     z axis of the visual frame; sphere: (radius,); all in metres;
-                     mesh: (sx, sy, sz) scale factors
+      shape          "box", "cylinder", "sphere", "mesh", and for the collision geometry
+                     "capsule" and "hull"
+      size           box: (x, y, z) edge lengths; cylinder and capsule: (radius, length), the
+                     axis along the z axis of the visual frame; sphere: (radius,); all in
+                     metres; mesh and hull: (sx, sy, sz) scale factors
       mesh_path      mesh: the resolved file (absolute path); None otherwise
+      vertices       hull: (n, 3) the convex hull's vertices in the visual frame (m, scaled)
       rgba           (4,) colour in [0, 1], from the ``<material>`` (by name or inline), else a
                      default grey
       note           "" for geometry drawn as written; otherwise why a stand-in (a small grey
@@ -53,6 +57,7 @@ class Visual:
     mesh_path: str | None = None
     rgba: tuple[float, float, float, float] = DEFAULT_RGBA
     note: str = field(default="")
+    vertices: np.ndarray | None = None
 
 
 def load_visuals(model) -> list[Visual]:
@@ -97,6 +102,26 @@ def load_visuals(model) -> list[Visual]:
     if not visuals:
         return _body_stand_ins(model, f"{source}: no link has a <visual>")
     return visuals
+
+
+def collision_visuals(model) -> list[Visual]:
+    """The collision geometry of the model (``model.geometries``), ready to draw in a
+    translucent orange: each mesh as the convex hull the collision queries use. A model without
+    collision geometry gets a grey sphere at the frame of each moving body (with a
+    PlaybackWarning)."""
+    if not model.geometries:
+        return _body_stand_ins(model, f"model {model.name!r} has no collision geometry")
+    return [
+        Visual(
+            g.link,
+            g.placement,
+            "hull" if g.shape == "mesh" else g.shape,
+            g.size,
+            rgba=COLLISION_RGBA,
+            vertices=g.vertices,
+        )
+        for g in model.geometries
+    ]
 
 
 def _parse_urdf(source):
@@ -178,59 +203,3 @@ def _colour(material, named_colours):
     if material.color is not None and material.color.rgba is not None:
         return tuple(float(c) for c in np.clip(material.color.rgba, 0.0, 1.0))
     return named_colours.get(material.name, DEFAULT_RGBA)
-
-
-def resolve_mesh(filename: str, urdf_dir) -> tuple[str | None, list[str]]:
-    """The file a URDF mesh name refers to: (absolute path or None, the places tried).
-
-    ``package://PKG/rest``: ``DIR/rest`` for the first folder DIR named PKG among the URDF's
-    folder and its parents, the children of those folders, the ROS_PACKAGE_PATH entries and
-    their children, and ``AMENT_PREFIX_PATH/share``. (example-robot-data names its meshes
-    ``package://example-robot-data/robots/...``: a parent of its URDFs is that folder.)
-    ``file:///abs`` and absolute paths are used as they are; other names are relative to the
-    URDF's folder.
-    """
-    urdf_dir = pathlib.Path(urdf_dir)
-    if filename.startswith("package://"):
-        pkg, _, rest = filename[len("package://") :].partition("/")
-        tried = []
-        for root in _package_candidates(pkg, urdf_dir):
-            candidate = root / rest
-            tried.append(str(root))
-            if candidate.is_file():
-                return str(candidate.resolve()), tried
-        return None, tried
-    if filename.startswith("file://"):
-        parsed = urlparse(filename)
-        path = pathlib.Path(unquote(parsed.netloc + parsed.path))
-    elif "://" in filename:
-        return None, []
-    else:
-        path = pathlib.Path(filename)
-    if not path.is_absolute():
-        path = urdf_dir / path
-    return (str(path.resolve()) if path.is_file() else None), [str(path)]
-
-
-def _package_candidates(pkg, urdf_dir):
-    """Folders that may be the package PKG, in search order (existing ones only, no repeats)."""
-    seen = set()
-
-    def emit(folder):
-        if folder not in seen and folder.is_dir():
-            seen.add(folder)
-            yield folder
-
-    for parent in (urdf_dir, *urdf_dir.parents):
-        if parent.name == pkg:
-            yield from emit(parent)
-        yield from emit(parent / pkg)
-    for entry in os.environ.get("ROS_PACKAGE_PATH", "").split(os.pathsep):
-        if entry:
-            root = pathlib.Path(entry)
-            if root.name == pkg:
-                yield from emit(root)
-            yield from emit(root / pkg)
-    for entry in os.environ.get("AMENT_PREFIX_PATH", "").split(os.pathsep):
-        if entry:
-            yield from emit(pathlib.Path(entry) / "share" / pkg)

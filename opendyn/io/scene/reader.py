@@ -19,6 +19,8 @@ The file format (every key optional unless marked required):
     check_inertia = true                   # passed to load_urdf
     floating_base = false                  # passed to load_urdf: true makes the root link a
                                            # free body (a 6-dof base, unactuated)
+    srdf = "robot.srdf"                    # passed to load_urdf (relative to the scene file):
+                                           # its <disable_collisions> leave model.collision_pairs
     [robot.payload]                        # a rigid payload welded to a frame: its inertia is
                                            # added to the frame's body (model.with_payload)
     frame = "tool0"                        # required: a frame (link or joint name) that moves

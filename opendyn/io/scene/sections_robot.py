@@ -21,7 +21,7 @@ from ...multibody.model import Model
 from ..urdf import load_urdf
 from ...sim.values import ValueReader, what_is
 
-ROBOT_KEYS = ("urdf", "name", "mimic", "check_inertia", "floating_base", "payload")
+ROBOT_KEYS = ("urdf", "name", "mimic", "check_inertia", "floating_base", "srdf", "payload")
 PAYLOAD_KEYS = ("frame", "mass", "com", "inertia")
 # a URDF <inertia>'s attributes, each the entry (row, column) of the symmetric matrix
 _INERTIA_ENTRIES = {
@@ -70,10 +70,17 @@ class RobotSection(ValueReader):
             target = str(path)
         elif "/" in target or os.sep in target or target.endswith(".urdf"):
             self.fail(key, f"{target!r} is a path, not a robot name; use robot.urdf for a file")
+        if "srdf" in table:
+            srdf = pathlib.Path(self.string(table["srdf"], "robot.srdf"))
+            if not srdf.is_absolute() and base_dir is not None:
+                srdf = pathlib.Path(base_dir) / srdf
+            if not srdf.is_file():
+                self.fail("robot.srdf", f"no such SRDF file: {srdf}")
+            options["srdf"] = str(srdf)
         try:
             return load_urdf(target, **options)
         except URDFError as e:
-            self.fail(key, str(e))
+            self.fail("robot.srdf" if "SRDF" in str(e) else key, str(e))
 
     def payload(self, table) -> Model:
         """[robot.payload] -> self.model.with_payload(frame, mass, com, inertia); self.model

@@ -1,0 +1,100 @@
+"""Contact manifolds against a halfspace: up to four contact points, each with its own depth, so
+that a shape resting face-on (a box on the ground, a cylinder standing on its cap) is held at
+several points instead of one (MuJoCo's plane routines, engine_collision_primitive.c, do the
+same: a box's vertices under the plane, a cylinder's cap by points of its rim).
+
+For the halfspace b = {x : n . (x - p) <= 0} (n = z_g of b) the candidate points x_k of shape a
+are
+  box       its 8 vertices
+  mesh      its hull's vertices
+  cylinder  4 points of the rim of the cap nearer the plane: the deepest, the opposite one and
+            the two between (exact for a cap lying on the plane: it rests on all four)
+  capsule   its segment's two ends, less r n
+  sphere    its centre less r n
+each at signed distance d_k = n . (x_k - p); those with d_k <= margin are contacts, the four
+deepest kept, each written as a row of the narrow phase's out layout: (d_k, x_k, x_k - d_k n, -n)
+(the normal from a towards the halfspace).
+"""
+
+from __future__ import annotations
+
+import math
+
+from numba import njit
+
+from ..._runtime.kernel_cache import JIT
+from ...multibody.shapes import BOX, CAPSULE, CYLINDER, MESH
+from .closed_forms import DISTANCE, OUT_SIZE, write_inflated
+from .vectors import axis, axpy, cross, dot, norm, origin, scale, sub, to_world
+
+MAX_CONTACTS = 4
+
+
+@njit(**JIT)
+def candidate_count(code, vertices):
+    """How many candidate points shape `code` offers (module docstring)."""
+    if code == BOX:
+        return 8
+    if code == MESH:
+        return vertices.shape[0]
+    if code == CYLINDER:
+        return 4
+    if code == CAPSULE:
+        return 2
+    return 1
+
+
+@njit(**JIT)
+def candidate(code, size, vertices, T, n, k):
+    """Candidate point k of the shape at pose T against a plane of normal n (world)."""
+    if code == BOX:
+        corner = (
+            0.5 * size[0] * (1.0 if k & 1 else -1.0),
+            0.5 * size[1] * (1.0 if k & 2 else -1.0),
+            0.5 * size[2] * (1.0 if k & 4 else -1.0),
+        )
+        return to_world(T, corner)
+    if code == MESH:
+        return to_world(T, (vertices[k, 0], vertices[k, 1], vertices[k, 2]))
+    z = axis(T, 2)
+    if code == CYLINDER:
+        # the cap nearer the plane, and in it the rim's direction most against n, u; then
+        # u turned by k quarter turns about z: u, z x u, -u, -z x u
+        cap = axpy(-math.copysign(0.5 * size[1], dot(z, n)), z, origin(T))
+        u = axpy(dot(n, z), z, scale(n, -1.0))  # -n less its part along z
+        length = norm(u)
+        u = scale(u, 1.0 / length) if length > 1e-12 else axis(T, 0)
+        side = cross(z, u)
+        direction = (
+            u if k == 0 else (side if k == 1 else (scale(u, -1.0) if k == 2 else scale(side, -1.0)))
+        )
+        return axpy(size[0], direction, cap)
+    if code == CAPSULE:
+        end = axpy((0.5 if k == 0 else -0.5) * size[1], z, origin(T))
+        return axpy(-size[0], n, end)
+    return axpy(-size[0], n, origin(T))  # SPHERE
+
+
+@njit(**JIT)
+def halfspace_contacts(code_a, size_a, vertices_a, T_a, T_b, margin, contacts):
+    """Up to MAX_CONTACTS contacts of shape a (code, size (3,), vertices (V, 3), pose T_a) with
+    the halfspace of pose T_b: rows of contacts (MAX_CONTACTS, OUT_SIZE) as the module docstring
+    lays out, the deepest first, of the candidates at signed distance <= margin (metres).
+    Returns how many rows were written."""
+    n = axis(T_b, 2)
+    p = origin(T_b)
+    count = 0
+    for k in range(candidate_count(code_a, vertices_a)):
+        x = candidate(code_a, size_a, vertices_a, T_a, n, k)
+        d = dot(n, sub(x, p))
+        if d > margin or (count == MAX_CONTACTS and d >= contacts[count - 1, DISTANCE]):
+            continue
+        # insert by depth: rows below the place move down one, the last falls off when full
+        r = min(count, MAX_CONTACTS - 1)
+        while r > 0 and contacts[r - 1, DISTANCE] > d:
+            for c in range(OUT_SIZE):
+                contacts[r, c] = contacts[r - 1, c]
+            r -= 1
+        write_inflated(contacts[r], x, axpy(-d, n, x), scale(n, -1.0), 0.0, 0.0)
+        count = min(count + 1, MAX_CONTACTS)
+    return count

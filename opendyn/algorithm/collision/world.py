@@ -1,0 +1,74 @@
+"""The geometries in the world and the broad phase: where each geometry is at q, and which
+pairs are near enough for the narrow phase.
+
+    T_{s,g}(q) = T_{s,b}(q) T_{b,g}          (T_{s,b} from forward kinematics; b = -1: identity)
+
+A geometry's axis-aligned bounding box in {s} is read off its support function along the world
+axes e_i:
+
+    hi_i = e_i . s(e_i),     lo_i = e_i . s(-e_i)        (s(d) = s_core(d) + r d, |d| = 1)
+
+and a pair reaches the narrow phase only when its boxes, grown by a margin, overlap: the cost of
+a query follows the pairs that are near, not all pairs (a box test is six comparisons).
+"""
+
+from __future__ import annotations
+
+from numba import njit
+
+from ..._runtime.kernel_cache import INLINE, JIT
+from .support import core_radius, core_support
+
+LO, HI = 0, 3  # a bounding box row (6,): lo (3,) then hi (3,), metres in {s}
+
+
+@njit(**JIT)
+def place_geometries(R_s, p_s, table, T_sg):
+    """T_sg (G, 3, 4) <- [R p] of T_{s,g} = T_{s,b} T_{b,g} for every geometry, with the bodies'
+    world poses R_s (nb, 3, 3), p_s (nb, 3) and table = (body (G,), T_body_geom (G, 4, 4), ...)
+    (GeometryTable's arrays in its order)."""
+    body, T_bg = table[0], table[1]
+    for k in range(body.shape[0]):
+        b = body[k]
+        for r in range(3):
+            for c in range(4):
+                if b < 0:
+                    T_sg[k, r, c] = T_bg[k, r, c]
+                else:
+                    T_sg[k, r, c] = (
+                        R_s[b, r, 0] * T_bg[k, 0, c]
+                        + R_s[b, r, 1] * T_bg[k, 1, c]
+                        + R_s[b, r, 2] * T_bg[k, 2, c]
+                    )
+            if b >= 0:
+                T_sg[k, r, 3] += p_s[b, r]
+
+
+@njit(**INLINE)
+def shape_of(table, T_sg, k):
+    """Geometry k as the narrow phase's shape tuple (code, size (3,), vertices (V_k, 3), T)."""
+    first, stop = table[4][k, 0], table[4][k, 1]
+    return (table[2][k], table[3][k], table[5][first:stop], T_sg[k])
+
+
+@njit(**JIT)
+def bounding_boxes(table, T_sg, boxes):
+    """boxes (G, 6) <- every geometry's bounding box in {s} (module docstring), lo then hi."""
+    for k in range(boxes.shape[0]):
+        shape = shape_of(table, T_sg, k)
+        r = core_radius(shape[0], shape[1])
+        for i in range(3):
+            e = (1.0 if i == 0 else 0.0, 1.0 if i == 1 else 0.0, 1.0 if i == 2 else 0.0)
+            boxes[k, HI + i] = core_support(shape, e)[i] + r
+            boxes[k, LO + i] = core_support(shape, (-e[0], -e[1], -e[2]))[i] - r
+
+
+@njit(**INLINE)
+def boxes_near(boxes, a, b, margin):
+    """Whether the bounding boxes of geometries a and b, grown by margin (m), overlap."""
+    for i in range(3):
+        if boxes[a, LO + i] > boxes[b, HI + i] + margin:
+            return False
+        if boxes[b, LO + i] > boxes[a, HI + i] + margin:
+            return False
+    return True
