@@ -170,6 +170,8 @@ PUBLIC = {  # every public function that takes a model, called with good other a
     "centroidal_momentum": lambda m: od.centroidal_momentum(m, Q, Q),
     "centroidal_momentum_rate_bias": lambda m: od.centroidal_momentum_rate_bias(m, Q, Q),
     "torque_regressor": lambda m: od.torque_regressor(m, Q, Q, Q),
+    "distances": lambda m: od.distances(m, Q),
+    "collisions": lambda m: od.collisions(m, Q),
     "identify": lambda m: od.identify(m, *SAMPLES),
     "identify_payload": lambda m: od.identify_payload(m, "tool0", *SAMPLES),
 }
