@@ -175,7 +175,8 @@ def test_data_holds_the_records_arrays_and_gives_the_same_answer():
     np.testing.assert_array_equal(second.distance, od.distances(model, q2).distance)
     np.testing.assert_array_equal(kept, od.distances(model, q1).distance)
     contacts = od.collisions(model, q2, margin=0.01, data=data)
-    assert isinstance(data.collision_work(CollisionWork.of, len(model.collision_pairs)), tuple)
+    kept = data.kept(("collision work", len(model.collision_pairs)), CollisionWork.of)
+    assert isinstance(kept, CollisionWork)
     np.testing.assert_array_equal(
         contacts.distance, od.collisions(model, q2, margin=0.01).distance
     )

@@ -269,29 +269,27 @@ class Data:
         self._momentum = self._work[a : a + 12].reshape(2, 6)
         self.Gamma = np.zeros((nv, nv, nv))
         self._C_e = np.zeros((nv, nv, nv))
-        self._constraint_rows = {}
-        self._collision_work = {}
+        self._kept = {}
+
+    def kept(self, key, make, *args):
+        """The arrays make(*args) returns, made on the first call with this key and the same on
+        every later one: the work of a call whose sizes depend on its arguments (k constraint
+        rows, P collision pairs), which so allocates nothing after its first."""
+        if key not in self._kept:
+            self._kept[key] = make(*args)
+        return self._kept[key]
 
     def constraint_rows(self, k: int) -> ConstraintRows:
-        """The ConstraintRows of k constraint rows: A (k, nv), Adot_qd (k,), phi (k,), lam (k,),
-        made on the first call with this k and the same arrays on every later one (a call with
-        constraints of k rows returns them, so it allocates nothing after the first)."""
-        rows = self._constraint_rows.get(k)
-        if rows is None:
-            nv = self.model.nv
-            rows = ConstraintRows(np.zeros((k, nv)), np.zeros(k), np.zeros(k), np.zeros(k))
-            self._constraint_rows[k] = rows
-        return rows
-
-    def collision_work(self, make, pair_count: int):
-        """The collision queries' arrays for pair_count pairs: make(model, pair_count) on the
-        first query with that count, the same arrays on every later one."""
-        if pair_count not in self._collision_work:
-            self._collision_work[pair_count] = make(self.model, pair_count)
-        return self._collision_work[pair_count]
+        """The ConstraintRows of k constraint rows: A (k, nv), Adot_qd (k,), phi (k,), lam (k,)
+        (kept: the same arrays for every call with k rows)."""
+        return self.kept(("constraint rows", k), _constraint_rows, k, self.model.nv)
 
     def __repr__(self) -> str:
         return f"Data({self.model.name!r}, nb={self.model.nb}, nv={self.model.nv})"
+
+
+def _constraint_rows(k, nv):
+    return ConstraintRows(np.zeros((k, nv)), np.zeros(k), np.zeros(k), np.zeros(k))
 
 
 def _where(name):

@@ -230,7 +230,7 @@ def _collision_work(model, data, pair_count):
     """The Data's CollisionWork (made on its first query), or a fresh one without data=."""
     if data is None:
         return CollisionWork.of(model, pair_count)
-    return data.collision_work(CollisionWork.of, pair_count)
+    return data.kept(("collision work", pair_count), CollisionWork.of, model, pair_count)
 
 
 def _raise(status, model, q, what):
