@@ -8,6 +8,7 @@ call."""
 
 from __future__ import annotations
 
+import importlib.metadata
 import json
 import os
 import subprocess
@@ -22,6 +23,7 @@ from scipy.spatial.transform import Rotation
 import opendyn  # noqa: F401  (the kernel cache's folder)
 from opendyn._runtime.kernel_cache import kernel_cache
 from opendyn._runtime.status import Status
+from opendyn.multibody.geometry import hull_graph
 from opendyn.multibody.shapes import BOX, CAPSULE, CYLINDER, HALFSPACE, MESH, SHAPE_NAMES, SPHERE
 
 with kernel_cache():
@@ -29,6 +31,7 @@ with kernel_cache():
         MAX_CONTACTS,
         box_contacts,
         halfspace_contacts,
+        no_hull,
         pair_distance,
         work_array,
     )
@@ -50,10 +53,17 @@ def shape(code, size, vertices=NO_VERTICES):
     return code, np.asarray(size, dtype=float), vertices
 
 
+def hull(vertices):
+    """The kernels' hull of `vertices` (support.py): its graph and a climbing hint."""
+    if len(vertices) == 0:
+        return no_hull()
+    return (*hull_graph(vertices), np.zeros(1, np.int64))
+
+
 def distance(a, T_a, b, T_b):
     """(status, d, p_A, p_B, n) of shapes a and b (tuples (code, size, vertices)) at T_a, T_b."""
     out = np.full(10, np.nan)
-    status = pair_distance(a[0], a[1], a[2], T_a, b[0], b[1], b[2], T_b, out, WORK)
+    status = pair_distance(a[0], a[1], hull(a[2]), T_a, b[0], b[1], hull(b[2]), T_b, out, WORK)
     return status, out[0], out[1:4], out[4:7], out[7:10]
 
 
@@ -201,7 +211,7 @@ def test_two_halfspaces_are_unbounded():
 def contacts_on_ground(a, T_a, margin=0.0):
     """The rows (d, p_A, p_B, n) of shape a's contacts with the ground z <= 0."""
     rows = np.full((MAX_CONTACTS, 10), np.nan)
-    count = halfspace_contacts(a[0], a[1], a[2], T_a, pose(), margin, rows)
+    count = halfspace_contacts(a[0], a[1], hull(a[2]), T_a, pose(), margin, rows)
     return rows[:count]
 
 
@@ -250,7 +260,7 @@ def contacts_of_boxes(size_a, T_a, size_b, T_b):
     """The rows (d, p_A, p_B, n) of two boxes' contacts."""
     rows = np.full((MAX_CONTACTS, 10), np.nan)
     a, b = shape(BOX, size_a), shape(BOX, size_b)
-    count = box_contacts(a[0], a[1], a[2], T_a, b[0], b[1], b[2], T_b, rows, WORK)
+    count = box_contacts(a[0], a[1], hull(a[2]), T_a, b[0], b[1], hull(b[2]), T_b, rows, WORK)
     return rows[:count]
 
 
@@ -491,6 +501,60 @@ def test_pairs_against_coal(code_a, code_b):
             assert abs(d_s - d) < 1e-6
 
 
+def _hull_point_clouds():
+    """Point clouds whose hulls the climb must search exactly: round, a cube with points inside
+    and on its faces (not hull vertices), a needle, a flat grid (no volume: no edges), a mesh."""
+    rng = np.random.default_rng(3)
+    sphere = rng.normal(size=(800, 3))
+    sphere /= np.linalg.norm(sphere, axis=1)[:, None]
+    corners = np.array([(x, y, z) for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], float)
+    cube = np.concatenate([corners, rng.uniform(-1, 1, (50, 3)), [(1, 0, 0), (0, 1, 0.5)]])
+    needle = rng.normal(size=(60, 3)) * (0.001, 0.001, 1.0)
+    grid = np.array([(x, y, 0.0) for x in range(6) for y in range(4)], float)
+    clouds = {"sphere": sphere, "cube": cube, "needle": needle, "flat grid": grid}
+    try:
+        importlib.metadata.distribution("example-robot-data")  # the mesh's package
+    except importlib.metadata.PackageNotFoundError:
+        return clouds
+    clouds["panda link 3"] = opendyn.load_urdf("panda").geometries[3].vertices
+    return clouds
+
+
+@pytest.mark.parametrize("name, points", list(_hull_point_clouds().items()))
+def test_a_hull_climb_finds_the_farthest_point(name, points):
+    """The support of a hull by hill climbing from any start (support.climb) is the farthest of
+    all the points along every direction: max_p d . p by brute force over the cloud, in 2,000
+    random directions and along the axes (ties on faces)."""
+    vertices, start, neighbors, seeds = hull_graph(points)
+    assert (start[-1] == 0) == (name == "flat grid")
+    rng = np.random.default_rng(4)
+    directions = np.concatenate([rng.normal(size=(2000, 3)), np.eye(3), -np.eye(3)])
+    hints = rng.integers(0, len(vertices), len(directions))
+    found = _climbs(vertices, start, neighbors, seeds, directions, hints)
+    farthest = (directions @ points.T).max(axis=1)
+    reached = np.einsum("ij,ij->i", directions, vertices[found])
+    np.testing.assert_allclose(reached, farthest, rtol=0, atol=1e-12 * np.abs(points).max())
+
+
+def _climbs(vertices, start, neighbors, seeds, directions, hints):
+    from numba import njit
+
+    with kernel_cache():
+        from opendyn.algorithm.collision.support import climb
+
+    @njit
+    def run(vertices, start, neighbors, seeds, directions, hints, found):
+        hint = np.zeros(1, np.int64)
+        for i in range(directions.shape[0]):
+            hint[0] = hints[i]
+            d = (directions[i, 0], directions[i, 1], directions[i, 2])
+            found[i] = climb(vertices, start, neighbors, seeds, hint, d)
+
+    found = np.empty(len(directions), np.int64)
+    run(vertices, start, neighbors, seeds, directions, hints, found)
+    return found
+
+
 def test_report_errors():
     """(Prints the largest errors met by the pairs' test, with pytest -s.)"""
     print(json.dumps(ERRORS, indent=1))
@@ -507,14 +571,15 @@ import opendyn
 from opendyn._runtime.kernel_cache import kernel_cache
 with kernel_cache():
     from opendyn.algorithm.collision import (
-        box_contacts, halfspace_contacts, pair_distance, work_array,
+        box_contacts, halfspace_contacts, no_hull, pair_distance, work_array,
     )
+from opendyn.multibody.geometry import hull_graph
 
 rng = np.random.default_rng(0)
 codes = np.array([0, 1, 2, 3, 4, 5])
 sizes = np.array([[0.2, 0, 0], [0.3, 0.4, 0.5], [0.2, 0.5, 0], [0.1, 0.4, 0], [1, 1, 1], [0, 0, 0]])
-vertices = rng.normal(size=(20, 3)) * 0.2
-none = np.zeros((0, 3))
+vertices = (*hull_graph(rng.normal(size=(20, 3)) * 0.2), np.zeros(1, np.int64))
+none = no_hull()
 poses = np.zeros((6, 4, 4))
 for k in range(6):
     q, _ = np.linalg.qr(rng.normal(size=(3, 3)))

@@ -16,7 +16,7 @@
 from .box_manifold import box_contacts
 from .closed_forms import DISTANCE, NORMAL, OUT_SIZE, POINT_A, POINT_B
 from .manifold import MAX_CONTACTS, halfspace_contacts
-from .narrow_phase import pair_distance, work_array
+from .narrow_phase import no_hull, pair_distance, work_array
 
 __all__ = [
     "DISTANCE",
@@ -27,6 +27,7 @@ __all__ = [
     "POINT_B",
     "box_contacts",
     "halfspace_contacts",
+    "no_hull",
     "pair_distance",
     "work_array",
 ]

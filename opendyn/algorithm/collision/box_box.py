@@ -20,7 +20,7 @@ import math
 
 from numba import njit
 
-from ..._runtime.kernel_cache import JIT
+from ..._runtime.kernel_cache import UNCOUNTED
 from .closed_forms import segments_closest, write_inflated
 from .support import core_support
 from .vectors import axis, axpy, cross, dot, norm, origin, scale, sub
@@ -31,7 +31,7 @@ PARALLEL = 1e-9  # |u_i x v_j| below this: the edges are parallel, the face axes
 EDGE_BIAS = 1e-12
 
 
-@njit(**JIT)
+@njit(**UNCOUNTED)
 def projected_radius(T, h, L):
     """r(L) = sum_k h_k |L . u_k|: the half length of a box's projection on L."""
     return (
@@ -41,7 +41,7 @@ def projected_radius(T, h, L):
     )
 
 
-@njit(**JIT)
+@njit(**UNCOUNTED)
 def supporting_edge(T, h, i, L):
     """The box's edge along its axis u_i that is farthest along L: centre
     p + sum_{k != i} sign(L . u_k) h_k u_k, ends -/+ h_i u_i about it."""
@@ -53,7 +53,7 @@ def supporting_edge(T, h, i, L):
     return sub(centre, half), axpy(1.0, half, centre)
 
 
-@njit(**JIT)
+@njit(**UNCOUNTED)
 def box_box(a, b, out):
     """Boxes a and b: -1 when an axis separates them (out untouched: GJK measures the
     distance), else the least-overlap axis' index k (0-2 A's faces, 3-5 B's, 6-14 the edge pairs

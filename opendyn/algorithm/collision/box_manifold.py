@@ -22,7 +22,7 @@ import math
 
 from numba import njit
 
-from ..._runtime.kernel_cache import JIT
+from ..._runtime.kernel_cache import UNCOUNTED
 from .box_box import box_box
 from .closed_forms import DISTANCE, OUT_SIZE, write_inflated
 from .vectors import axis, axpy, cross, dot, origin, put, row, scale, sub
@@ -30,7 +30,7 @@ from .vectors import axis, axpy, cross, dot, origin, put, row, scale, sub
 POLYGON, CLIPPED = 0, 8  # work rows of the polygon being clipped and of its clipped copy
 
 
-@njit(**JIT)
+@njit(**UNCOUNTED)
 def clip(work, source, count, target, n, c):
     """The polygon in work rows source.. (count corners, columns 0-2) clipped by the plane
     n . x <= c into rows target..; returns its corner count (Sutherland-Hodgman)."""
@@ -48,7 +48,7 @@ def clip(work, source, count, target, n, c):
     return kept
 
 
-@njit(**JIT)
+@njit(**UNCOUNTED)
 def incident_face(work, T, h, N):
     """The four corners, in order around it, of the face of box (T, h) whose outward normal is
     most against N, into work rows POLYGON..POLYGON + 3."""
@@ -64,7 +64,7 @@ def incident_face(work, T, h, N):
         put(work, POLYGON + r, 0, axpy(signs[r][1], e_j, axpy(signs[r][0], e_i, centre)))
 
 
-@njit(**JIT)
+@njit(**UNCOUNTED)
 def clipped_contacts(work, T_ref, h_ref, r, N, count):
     """The incident polygon clipped by the reference face's side planes (face axis r of box
     (T_ref, h_ref)); returns the corner count, the corners in rows POLYGON.."""
@@ -76,7 +76,7 @@ def clipped_contacts(work, T_ref, h_ref, r, N, count):
     return count
 
 
-@njit(**JIT)
+@njit(**UNCOUNTED)
 def reduce_to_four(work, count, N):
     """Indices (rows from POLYGON, -1 for none) of at most four of the count points (column 3:
     their depth s) that keep the deepest and the largest area (module docstring, step 5)."""
@@ -103,14 +103,14 @@ def reduce_to_four(work, count, N):
     return i0, i1, i2, i3
 
 
-@njit(**JIT)
-def box_contacts(code_a, size_a, vertices_a, T_a, code_b, size_b, vertices_b, T_b, contacts, work):
+@njit(**UNCOUNTED)
+def box_contacts(code_a, size_a, hull_a, T_a, code_b, size_b, hull_b, T_b, contacts, work):
     """Up to four contacts of boxes a and b (the arguments as pair_distance's; code_a
     and code_b BOX) into rows of contacts (4, OUT_SIZE), the deepest first; `work`
     as pair_distance's. Returns their count: 0 when the boxes are apart, 1 for an edge on an
     edge (pair_distance's result)."""
-    a = (code_a, size_a, vertices_a, T_a)
-    b = (code_b, size_b, vertices_b, T_b)
+    a = (code_a, size_a, hull_a, T_a)
+    b = (code_b, size_b, hull_b, T_b)
     kind = box_box(a, b, contacts[0])
     if kind < 0:
         return 0

@@ -8,7 +8,7 @@
   halfspace  any shape against the halfspace z_g <= 0 of b's frame: the shape's deepest point
              along -n is its support point s(-n), exact for every convex shape
 
-A shape is the tuple (code, size, vertices, T) of support.py.
+A shape is the tuple (code, size, hull, T) of support.py.
 
 Every result goes through `write_inflated`: the cores' points c_A, c_B and the unit normal n from
 a towards b give, for radii r_A and r_B (zero for shapes without a core),
@@ -23,7 +23,7 @@ from __future__ import annotations
 
 from numba import njit
 
-from ..._runtime.kernel_cache import JIT
+from ..._runtime.kernel_cache import UNCOUNTED
 from .support import core_radius, core_support
 from .vectors import (
     axis,
@@ -46,7 +46,7 @@ DISTANCE, POINT_A, POINT_B, NORMAL = 0, 1, 4, 7
 OUT_SIZE = 10
 
 
-@njit(**JIT)
+@njit(**UNCOUNTED)
 def write_inflated(out, c_a, c_b, n, r_a, r_b):
     """out = (d, p_A, p_B, n) from the cores' points and normal and the radii (module
     docstring)."""
@@ -56,12 +56,12 @@ def write_inflated(out, c_a, c_b, n, r_a, r_b):
         out[POINT_A + k], out[POINT_B + k], out[NORMAL + k] = p_a[k], p_b[k], n[k]
 
 
-@njit(**JIT)
+@njit(**UNCOUNTED)
 def clamp01(x):
     return min(max(x, 0.0), 1.0)
 
 
-@njit(**JIT)
+@njit(**UNCOUNTED)
 def segments_closest(p1, q1, p2, q2):
     """The closest points c1 = p1 + s d1 and c2 = p2 + t d2 of the segments [p1, q1] and
     [p2, q2] (Ericson 5.1.9): with d1 = q1 - p1, d2 = q2 - p2, r = p1 - p2,
@@ -90,7 +90,7 @@ def segments_closest(p1, q1, p2, q2):
     return axpy(s, d1, p1), axpy(t, d2, p2)
 
 
-@njit(**JIT)
+@njit(**UNCOUNTED)
 def core_segment(shape):
     """The ends of a sphere's or capsule's core: p -/+ (length/2) z_g (the centre twice for a
     sphere, whose size[1] is zero)."""
@@ -99,7 +99,7 @@ def core_segment(shape):
     return sub(origin(T), half), axpy(1.0, half, origin(T))
 
 
-@njit(**JIT)
+@njit(**UNCOUNTED)
 def rounded(a, b, out):
     """Sphere or capsule a against sphere or capsule b: the cores' closest points c_A, c_B, the
     normal n = (c_B - c_A)/|c_B - c_A|; cores that meet take n perpendicular to both (any
@@ -129,7 +129,7 @@ def rounded(a, b, out):
     write_inflated(out, c_a, c_b, n, core_radius(a[0], a[1]), core_radius(b[0], b[1]))
 
 
-@njit(**JIT)
+@njit(**UNCOUNTED)
 def sphere_box(a, b, out):
     """Sphere a (centre c, radius r) against box b (half sizes h): with c_l = R^T (c - p) in the
     box's frame, the box's point nearest c is q = clamp(c_l, -h, h) (Ericson 5.1.3); c outside:
@@ -163,7 +163,7 @@ def sphere_box(a, b, out):
     write_inflated(out, c, to_world(T, q), rotate(T, n_l), a[1][0], 0.0)
 
 
-@njit(**JIT)
+@njit(**UNCOUNTED)
 def halfspace(a, b, out):
     """Shape a against the halfspace b = {x : n . (x - p) <= 0}, n = z_g of b, p its origin: a's
     point deepest along -n is its core's support point c_A = s(-n) (less r_A n), its signed

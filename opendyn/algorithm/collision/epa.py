@@ -23,7 +23,7 @@ import math
 
 from numba import njit
 
-from ..._runtime.kernel_cache import JIT
+from ..._runtime.kernel_cache import UNCOUNTED
 from ..._runtime.status import Status
 from .gjk import put_vertex
 from .simplex import COLUMNS, A, B, W, plane_side
@@ -47,13 +47,13 @@ ROWS = EDGES + MAX_EDGES  # the work array is (ROWS, COLUMNS)
 I, J, K, NORMAL, DELTA, ALIVE = 0, 1, 2, 3, 6, 7
 
 
-@njit(**JIT)
+@njit(**UNCOUNTED)
 def vertex(work, i):
     """w of the polytope's vertex i."""
     return row(work, VERTICES + i, W)
 
 
-@njit(**JIT)
+@njit(**UNCOUNTED)
 def add_face(work, i, j, k):
     """Face (i, j, k), counter-clockwise seen from outside, in the first free face row:
     n = (w_j - w_i) x (w_k - w_i) / |.|, delta = n . w_i; a face of no area has no normal and
@@ -73,7 +73,7 @@ def add_face(work, i, j, k):
     return False
 
 
-@njit(**JIT)
+@njit(**UNCOUNTED)
 def grow_simplex(a, b, work, n):
     """GJK's simplex of n < 4 points around the origin (the cores touch) grown to a tetrahedron
     by support points along directions that add a dimension: any axis for a point, two
@@ -105,7 +105,7 @@ def grow_simplex(a, b, work, n):
     return n
 
 
-@njit(**JIT)
+@njit(**UNCOUNTED)
 def span_distance(work, n, w):
     """The distance from w to the affine span of the polytope's first n (1 to 3) vertices."""
     e = sub(w, vertex(work, 0))
@@ -118,7 +118,7 @@ def span_distance(work, n, w):
     return abs(dot(e, m)) / norm(m)
 
 
-@njit(**JIT)
+@njit(**UNCOUNTED)
 def known_vertex(work, n, w):
     """Whether w is one of the polytope's n vertices already."""
     for i in range(n):
@@ -128,7 +128,7 @@ def known_vertex(work, n, w):
     return False
 
 
-@njit(**JIT)
+@njit(**UNCOUNTED)
 def toggle_edge(work, n_edges, i, j):
     """The horizon, as directed edges of the removed faces: edge i -> j cancels a listed j -> i
     (the face across it is removed too), else it is added. Returns the new count, or -1 when
@@ -144,7 +144,7 @@ def toggle_edge(work, n_edges, i, j):
     return n_edges + 1
 
 
-@njit(**JIT)
+@njit(**UNCOUNTED)
 def nearest_face(work):
     """The live face of least delta (the nearest to the origin)."""
     best, delta = FACES, math.inf
@@ -154,7 +154,7 @@ def nearest_face(work):
     return best
 
 
-@njit(**JIT)
+@njit(**UNCOUNTED)
 def face_witnesses(work, f):
     """(p_A, p_B) of the boundary point delta n of face f, by its barycentric weights
     (Ericson 3.4): delta n = sum lambda w, p_A = sum lambda s_A, p_B = sum lambda s_B. A sliver
@@ -183,7 +183,7 @@ def face_witnesses(work, f):
     return sub(p_a, half_residue), add(p_b, half_residue)
 
 
-@njit(**JIT)
+@njit(**UNCOUNTED)
 def epa(a, b, work, n):
     """EPA on the cores of shapes a and b from GJK's simplex of n rows around the origin (rows
     0 to n - 1 of `work`, which must have ROWS rows of COLUMNS). Returns (status, depth, normal,

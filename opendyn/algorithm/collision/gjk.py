@@ -22,7 +22,7 @@ import math
 
 from numba import njit
 
-from ..._runtime.kernel_cache import JIT
+from ..._runtime.kernel_cache import UNCOUNTED
 from ..._runtime.status import Status
 from .simplex import WEIGHT, A, B, W, reduce_simplex, weighted
 from .support import difference_support
@@ -33,7 +33,7 @@ OVERLAP = 1e-12  # |v| below this: the origin is on the simplex, the sets touch 
 MAX_ITERATIONS = 256
 
 
-@njit(**JIT)
+@njit(**UNCOUNTED)
 def put_vertex(work, r, w, sa, sb):
     """Row r of the work array = (w, s_A, s_B)."""
     put(work, r, W, w)
@@ -41,7 +41,7 @@ def put_vertex(work, r, w, sa, sb):
     put(work, r, B, sb)
 
 
-@njit(**JIT)
+@njit(**UNCOUNTED)
 def gjk(a, b, work):
     """GJK on the cores of shapes a and b (tuples (code, size, vertices, T), see support.py),
     with the simplex in rows 0-3 of `work`. Returns (status, overlap, n):

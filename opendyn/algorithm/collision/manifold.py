@@ -22,7 +22,7 @@ import math
 
 from numba import njit
 
-from ..._runtime.kernel_cache import JIT
+from ..._runtime.kernel_cache import UNCOUNTED
 from ...multibody.shapes import BOX, CAPSULE, CYLINDER, MESH
 from .closed_forms import DISTANCE, OUT_SIZE, write_inflated
 from .vectors import axis, axpy, cross, dot, norm, origin, scale, sub, to_world
@@ -30,13 +30,13 @@ from .vectors import axis, axpy, cross, dot, norm, origin, scale, sub, to_world
 MAX_CONTACTS = 4
 
 
-@njit(**JIT)
-def candidate_count(code, vertices):
+@njit(**UNCOUNTED)
+def candidate_count(code, hull):
     """How many candidate points shape `code` offers (module docstring)."""
     if code == BOX:
         return 8
     if code == MESH:
-        return vertices.shape[0]
+        return hull[0].shape[0]
     if code == CYLINDER:
         return 4
     if code == CAPSULE:
@@ -44,8 +44,8 @@ def candidate_count(code, vertices):
     return 1
 
 
-@njit(**JIT)
-def candidate(code, size, vertices, T, n, k):
+@njit(**UNCOUNTED)
+def candidate(code, size, hull, T, n, k):
     """Candidate point k of the shape at pose T against a plane of normal n (world)."""
     if code == BOX:
         corner = (
@@ -55,6 +55,7 @@ def candidate(code, size, vertices, T, n, k):
         )
         return to_world(T, corner)
     if code == MESH:
+        vertices = hull[0]
         return to_world(T, (vertices[k, 0], vertices[k, 1], vertices[k, 2]))
     z = axis(T, 2)
     if code == CYLINDER:
@@ -75,17 +76,17 @@ def candidate(code, size, vertices, T, n, k):
     return axpy(-size[0], n, origin(T))  # SPHERE
 
 
-@njit(**JIT)
-def halfspace_contacts(code_a, size_a, vertices_a, T_a, T_b, margin, contacts):
-    """Up to MAX_CONTACTS contacts of shape a (code, size (3,), vertices (V, 3), pose T_a) with
+@njit(**UNCOUNTED)
+def halfspace_contacts(code_a, size_a, hull_a, T_a, T_b, margin, contacts):
+    """Up to MAX_CONTACTS contacts of shape a (code, size (3,), hull (support.py), pose T_a) with
     the halfspace of pose T_b: rows of contacts (MAX_CONTACTS, OUT_SIZE) as the module docstring
     lays out, the deepest first, of the candidates at signed distance <= margin (metres).
     Returns how many rows were written."""
     n = axis(T_b, 2)
     p = origin(T_b)
     count = 0
-    for k in range(candidate_count(code_a, vertices_a)):
-        x = candidate(code_a, size_a, vertices_a, T_a, n, k)
+    for k in range(candidate_count(code_a, hull_a)):
+        x = candidate(code_a, size_a, hull_a, T_a, n, k)
         d = dot(n, sub(x, p))
         if d > margin or (count == MAX_CONTACTS and d >= contacts[count - 1, DISTANCE]):
             continue

@@ -1,13 +1,13 @@
 """The narrow phase: the signed distance of two convex shapes, its nearest (or deepest) points
 and normal, by a closed form where one exists and by GJK and EPA otherwise.
 
-    status = pair_distance(code_a, size_a, vertices_a, T_a, code_b, size_b, vertices_b, T_b,
-                           out, work)
+    status = pair_distance(code_a, size_a, hull_a, T_a, code_b, size_b, hull_b, T_b, out, work)
 
   code_X      int, a shape code of opendyn.multibody.shapes (SPHERE ... HALFSPACE)
   size_X      (3,) float64, the shape's size in metres, as shapes.py lays it out
-  vertices_X  (V, 3) float64, a MESH's convex hull's vertices in the shape's frame {g}, already
-              scaled; any (0, 3) array for the other shapes
+  hull_X      a MESH's convex hull (vertices (V, 3) in the shape's frame {g}, already scaled,
+              neighbor_start (V + 1,), neighbors (E,), seeds, hint (1,): support.py), its hint
+              reset to 0 here; `no_hull()` for the other shapes
   T_X         (3, 4) or (4, 4) float64, the pose of {g} in the world, [R p]
   out         (OUT_SIZE,) = (10,) float64, written: out[0] = d the signed distance (negative:
               the penetration depth), out[1:4] = p_A and out[4:7] = p_B the nearest points in
@@ -32,7 +32,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from ..._runtime.kernel_cache import JIT
+from ..._runtime.kernel_cache import UNCOUNTED
 from ..._runtime.status import Status
 from ...multibody.shapes import BOX, CAPSULE, HALFSPACE, SPHERE
 from .box_box import box_box
@@ -44,12 +44,23 @@ from .support import core_radius
 from .vectors import norm, scale, sub
 
 
+def no_hull():
+    """The hull of a shape that has none (every shape but MESH): empty arrays."""
+    return (
+        np.zeros((0, 3)),
+        np.zeros(1, np.int64),
+        np.zeros(0, np.int64),
+        0,
+        np.zeros(1, np.int64),
+    )
+
+
 def work_array():
     """The scratch `pair_distance` needs: a (ROWS, COLUMNS) float64 array, made once."""
     return np.zeros((ROWS, COLUMNS))
 
 
-@njit(**JIT)
+@njit(**UNCOUNTED)
 def convex(a, b, out, work):
     """GJK on the cores of a and b (c_B - c_A = d_core n), or EPA where they overlap
     (c_B - c_A = -depth n), then the radii added by closed_forms.write_inflated."""
@@ -64,9 +75,9 @@ def convex(a, b, out, work):
     return status
 
 
-@njit(**JIT)
+@njit(**UNCOUNTED)
 def ordered_distance(a, b, out, work):
-    """pair_distance for shapes a and b (tuples (code, size, vertices, T)) with a's code at most
+    """pair_distance for shapes a and b (tuples (code, size, hull, T)) with a's code at most
     b's: the closed forms of the table in the module docstring, else GJK and EPA."""
     code_a, code_b = a[0], b[0]
     if code_b == HALFSPACE:
@@ -85,12 +96,15 @@ def ordered_distance(a, b, out, work):
     return convex(a, b, out, work)
 
 
-@njit(**JIT)
-def pair_distance(code_a, size_a, vertices_a, T_a, code_b, size_b, vertices_b, T_b, out, work):
+@njit(**UNCOUNTED)
+def pair_distance(code_a, size_a, hull_a, T_a, code_b, size_b, hull_b, T_b, out, work):
     """The signed distance of shapes a and b, their nearest points and normal into out (the
-    module docstring gives every argument's shape, frame and unit). Returns a Status code."""
-    a = (code_a, size_a, vertices_a, T_a)
-    b = (code_b, size_b, vertices_b, T_b)
+    module docstring gives every argument's shape, frame and unit). Returns a Status code.
+    Each hull's climb starts at its vertex 0: the result does not depend on earlier calls."""
+    hull_a[4][0] = 0
+    hull_b[4][0] = 0
+    a = (code_a, size_a, hull_a, T_a)
+    b = (code_b, size_b, hull_b, T_b)
     if code_a <= code_b:
         return ordered_distance(a, b, out, work)
     status = ordered_distance(b, a, out, work)

@@ -22,7 +22,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from ..._runtime.kernel_cache import JIT
+from ..._runtime.kernel_cache import UNCOUNTED
 from ..._runtime.options import as_real
 from ..._runtime.status import Status
 from ...multibody.data import world_poses
@@ -82,11 +82,13 @@ class Contacts(NamedTuple):
 
 class CollisionWork(NamedTuple):
     """The arrays a query works in, made once per model (a Data keeps one):
-    T_sg (G, 3, 4) the geometries' world poses [R p], boxes (G, 6) their bounding boxes,
-    scratch the narrow phase's work array, rows (R, OUT_SIZE) the results, pair_of (R, 2) int
-    each contact row's geometry pair (R = MAX_CONTACTS times the count of pairs)."""
+    T_sg (G, 3, 4) the geometries' world poses [R p], hints (G,) int each hull's climbing start
+    (support.py), boxes (G, 6) their bounding boxes, scratch the narrow phase's work array, rows
+    (R, OUT_SIZE) the results, pair_of (R, 2) int each contact row's geometry pair
+    (R = MAX_CONTACTS times the count of pairs)."""
 
     T_sg: np.ndarray
+    hints: np.ndarray
     boxes: np.ndarray
     scratch: np.ndarray
     rows: np.ndarray
@@ -98,6 +100,7 @@ class CollisionWork(NamedTuple):
         P = len(model.collision_pairs) if pair_count is None else pair_count
         return cls(
             np.zeros((count, 3, 4)),
+            np.zeros(count, dtype=np.int64),
             np.zeros((count, 6)),
             work_array(),
             np.zeros((MAX_CONTACTS * P, OUT_SIZE)),
@@ -105,7 +108,7 @@ class CollisionWork(NamedTuple):
         )
 
 
-@njit(**JIT)
+@njit(**UNCOUNTED)
 def place(ibuf, fbuf, work, q, table, T_sg):
     """T_sg <- the geometries' world poses at q (one forward kinematics pass). Returns a Status:
     OK, Q_NOT_FINITE or Q_NOT_UNIT_QUATERNION."""
@@ -118,24 +121,25 @@ def place(ibuf, fbuf, work, q, table, T_sg):
     return Status.OK.value
 
 
-@njit(**JIT)
+@njit(**UNCOUNTED)
 def distances_kernel(ibuf, fbuf, work, q, table, pairs, geometry_work, rows):
     """rows[p] (OUT_SIZE,) <- the narrow phase's result for pairs[p] at q; geometry_work =
-    (T_sg, scratch). Returns a Status: a failing configuration's, else NO_CONVERGENCE when GJK
-    or EPA stopped short of its tolerance for some pair (its row holds the last estimate)."""
-    T_sg, scratch = geometry_work
+    (T_sg, hints, scratch). Returns a Status: a failing configuration's, else NO_CONVERGENCE when
+    GJK or EPA stopped short of its tolerance for some pair (its row holds the last estimate)."""
+    T_sg, hints, scratch = geometry_work
     status = place(ibuf, fbuf, work, q, table, T_sg)
     if status:
         return status
     for p in range(pairs.shape[0]):
-        a, b = shape_of(table, T_sg, pairs[p, 0]), shape_of(table, T_sg, pairs[p, 1])
+        a = shape_of(table, hints, T_sg, pairs[p, 0])
+        b = shape_of(table, hints, T_sg, pairs[p, 1])
         found = pair_distance(a[0], a[1], a[2], a[3], b[0], b[1], b[2], b[3], rows[p], scratch)
         if found:
             status = found
     return status
 
 
-@njit(**JIT)
+@njit(**UNCOUNTED)
 def pair_contacts(a, b, margin, rows, scratch):
     """Up to MAX_CONTACTS contacts of shapes a and b closer than margin into rows (4, OUT_SIZE):
     the box-box manifold, a halfspace's, or the narrow phase's one point. Returns (count,
@@ -158,22 +162,22 @@ def pair_contacts(a, b, margin, rows, scratch):
     return (1 if rows[0, DISTANCE] < margin else 0), status
 
 
-@njit(**JIT)
+@njit(**UNCOUNTED)
 def collisions_kernel(ibuf, fbuf, work, q, table, pairs, margin, geometry_work, rows, pair_of):
     """The contacts of the pairs closer than margin at q: rows[:count] (OUT_SIZE each) and
-    pair_of[:count] (2,) their geometry pairs; geometry_work = (T_sg, boxes, scratch).
+    pair_of[:count] (2,) their geometry pairs; geometry_work = (T_sg, hints, boxes, scratch).
     Returns (Status, count)."""
-    T_sg, boxes, scratch = geometry_work
+    T_sg, hints, boxes, scratch = geometry_work
     status = place(ibuf, fbuf, work, q, table, T_sg)
     if status:
         return status, 0
-    bounding_boxes(table, T_sg, boxes)
+    bounding_boxes(table, hints, T_sg, boxes)
     count = 0
     for p in range(pairs.shape[0]):
         i, j = pairs[p, 0], pairs[p, 1]
         if not boxes_near(boxes, i, j, margin):
             continue
-        a, b = shape_of(table, T_sg, i), shape_of(table, T_sg, j)
+        a, b = shape_of(table, hints, T_sg, i), shape_of(table, hints, T_sg, j)
         found, pair_status = pair_contacts(
             a, b, margin, rows[count : count + MAX_CONTACTS], scratch
         )
@@ -187,7 +191,8 @@ def collisions_kernel(ibuf, fbuf, work, q, table, pairs, margin, geometry_work, 
 
 def _table(model):
     t = model.geometry_table
-    return (t.body, t.T_body_geom, t.code, t.size, t.vertex_range, t.vertices)
+    hull = (t.vertex_range, t.vertices, t.neighbor_start, t.neighbors, t.seeds)
+    return (t.body, t.T_body_geom, t.code, t.size, *hull)
 
 
 def _pairs(model, pairs):
@@ -259,7 +264,7 @@ def distances(model, q, pairs=None, data=None) -> Distances:
     pairs = _pairs(model, pairs)
     buffers = _collision_work(model, data, len(pairs))
     rows = buffers.rows[: len(pairs)]
-    geometry_work = (buffers.T_sg, buffers.scratch)
+    geometry_work = (buffers.T_sg, buffers.hints, buffers.scratch)
     status = distances_kernel(
         model._ibuf, model._fbuf, work, q, _table(model), pairs, geometry_work, rows
     )
@@ -298,7 +303,7 @@ def collisions(model, q, margin=0.0, data=None) -> Contacts:
         _table(model),
         pairs,
         margin,
-        (buffers.T_sg, buffers.boxes, buffers.scratch),
+        (buffers.T_sg, buffers.hints, buffers.boxes, buffers.scratch),
         buffers.rows,
         buffers.pair_of,
     )

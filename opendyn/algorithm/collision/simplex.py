@@ -14,7 +14,7 @@ import math
 
 from numba import njit
 
-from ..._runtime.kernel_cache import JIT
+from ..._runtime.kernel_cache import UNCOUNTED
 from .vectors import add, dot, row, scale, sub
 
 # columns of a work row: w (3), s_A (3), s_B (3), the weight lambda
@@ -25,7 +25,7 @@ SIMPLEX = 0  # the simplex: rows 0 to 3
 TETRAHEDRON_FACES = ((0, 1, 2, 3), (0, 1, 3, 2), (0, 2, 3, 1), (1, 2, 3, 0))
 
 
-@njit(**JIT)
+@njit(**UNCOUNTED)
 def segment_weights(work, i, j):
     """(lambda_i, lambda_j) of the point of [w_i, w_j] closest to the origin:
     t = clamp(-w_i . e / e . e, 0, 1), e = w_j - w_i (Ericson 5.1.2)."""
@@ -36,14 +36,14 @@ def segment_weights(work, i, j):
     return 1.0 - t, t
 
 
-@njit(**JIT)
+@njit(**UNCOUNTED)
 def squared_distance(work, i, j, k, li, lj, lk):
     """|lambda_i w_i + lambda_j w_j + lambda_k w_k|^2."""
     p = add(add(scale(row(work, i, W), li), scale(row(work, j, W), lj)), scale(row(work, k, W), lk))
     return dot(p, p)
 
 
-@njit(**JIT)
+@njit(**UNCOUNTED)
 def triangle_weights(work, i, j, k):
     """(lambda_i, lambda_j, lambda_k) of the point of triangle (a, b, c) = (w_i, w_j, w_k) closest
     to the origin, by its Voronoi regions (Ericson 5.1.5, ClosestPtPointTriangle). A degenerate
@@ -85,7 +85,7 @@ def triangle_weights(work, i, j, k):
     return best
 
 
-@njit(**JIT)
+@njit(**UNCOUNTED)
 def plane_side(work, i, j, k, x):
     """((w_j - w_i) x (w_k - w_i)) . (x - w_i): which side of the plane (i, j, k) x is on."""
     a = row(work, i, W)
@@ -98,7 +98,7 @@ def plane_side(work, i, j, k, x):
     return dot(n, sub(x, a))
 
 
-@njit(**JIT)
+@njit(**UNCOUNTED)
 def tetrahedron_weights(work):
     """Weights of the point of the tetrahedron (rows 0-3) closest to the origin, written to the
     WEIGHT column; True when the origin is inside (the shapes overlap). Only the faces whose plane
@@ -122,7 +122,7 @@ def tetrahedron_weights(work):
     return inside
 
 
-@njit(**JIT)
+@njit(**UNCOUNTED)
 def reduce_simplex(work, n):
     """The point of the simplex (rows 0 to n - 1) closest to the origin: its weights, then the
     simplex reduced to the points of positive weight. Returns (n, inside): inside when the origin
@@ -142,7 +142,7 @@ def reduce_simplex(work, n):
     return kept, False
 
 
-@njit(**JIT)
+@njit(**UNCOUNTED)
 def weighted(work, n, column):
     """sum_i lambda_i x_i over the simplex's rows, x the 3 columns from `column` (W: the closest
     point v; A, B: the witness points)."""

@@ -4,8 +4,16 @@
 
 the only thing GJK and EPA ask of a shape (Gilbert, Johnson and Keerthi 1988; van den Bergen,
 Collision Detection in Interactive 3D Environments, 2003, 4.3). A shape is the tuple
-(code, size, vertices, T) of opendyn.multibody.shapes: its code, size (3,) in metres, the convex
-hull's vertices (V, 3) in {g} (MESH; (0, 3) otherwise) and its pose T = [R p] in the world.
+(code, size, hull, T) of opendyn.multibody.shapes: its code, size (3,) in metres, its convex hull
+(MESH; empty arrays otherwise) and its pose T = [R p] in the world. A hull is the tuple
+
+    (vertices (V, 3) in {g}, neighbor_start (V + 1,) int, neighbors (E,) int, seeds, hint (1,))
+
+of multibody.geometry.hull_graph with a hint, the vertex its last support point was. A mesh's
+support walks along the hull's edges to the farthest vertex (hill climbing: on a convex polytope
+a vertex with no farther neighbor is the farthest of all), from the best of the hint and the
+seeds (the farthest vertices along 26 fixed directions), a few steps instead of a test of every
+vertex; a hull without edges (flat) tests every vertex.
 
 A sphere and a capsule are given by their core, a point or a segment, and a radius r: the shape
 is core (+) ball(r), so s_X(d) = s_core(d) + r d/|d|. GJK and EPA run on the cores and the
@@ -21,12 +29,12 @@ import math
 
 from numba import njit
 
-from ..._runtime.kernel_cache import JIT
+from ..._runtime.kernel_cache import UNCOUNTED, UNCOUNTED_INLINE
 from ...multibody.shapes import BOX, CAPSULE, CYLINDER, MESH, SPHERE
 from .vectors import sub, to_local, to_world
 
 
-@njit(**JIT)
+@njit(**UNCOUNTED)
 def core_radius(code, size):
     """r: the radius a sphere's or capsule's core is inflated by; 0 for every other shape."""
     if code == SPHERE or code == CAPSULE:
@@ -34,9 +42,34 @@ def core_radius(code, size):
     return 0.0
 
 
-@njit(**JIT)
-def local_core_support(code, size, vertices, d):
-    """s_core(d) in {g} for d in {g}:
+@njit(**UNCOUNTED_INLINE)
+def climb(vertices, start, neighbors, seeds, hint, d):
+    """The index of the hull vertex of largest d . v (d in {g}), by hill climbing from the best
+    of the hint and the first `seeds` vertices; the hint is left at the vertex found (module
+    docstring). Every vertex is tested when the hull has no edges."""
+    flat = start[start.shape[0] - 1] == start[0]
+    k = hint[0]
+    best = d[0] * vertices[k, 0] + d[1] * vertices[k, 1] + d[2] * vertices[k, 2]
+    for v in range(vertices.shape[0] if flat else seeds):
+        h = d[0] * vertices[v, 0] + d[1] * vertices[v, 1] + d[2] * vertices[v, 2]
+        if h > best:
+            best, k = h, v
+    while True:
+        here = k
+        for e in range(start[here], start[here + 1]):
+            v = neighbors[e]
+            h = d[0] * vertices[v, 0] + d[1] * vertices[v, 1] + d[2] * vertices[v, 2]
+            if h > best:
+                best, k = h, v
+        if k == here:
+            hint[0] = k
+            return k
+
+
+@njit(**UNCOUNTED_INLINE)
+def local_core_support(code, size, vertices, start, neighbors, seeds, hint, d):
+    """s_core(d) in {g} for d in {g}, the hull by its parts (vertices, neighbor_start as start,
+    neighbors, seeds, hint):
       sphere    the centre, 0
       capsule   the end of its segment along d: (0, 0, sign(d_z) length/2)
       box       (sign(d_x) x/2, sign(d_y) y/2, sign(d_z) z/2)
@@ -58,23 +91,21 @@ def local_core_support(code, size, vertices, d):
     if code == CAPSULE:
         return (0.0, 0.0, math.copysign(0.5 * size[1], d[2]))
     if code == MESH:
-        best, k = -math.inf, 0
-        for v in range(vertices.shape[0]):
-            h = d[0] * vertices[v, 0] + d[1] * vertices[v, 1] + d[2] * vertices[v, 2]
-            if h > best:
-                best, k = h, v
+        k = climb(vertices, start, neighbors, seeds, hint, d)
         return (vertices[k, 0], vertices[k, 1], vertices[k, 2])
     return (0.0, 0.0, 0.0)  # SPHERE: the centre
 
 
-@njit(**JIT)
+@njit(**UNCOUNTED_INLINE)
 def core_support(shape, d):
-    """s_core(d) in the world, d a world direction: R s_local(R^T d) + p."""
-    code, size, vertices, T = shape
-    return to_world(T, local_core_support(code, size, vertices, to_local(T, d)))
+    """s_core(d) in the world for a shape tuple (code, size, hull, T), d a world direction:
+    R s_local(R^T d) + p."""
+    code, size, (vertices, start, neighbors, seeds, hint), T = shape
+    d_g = to_local(T, d)
+    return to_world(T, local_core_support(code, size, vertices, start, neighbors, seeds, hint, d_g))
 
 
-@njit(**JIT)
+@njit(**UNCOUNTED_INLINE)
 def difference_support(a, b, d):
     """The support of the cores' Minkowski difference A - B along d, and its two parts:
     (w, s_A(d), s_B(-d)) with w = s_A(d) - s_B(-d)."""

@@ -9,52 +9,52 @@ import math
 
 from numba import njit
 
-from ..._runtime.kernel_cache import JIT
+from ..._runtime.kernel_cache import UNCOUNTED
 
 
-@njit(**JIT)
+@njit(**UNCOUNTED)
 def add(a, b):
     return (a[0] + b[0], a[1] + b[1], a[2] + b[2])
 
 
-@njit(**JIT)
+@njit(**UNCOUNTED)
 def sub(a, b):
     return (a[0] - b[0], a[1] - b[1], a[2] - b[2])
 
 
-@njit(**JIT)
+@njit(**UNCOUNTED)
 def scale(a, s):
     return (a[0] * s, a[1] * s, a[2] * s)
 
 
-@njit(**JIT)
+@njit(**UNCOUNTED)
 def axpy(s, x, y):
     """s x + y."""
     return (s * x[0] + y[0], s * x[1] + y[1], s * x[2] + y[2])
 
 
-@njit(**JIT)
+@njit(**UNCOUNTED)
 def dot(a, b):
     return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 
 
-@njit(**JIT)
+@njit(**UNCOUNTED)
 def cross(a, b):
     return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
 
 
-@njit(**JIT)
+@njit(**UNCOUNTED)
 def norm(a):
     return math.sqrt(dot(a, a))
 
 
-@njit(**JIT)
+@njit(**UNCOUNTED)
 def row(array, r, c):
     """(array[r, c], array[r, c + 1], array[r, c + 2])."""
     return (array[r, c], array[r, c + 1], array[r, c + 2])
 
 
-@njit(**JIT)
+@njit(**UNCOUNTED)
 def put(array, r, c, a):
     """array[r, c:c + 3] = a."""
     array[r, c] = a[0]
@@ -62,19 +62,19 @@ def put(array, r, c, a):
     array[r, c + 2] = a[2]
 
 
-@njit(**JIT)
+@njit(**UNCOUNTED)
 def axis(T, k):
     """The k-th axis of {g} in the world: column k of R."""
     return (T[0, k], T[1, k], T[2, k])
 
 
-@njit(**JIT)
+@njit(**UNCOUNTED)
 def origin(T):
     """p: the origin of {g} in the world."""
     return (T[0, 3], T[1, 3], T[2, 3])
 
 
-@njit(**JIT)
+@njit(**UNCOUNTED)
 def rotate(T, x):
     """R x: a direction of {g} in the world."""
     return (
@@ -84,13 +84,13 @@ def rotate(T, x):
     )
 
 
-@njit(**JIT)
+@njit(**UNCOUNTED)
 def to_world(T, x):
     """R x + p: a point of {g} in the world."""
     return add(rotate(T, x), origin(T))
 
 
-@njit(**JIT)
+@njit(**UNCOUNTED)
 def to_local(T, d):
     """R^T d: a world direction in {g}."""
     return (
@@ -100,7 +100,7 @@ def to_local(T, d):
     )
 
 
-@njit(**JIT)
+@njit(**UNCOUNTED)
 def perpendicular(a):
     """A unit vector perpendicular to a (a != 0): a x e_k, e_k the axis least aligned with a."""
     if abs(a[0]) <= abs(a[1]) and abs(a[0]) <= abs(a[2]):

@@ -16,13 +16,13 @@ from __future__ import annotations
 
 from numba import njit
 
-from ..._runtime.kernel_cache import INLINE, JIT
+from ..._runtime.kernel_cache import UNCOUNTED, UNCOUNTED_INLINE
 from .support import core_radius, core_support
 
 LO, HI = 0, 3  # a bounding box row (6,): lo (3,) then hi (3,), metres in {s}
 
 
-@njit(**JIT)
+@njit(**UNCOUNTED)
 def place_geometries(R_s, p_s, table, T_sg):
     """T_sg (G, 3, 4) <- [R p] of T_{s,g} = T_{s,b} T_{b,g} for every geometry, with the bodies'
     world poses R_s (nb, 3, 3), p_s (nb, 3) and table = (body (G,), T_body_geom (G, 4, 4), ...)
@@ -44,18 +44,23 @@ def place_geometries(R_s, p_s, table, T_sg):
                 T_sg[k, r, 3] += p_s[b, r]
 
 
-@njit(**INLINE)
-def shape_of(table, T_sg, k):
-    """Geometry k as the narrow phase's shape tuple (code, size (3,), vertices (V_k, 3), T)."""
+@njit(**UNCOUNTED_INLINE)
+def shape_of(table, hints, T_sg, k):
+    """Geometry k as the narrow phase's shape tuple (code, size (3,), hull, T), its hull the
+    table's rows of geometry k with hints[k] (support.py): table = GeometryTable's (body,
+    T_body_geom, code, size, vertex_range, vertices, neighbor_start, neighbors, seeds)."""
     first, stop = table[4][k, 0], table[4][k, 1]
-    return (table[2][k], table[3][k], table[5][first:stop], T_sg[k])
+    vertices, start = table[5][first:stop], table[6][first : stop + 1]
+    hull = (vertices, start, table[7], table[8][k], hints[k : k + 1])
+    return (table[2][k], table[3][k], hull, T_sg[k])
 
 
-@njit(**JIT)
-def bounding_boxes(table, T_sg, boxes):
-    """boxes (G, 6) <- every geometry's bounding box in {s} (module docstring), lo then hi."""
+@njit(**UNCOUNTED)
+def bounding_boxes(table, hints, T_sg, boxes):
+    """boxes (G, 6) <- every geometry's bounding box in {s} (module docstring), lo then hi;
+    hints (G,) int, each hull's climbing start (support.py)."""
     for k in range(boxes.shape[0]):
-        shape = shape_of(table, T_sg, k)
+        shape = shape_of(table, hints, T_sg, k)
         r = core_radius(shape[0], shape[1])
         for i in range(3):
             e = (1.0 if i == 0 else 0.0, 1.0 if i == 1 else 0.0, 1.0 if i == 2 else 0.0)
@@ -63,7 +68,7 @@ def bounding_boxes(table, T_sg, boxes):
             boxes[k, LO + i] = core_support(shape, (-e[0], -e[1], -e[2]))[i] - r
 
 
-@njit(**INLINE)
+@njit(**UNCOUNTED_INLINE)
 def boxes_near(boxes, a, b, margin):
     """Whether the bounding boxes of geometries a and b, grown by margin (m), overlap."""
     for i in range(3):
