@@ -139,7 +139,7 @@ def box_on_halfspace(budget):
     """Seconds per call of the contacts of a box resting on a halfspace, in a compiled loop."""
     from numba import njit
 
-    from opendyn.algorithm.collision.narrow_phase import work_array
+    from opendyn.algorithm.collision.narrow_phase import no_hull, work_array
     from opendyn.algorithm.collision.queries import pair_contacts
     from opendyn.multibody.shapes import BOX, HALFSPACE
 
@@ -153,8 +153,8 @@ def box_on_halfspace(budget):
 
     T_box = np.eye(4)
     T_box[2, 3] = 0.05 - 1e-3  # a 0.1 m cube sunk 1 mm into the ground
-    box = (BOX, np.array([0.1, 0.1, 0.1]), np.zeros((0, 3)), T_box)
-    plane = (HALFSPACE, np.zeros(3), np.zeros((0, 3)), np.eye(4))
+    box = (BOX, np.array([0.1, 0.1, 0.1]), no_hull(), T_box)
+    plane = (HALFSPACE, np.zeros(3), no_hull(), np.eye(4))
     rows, scratch = np.zeros((4, 10)), work_array()
     assert loop(1, box, plane, rows, scratch) == 4
     n, best = 100_000, np.inf
