@@ -16,11 +16,12 @@ import sys
 
 import numpy as np
 import pytest
+from numba import njit
 from scipy.optimize import minimize
 from scipy.spatial import ConvexHull
 from scipy.spatial.transform import Rotation
 
-import opendyn  # noqa: F401  (the kernel cache's folder)
+import opendyn  # (also sets the kernel cache's folder)
 from opendyn._runtime.kernel_cache import kernel_cache
 from opendyn._runtime.status import Status
 from opendyn.multibody.geometry import hull_graph
@@ -35,6 +36,7 @@ with kernel_cache():
         pair_distance,
         work_array,
     )
+    from opendyn.algorithm.collision.support import climb
 
 coal = pytest.importorskip("coal")
 
@@ -536,22 +538,15 @@ def test_a_hull_climb_finds_the_farthest_point(name, points):
     np.testing.assert_allclose(reached, farthest, rtol=0, atol=1e-12 * np.abs(points).max())
 
 
+@njit
 def _climbs(vertices, start, neighbors, seeds, directions, hints):
-    from numba import njit
-
-    with kernel_cache():
-        from opendyn.algorithm.collision.support import climb
-
-    @njit
-    def run(vertices, start, neighbors, seeds, directions, hints, found):
-        hint = np.zeros(1, np.int64)
-        for i in range(directions.shape[0]):
-            hint[0] = hints[i]
-            d = (directions[i, 0], directions[i, 1], directions[i, 2])
-            found[i] = climb(vertices, start, neighbors, seeds, hint, d)
-
-    found = np.empty(len(directions), np.int64)
-    run(vertices, start, neighbors, seeds, directions, hints, found)
+    """The vertex climb(...) finds from hints[i] along directions[i], for each i."""
+    found = np.empty(directions.shape[0], np.int64)
+    hint = np.zeros(1, np.int64)
+    for i in range(directions.shape[0]):
+        hint[0] = hints[i]
+        d = (directions[i, 0], directions[i, 1], directions[i, 2])
+        found[i] = climb(vertices, start, neighbors, seeds, hint, d)
     return found
 
 

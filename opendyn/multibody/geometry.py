@@ -14,6 +14,7 @@ its parent (they touch at the joint by construction), except the link pairs an S
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -157,15 +158,24 @@ def hull_graph(points):
     ended), a few edges from any direction's farthest vertex: from an arbitrary vertex it would
     cross the hull, measured ~25 steps on the Panda's links. Points that span no volume (a flat
     mesh) keep all their distinct points and no edges: the kernels then test every vertex.
+    The graph of the same points is computed once per process (every Model.build asks again).
     """
+    points = np.ascontiguousarray(points, dtype=float).reshape(-1, 3)
+    return _graph_of(points.tobytes())
+
+
+@functools.lru_cache(maxsize=512)
+def _graph_of(data):
+    """hull_graph of the points whose float64 bytes are `data`, its arrays read-only."""
     from scipy.spatial import ConvexHull, QhullError
 
-    points = np.asarray(points, dtype=float).reshape(-1, 3)
+    points = np.frombuffer(data).reshape(-1, 3)
     try:
         hull = ConvexHull(points)
     except QhullError:
         flat = np.unique(points, axis=0)
-        return flat, np.zeros(len(flat) + 1, np.int64), np.zeros(0, np.int64), 0
+        graph = (flat, np.zeros(len(flat) + 1, np.int64), np.zeros(0, np.int64))
+        return (*(immutable(a, a.dtype) for a in graph), 0)
     corners = points[hull.vertices]
     seeds = np.unique(np.argmax(SEED_DIRECTIONS @ corners.T, axis=1))
     order = np.concatenate([seeds, np.setdiff1d(np.arange(len(corners)), seeds)])
@@ -175,8 +185,8 @@ def hull_graph(points):
     edges = np.concatenate([triangles[:, [0, 1]], triangles[:, [1, 2]], triangles[:, [2, 0]]])
     edges = np.unique(np.concatenate([edges, edges[:, ::-1]]), axis=0)  # sorted by vertex
     start = np.searchsorted(edges[:, 0], np.arange(len(order) + 1)).astype(np.int64)
-    vertices = corners[order]
-    return vertices, start, np.ascontiguousarray(edges[:, 1], dtype=np.int64), len(seeds)
+    graph = (corners[order], start, edges[:, 1])
+    return (*(immutable(a, a.dtype) for a in graph), len(seeds))
 
 
 def default_pairs(table: GeometryTable, parent, disabled_links=frozenset(), links=()):
