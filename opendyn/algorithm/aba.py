@@ -27,14 +27,6 @@ from numba import njit
 from .._runtime.arrays import copy_into, fill
 from .._runtime.kernel_cache import JIT
 from .._runtime.status import Status
-from ..multibody.data import (
-    articulated_biases,
-    articulated_inertias,
-    body_motion,
-    joint_poses,
-    scratch_rows,
-    temp_vectors,
-)
 from ..multibody.joints import (
     free_joints_only,
     joint_motion,
@@ -43,6 +35,14 @@ from ..multibody.joints import (
     vector_status,
 )
 from ..multibody.layout import body_count, dof_count, rigid_inertias, spatial_inertias, tree
+from ..multibody.work_views import (
+    articulated_biases,
+    articulated_inertias,
+    body_motion,
+    joint_poses,
+    scratch_rows,
+    temp_vectors,
+)
 from ..spatial.compiled import (
     ad_twist,
     add_inertia_to_parent,

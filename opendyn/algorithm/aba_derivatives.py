@@ -19,15 +19,15 @@ from .._runtime.arrays import result_status
 from .._runtime.entry import exact
 from .._runtime.kernel_cache import BATCH, JIT
 from .._runtime.status import Status
-from ..multibody.data import (
+from ..multibody.joints import state_status, vector_status
+from ..multibody.layout import body_count, dof_count
+from ..multibody.work_views import (
     derivative_fields,
     joint_accelerations,
     joint_vectors,
     mass_matrix_field,
     new_work,
 )
-from ..multibody.joints import state_status, vector_status
-from ..multibody.layout import body_count, dof_count
 from . import checks
 from .calls import Call
 from .christoffel import space_axes_and_inertias, velocity_terms

@@ -30,7 +30,9 @@ from numba import njit
 from .._runtime.arrays import fill, result_status, zero_matrix
 from .._runtime.entry import exact
 from .._runtime.kernel_cache import BATCH, INLINE, JIT
-from ..multibody.data import (
+from ..multibody.joints import configuration_status, place_joints, state_status
+from ..multibody.layout import body_count, dof_count, rigid_inertias, tree
+from ..multibody.work_views import (
     body_motion,
     com_field,
     composite_inertias,
@@ -42,8 +44,6 @@ from ..multibody.data import (
     temp_vectors,
     world_poses,
 )
-from ..multibody.joints import configuration_status, place_joints, state_status
-from ..multibody.layout import body_count, dof_count, rigid_inertias, tree
 from ..spatial.compiled import (
     add_neg_ad_transpose,
     add_rigid_inertia_to_parent,

@@ -54,7 +54,9 @@ from numba import njit
 from .._runtime.arrays import all_finite, fill, result_status, zero_matrix
 from .._runtime.kernel_cache import BATCH, INLINE, JIT
 from .._runtime.status import Status
-from ..multibody.data import (
+from ..multibody.joints import configuration_status
+from ..multibody.layout import body_count, dof_count, spatial_inertias, tree
+from ..multibody.work_views import (
     coriolis_terms,
     joint_vectors,
     new_work,
@@ -63,8 +65,6 @@ from ..multibody.data import (
     temp_vectors,
     world_poses,
 )
-from ..multibody.joints import configuration_status
-from ..multibody.layout import body_count, dof_count, spatial_inertias, tree
 from ..spatial.compiled import ad_twist, add_inertia_to_parent, dot6, mat6_vec
 from . import checks
 from .kinematics import forward_kinematics, place_space_axes

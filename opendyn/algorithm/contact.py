@@ -45,14 +45,8 @@ from numba import njit
 
 from .._runtime.arrays import fill, zero_matrix
 from .._runtime.kernel_cache import BATCH, INLINE, JIT
-from ..multibody.data import (
-    contact_axes,
-    effect_rows,
-    new_work,
-    scratch_rows,
-    world_poses,
-)
 from ..multibody.layout import body_count, dof_count, tree
+from ..multibody.work_views import contact_axes, effect_rows, new_work, scratch_rows, world_poses
 from .kinematics import add_point_jacobian, forward_kinematics, space_axis
 
 # the contact parameters' layout: the shared values, then (c_b (3,), r) per point

@@ -18,14 +18,9 @@ from numba import njit
 from .._runtime.arrays import result_status, zero_matrix
 from .._runtime.entry import exact
 from .._runtime.kernel_cache import BATCH, JIT
-from ..multibody.data import (
-    composite_inertias,
-    joint_poses,
-    new_work,
-    temp_vectors,
-)
 from ..multibody.joints import configuration_status, place_joints
 from ..multibody.layout import body_count, dof_count, rigid_inertias, tree
+from ..multibody.work_views import composite_inertias, joint_poses, new_work, temp_vectors
 from ..spatial.compiled import (
     add_rigid_inertia_to_parent,
     dot6,

@@ -22,7 +22,9 @@ from .._runtime.arrays import fill
 from .._runtime.entry import exact
 from .._runtime.kernel_cache import BATCH, JIT
 from .._runtime.status import Status
-from ..multibody.data import (
+from ..multibody.joints import joint_motion, place_joints, state_status
+from ..multibody.layout import body_count, rigid_inertias, tree
+from ..multibody.work_views import (
     body_motion,
     joint_poses,
     new_work,
@@ -30,8 +32,6 @@ from ..multibody.data import (
     temp_vectors,
     world_poses,
 )
-from ..multibody.joints import joint_motion, place_joints, state_status
-from ..multibody.layout import body_count, rigid_inertias, tree
 from ..spatial.compiled import (
     add_neg_ad_transpose,
     add_wrench_to_parent,

@@ -16,16 +16,16 @@ from .._runtime.arrays import result_status
 from .._runtime.entry import exact
 from .._runtime.kernel_cache import BATCH, JIT
 from .._runtime.status import Status
-from ..multibody.data import joint_vectors, mass_matrix_field, new_work, no_loads
 from ..multibody.joints import vector_status
 from ..multibody.layout import body_count, dof_count
+from ..multibody.work_views import joint_vectors, mass_matrix_field, new_work, no_loads
 from . import checks
-from .calls import Call, checked_call
-from .singular import singular_mass_matrix
 from .aba import aba_kernel
+from .calls import Call, checked_call
 from .cholesky import cholesky_solve
 from .crba import crba_kernel
 from .rnea import rnea_kernel
+from .singular import singular_mass_matrix
 
 METHODS = ("aba", "crba", "newton_euler")
 NO_ARMATURE = np.zeros(0)  # the rigid-body M: no rotor inertias

@@ -19,14 +19,6 @@ from numba import njit
 from .._runtime.arrays import copy_into, fill, result_status, zero_matrix
 from .._runtime.entry import exact
 from .._runtime.kernel_cache import BATCH, INLINE, JIT
-from ..multibody.data import (
-    body_flags,
-    frame_pose_field,
-    joint_poses,
-    new_work,
-    temp_vectors,
-    world_poses,
-)
 from ..multibody.joints import (
     FREE,
     configuration_status,
@@ -35,6 +27,14 @@ from ..multibody.joints import (
     prepare_joint_transforms,
 )
 from ..multibody.layout import body_count, dof_count, tree
+from ..multibody.work_views import (
+    body_flags,
+    frame_pose_field,
+    joint_poses,
+    new_work,
+    temp_vectors,
+    world_poses,
+)
 from ..spatial.compiled import twist_to_child
 from . import checks
 from .calls import Call, checked_call

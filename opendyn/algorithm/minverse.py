@@ -26,8 +26,8 @@ from numba import njit
 
 from .._runtime.kernel_cache import INLINE, JIT
 from .._runtime.status import Status
-from ..multibody.data import coriolis_terms, inverse_terms, scratch_rows
 from ..multibody.layout import tree
+from ..multibody.work_views import coriolis_terms, inverse_terms, scratch_rows
 from ..spatial.compiled import dot6, mat6_vec
 from .cholesky import SINGULAR_PIVOT, cholesky_factor, cholesky_substitute, largest_diagonal
 

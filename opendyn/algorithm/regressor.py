@@ -33,7 +33,9 @@ from .._runtime.arrays import result_status, zero_matrix
 from .._runtime.entry import exact
 from .._runtime.kernel_cache import BATCH, INLINE, JIT
 from .._runtime.options import flag
-from ..multibody.data import (
+from ..multibody.joints import motion_status
+from ..multibody.layout import body_count, dof_count, tree
+from ..multibody.work_views import (
     body_motion,
     joint_poses,
     new_work,
@@ -42,8 +44,6 @@ from ..multibody.data import (
     temp_vectors,
     world_poses,
 )
-from ..multibody.joints import motion_status
-from ..multibody.layout import body_count, dof_count, tree
 from ..spatial.compiled import dot6, wrench_to_parent
 from . import checks
 from .calls import Call, checked_call

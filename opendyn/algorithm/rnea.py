@@ -22,9 +22,9 @@ from numba import njit
 from .._runtime.arrays import fill, result_status
 from .._runtime.entry import exact
 from .._runtime.kernel_cache import BATCH, INLINE, JIT
-from ..multibody.data import body_motion, joint_poses, new_work, scratch_rows
 from ..multibody.joints import add_joint_force, motion_status, place_joints
 from ..multibody.layout import body_count, dof_count, rigid_inertias, tree
+from ..multibody.work_views import body_motion, joint_poses, new_work, scratch_rows
 from ..spatial.compiled import (
     ad_twist,
     add_neg_ad_transpose,

@@ -48,7 +48,9 @@ from numba import njit
 from .._runtime.arrays import result_status, zero_matrix
 from .._runtime.entry import exact
 from .._runtime.kernel_cache import BATCH, INLINE, JIT
-from ..multibody.data import (
+from ..multibody.joints import motion_status
+from ..multibody.layout import body_count, dof_count, tree
+from ..multibody.work_views import (
     axis_rates,
     coriolis_terms,
     new_work,
@@ -56,8 +58,6 @@ from ..multibody.data import (
     temp_vectors,
     world_poses,
 )
-from ..multibody.joints import motion_status
-from ..multibody.layout import body_count, dof_count, tree
 from ..spatial.compiled import (
     ad_twist,
     add_neg_ad_transpose,

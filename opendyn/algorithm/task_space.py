@@ -26,12 +26,13 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .._runtime.options import as_real
 from .._runtime.arrays import all_finite, fill, result_status
 from .._runtime.kernel_cache import JIT
+from .._runtime.options import as_real
 from .._runtime.status import Status
 from ..errors import SingularTaskSpaceError
-from ..multibody.data import (
+from ..multibody.layout import body_count, dof_count, tree
+from ..multibody.work_views import (
     body_motion,
     joint_poses,
     joint_vectors,
@@ -40,7 +41,6 @@ from ..multibody.data import (
     task_space_fields,
     temp_vectors,
 )
-from ..multibody.layout import body_count, dof_count, tree
 from ..spatial.compiled import twist_to_child
 from . import checks
 from .cholesky import back_substitute, cholesky_factor, forward_substitute, largest_diagonal

@@ -60,8 +60,8 @@ from .._runtime.arrays import copy_into
 from .._runtime.kernel_cache import JIT
 from .._runtime.status import Status
 from ..algorithm.configuration import integrate_kernel
-from ..multibody.data import scratch_rows
 from ..multibody.layout import body_count
+from ..multibody.work_views import scratch_rows
 from ..spatial.compiled import ad_twist
 from .euler_steps import implicit_velocity_step, symplectic_euler_step
 from .step import evaluate

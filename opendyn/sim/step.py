@@ -49,9 +49,9 @@ from ..algorithm.aba import aba_on_poses
 from ..algorithm.constraints import ROW_COUNT, constrained_on_poses, constraint_work
 from ..algorithm.forward import forward_kernel, method_switches
 from ..algorithm.kinematics import place_bodies
-from ..multibody.data import joint_poses
 from ..multibody.joints import place_joints, state_status
 from ..multibody.layout import body_count, tree
+from ..multibody.work_views import joint_poses
 from .effects import gravity, registry
 from .effects.dispatch import EVERY, run_stages
 from .effects.interface import Context, Out

@@ -100,7 +100,8 @@ def ordered_distance(a, b, out, work):
 def pair_distance(code_a, size_a, hull_a, T_a, code_b, size_b, hull_b, T_b, out, work):
     """The signed distance of shapes a and b, their nearest points and normal into out (the
     module docstring gives every argument's shape, frame and unit). Returns a Status code.
-    Each hull's climb starts at its vertex 0: the result does not depend on earlier calls."""
+    Each hull's hint is reset to its vertex 0 (a seed): the result does not depend on earlier
+    calls."""
     hull_a[4][0] = 0
     hull_b[4][0] = 0
     a = (code_a, size_a, hull_a, T_a)

@@ -25,10 +25,10 @@ from numba import njit
 from ..._runtime.kernel_cache import UNCOUNTED
 from ..._runtime.options import as_real
 from ..._runtime.status import Status
-from ...multibody.data import world_poses
 from ...multibody.joints import configuration_status
 from ...multibody.layout import body_count
 from ...multibody.shapes import BOX, HALFSPACE
+from ...multibody.work_views import world_poses
 from .. import checks
 from ..kinematics import forward_kinematics
 from .box_manifold import box_contacts

@@ -39,9 +39,9 @@ from numba import njit
 from ..._runtime.arrays import all_finite, copy_into, fill, zero_matrix
 from ..._runtime.kernel_cache import JIT
 from ..._runtime.status import Status
-from ...multibody.data import joint_poses, joint_vectors, mass_matrix_field, new_work
 from ...multibody.joints import place_joints, state_status
 from ...multibody.layout import body_count, tree
+from ...multibody.work_views import joint_poses, joint_vectors, mass_matrix_field, new_work
 from ..cholesky import cholesky_solve
 from ..crba import crba_on_poses
 from ..eigen import symmetric_eigen

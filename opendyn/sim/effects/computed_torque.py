@@ -25,8 +25,8 @@ from ..._runtime.kernel_cache import JIT
 from ...algorithm.cholesky import cholesky_solve
 from ...algorithm.crba import crba_on_poses
 from ...algorithm.rnea import rnea_on_poses
-from ...multibody.data import effect_rows, mass_matrix_field, scratch_rows
 from ...multibody.layout import body_count
+from ...multibody.work_views import effect_rows, mass_matrix_field, scratch_rows
 from .control import Control, of_kind, optional, required
 from .interface import CONTROL, OK, floats, q_indices, v_indices
 

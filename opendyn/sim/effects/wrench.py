@@ -20,9 +20,9 @@ from numba import njit
 from ..._runtime.arrays import copy_into, immutable
 from ..._runtime.kernel_cache import JIT
 from ...algorithm.kinematics import frame_jacobian
-from ..values import what_is
-from ...multibody.data import frame_pose_field, jacobian_field, scratch_rows
 from ...multibody.layout import body_count
+from ...multibody.work_views import frame_pose_field, jacobian_field, scratch_rows
+from ..values import what_is
 from .interface import APPLIED, OK, floats
 from .tangent import bracket_transpose, path_axes, point_velocities, wrench_tangent
 
