@@ -5,6 +5,7 @@ cannot be read (cut short) is a miss: it compiles again, with one warning, and i
 
 from __future__ import annotations
 
+import json
 import os
 import pathlib
 import shutil
@@ -127,3 +128,51 @@ def test_another_folders_unreadable_entry_still_raises(tmp_path):
         cache_file._load_index()
     assert str(error.value) == str(unpickling.value)
     assert (tmp_path / "f.nbi").read_bytes() == cut_short
+
+
+_UNDER_UNCOUNTED_KERNELS = r"""
+import json, sys
+import numpy as np
+import opendyn as od
+from numba.core.dispatcher import Dispatcher
+
+model = od.load_urdf("ur5")
+q = np.full(model.nq, 0.3)
+od.distances(model, q)
+od.collisions(model, q, margin=0.1)
+od.mass_matrix(model, q)
+checked, wrong = [], []
+for name, module in list(sys.modules.items()):
+    if not name.startswith("opendyn."):
+        continue
+    for attr, kernel in vars(module).items():
+        if not isinstance(kernel, Dispatcher) or kernel.__module__ != name:
+            continue
+        for result in kernel.overloads.values():  # (compiled here: the cache is fresh)
+            checked.append(f"{name}.{attr}")
+            if result.target_context.enable_nrt != kernel.targetoptions.get("_nrt", True):
+                wrong.append(f"{name}.{attr}")
+print(json.dumps({"checked": sorted(set(checked)), "wrong": sorted(set(wrong))}))
+"""
+
+
+def test_a_kernel_compiled_under_an_uncounted_one_keeps_its_own_counting(tmp_path):
+    """The collision queries are compiled without reference counting (kernel_cache.UNCOUNTED) and
+    call counted kernels (forward kinematics, the work buffer's views). numba compiles a callee
+    that does not name its setting with its caller's, and keys the result by signature alone,
+    so that every later caller, and the cache, got an uncounted forward kinematics (a heap
+    corruption in the contact scenes). In a fresh cache, after distances and collisions: every
+    compiled version of every kernel has the counting its own options name."""
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path)}
+    proc = subprocess.run(
+        [sys.executable, "-c", _UNDER_UNCOUNTED_KERNELS],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=900,
+    )
+    assert proc.returncode == 0, proc.stderr
+    found = json.loads(proc.stdout.strip().splitlines()[-1])
+    for kernel in ("kinematics.forward_kinematics", "work_views.world_poses", "queries.place"):
+        assert any(name.endswith(kernel) for name in found["checked"]), kernel
+    assert found["wrong"] == []

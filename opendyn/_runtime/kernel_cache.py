@@ -159,23 +159,30 @@ def kernel_cache():
         _numba_config.CACHE_DIR = user_cache_dir
 
 
-# the options of every kernel's @njit
-JIT = dict(cache=CACHING)
+# the options of every kernel's @njit. Reference counting (numba's runtime, NRT) is switched on
+# by name: a compiled function whose own options leave it unset takes its caller's setting when
+# a caller compiles it, and numba keys a compiled version (in the process and in the cache) by
+# its signature alone. A kernel first compiled under an UNCOUNTED one (below) would then be
+# counted nowhere, for every later caller and process: a view it returns was freed by a counting
+# caller while still in use (a heap corruption, met as a crash of the contact scenes).
+JIT = dict(cache=CACHING, _nrt=True)
 # batch loops release the GIL so that threads run them in parallel (see run_rows); single-state
 # kernels keep it, which saves the release and re-acquisition on every call
-BATCH = dict(cache=CACHING, nogil=True)
+BATCH = dict(JIT, nogil=True)
 # helpers that take views of the per-body arrays are inlined into the kernels at the numba IR
 # level (measured: RNEA on a UR5 1.46 -> 1.10 us per call inside a compiled loop; called as
 # compiled functions instead, 1.2 -> 2.1 us). IR inlining is what costs numba's front end most
 # when a kernel compiles, so the loop helpers (all_finite, copy_into, fill, zero_matrix, dot6)
 # are plain compiled functions, which LLVM inlines anyway: ABA compiles in 4.6 s instead of
 # 5.6 s at the same speed.
-INLINE = dict(cache=CACHING, inline="always")
+INLINE = dict(JIT, inline="always")
 # the collision kernels hand shapes (tuples of arrays) down many small functions, and allocate
 # nothing: they are compiled without numba's reference counting (its runtime, NRT), which
 # otherwise increments and decrements, atomically, every array a compiled function binds, at
 # each call and each inlined support point (measured in the same process against
 # pin.computeDistances: od.distances on the Panda 1.45x -> 0.98x, Solo12 1.16x -> 0.75x, Talos
 # 1.20x -> 0.68x). Such a kernel cannot make an array: numba refuses to compile one that does.
+# It calls counted kernels only for what returns no array (its references would never be
+# released), and none of them is compiled in its place (JIT above).
 UNCOUNTED = dict(JIT, _nrt=False)
 UNCOUNTED_INLINE = dict(INLINE, _nrt=False)

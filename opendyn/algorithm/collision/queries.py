@@ -22,7 +22,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from ..._runtime.kernel_cache import UNCOUNTED
+from ..._runtime.kernel_cache import JIT, UNCOUNTED
 from ..._runtime.options import as_real
 from ..._runtime.status import Status
 from ...multibody.joints import configuration_status
@@ -108,10 +108,11 @@ class CollisionWork(NamedTuple):
         )
 
 
-@njit(**UNCOUNTED)
+@njit(**JIT)
 def place(ibuf, fbuf, work, q, table, T_sg):
     """T_sg <- the geometries' world poses at q (one forward kinematics pass). Returns a Status:
-    OK, Q_NOT_FINITE or Q_NOT_UNIT_QUATERNION."""
+    OK, Q_NOT_FINITE or Q_NOT_UNIT_QUATERNION. A counted kernel (kernel_cache.JIT): it takes the
+    bodies' poses as views of the work buffer, which the uncounted queries must not hold."""
     status = configuration_status(ibuf, q)
     if status:
         return status
