@@ -17,61 +17,29 @@ import sys
 import numpy as np
 import pytest
 from numba import njit
-from scipy.optimize import minimize
 from scipy.spatial import ConvexHull
 from scipy.spatial.transform import Rotation
 
 import opendyn  # (also sets the kernel cache's folder)
 from opendyn._runtime.kernel_cache import kernel_cache
 from opendyn._runtime.status import Status
-from opendyn.multibody.geometry import hull_graph
+from opendyn.multibody.hulls import convex_hull
 from opendyn.multibody.shapes import BOX, CAPSULE, CYLINDER, HALFSPACE, MESH, SHAPE_NAMES, SPHERE
 
 with kernel_cache():
-    from opendyn.algorithm.collision import (
-        MAX_CONTACTS,
-        box_contacts,
-        halfspace_contacts,
-        no_hull,
-        pair_distance,
-        work_array,
-    )
     from opendyn.algorithm.collision.support import climb
 
+from collision_shapes import (
+    depth_by_directions,
+    distance,
+    overlap,
+    pose,
+    rot,
+    shape,
+    surface_distance,
+)
+
 coal = pytest.importorskip("coal")
-
-NO_VERTICES = np.zeros((0, 3))
-WORK = work_array()
-
-
-def pose(R=None, p=(0.0, 0.0, 0.0)):
-    """T = [R p], (4, 4) (R the identity unless given)."""
-    T = np.eye(4)
-    T[:3, :3], T[:3, 3] = np.eye(3) if R is None else R, p
-    return T
-
-
-def shape(code, size, vertices=NO_VERTICES):
-    return code, np.asarray(size, dtype=float), vertices
-
-
-def hull(vertices):
-    """The kernels' hull of `vertices` (support.py): its graph and a climbing hint."""
-    if len(vertices) == 0:
-        return no_hull()
-    return (*hull_graph(vertices), np.zeros(1, np.int64))
-
-
-def distance(a, T_a, b, T_b):
-    """(status, d, p_A, p_B, n) of shapes a and b (tuples (code, size, vertices)) at T_a, T_b."""
-    out = np.full(10, np.nan)
-    status = pair_distance(a[0], a[1], hull(a[2]), T_a, b[0], b[1], hull(b[2]), T_b, out, WORK)
-    return status, out[0], out[1:4], out[4:7], out[7:10]
-
-
-def rot(axis, angle):
-    return Rotation.from_rotvec(np.asarray(axis, float) * angle).as_matrix()
-
 
 # ---- closed forms ------------------------------------------------------------------------------
 
@@ -207,98 +175,6 @@ def test_two_halfspaces_are_unbounded():
     assert distance(h, pose(), h, pose(p=(0, 0, 1)))[0] == Status.UNBOUNDED
 
 
-# ---- contact manifolds on a halfspace ----------------------------------------------------------
-
-
-def contacts_on_ground(a, T_a, margin=0.0):
-    """The rows (d, p_A, p_B, n) of shape a's contacts with the ground z <= 0."""
-    rows = np.full((MAX_CONTACTS, 10), np.nan)
-    count = halfspace_contacts(a[0], a[1], hull(a[2]), T_a, pose(), margin, rows)
-    return rows[:count]
-
-
-def test_a_box_resting_on_the_ground_touches_at_its_four_bottom_corners():
-    """A 0.4 x 0.6 x 0.2 box turned about z, its bottom 1 cm under the ground: its four bottom
-    corners, each 1 cm deep, normal -z; tilted about its x axis by 0.1 rad, the two corners of the
-    lower edge at depth h - 0.1 cos 0.1 - 0.3 sin 0.1, and the other two only when they sink."""
-    box = shape(BOX, (0.4, 0.6, 0.2))
-    R = rot((0, 0, 1), 0.3)
-    rows = contacts_on_ground(box, pose(R, (0.2, 0.1, 0.09)))
-    corners = np.array(
-        [R @ (sx * 0.2, sy * 0.3, -0.1) + (0.2, 0.1, 0.09) for sx in (-1, 1) for sy in (-1, 1)]
-    )
-    assert len(rows) == 4
-    np.testing.assert_allclose(rows[:, 0], -0.01, atol=1e-15)
-    np.testing.assert_allclose(rows[:, 7:10], np.tile((0, 0, 1.0), (4, 1)) * -1)
-    assert sorted(map(tuple, rows[:, 1:4].round(12))) == sorted(map(tuple, corners.round(12)))
-    np.testing.assert_allclose(rows[:, 4:7], rows[:, 1:4] * (1, 1, 0), atol=1e-15)
-    h = 0.12
-    low = h - 0.1 * np.cos(0.1) - 0.3 * np.sin(0.1)
-    rows = contacts_on_ground(box, pose(rot((1, 0, 0), 0.1), (0, 0, h)))
-    np.testing.assert_allclose(rows[:, 0], [low, low])
-    rows = contacts_on_ground(box, pose(rot((1, 0, 0), 0.1), (0, 0, h)), margin=0.1)
-    assert len(rows) == 4 and rows[0, 0] == pytest.approx(low) and rows[3, 0] <= 0.1
-
-
-@pytest.mark.parametrize("tilt", [0.0, 0.3])
-def test_a_cylinder_cap_on_the_ground(tilt):
-    """Cylinder r = 0.2, length 0.6, centre at height h, tilted by theta about x: the deepest
-    contact is the lowest rim point (pair_distance's); standing 1 cm deep, four rim points of its
-    bottom cap, each 1 cm deep."""
-    cylinder, ground = shape(CYLINDER, (0.2, 0.6, 0)), shape(HALFSPACE, (0, 0, 0))
-    T = pose(rot((1, 0, 0), tilt), (0.1, 0.2, 0.29))
-    rows = contacts_on_ground(cylinder, T)
-    _, d, p_a, _, _ = distance(cylinder, T, ground, pose())
-    assert rows[0, 0] == pytest.approx(d, abs=1e-15) and d < 0
-    if tilt:  # (standing, any point of the cap is as deep: pair_distance gives its centre)
-        np.testing.assert_allclose(rows[0, 1:4], p_a, atol=1e-15)
-    else:
-        assert len(rows) == 4
-        np.testing.assert_allclose(rows[:, 0], -0.01, atol=1e-15)
-        np.testing.assert_allclose(np.hypot(rows[:, 1] - 0.1, rows[:, 2] - 0.2), 0.2)
-
-
-def contacts_of_boxes(size_a, T_a, size_b, T_b):
-    """The rows (d, p_A, p_B, n) of two boxes' contacts."""
-    rows = np.full((MAX_CONTACTS, 10), np.nan)
-    a, b = shape(BOX, size_a), shape(BOX, size_b)
-    count = box_contacts(a[0], a[1], hull(a[2]), T_a, b[0], b[1], hull(b[2]), T_b, rows, WORK)
-    return rows[:count]
-
-
-def test_a_box_resting_on_a_box_touches_at_four_points():
-    """A 0.2 x 0.4 x 0.1 box on a 1 x 1 x 0.2 slab, 1 cm into its top (z = 0.1): (1) square on
-    it, its four bottom corners, each 1 cm deep, normal -z from the box towards the slab;
-    (2) turned 45 degrees about z, the same corners; (3) hanging over the slab's edge at
-    x = 0.5, the two corners over the slab and the two points where the box's bottom edges
-    cross x = 0.5; (4) tilted by 0.2 rad about x, the lower edge's two corners at its depth
-    (pair_distance's); (5) apart, none."""
-    box, slab = (0.2, 0.4, 0.1), (1.0, 1.0, 0.2)
-    for turn in (0.0, np.pi / 4):
-        R = rot((0, 0, 1), turn)
-        rows = contacts_of_boxes(box, pose(R, (0.1, -0.05, 0.14)), slab, pose())
-        corners = [
-            R @ (sx * 0.1, sy * 0.2, -0.05) + (0.1, -0.05, 0.14) for sx in (-1, 1) for sy in (-1, 1)
-        ]
-        assert len(rows) == 4
-        np.testing.assert_allclose(rows[:, 0], -0.01, atol=1e-14)
-        np.testing.assert_allclose(rows[:, 7:10], np.tile((0.0, 0.0, -1.0), (4, 1)), atol=1e-15)
-        found = sorted(map(tuple, rows[:, 1:4].round(12)))
-        assert found == sorted(map(tuple, np.array(corners).round(12)))
-        np.testing.assert_allclose(rows[:, 6], 0.1, atol=1e-14)  # p_B on the slab's top
-    rows = contacts_of_boxes(box, pose(p=(0.45, 0.0, 0.14)), slab, pose())
-    expected = [(0.35, -0.2), (0.35, 0.2), (0.5, -0.2), (0.5, 0.2)]
-    assert sorted(map(tuple, rows[:, 1:3].round(12))) == expected
-    np.testing.assert_allclose(rows[:, 0], -0.01, atol=1e-14)
-    T = pose(rot((1, 0, 0), 0.2), (0.0, 0.0, 0.17))
-    low = 0.17 - 0.05 * np.cos(0.2) - 0.2 * np.sin(0.2) - 0.1
-    rows = contacts_of_boxes(box, T, slab, pose())
-    assert len(rows) == 2
-    np.testing.assert_allclose(rows[:, 0], low, atol=1e-14)
-    assert distance(shape(BOX, box), T, shape(BOX, slab), pose())[1] == pytest.approx(low)
-    assert len(contacts_of_boxes(box, pose(p=(0, 0, 0.3)), slab, pose())) == 0
-
-
 # ---- against coal --------------------------------------------------------------------------------
 
 
@@ -350,74 +226,6 @@ def coal_distance(a, T_a, b, T_b):
         result,
     )
     return d, result.getNearestPoint1(), result.getNearestPoint2(), np.array(result.normal)
-
-
-def surface_distance(a, T, x):
-    """The signed distance of world point x to shape a at T (zero on its surface)."""
-    code, size, vertices = a
-    y = T[:3, :3].T @ (x - T[:3, 3])
-    if code == SPHERE:
-        return np.linalg.norm(y) - size[0]
-    if code == BOX:
-        q = np.abs(y) - size / 2
-        return np.linalg.norm(np.maximum(q, 0)) + min(q.max(), 0.0)
-    if code == CYLINDER:
-        q = np.array([np.hypot(y[0], y[1]) - size[0], abs(y[2]) - size[1] / 2])
-        return np.linalg.norm(np.maximum(q, 0)) + min(q.max(), 0.0)
-    if code == CAPSULE:
-        return np.linalg.norm(y - [0, 0, np.clip(y[2], -size[1] / 2, size[1] / 2)]) - size[0]
-    if code == MESH:
-        equations = ConvexHull(vertices).equations
-        return (equations[:, :3] @ y + equations[:, 3]).max()  # zero exactly on the surface
-    return y[2]
-
-
-def support_value(a, T, u):
-    """h(u) = max_{x in a} u . x for unit directions u (N, 3): the support function's value."""
-    code, size, vertices = a
-    R, p = T[:3, :3], T[:3, 3]
-    local = u @ R
-    h = u @ p
-    if code == SPHERE:
-        return h + size[0]
-    if code == BOX:
-        return h + np.abs(local) @ size / 2
-    if code == CYLINDER:
-        return h + size[0] * np.hypot(local[:, 0], local[:, 1]) + size[1] / 2 * np.abs(local[:, 2])
-    if code == CAPSULE:
-        return h + size[1] / 2 * np.abs(local[:, 2]) + size[0]
-    return h + (local @ vertices.T).max(axis=1)
-
-
-def overlap(a, T_a, b, T_b, u):
-    """o(u) = h_A(u) + h_B(-u): how far b must move along u to leave a. The penetration depth is
-    min over unit u of o(u), and the minimiser is the normal."""
-    u = np.atleast_2d(u)
-    u = u / np.linalg.norm(u, axis=1)[:, None]
-    values = support_value(a, T_a, u) + support_value(b, T_b, -u)
-    return values if len(values) > 1 else values[0]
-
-
-def depth_by_directions(a, T_a, b, T_b, guesses):
-    """min_u o(u), searched over 4000 spread directions and the guesses, then refined by
-    Nelder-Mead from the five best: an independent reference for the penetration depth."""
-    k = np.arange(4000) + 0.5
-    polar, azimuth = np.arccos(1 - 2 * k / 4000), np.pi * (1 + 5**0.5) * k
-    directions = np.column_stack(
-        [np.sin(polar) * np.cos(azimuth), np.sin(polar) * np.sin(azimuth), np.cos(polar)]
-    )
-    directions = np.vstack([directions, *guesses])
-    values = overlap(a, T_a, b, T_b, directions)
-    best = np.inf
-    for u in directions[np.argsort(values)[:5]]:
-        found = minimize(
-            lambda x: overlap(a, T_a, b, T_b, x),
-            u,
-            method="Nelder-Mead",
-            options={"xatol": 1e-12, "fatol": 1e-14, "maxiter": 4000},
-        )
-        best = min(best, found.fun)
-    return best
 
 
 CODES = (SPHERE, BOX, CYLINDER, CAPSULE, MESH)
@@ -527,7 +335,7 @@ def test_a_hull_climb_finds_the_farthest_point(name, points):
     """The support of a hull by hill climbing from any start (support.climb) is the farthest of
     all the points along every direction: max_p d . p by brute force over the cloud, in 2,000
     random directions and along the axes (ties on faces)."""
-    vertices, start, neighbors, seeds = hull_graph(points)
+    vertices, start, neighbors, seeds, *_ = convex_hull(points)
     assert (start[-1] == 0) == (name == "flat grid")
     rng = np.random.default_rng(4)
     directions = np.concatenate([rng.normal(size=(2000, 3)), np.eye(3), -np.eye(3)])
@@ -566,54 +374,69 @@ import opendyn
 from opendyn._runtime.kernel_cache import kernel_cache
 with kernel_cache():
     from opendyn.algorithm.collision import (
-        box_contacts, halfspace_contacts, no_hull, pair_distance, work_array,
+        box_contacts, face_contacts, halfspace_contacts, mesh_hull, no_hull, pair_distance,
+        work_array,
     )
-from opendyn.multibody.geometry import hull_graph
 
 rng = np.random.default_rng(0)
 codes = np.array([0, 1, 2, 3, 4, 5])
 sizes = np.array([[0.2, 0, 0], [0.3, 0.4, 0.5], [0.2, 0.5, 0], [0.1, 0.4, 0], [1, 1, 1], [0, 0, 0]])
-vertices = (*hull_graph(rng.normal(size=(20, 3)) * 0.2), np.zeros(1, np.int64))
+cube = np.array([(x, y, z) for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], float) * 0.1
+vertices = mesh_hull(np.concatenate([cube, rng.uniform(-0.09, 0.09, (20, 3))]))
 none = no_hull()
 poses = np.zeros((6, 4, 4))
 for k in range(6):
     q, _ = np.linalg.qr(rng.normal(size=(3, 3)))
     poses[k, :3, :3] = q * np.sign(np.linalg.det(q))
     poses[k, :3, 3], poses[k, 3, 3] = rng.uniform(-0.3, 0.3, 3), 1
+standing = np.eye(4)  # face-on on the box at poses[1]: each shape's bottom 1 mm into its top
 out, work, rows = np.zeros(10), work_array(), np.zeros((4, 10))
 
 
 @njit
-def every_pair(codes, sizes, vertices, none, poses, out, work, rows, n):
+def every_pair(codes, sizes, vertices, none, poses, standing, work, rows, n):
     status = 0
+    box = (codes[1], sizes[1], none, poses[1])
     for _ in range(n):
         for i in range(6):
             vi = vertices if codes[i] == 4 else none
             for j in range(5):
                 vj = vertices if codes[j] == 4 else none
-                status |= pair_distance(
-                    codes[i], sizes[i], vi, poses[i], codes[j], sizes[j], vj, poses[j], out, work
-                )
+                a, b = (codes[i], sizes[i], vi, poses[i]), (codes[j], sizes[j], vj, poses[j])
+                out = rows[0]
+                status |= pair_distance(a[0], a[1], a[2], a[3], b[0], b[1], b[2], b[3], out, work)
+                if i < 5:
+                    face_contacts(a, b, 0.1, rows, work)
             if codes[i] != 5:
                 halfspace_contacts(codes[i], sizes[i], vi, poses[i], poses[5], 0.1, rows)
+            if i == 1 or i == 2 or i == 4:  # a box, a cylinder, a cube mesh on the box's top
+                standing[:3, :] = poses[1][:3, :]
+                lift = 0.25 + (0.1 if i == 4 else 0.25) - 0.001
+                for r in range(3):
+                    standing[r, 3] += lift * poses[1][r, 2]
+                a = (codes[i], sizes[i], vi, standing)
+                pair_distance(a[0], a[1], a[2], a[3], box[0], box[1], box[2], box[3], rows[0], work)
+                status |= 8 * (face_contacts(a, box, 0.0, rows, work) < 4)
         box_contacts(1, sizes[1], none, poses[1], 1, sizes[1], none, poses[2], rows, work)
     return status
 
 
 def allocations(n):
     before = rtsys.get_allocation_stats().alloc
-    every_pair(codes, sizes, vertices, none, poses, out, work, rows, n)
+    status = every_pair(codes, sizes, vertices, none, poses, standing, work, rows, n)
+    assert status & 8 == 0, "a shape standing on a box's face touches it at fewer than 4 points"
     return rtsys.get_allocation_stats().alloc - before
 
-every_pair(codes, sizes, vertices, none, poses, out, work, rows, 1)
+every_pair(codes, sizes, vertices, none, poses, standing, work, rows, 1)
 print(json.dumps({"per pair": (allocations(11) - allocations(1)) / (10 * 30)}))
 """
 
 
 def test_pair_distance_allocates_nothing():
-    """Every pair of shapes (30 of them, GJK and EPA among them), each shape's contacts with a
-    halfspace and two boxes' contacts, called 10 more times in a compiled loop: numba's runtime
-    counts not one more allocation (a fresh process with its statistics on)."""
+    """Every pair of shapes (30 of them, GJK and EPA among them) with its face or edge manifold,
+    each shape's contacts with a halfspace, two boxes' contacts and a box, a cylinder and a mesh
+    standing face-on on a box (four contacts each), called 10 more times in a compiled loop:
+    numba's runtime counts not one more allocation (a fresh process with its statistics on)."""
     env = dict(os.environ, NUMBA_NRT_STATS="1")
     proc = subprocess.run(
         [sys.executable, "-c", _ALLOCATIONS],

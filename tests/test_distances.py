@@ -15,7 +15,7 @@ from opendyn.multibody.shapes import BOX, CAPSULE, CYLINDER, MESH, SPHERE
 
 pin = pytest.importorskip("pinocchio")
 coal = pytest.importorskip("coal")
-from test_collision_pairs import NO_VERTICES, depth_by_directions, overlap
+from collision_shapes import NO_VERTICES, depth_by_directions, overlap
 from test_geometry import URDFS, _by_link
 
 

@@ -337,3 +337,63 @@ def test_a_scene_reads_robot_srdf_beside_it(tmp_path):
     scene.write_text('[robot]\nurdf = "blocks.urdf"\nsrdf = "gone.srdf"\n')
     with pytest.raises(od.SceneError, match=r"robot\.srdf.*no such SRDF file"):
         od.load_scene(scene)
+
+
+def _clouds_for_hulls():
+    """Points whose hulls' faces are checked: a cube with points inside and on its faces, a
+    hexagonal prism, a random cloud, and every mesh of the Panda when example-robot-data is
+    installed."""
+    rng = np.random.default_rng(8)
+    cube = np.array([(x, y, z) for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], float)
+    cube = np.concatenate([cube, rng.uniform(-0.9, 0.9, (40, 3)), [(1, 0.2, 0.3), (0, 0, -1)]])
+    angles = np.arange(6) * np.pi / 3
+    ring = np.stack([np.cos(angles), np.sin(angles), np.zeros(6)], axis=1)
+    clouds = {"cube": cube, "prism": np.concatenate([ring, ring + (0, 0, 2)])}
+    clouds["random"] = rng.normal(size=(300, 3))
+    try:
+        importlib.metadata.distribution("example-robot-data")
+    except importlib.metadata.PackageNotFoundError:
+        return clouds
+    for g in od.load_urdf("panda").geometries:
+        if g.vertices is not None:
+            clouds[g.name] = g.vertices
+    return clouds
+
+
+@pytest.mark.parametrize("name, points", list(_clouds_for_hulls().items()))
+def test_a_hull_has_its_faces_as_polygons(name, points):
+    """A hull's faces (multibody.hulls): each a supporting plane of the points (every corner at
+    the support value h(N) = max_p N . p of its unit normal N, to the width the merge of nearly
+    coplanar triangles allows, every point at or below it), its
+    corners a convex polygon counterclockwise about N, the faces closing the hull (Euler:
+    V - E + F = 2, E half the corners of all faces), each vertex listed under the faces that
+    hold it; a cube's six faces of four corners, a hexagonal prism's two hexagons and six
+    rectangles."""
+    from opendyn.multibody.hulls import COPLANAR, convex_hull
+
+    h = convex_hull(points)
+    scale = np.abs(points).max()
+    F = len(h.face_normal)
+    loops = [h.face_vertices[h.face_start[f] : h.face_start[f + 1]] for f in range(F)]
+    np.testing.assert_allclose(np.linalg.norm(h.face_normal, axis=1), 1.0, atol=1e-12)
+    for f, loop in enumerate(loops):
+        N, corners = h.face_normal[f], h.vertices[loop]
+        support = (points @ N).max()
+        # merged triangles are within an angle sqrt(2 COPLANAR) of each other: a corner is that
+        # far from the plane across the face's width, at most
+        width = np.linalg.norm(corners[:, None] - corners[None], axis=2).max()
+        slack = np.sqrt(2 * COPLANAR) * width + 1e-12 * scale
+        assert (corners @ N <= support + 1e-12 * scale).all()
+        assert (corners @ N >= support - slack).all()
+        turns = np.cross(np.roll(corners, -1, 0) - corners, np.roll(corners, -2, 0) - corners)
+        assert (turns @ N >= -1e-9 * scale**2).all()
+        assert (turns @ N).sum() > 0
+        for v in loop:
+            assert f in h.vertex_faces[h.vertex_face_start[v] : h.vertex_face_start[v + 1]]
+    E = sum(len(loop) for loop in loops) / 2
+    assert len(h.vertices) - E + F == 2
+    if name == "cube":
+        assert sorted(len(loop) for loop in loops) == [4] * 6
+        np.testing.assert_allclose(np.abs(h.face_normal).sum(axis=1), 1.0, atol=1e-15)
+    if name == "prism":
+        assert sorted(len(loop) for loop in loops) == [4] * 6 + [6] * 2

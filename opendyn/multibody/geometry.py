@@ -14,12 +14,12 @@ its parent (they touch at the joint by construction), except the link pairs an S
 
 from __future__ import annotations
 
-import functools
 from dataclasses import dataclass
 
 import numpy as np
 
 from .._runtime.arrays import immutable
+from .hulls import convex_hull
 from .shapes import SHAPE_NAMES
 
 SIZE_LENGTHS = {"sphere": 1, "box": 3, "cylinder": 2, "capsule": 2, "mesh": 3}
@@ -82,14 +82,17 @@ class GeometryTable:
       T_body_geom   (G, 4, 4) T_{b,g} = T_{b,L} T_{L,g}, the geometry's frame in its body's (m)
       code          (G,) int, the shape's code (opendyn.multibody.shapes: SPHERE, BOX, ...)
       size          (G, 3) the shape's size row as shapes.py lays it out (unused entries 0)
-      vertex_range  (G, 2) int, [first, stop) of the geometry's hull vertices in `vertices`
-                    (empty for the shapes that have none)
-      vertices      (V, 3) every mesh's hull vertices, in its geometry's frame {g} (m)
-      neighbor_start  (V + 1,) int, hull vertex v's neighbors on its hull are
-                    neighbors[neighbor_start[v]:neighbor_start[v + 1]]
-      neighbors     (E,) int, each an index into its own geometry's hull (0 = its first vertex)
-      seeds         (G,) int, how many of a hull's first vertices are its seeds: its farthest
-                    along the 26 directions of SEED_DIRECTIONS (hull_graph)
+      vertex_range  (G, 2) int, [first, stop) of the geometry's hull vertices (the rows of
+                    `vertices`, `neighbor_start` and `vertex_face_start`; empty for the shapes
+                    that have none)
+      face_range    (G, 2) int, [first, stop) of its hull faces (rows of `face_normal` and
+                    `face_start`)
+      seeds         (G,) int, how many of a hull's first vertices are its seeds
+      vertices, neighbor_start, neighbors, face_normal, face_start, face_vertices,
+      vertex_face_start, vertex_faces
+                    every mesh's Hull (hulls.py) one after the other: the starts are positions
+                    in the arrays they index, the indices they lead to count from the
+                    geometry's own first vertex or face (0 = its first)
     """
 
     body: np.ndarray
@@ -97,10 +100,16 @@ class GeometryTable:
     code: np.ndarray
     size: np.ndarray
     vertex_range: np.ndarray
+    face_range: np.ndarray
+    seeds: np.ndarray
     vertices: np.ndarray
     neighbor_start: np.ndarray
     neighbors: np.ndarray
-    seeds: np.ndarray
+    face_normal: np.ndarray
+    face_start: np.ndarray
+    face_vertices: np.ndarray
+    vertex_face_start: np.ndarray
+    vertex_faces: np.ndarray
 
     @classmethod
     def of(cls, geometries, frames_by_name) -> GeometryTable:
@@ -110,83 +119,50 @@ class GeometryTable:
         T_body_geom = np.empty((count, 4, 4))
         code = np.empty(count, dtype=np.int64)
         size = np.zeros((count, 3))
-        vertex_range = np.zeros((count, 2), dtype=np.int64)
-        seeds = np.zeros(count, dtype=np.int64)
-        hulls, starts, neighbors, first, edges = [], [np.zeros(1, np.int64)], [], 0, 0
+        hulls = [convex_hull(g.vertices) if g.vertices is not None else None for g in geometries]
         for k, g in enumerate(geometries):
             frame = frames_by_name[g.link]
             body[k] = frame.body
             T_body_geom[k] = frame.T_body_frame @ g.placement
             code[k] = SHAPE_NAMES.index(g.shape)
             size[k, : len(g.size)] = g.size
-            if g.vertices is not None:
-                hull, start, around, seeds[k] = hull_graph(g.vertices)
-                hulls.append(hull)
-                starts.append(start[1:] + edges)
-                neighbors.append(around)
-                vertex_range[k] = first, first + len(hull)
-                first, edges = first + len(hull), edges + len(around)
-            else:
-                vertex_range[k] = first, first
-        vertices = np.concatenate(hulls) if hulls else np.zeros((0, 3))
-        neighbor_start = np.concatenate(starts)
-        neighbors = np.concatenate(neighbors) if neighbors else np.zeros(0, np.int64)
-        arrays = (body, T_body_geom, code, size, vertex_range, vertices, neighbor_start, neighbors)
-        return cls(*(immutable(a, a.dtype) for a in (*arrays, seeds)))
+        packed = _packed([h for h in hulls if h is not None])
+        V = np.cumsum([0] + [len(h.vertices) if h else 0 for h in hulls])
+        F = np.cumsum([0] + [len(h.face_normal) if h else 0 for h in hulls])
+        ranges = np.stack([V[:-1], V[1:]], axis=1), np.stack([F[:-1], F[1:]], axis=1)
+        seeds = np.array([h.seeds if h else 0 for h in hulls], dtype=np.int64)
+        arrays = (body, T_body_geom, code, size, *ranges, seeds, *packed)
+        return cls(*(immutable(a, a.dtype) for a in arrays))
 
 
-SEED_DIRECTIONS = np.array(
-    [(x, y, z) for x in (-1, 0, 1) for y in (-1, 0, 1) for z in (-1, 0, 1) if x or y or z],
-    dtype=float,
-)
-"""The 26 directions (the cube's faces, edges and corners) along which a hull's farthest vertices
-start its climbs (hull_graph)."""
-
-
-def hull_graph(points):
-    """The convex hull of points (n, 3) as the collision kernels climb it: (vertices (V, 3),
-    neighbor_start (V + 1,) int, neighbors (E,) int, seeds int), the hull's vertices (its extreme
-    points: the points inside are dropped, the support function max_v d . v is the same without
-    them), for each vertex v the vertices it shares a hull edge with,
-    neighbors[neighbor_start[v]:neighbor_start[v + 1]], and how many of the first vertices are
-    seeds, the farthest along the 26 SEED_DIRECTIONS.
-
-    On a convex polytope a vertex no neighbor of which lies farther along d is the farthest of
-    all (the edges at a vertex span the polytope's cone there), so the support point is found by
-    walking along edges (hill climbing, as coal does for its large convex shapes) instead of by
-    testing every vertex. A walk starts from the best of the seeds (and of where the last walk
-    ended), a few edges from any direction's farthest vertex: from an arbitrary vertex it would
-    cross the hull, measured ~25 steps on the Panda's links. Points that span no volume (a flat
-    mesh) keep all their distinct points and no edges: the kernels then test every vertex.
-    The graph of the same points is computed once per process (every Model.build asks again).
-    """
-    points = np.ascontiguousarray(points, dtype=float).reshape(-1, 3)
-    return _graph_of(points.tobytes())
-
-
-@functools.lru_cache(maxsize=512)
-def _graph_of(data):
-    """hull_graph of the points whose float64 bytes are `data`, its arrays read-only."""
-    from scipy.spatial import ConvexHull, QhullError
-
-    points = np.frombuffer(data).reshape(-1, 3)
-    try:
-        hull = ConvexHull(points)
-    except QhullError:
-        flat = np.unique(points, axis=0)
-        graph = (flat, np.zeros(len(flat) + 1, np.int64), np.zeros(0, np.int64))
-        return (*(immutable(a, a.dtype) for a in graph), 0)
-    corners = points[hull.vertices]
-    seeds = np.unique(np.argmax(SEED_DIRECTIONS @ corners.T, axis=1))
-    order = np.concatenate([seeds, np.setdiff1d(np.arange(len(corners)), seeds)])
-    index = np.full(len(points), -1, np.int64)
-    index[hull.vertices[order]] = np.arange(len(order))
-    triangles = index[hull.simplices]
-    edges = np.concatenate([triangles[:, [0, 1]], triangles[:, [1, 2]], triangles[:, [2, 0]]])
-    edges = np.unique(np.concatenate([edges, edges[:, ::-1]]), axis=0)  # sorted by vertex
-    start = np.searchsorted(edges[:, 0], np.arange(len(order) + 1)).astype(np.int64)
-    graph = (corners[order], start, edges[:, 1])
-    return (*(immutable(a, a.dtype) for a in graph), len(seeds))
+def _packed(hulls):
+    """The Hulls' arrays one after the other, in GeometryTable's order: the starts shifted to
+    positions in the concatenated arrays they index (GeometryTable)."""
+    vertices = [np.zeros((0, 3))] + [h.vertices for h in hulls]
+    face_normal = [np.zeros((0, 3))] + [h.face_normal for h in hulls]
+    columns = []
+    for start, items in (
+        ("neighbor_start", "neighbors"),
+        ("face_start", "face_vertices"),
+        ("vertex_face_start", "vertex_faces"),
+    ):
+        starts, offset = [np.zeros(1, np.int64)], 0
+        for h in hulls:
+            starts.append(getattr(h, start)[1:] + offset)
+            offset += len(getattr(h, items))
+        columns.append(np.concatenate(starts))
+        columns.append(np.concatenate([np.zeros(0, np.int64)] + [getattr(h, items) for h in hulls]))
+    neighbor_start, neighbors, face_start, face_vertices, vertex_face_start, vertex_faces = columns
+    return (
+        np.concatenate(vertices),
+        neighbor_start,
+        neighbors,
+        np.concatenate(face_normal),
+        face_start,
+        face_vertices,
+        vertex_face_start,
+        vertex_faces,
+    )
 
 
 def default_pairs(table: GeometryTable, parent, disabled_links=frozenset(), links=()):

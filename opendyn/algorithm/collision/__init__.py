@@ -9,14 +9,18 @@
   closed_forms.py  sphere and capsule pairs, sphere-box, anything against a halfspace
   box_box.py       two overlapping boxes by the separating-axis theorem
   narrow_phase.py  pair_distance: the dispatch by shape codes
+  clipping.py      polygon clipping and the reduction of a manifold to four points
   manifold.py      up to four contact points of a shape against a halfspace
   box_manifold.py  up to four contact points of two boxes (clipping)
+  features.py      the face, edge or point of a shape farthest along a direction
+  face_contacts.py up to four contact points of any two shapes face-on or edge-on (clipping)
 """
 
 from .box_manifold import box_contacts
 from .closed_forms import DISTANCE, NORMAL, OUT_SIZE, POINT_A, POINT_B
+from .face_contacts import face_contacts
 from .manifold import MAX_CONTACTS, halfspace_contacts
-from .narrow_phase import no_hull, pair_distance, work_array
+from .narrow_phase import mesh_hull, no_hull, pair_distance, work_array
 
 __all__ = [
     "DISTANCE",
@@ -26,7 +30,9 @@ __all__ = [
     "POINT_A",
     "POINT_B",
     "box_contacts",
+    "face_contacts",
     "halfspace_contacts",
+    "mesh_hull",
     "no_hull",
     "pair_distance",
     "work_array",

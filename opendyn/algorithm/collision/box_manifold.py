@@ -1,6 +1,5 @@
 """The contact manifold of two overlapping boxes: up to four points, each with its own depth,
-by clipping (Ericson, Real-Time Collision Detection, 2005, 8.3.4, Sutherland-Hodgman; the way
-MuJoCo's box-box routine and Box2D's and Bullet's build a face contact):
+by clipping (clipping.py), on the separating axis of box_box.py:
 
   1. the separating-axis test (box_box.py) gives the axis of least overlap L, from a towards b;
      an edge pair gives its one contact, a face is the reference face, normal N (outward)
@@ -9,9 +8,7 @@ MuJoCo's box-box routine and Box2D's and Bullet's build a face contact):
      (u_j . (x - c) <= h_j and -u_j . (x - c) <= h_j for the face's two in-plane axes)
   4. each remaining point x below the reference face, s = N . (x - f) <= 0 (f on the face), is a
      contact of depth s: x on the incident box, x - s N on the reference face
-  5. more than four: the deepest, the farthest from it, and the two that span the largest
-     triangles with those on either side (the four that keep the largest area, as Gregorius'
-     "Robust contact creation for physics simulations", GDC 2015, reduces them)
+  5. more than four: clipping.reduce_to_four
 
 Each contact is a row of the narrow phase's out layout (d, p_A, p_B, L).
 """
@@ -24,28 +21,11 @@ from numba import njit
 
 from ..._runtime.kernel_cache import UNCOUNTED
 from .box_box import box_box
+from .clipping import DEPTH, clip, reduce_to_four
 from .closed_forms import DISTANCE, OUT_SIZE, write_inflated
-from .vectors import axis, axpy, cross, dot, origin, put, row, scale, sub
+from .vectors import axis, axpy, dot, origin, put, row, scale, sub
 
 POLYGON, CLIPPED = 0, 8  # work rows of the polygon being clipped and of its clipped copy
-
-
-@njit(**UNCOUNTED)
-def clip(work, source, count, target, n, c):
-    """The polygon in work rows source.. (count corners, columns 0-2) clipped by the plane
-    n . x <= c into rows target..; returns its corner count (Sutherland-Hodgman)."""
-    kept = 0
-    for i in range(count):
-        p = row(work, source + i, 0)
-        q = row(work, source + (i + 1) % count, 0)
-        dp, dq = dot(n, p) - c, dot(n, q) - c
-        if dp <= 0.0:
-            put(work, target + kept, 0, p)
-            kept += 1
-        if (dp < 0.0 and dq > 0.0) or (dp > 0.0 and dq < 0.0):
-            put(work, target + kept, 0, axpy(dp / (dp - dq), sub(q, p), p))
-            kept += 1
-    return kept
 
 
 @njit(**UNCOUNTED)
@@ -77,33 +57,6 @@ def clipped_contacts(work, T_ref, h_ref, r, N, count):
 
 
 @njit(**UNCOUNTED)
-def reduce_to_four(work, count, N):
-    """Indices (rows from POLYGON, -1 for none) of at most four of the count points (column 3:
-    their depth s) that keep the deepest and the largest area (module docstring, step 5)."""
-    i0, i1, i2, i3 = 0, -1, -1, -1
-    for i in range(count):
-        if work[POLYGON + i, 3] < work[POLYGON + i0, 3]:
-            i0 = i
-    x0 = row(work, POLYGON + i0, 0)
-    far = 0.0
-    for i in range(count):
-        e = sub(row(work, POLYGON + i, 0), x0)
-        if dot(e, e) > far:
-            i1, far = i, dot(e, e)
-    if i1 < 0:
-        return i0, i1, i2, i3
-    edge = sub(row(work, POLYGON + i1, 0), x0)
-    most, least = 0.0, 0.0
-    for i in range(count):
-        area = dot(cross(edge, sub(row(work, POLYGON + i, 0), x0)), N)
-        if area > most:
-            i2, most = i, area
-        if area < least:
-            i3, least = i, area
-    return i0, i1, i2, i3
-
-
-@njit(**UNCOUNTED)
 def box_contacts(code_a, size_a, hull_a, T_a, code_b, size_b, hull_b, T_b, contacts, work):
     """Up to four contacts of boxes a and b (the arguments as pair_distance's; code_a
     and code_b BOX) into rows of contacts (4, OUT_SIZE), the deepest first; `work`
@@ -132,15 +85,15 @@ def box_contacts(code_a, size_a, hull_a, T_a, code_b, size_b, hull_b, T_b, conta
         s = dot(N, sub(x, face))
         if s <= 0.0:
             put(work, POLYGON + below, 0, x)
-            work[POLYGON + below, 3] = s
+            work[POLYGON + below, DEPTH] = s
             below += 1
     if below == 0:  # (rounding) the separating-axis contact alone
         return 1
     n_contacts = 0
-    for i in reduce_to_four(work, below, N):
+    for i in reduce_to_four(work, POLYGON, below, N):
         if i < 0:
             continue
-        x, s = row(work, POLYGON + i, 0), work[POLYGON + i, 3]
+        x, s = row(work, POLYGON + i, 0), work[POLYGON + i, DEPTH]
         on_ref = axpy(-s, N, x)
         # insert by depth, the deepest first
         k = n_contacts

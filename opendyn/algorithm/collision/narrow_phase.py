@@ -5,9 +5,8 @@ and normal, by a closed form where one exists and by GJK and EPA otherwise.
 
   code_X      int, a shape code of opendyn.multibody.shapes (SPHERE ... HALFSPACE)
   size_X      (3,) float64, the shape's size in metres, as shapes.py lays it out
-  hull_X      a MESH's convex hull (vertices (V, 3) in the shape's frame {g}, already scaled,
-              neighbor_start (V + 1,), neighbors (E,), seeds, hint (1,): support.py), its hint
-              reset to 0 here; `no_hull()` for the other shapes
+  hull_X      a MESH's convex hull (support.py; `mesh_hull(points)` makes one), its hint reset
+              to 0 here; `no_hull()` for the other shapes
   T_X         (3, 4) or (4, 4) float64, the pose of {g} in the world, [R p]
   out         (OUT_SIZE,) = (10,) float64, written: out[0] = d the signed distance (negative:
               the penetration depth), out[1:4] = p_A and out[4:7] = p_B the nearest points in
@@ -34,6 +33,7 @@ from numba import njit
 
 from ..._runtime.kernel_cache import UNCOUNTED
 from ..._runtime.status import Status
+from ...multibody.hulls import convex_hull
 from ...multibody.shapes import BOX, CAPSULE, HALFSPACE, SPHERE
 from .box_box import box_box
 from .closed_forms import NORMAL, POINT_A, POINT_B, halfspace, rounded, sphere_box, write_inflated
@@ -46,13 +46,17 @@ from .vectors import norm, scale, sub
 
 def no_hull():
     """The hull of a shape that has none (every shape but MESH): empty arrays."""
-    return (
-        np.zeros((0, 3)),
-        np.zeros(1, np.int64),
-        np.zeros(0, np.int64),
-        0,
-        np.zeros(1, np.int64),
-    )
+    none = np.zeros(0, np.int64)
+    faces = (np.zeros((0, 3)), np.zeros(1, np.int64), none, np.zeros(1, np.int64), none)
+    return (np.zeros((0, 3)), np.zeros(1, np.int64), none, 0, np.zeros(1, np.int64), faces)
+
+
+def mesh_hull(points):
+    """The hull tuple of a MESH shape (support.py) made of points (n, 3) in its frame {g} (m):
+    their convex hull (multibody.hulls.convex_hull) with a hint of its own."""
+    h = convex_hull(points)
+    faces = (h.face_normal, h.face_start, h.face_vertices, h.vertex_face_start, h.vertex_faces)
+    return (h.vertices, h.neighbor_start, h.neighbors, h.seeds, np.zeros(1, np.int64), faces)
 
 
 def work_array():

@@ -6,8 +6,9 @@ One kinematics pass places every geometry (world.place_geometries); then, for ea
     distances:   d_ab = the signed distance of the two convex shapes (the narrow phase, for
                  every pair asked: a distance is wanted even when it is large)
     collisions:  the pairs whose bounding boxes, grown by the margin, overlap (the broad phase),
-                 then those with d_ab < margin, each with its contact points: up to four for a
-                 face-on contact (a box on a box, anything on a halfspace), one otherwise
+                 then those with d_ab <= margin, each with its contact points: up to four for
+                 a face-on or edge-on contact (a box on a box, a cylinder on its cap or its side,
+                 a mesh's face, anything on a halfspace), one otherwise
 
 Every row follows the narrow phase's layout: d, p_A, p_B (world, m) and the unit normal n from a
 towards b, with p_B - p_A = d n; d < 0 is a penetration of depth -d, p_A and p_B the deepest
@@ -16,6 +17,7 @@ points of each shape inside the other.
 
 from __future__ import annotations
 
+import dataclasses
 import warnings
 from typing import NamedTuple
 
@@ -33,6 +35,7 @@ from .. import checks
 from ..kinematics import forward_kinematics
 from .box_manifold import box_contacts
 from .closed_forms import DISTANCE, NORMAL, OUT_SIZE, POINT_A, POINT_B
+from .face_contacts import face_contacts
 from .manifold import MAX_CONTACTS, halfspace_contacts
 from .narrow_phase import pair_distance, work_array
 from .world import bounding_boxes, boxes_near, place_geometries, shape_of
@@ -58,7 +61,7 @@ class Distances(NamedTuple):
 
 
 class Contacts(NamedTuple):
-    """The contacts of the pairs closer than a margin (``od.collisions``), K contacts:
+    """The contacts of the pairs within a margin (``od.collisions``), K contacts:
 
       pairs     (K, 2) int, the geometry pair (a, b) of each contact (indices into
                 model.geometries); a pair in face-on contact has up to four rows
@@ -142,9 +145,9 @@ def distances_kernel(ibuf, fbuf, work, q, table, pairs, geometry_work, rows):
 
 @njit(**UNCOUNTED)
 def pair_contacts(a, b, margin, rows, scratch):
-    """Up to MAX_CONTACTS contacts of shapes a and b closer than margin into rows (4, OUT_SIZE):
-    the box-box manifold, a halfspace's, or the narrow phase's one point. Returns (count,
-    status)."""
+    """Up to MAX_CONTACTS contacts of shapes a and b within margin into rows (4, OUT_SIZE): the
+    box-box manifold of overlapping boxes, a halfspace's, or the narrow phase's contact and
+    the face or edge manifold clipped around it (face_contacts.py). Returns (count, status)."""
     if a[0] == BOX and b[0] == BOX:
         count = box_contacts(a[0], a[1], a[2], a[3], b[0], b[1], b[2], b[3], rows, scratch)
         if count:
@@ -160,12 +163,14 @@ def pair_contacts(a, b, margin, rows, scratch):
                 rows[k, NORMAL + c] = -rows[k, NORMAL + c]
         return count, Status.OK.value
     status = pair_distance(a[0], a[1], a[2], a[3], b[0], b[1], b[2], b[3], rows[0], scratch)
-    return (1 if rows[0, DISTANCE] < margin else 0), status
+    if rows[0, DISTANCE] > margin:
+        return 0, status
+    return face_contacts(a, b, margin, rows, scratch), status
 
 
 @njit(**UNCOUNTED)
 def collisions_kernel(ibuf, fbuf, work, q, table, pairs, margin, geometry_work, rows, pair_of):
-    """The contacts of the pairs closer than margin at q: rows[:count] (OUT_SIZE each) and
+    """The contacts of the pairs within margin at q: rows[:count] (OUT_SIZE each) and
     pair_of[:count] (2,) their geometry pairs; geometry_work = (T_sg, hints, boxes, scratch).
     Returns (Status, count)."""
     T_sg, hints, boxes, scratch = geometry_work
@@ -191,9 +196,9 @@ def collisions_kernel(ibuf, fbuf, work, q, table, pairs, margin, geometry_work, 
 
 
 def _table(model):
+    """The model's GeometryTable as the kernels take it: a tuple of its arrays in its order."""
     t = model.geometry_table
-    hull = (t.vertex_range, t.vertices, t.neighbor_start, t.neighbors, t.seeds)
-    return (t.body, t.T_body_geom, t.code, t.size, *hull)
+    return tuple(getattr(t, field.name) for field in dataclasses.fields(t))
 
 
 def _pairs(model, pairs):
@@ -280,10 +285,11 @@ def distances(model, q, pairs=None, data=None) -> Distances:
 
 
 def collisions(model, q, margin=0.0, data=None) -> Contacts:
-    """The contacts of the model's default collision pairs (model.collision_pairs) closer than
-    `margin` (m, >= 0) at q: a pair in face-on contact (a box on a box or on a halfspace, a
-    cylinder on its cap) gives up to four points, each with its own depth, so that a resting
-    box is held at its corners; every other pair its nearest (or deepest) points.
+    """The contacts of the model's default collision pairs (model.collision_pairs) within
+    `margin` (m, >= 0) at q: a pair in face-on or edge-on contact (a box on a box or on a
+    halfspace, a cylinder on its cap or its side, a mesh's face on another shape) gives up to
+    four points, each with its own depth, so that a resting box is held at its corners; every
+    other pair its nearest (or deepest) points.
 
     q: one configuration (nq,). data: a Data of the model: the record's arrays are then views of
     the Data's (overwritten by its next query), and a call allocates nothing after its first.

@@ -7,13 +7,15 @@ Collision Detection in Interactive 3D Environments, 2003, 4.3). A shape is the t
 (code, size, hull, T) of opendyn.multibody.shapes: its code, size (3,) in metres, its convex hull
 (MESH; empty arrays otherwise) and its pose T = [R p] in the world. A hull is the tuple
 
-    (vertices (V, 3) in {g}, neighbor_start (V + 1,) int, neighbors (E,) int, seeds, hint (1,))
+    (vertices (V, 3) in {g}, neighbor_start (V + 1,) int, neighbors (E,) int, seeds, hint (1,),
+     faces)
 
-of multibody.geometry.hull_graph with a hint, the vertex its last support point was. A mesh's
-support walks along the hull's edges to the farthest vertex (hill climbing: on a convex polytope
-a vertex with no farther neighbor is the farthest of all), from the best of the hint and the
-seeds (the farthest vertices along 26 fixed directions), a few steps instead of a test of every
-vertex; a hull without edges (flat) tests every vertex.
+of a multibody.hulls.Hull's arrays with a hint, the vertex its last support point was, and faces
+= (face_normal, face_start, face_vertices, vertex_face_start, vertex_faces) (features.py reads
+them). A mesh's support walks along the hull's edges to the farthest vertex (hill climbing: on a
+convex polytope a vertex with no farther neighbor is the farthest of all), from the best of the
+hint and the seeds (the farthest vertices along 26 fixed directions), a few steps instead of a
+test of every vertex; a hull without edges (flat) tests every vertex.
 
 A sphere and a capsule are given by their core, a point or a segment, and a radius r: the shape
 is core (+) ball(r), so s_X(d) = s_core(d) + r d/|d|. GJK and EPA run on the cores and the
@@ -100,7 +102,7 @@ def local_core_support(code, size, vertices, start, neighbors, seeds, hint, d):
 def core_support(shape, d):
     """s_core(d) in the world for a shape tuple (code, size, hull, T), d a world direction:
     R s_local(R^T d) + p."""
-    code, size, (vertices, start, neighbors, seeds, hint), T = shape
+    code, size, (vertices, start, neighbors, seeds, hint, _), T = shape
     d_g = to_local(T, d)
     return to_world(T, local_core_support(code, size, vertices, start, neighbors, seeds, hint, d_g))
 

@@ -47,11 +47,14 @@ def place_geometries(R_s, p_s, table, T_sg):
 @njit(**UNCOUNTED_INLINE)
 def shape_of(table, hints, T_sg, k):
     """Geometry k as the narrow phase's shape tuple (code, size (3,), hull, T), its hull the
-    table's rows of geometry k with hints[k] (support.py): table = GeometryTable's (body,
-    T_body_geom, code, size, vertex_range, vertices, neighbor_start, neighbors, seeds)."""
-    first, stop = table[4][k, 0], table[4][k, 1]
-    vertices, start = table[5][first:stop], table[6][first : stop + 1]
-    hull = (vertices, start, table[7], table[8][k], hints[k : k + 1])
+    table's rows of geometry k with hints[k] (support.py): table = GeometryTable's arrays in its
+    order (body, T_body_geom, code, size, vertex_range, face_range, seeds, vertices,
+    neighbor_start, neighbors, face_normal, face_start, face_vertices, vertex_face_start,
+    vertex_faces)."""
+    v0, v1 = table[4][k, 0], table[4][k, 1]
+    f0, f1 = table[5][k, 0], table[5][k, 1]
+    faces = (table[10][f0:f1], table[11][f0 : f1 + 1], table[12], table[13][v0 : v1 + 1], table[14])
+    hull = (table[7][v0:v1], table[8][v0 : v1 + 1], table[9], table[6][k], hints[k : k + 1], faces)
     return (table[2][k], table[3][k], hull, T_sg[k])
 
 
