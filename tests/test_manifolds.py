@@ -209,8 +209,8 @@ def test_a_cylinder_or_a_capsule_lying_on_a_box_touches_at_both_ends(code, size)
     rows = manifold(lying, T, SLAB, pose())
     assert len(rows) == 2
     np.testing.assert_allclose(rows[:, 0], -0.002, atol=1e-15)
-    ends = sorted(map(tuple, rows[:, 1:4].round(12)))
-    assert ends == [(0.1, -0.15, 0.098), (0.1, 0.25, 0.098)]
+    ends = rows[np.argsort(rows[:, 2]), 1:4]  # the line's side from the narrow phase's normal
+    np.testing.assert_allclose(ends, [(0.1, -0.15, 0.098), (0.1, 0.25, 0.098)], atol=1e-9)
     check_rows(rows, lying, T, SLAB, pose())
     T = pose(rot((0, 1, 0), np.pi / 2), (0.4, 0.0, 0.198))  # along x, from 0.2 to 0.6
     rows = manifold(lying, T, SLAB, pose())
