@@ -22,7 +22,7 @@ from numba import njit
 from ..._runtime.kernel_cache import UNCOUNTED
 from .box_box import box_box
 from .clipping import DEPTH, clip, reduce_to_four
-from .closed_forms import DISTANCE, OUT_SIZE, write_inflated
+from .closed_forms import room_by_depth, write_inflated
 from .vectors import axis, axpy, dot, origin, put, row, scale, sub
 
 POLYGON, CLIPPED = 0, 8  # work rows of the polygon being clipped and of its clipped copy
@@ -95,12 +95,7 @@ def box_contacts(code_a, size_a, hull_a, T_a, code_b, size_b, hull_b, T_b, conta
             continue
         x, s = row(work, POLYGON + i, 0), work[POLYGON + i, DEPTH]
         on_ref = axpy(-s, N, x)
-        # insert by depth, the deepest first
-        k = n_contacts
-        while k > 0 and contacts[k - 1, DISTANCE] > s:
-            for c in range(OUT_SIZE):
-                contacts[k, c] = contacts[k - 1, c]
-            k -= 1
+        k = room_by_depth(contacts, n_contacts, s)
         if kind < 3:
             write_inflated(contacts[k], on_ref, x, L, 0.0, 0.0)
         else:

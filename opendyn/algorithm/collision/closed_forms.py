@@ -57,6 +57,26 @@ def write_inflated(out, c_a, c_b, n, r_a, r_b):
 
 
 @njit(**UNCOUNTED)
+def swap_sides(out):
+    """out (OUT_SIZE,), a result of (b, a), read as (a, b): p_A and p_B swapped, n negated."""
+    for k in range(3):
+        out[POINT_A + k], out[POINT_B + k] = out[POINT_B + k], out[POINT_A + k]
+        out[NORMAL + k] = -out[NORMAL + k]
+
+
+@njit(**UNCOUNTED)
+def room_by_depth(rows, last, d):
+    """The row at which a contact of distance d goes among rows[:last], sorted the deepest first:
+    the rows from there to last - 1 move down one (row `last` is overwritten). Returns it."""
+    r = last
+    while r > 0 and rows[r - 1, DISTANCE] > d:
+        for c in range(OUT_SIZE):
+            rows[r, c] = rows[r - 1, c]
+        r -= 1
+    return r
+
+
+@njit(**UNCOUNTED)
 def clamp01(x):
     return min(max(x, 0.0), 1.0)
 

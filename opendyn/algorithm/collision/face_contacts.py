@@ -28,7 +28,7 @@ from numba import njit
 from ..._runtime.kernel_cache import UNCOUNTED
 from ...multibody.shapes import SPHERE
 from .clipping import DEPTH, clip, reduce_to_four
-from .closed_forms import DISTANCE, NORMAL, OUT_SIZE, write_inflated
+from .closed_forms import NORMAL, room_by_depth, write_inflated
 from .features import EDGE_ON, MAX_CORNERS, feature
 from .support import core_radius
 from .vectors import axpy, cross, dot, norm, put, row, scale, sub
@@ -85,8 +85,10 @@ def face_contacts(a, b, margin, contacts, work):
         return 1
     n = row(contacts, 0, NORMAL)
     count_a, N_a = feature(a, n, work, FEATURE_A)
+    if count_a == 1:
+        return 1
     count_b, N_b = feature(b, scale(n, -1.0), work, FEATURE_B)
-    if count_a == 1 or count_b == 1:
+    if count_b == 1:
         return 1
     if count_a == 2 and count_b == 2:
         e_a = sub(row(work, FEATURE_A + 1, 0), row(work, FEATURE_A, 0))
@@ -120,11 +122,7 @@ def face_contacts(a, b, margin, contacts, work):
             continue
         x, s = row(work, POLYGON + i, 0), work[POLYGON + i, DEPTH]
         on_reference = axpy(-(s + r_a + r_b), N, x)
-        k = written  # insert by depth, the deepest first
-        while k > 0 and contacts[k - 1, DISTANCE] > s:
-            for c in range(OUT_SIZE):
-                contacts[k, c] = contacts[k - 1, c]
-            k -= 1
+        k = room_by_depth(contacts, written, s)
         if a_reference:
             write_inflated(contacts[k], on_reference, x, N, r_a, r_b)
         else:

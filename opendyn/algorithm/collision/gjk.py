@@ -13,8 +13,8 @@ simplex or |v| no longer decreases (a polytope's last step), and reports NO_CONV
 MAX_ITERATIONS. |v| can stall while the gap is still wide, on a thin simplex whose nearest point
 float64 cannot resolve (a box's face against a cylinder's rim: the distance right to 1e-10 m, its
 direction off by 1e-4); the simplex then starts again from the last support point, at most
-MAX_RESTARTS times. The origin inside the simplex, or |v| below OVERLAP, means that the sets overlap:
-EPA (epa.py) takes the simplex from there.
+MAX_RESTARTS times. The origin inside the simplex, or |v| below OVERLAP, means that the sets
+overlap: EPA (epa.py) takes the simplex from there.
 
 GJK here runs on the shapes' cores (support.py): the caller adds the radii.
 """

@@ -24,7 +24,7 @@ from numba import njit
 
 from ..._runtime.kernel_cache import UNCOUNTED
 from ...multibody.shapes import BOX, CAPSULE, CYLINDER, MESH
-from .closed_forms import DISTANCE, OUT_SIZE, write_inflated
+from .closed_forms import DISTANCE, room_by_depth, write_inflated
 from .vectors import axis, axpy, cross, dot, norm, origin, scale, sub, to_world
 
 MAX_CONTACTS = 4
@@ -90,12 +90,7 @@ def halfspace_contacts(code_a, size_a, hull_a, T_a, T_b, margin, contacts):
         d = dot(n, sub(x, p))
         if d > margin or (count == MAX_CONTACTS and d >= contacts[count - 1, DISTANCE]):
             continue
-        # insert by depth: rows below the place move down one, the last falls off when full
-        r = min(count, MAX_CONTACTS - 1)
-        while r > 0 and contacts[r - 1, DISTANCE] > d:
-            for c in range(OUT_SIZE):
-                contacts[r, c] = contacts[r - 1, c]
-            r -= 1
+        r = room_by_depth(contacts, min(count, MAX_CONTACTS - 1), d)  # the last falls off when full
         write_inflated(contacts[r], x, axpy(-d, n, x), scale(n, -1.0), 0.0, 0.0)
         count = min(count + 1, MAX_CONTACTS)
     return count

@@ -36,7 +36,7 @@ from ..._runtime.status import Status
 from ...multibody.hulls import convex_hull
 from ...multibody.shapes import BOX, CAPSULE, HALFSPACE, SPHERE
 from .box_box import box_box
-from .closed_forms import NORMAL, POINT_A, POINT_B, halfspace, rounded, sphere_box, write_inflated
+from .closed_forms import halfspace, rounded, sphere_box, swap_sides, write_inflated
 from .epa import ROWS, epa
 from .gjk import gjk
 from .simplex import COLUMNS, A, B, weighted
@@ -113,7 +113,5 @@ def pair_distance(code_a, size_a, hull_a, T_a, code_b, size_b, hull_b, T_b, out,
     if code_a <= code_b:
         return ordered_distance(a, b, out, work)
     status = ordered_distance(b, a, out, work)
-    for k in range(3):  # b's result read from a: the points swapped, the normal negated
-        out[POINT_A + k], out[POINT_B + k] = out[POINT_B + k], out[POINT_A + k]
-        out[NORMAL + k] = -out[NORMAL + k]
+    swap_sides(out)
     return status

@@ -34,7 +34,7 @@ from ...multibody.work_views import world_poses
 from .. import checks
 from ..kinematics import forward_kinematics
 from .box_manifold import box_contacts
-from .closed_forms import DISTANCE, NORMAL, OUT_SIZE, POINT_A, POINT_B
+from .closed_forms import DISTANCE, NORMAL, OUT_SIZE, POINT_A, POINT_B, swap_sides
 from .face_contacts import face_contacts
 from .manifold import MAX_CONTACTS, halfspace_contacts
 from .narrow_phase import pair_distance, work_array
@@ -156,11 +156,8 @@ def pair_contacts(a, b, margin, rows, scratch):
         return halfspace_contacts(a[0], a[1], a[2], a[3], b[3], margin, rows), Status.OK.value
     elif a[0] == HALFSPACE and b[0] != HALFSPACE:
         count = halfspace_contacts(b[0], b[1], b[2], b[3], a[3], margin, rows)
-        for k in range(count):  # b's contacts read from a: points swapped, normal negated
-            for c in range(3):
-                a_c, b_c = rows[k, POINT_A + c], rows[k, POINT_B + c]
-                rows[k, POINT_A + c], rows[k, POINT_B + c] = b_c, a_c
-                rows[k, NORMAL + c] = -rows[k, NORMAL + c]
+        for k in range(count):
+            swap_sides(rows[k])
         return count, Status.OK.value
     status = pair_distance(a[0], a[1], a[2], a[3], b[0], b[1], b[2], b[3], rows[0], scratch)
     if rows[0, DISTANCE] > margin:
