@@ -22,7 +22,7 @@ from opendyn.cli import simulate as cli_simulate
 from opendyn.sim.scene import Scene
 from opendyn.io.urdf import shipped_robots_dir
 from opendyn.sim import effects, step
-from opendyn.sim.effects import registry
+from opendyn.sim.effects import pd, registry
 from opendyn.sim.effects.dispatch import run_stages
 from opendyn.sim.effects.interface import CONSERVATIVE, ENERGY_CLASSES, Context, Out
 
@@ -37,13 +37,25 @@ PENDULUM = {"urdf": str(shipped_robots_dir() / "double_pendulum.urdf")}
 
 
 def scene_settings():
-    """{control module's name: the scene's settings}: together they switch on every effect of
-    the registry, a scene naming one control law."""
-    every_force = {effect.NAME: effect.EXAMPLE for effect in registry.in_section("effects")}
-    return {
+    """{module's name: the scene's settings}: together they switch on every effect of the
+    registry, a scene naming one control law with the first module of each name of [effects],
+    and one scene (PD control) for each further module of a name (the collision geometries'
+    contact, which shares [effects.contact] with the ground's spheres)."""
+    in_effects = registry.in_section("effects")
+    every_force = {}
+    for effect in in_effects:
+        every_force.setdefault(effect.NAME, effect.EXAMPLE)
+    found = {
         ids([effect])[0]: {"effects": every_force, "control": effect.EXAMPLE}
         for effect in registry.in_section("control")
     }
+    for effect in in_effects:
+        if every_force[effect.NAME] is not effect.EXAMPLE:
+            found[ids([effect])[0]] = {
+                "effects": {**every_force, effect.NAME: effect.EXAMPLE},
+                "control": pd.EXAMPLE,
+            }
+    return found
 
 
 def scene_named(key):
@@ -65,6 +77,16 @@ def arrays_of(record):
     if dataclasses.is_dataclass(record):
         return [v for v in vars(record).values() if isinstance(v, np.ndarray)]
     return []
+
+
+def leaves(items):
+    """The items of a tuple, the items of the tuples in it taken one by one (the geometry
+    contact's parameters hold the GeometryTable's arrays as one tuple)."""
+    for item in items:
+        if isinstance(item, tuple):
+            yield from leaves(item)
+        else:
+            yield item
 
 
 def ids(modules):
@@ -151,7 +173,7 @@ def test_every_effect_is_read_from_a_scene_and_packed_into_fresh_arrays(effect):
         arrays = params if isinstance(params, tuple) else (params,)
         if effect.Params is not None and "floating" in effect.Params._fields:
             arrays = params[:-1]  # computed torque's compile-time switch (None or True)
-        for array in arrays:
+        for array in leaves(arrays):
             assert isinstance(array, np.ndarray) and array.flags.writeable, effect.__name__
             assert array.flags.c_contiguous and array.dtype in (np.float64, np.int64, np.bool_)
             assert not any(np.shares_memory(array, value) for value in arrays_of(record))
@@ -186,7 +208,9 @@ def test_every_stage_is_reached_by_the_dispatch_and_adds_to_its_energy_class(sta
             t = rng.uniform(0, 1)
             dV_0 = np.zeros(6)
             data = step.scene_data(model, table)
-            ctx = Context(model._ibuf, model._fbuf, data.work, t, q, qd, dV_0, table.armature)
+            ctx = Context(
+                model._ibuf, model._fbuf, data.work, t, q, qd, dV_0, table.armature, data.room
+            )
             nv = model.nv
             out = Out(*np.zeros((3, nv)), np.zeros(2), *np.zeros((2, nv, nv)), np.bool_(True))
             assert step.place(data, q, qd) == 0  # as the step does before its stages
@@ -215,7 +239,7 @@ def stage_forces(stage, scene, q, qd, poses_q, world):
     assert step.place(data, poses_q, qd) == 0
     assert np.shares_memory(work, held.R_s)
     dV_0 = np.zeros(6)
-    ctx = Context(model._ibuf, model._fbuf, work, 0.3, q, qd, dV_0, table.armature)
+    ctx = Context(model._ibuf, model._fbuf, work, 0.3, q, qd, dV_0, table.armature, data.room)
     nv = model.nv
     out = Out(*np.zeros((3, nv)), np.zeros(2), *np.zeros((2, nv, nv)), np.bool_(True))
     assert one_stage(registry.slot(effects.gravity), table.effects, ctx, out) == 0

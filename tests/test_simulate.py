@@ -104,11 +104,17 @@ def test_damping_dissipates_energy_at_rate_qd_b_qd():
     np.testing.assert_allclose(traj.work_passive, dissipated, atol=1e-5 * np.abs(loss).max())
 
 
+def effect_names():
+    """The names of [effects]: a name that several modules share (the ground's spheres and
+    the collision geometries both read [effects.contact]) switches on its first module."""
+    return dict.fromkeys(effect.NAME for effect in registry.in_section("effects"))
+
+
 def _full_scene():
     """The double pendulum with every effect of the registry on: each [effects] entry its
     module's EXAMPLE, the contact's floor raised so that the tip swings down into it (it starts
     at 2.82 m), and PD control about the hanging pose."""
-    every = {effect.NAME: effect.EXAMPLE for effect in registry.in_section("effects")}
+    every = {name: registry.named(name)[0].EXAMPLE for name in effect_names()}
     every["contact"] = {**every["contact"], "ground_height": 2.6, "slip_velocity": 1.0}
     return od.scene_from_dict(
         {

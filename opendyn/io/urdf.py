@@ -67,7 +67,7 @@ def looks_mobile(model) -> bool:
     none of them is a "world" link that the URDF attaches it to, and either two or more joints
     leave them (legs, arms and a torso: an arm on a pedestal has one) or nothing moves at all (a
     single free body). Such a robot is usually meant for load_urdf(..., floating_base=True)."""
-    if model.floating_base or model.report.welded_mass <= 0:
+    if model.floating_base or model.report is None or model.report.welded_mass <= 0:
         return False
     welded = [f.name for f in model.frames if f.body < 0]
     if any(name.lower() == "world" for name in welded):

@@ -22,7 +22,7 @@ from .._runtime.arrays import immutable
 from .hulls import convex_hull
 from .shapes import SHAPE_NAMES
 
-SIZE_LENGTHS = {"sphere": 1, "box": 3, "cylinder": 2, "capsule": 2, "mesh": 3}
+SIZE_LENGTHS = {"sphere": 1, "box": 3, "cylinder": 2, "capsule": 2, "mesh": 3, "halfspace": 0}
 """How many numbers each shape's `size` holds (see Geometry)."""
 
 

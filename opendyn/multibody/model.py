@@ -183,7 +183,8 @@ class Model:
     base; a floating base adds 7 and 6: q = (p, quat, q_joints), v = (omega_b, v_b, qd_joints));
     nj = len(joint_names) joint coordinates. Fields (numpy arrays that can never be written):
       name            robot name from the URDF
-      floating_base   True when a free joint carries the root link (or a URDF floating joint)
+      floating_base   True when a free joint carries the root link (or a URDF floating joint);
+                      a scene's objects do not count
       joint_names     (nj,) names of the moving URDF joints that are coordinates, in the order of
                       their coordinates after the base (mimic joints with mimic=True are not)
       q_index, v_index (nj,) int: joint k's coordinate is q[q_index[k]], its velocity v[v_index[k]]
@@ -219,6 +220,11 @@ class Model:
                       default: on different bodies, neither the other's parent, not disabled by
                       an SRDF
       geometry_table  the geometries packed for the collision kernels (GeometryTable)
+      objects         the names of the bodies that are a scene's free objects (each a root on
+                      a free joint of its own, after the robot's bodies; its coordinates are
+                      named NAME.x ... NAME.qw and NAME.wx ... NAME.vz): empty for a robot
+      world           the names of a scene's static world entries (each a frame welded to the
+                      world, carrying the geometry of the same name): empty for a robot
       gravity         (3,) default gravity vector in the world frame (m/s^2)
       report          the loader's FidelityReport (what was honoured, transformed, ignored)
     """
@@ -246,6 +252,8 @@ class Model:
     geometries: tuple[Geometry, ...] = ()
     collision_pairs: np.ndarray | None = None
     geometry_table: GeometryTable | None = None
+    objects: tuple[str, ...] = ()
+    world: tuple[str, ...] = ()
     _frame_index: dict = field(default_factory=dict, repr=False)
 
     @classmethod
@@ -280,6 +288,8 @@ class Model:
         collision_spheres=(),
         geometries=(),
         disabled_links=frozenset(),
+        objects=(),
+        world=(),
     ):
         """Pack per-body arrays into the kernels' flat buffers and freeze everything.
 
@@ -292,6 +302,8 @@ class Model:
         collision_spheres: CollisionSpheres, each on a link that is one of the frames.
         geometries: Geometries, each on a link that is one of the frames; disabled_links: the
         link pairs (frozensets of two names) whose geometries are not checked by default.
+        objects, world: the names of a scene's free objects and static world entries
+        (Model.objects, Model.world).
         """
         nb = len(body_names)
         jtype = np.asarray(jtype, dtype=np.int64).reshape(nb)
@@ -364,6 +376,8 @@ class Model:
             geometries=geometries,
             collision_pairs=default_pairs(table, parent, disabled_links, links),
             geometry_table=table,
+            objects=tuple(objects),
+            world=tuple(world),
             _frame_index=_frame_index(frames, frame_aliases or {}),
         )
 
@@ -385,16 +399,21 @@ class Model:
         if self.collision_pairs is None:  # a model made without Model.build
             pairs = default_pairs(self.geometry_table, fields["parent"])
             object.__setattr__(self, "collision_pairs", pairs)
-        object.__setattr__(self, "floating_base", bool(np.any(self.jtype == FREE)))
+        robot_free = [i for i in np.flatnonzero(self.jtype == FREE) if not self._is_object(i)]
+        object.__setattr__(self, "floating_base", bool(robot_free))
         # mimic joints share coordinates: the joints' velocity sizes add up to more than nv
         object.__setattr__(self, "coupled", int(np.sum(self.nv_j)) != nv)
         q_names, v_names = [""] * nq, [""] * nv
         for i in range(nb):
             if self.jtype[i] == FREE:
-                stem = "base" if self.parent[i] < 0 else self.body_names[i]
+                name = self.body_names[i]
+                if self._is_object(i):  # a scene's object: box.x, box.qw, box.vz
+                    stem, join = name, "."
+                else:
+                    stem, join = ("base" if self.parent[i] < 0 else name), "_"
                 a, b = self.iq[i], self.iv[i]
-                q_names[a : a + 7] = [f"{stem}_{n}" for n in FREE_Q_NAMES]
-                v_names[b : b + 6] = [f"{stem}_{n}" for n in FREE_V_NAMES]
+                q_names[a : a + 7] = [f"{stem}{join}{n}" for n in FREE_Q_NAMES]
+                v_names[b : b + 6] = [f"{stem}{join}{n}" for n in FREE_V_NAMES]
         for k, name in enumerate(self.joint_names):
             q_names[self.q_index[k]], v_names[self.v_index[k]] = name, name
         object.__setattr__(self, "q_names", tuple(q_names))
@@ -421,6 +440,10 @@ class Model:
         object.__setattr__(self, "_frame_targets", frame_targets)
         # the velocity coordinates no joint owns: a free joint's twist (a floating base's)
         object.__setattr__(self, "_unactuated", np.setdiff1d(np.arange(nv), self.v_index))
+
+    def _is_object(self, i) -> bool:
+        """Whether body i is one of a scene's objects."""
+        return self.body_names[i] in self.objects
 
     parent = property(lambda self: self._fields["parent"], doc="(nb,) parent body, -1 = world")
     jtype = property(lambda self: self._fields["jtype"], doc="(nb,) REVOLUTE/PRISMATIC/FREE")

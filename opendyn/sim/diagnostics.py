@@ -303,7 +303,8 @@ def check_contact_step(scene, table):
     if scene.contact is None or integ.adaptive or integ.kind == integrators.IMPLICIT:
         return
     limit = 2.8 if integ.order == 4 else 2.0
-    rates = effects.contact.rates(scene.contact, _rates_at(scene, table, scene.q0, None))
+    module = effects.contact if effects.contact.record(scene) else effects.geometry_contact
+    rates = module.rates(scene.contact, _rates_at(scene, table, scene.q0, None))
     stiff = _stiff_effects(rates, run.dt, limit)
     if stiff:
         raise SceneError(

@@ -16,7 +16,7 @@ from ..algorithm.energy import energies
 from ..errors import SceneError
 from ..multibody.joints import FREE
 from . import effects, integrators, step
-from .record import contact_record, gravity_of, violation
+from .record import contact_record, geometry_contact_summary, gravity_of, violation
 
 # what compiling a scene's pieces takes on a 2-core machine, by integrator (measured by
 # scripts/bench_coldstart.py; constraints add about half again)
@@ -91,8 +91,11 @@ def load_kernels(scene, integ, table, data, x, loop):
     ]
     if scene.constraints:
         pieces.append(lambda: violation(model, table, *state))
-    if scene.contact is not None:
+    if effects.contact.record(scene) is not None:
         pieces.append(lambda: contact_record(model, table.params(effects.contact), *state))
+    if effects.geometry_contact.record(scene) is not None:
+        params = table.params(effects.geometry_contact)
+        pieces.append(lambda: geometry_contact_summary(model, params, *state))
     what = f"the simulation step for {integ.name} with {', '.join(table.names) or 'no effects'}"
     with compiling(what, len(pieces), _COMPILE_ESTIMATE[integ.kind]) as done:
         for piece in pieces:
@@ -101,9 +104,10 @@ def load_kernels(scene, integ, table, data, x, loop):
 
 
 def free_joints(model):
-    """None for a fixed base (the loops then compile no Munthe-Kaas correction), else the
-    first v index of each free joint (int64), for integrators.rk_stages."""
-    if not model.floating_base:
+    """None without a free joint (the loops then compile no Munthe-Kaas correction), else the
+    first v index of each free joint (int64: a floating base's, a scene's objects'), for
+    integrators.rk_stages."""
+    if not np.any(model.jtype == FREE):
         return None
     return np.array([model.iv[i] for i in range(model.nb) if model.jtype[i] == FREE], np.int64)
 

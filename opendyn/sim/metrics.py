@@ -15,6 +15,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .effects.contact import Contact
+
 
 def _kind(scene):
     return scene.control.kind if scene.control is not None else None
@@ -52,7 +54,7 @@ METRICS = {
     ),
     "penetration_max": (
         "deepest penetration of a contact sphere into the ground over the samples (m)",
-        lambda scene: scene.contact is not None,
+        lambda scene: isinstance(scene.contact, Contact),
         lambda scene, traj: traj.penetration.max(initial=0.0),
     ),
     "quaternion_norm_error": (

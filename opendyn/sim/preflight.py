@@ -60,7 +60,7 @@ def _check_contact_start(scene):
     weight alone would press the robot deeper, than twice that depth m g / k: the spring would
     hold energy the scene never meant to give, and throw the robot (a ball 5 cm deep in a
     1e5 N/m ground got 125 J and flew 13 m up)."""
-    contact = scene.contact
+    contact = effects.contact.record(scene)
     if contact is None:
         return
     model = scene.model
@@ -106,7 +106,8 @@ def sample_numbers(scene) -> int:
     tau, the work (2), the energies (2), each contact point's position, force and depth (7) and
     the constraint violation (2)."""
     model = scene.model
-    points = len(scene.contact.points) if scene.contact is not None else 0
+    spheres = effects.contact.record(scene)
+    points = len(spheres.points) if spheres is not None else 0
     return 3 + model.nq + 2 * model.nv + 2 + 7 * points + 2 * bool(scene.constraints)
 
 

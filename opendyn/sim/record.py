@@ -16,6 +16,7 @@ from .._runtime.version import __version__
 from ..algorithm.centroidal import centroidal_record
 from ..algorithm.constraints import ROW_COUNT, constraint_terms_kernel
 from ..algorithm.contact import contact_record_kernel
+from ..algorithm.geometry_contact import geometry_contact_summary_kernel
 from ..algorithm.energy import energies
 from .scene import thaw
 from ..multibody.joints import FREE
@@ -84,19 +85,25 @@ def quaternion_norm_error(model, q):
 def energies_of(scene, table, q, qd):
     """(kinetic (K,), potential (K,), contact) at the samples q (K, nq), qd (K, nv) of a run of
     `scene` (its stage table `table`): T = 1/2 qd^T (M + diag(armature)) qd and U = the gravity
-    potential plus the contact springs' sum_p 1/2 k delta_p^2 (J); contact: the contact record
-    (points, forces, penetrations; contact_record) or None without contact."""
+    potential plus the contact springs' sum_p 1/2 k delta_p^2 (J); contact: the spheres'
+    contact record (points, forces, penetrations; contact_record) or the geometry contact's
+    summary (geometry_contact_summary), or None without contact."""
     model = scene.model
     contact = None
-    if scene.contact is not None:
+    spheres = effects.contact.record(scene)
+    if spheres is not None:
         contact = contact_record(model, table.params(effects.contact), q, qd)
+    elif effects.geometry_contact.record(scene) is not None:
+        contact = geometry_contact_summary(model, table.params(effects.geometry_contact), q, qd)
     if not len(q):
         return np.zeros(0), np.zeros(0), contact
     kinetic, potential = energies(model, q, qd, gravity_of(scene))
     if scene.armature is not None:
         kinetic = kinetic + 0.5 * (qd[:, model.v_index] ** 2) @ scene.armature
-    if contact is not None:
-        potential = potential + 0.5 * scene.contact.stiffness * (contact[2] ** 2).sum(axis=1)
+    if spheres is not None:
+        potential = potential + 0.5 * spheres.stiffness * (contact[2] ** 2).sum(axis=1)
+    elif contact is not None:
+        potential = potential + contact[:, 0]
     return kinetic, potential, contact
 
 
@@ -124,7 +131,7 @@ def trajectory_of(scene, table, out, n, complete, message, stats):
         kinetic = potential = np.full(n, np.nan)
         spheres, off, centroidal = None, (np.zeros(0),) * 2, {}
     contact = {}
-    if spheres is not None:
+    if spheres is not None and effects.contact.record(scene) is not None:
         points, forces, depth = spheres
         contact = dict(
             contact_names=tuple(p.name for p in scene.contact.points),
@@ -194,6 +201,18 @@ def contact_record(model, contacts, q, qd):
         (points, forces, depth),
     )
     return points, forces, depth
+
+
+def geometry_contact_summary(model, contacts, q, qd):
+    """(K, 3): the geometry contact's springs' energy (J), deepest penetration (m) and largest
+    contact force (N) at the samples (q (K, nq), qd (K, nv)); contacts: a stage table's
+    parameters of effects.geometry_contact (opendyn.algorithm.geometry_contact)."""
+    summary = np.zeros((len(q), 3))
+    run_rows(
+        geometry_contact_summary_kernel, len(q), model._ibuf, model._fbuf, contacts, (q, qd),
+        summary,
+    )
+    return summary
 
 
 def _provenance(scene, table):

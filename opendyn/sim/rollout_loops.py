@@ -83,7 +83,7 @@ def run_views(base, batch, i, start):
         base.ibuf, run.fbuf, run.effects, run.armature, base.method, run.constraints,
         base.forces, base.loads, base.KD,
         constraint_room(run.constraints, body_count(base.ibuf), dof_count(base.ibuf)),
-        base.work, base.held, base.world,
+        base.work, base.held, base.world, base.room,
     )
     x, out, c = batch.x, batch.out, batch.counters
     return (

@@ -52,7 +52,8 @@ from ..algorithm.kinematics import place_bodies
 from ..multibody.joints import place_joints, state_status
 from ..multibody.layout import body_count, tree
 from ..multibody.work_views import joint_poses
-from .effects import gravity, registry
+from ..algorithm.geometry_contact import geometry_room
+from .effects import geometry_contact, gravity, registry
 from .effects.dispatch import EVERY, run_stages
 from .effects.interface import Context, Out
 
@@ -104,7 +105,7 @@ def generalized_forces(scene, t, q, qd, tau, tau_ctrl, power, K, D, jac):
     if jac:
         zero_matrix(K)
         zero_matrix(D)
-    ctx = Context(scene.ibuf, scene.fbuf, scene.work, t, q, qd, dV_0, scene.armature)
+    ctx = Context(scene.ibuf, scene.fbuf, scene.work, t, q, qd, dV_0, scene.armature, scene.room)
     # np.bool_(jac): a run-time flag, so that the effects compile once for both values
     out = Out(tau_ctrl, tau_app, tau_pas, power, K, D, np.bool_(jac))
     status = run_stages(EVERY, scene.effects, ctx, out)
@@ -178,13 +179,13 @@ def solve_with(con, aba, crba, newton_euler, scene, q, qd, tau, qdd):
 # integrator, con_work the constrained solve's ConstraintWork for the constraints' k rows
 # (their multipliers lam (k,), rows and scratch; None without constraints), work, the buffer
 # of a Data of the model that the kernels work in, held, the torque tau_held (nv,) held over a
-# control period, or None, and world, True when an effect the scene names reads the world poses
-# (place puts them in work), or None.
+# control period, or None, world, True when an effect the scene names reads the world poses
+# (place puts them in work), or None, and room, the geometry contact's GeometryRoom, or None.
 SceneData = namedtuple(
     "SceneData",
     (
         "ibuf", "fbuf", "effects", "armature", "method", "constraints", "forces", "loads",
-        "KD", "con_work", "work", "held", "world",
+        "KD", "con_work", "work", "held", "world", "room",
     ),
 )
 
@@ -221,7 +222,15 @@ def scene_data(model, table, held=None):
         model.data()._work,
         held,
         True if table.world_poses else None,
+        contact_room(table, model.nv),
     )
+
+
+def contact_room(table, nv):
+    """The GeometryRoom of the scene's geometry contact (table: its StageTable), or None when
+    it names none."""
+    params = table.params(geometry_contact)
+    return None if params is None else geometry_room(geometry_contact.room_size(params), nv)
 
 
 @njit(**JIT)
@@ -252,7 +261,9 @@ def stage_cost_kernel(scene, which, t, q, qd):
     dV_0 = scene.loads[0]
     out = Out(tau_ctrl, tau_app, tau_pas, power, scene.KD[0], scene.KD[1], np.bool_(False))
     fill(dV_0, 0.0)
-    ctx = Context(scene.ibuf, scene.fbuf, scene.work, t[0], q[0], qd[0], dV_0, scene.armature)
+    ctx = Context(
+        scene.ibuf, scene.fbuf, scene.work, t[0], q[0], qd[0], dV_0, scene.armature, scene.room
+    )
     run_stages(GRAVITY, scene.effects, ctx, out)
     total = 0.0
     for n in range(q.shape[0]):
@@ -261,7 +272,8 @@ def stage_cost_kernel(scene, which, t, q, qd):
             fill(tau_app, 0.0)
             fill(tau_pas, 0.0)
             ctx = Context(
-                scene.ibuf, scene.fbuf, scene.work, t[n], q[n], qd[n], dV_0, scene.armature
+                scene.ibuf, scene.fbuf, scene.work, t[n], q[n], qd[n], dV_0, scene.armature,
+                scene.room,
             )
             place(scene, q[n], qd[n])
             run_stages(which, scene.effects, ctx, out)

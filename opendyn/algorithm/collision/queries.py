@@ -166,6 +166,16 @@ def pair_contacts(a, b, margin, rows, scratch):
 
 
 @njit(**UNCOUNTED)
+def pair_rows(placed, i, j, margin, rows, scratch):
+    """pair_contacts of geometries i and j as placed = (table, hints, T_sg) holds them (the
+    GeometryTable's arrays, the hulls' climbing starts and the world poses): up to
+    MAX_CONTACTS rows (OUT_SIZE each). Returns (count, status)."""
+    table, hints, T_sg = placed
+    a, b = shape_of(table, hints, T_sg, i), shape_of(table, hints, T_sg, j)
+    return pair_contacts(a, b, margin, rows, scratch)
+
+
+@njit(**UNCOUNTED)
 def collisions_kernel(ibuf, fbuf, work, q, table, pairs, margin, geometry_work, rows, pair_of):
     """The contacts of the pairs within margin at q: rows[:count] (OUT_SIZE each) and
     pair_of[:count] (2,) their geometry pairs; geometry_work = (T_sg, hints, boxes, scratch).
@@ -180,9 +190,8 @@ def collisions_kernel(ibuf, fbuf, work, q, table, pairs, margin, geometry_work, 
         i, j = pairs[p, 0], pairs[p, 1]
         if not boxes_near(boxes, i, j, margin):
             continue
-        a, b = shape_of(table, hints, T_sg, i), shape_of(table, hints, T_sg, j)
-        found, pair_status = pair_contacts(
-            a, b, margin, rows[count : count + MAX_CONTACTS], scratch
+        found, pair_status = pair_rows(
+            (table, hints, T_sg), i, j, margin, rows[count : count + MAX_CONTACTS], scratch
         )
         for k in range(found):
             pair_of[count + k, 0], pair_of[count + k, 1] = i, j

@@ -14,9 +14,12 @@ a query follows the pairs that are near, not all pairs (a box test is six compar
 
 from __future__ import annotations
 
+import math
+
 from numba import njit
 
 from ..._runtime.kernel_cache import UNCOUNTED, UNCOUNTED_INLINE
+from ...multibody.shapes import HALFSPACE
 from .support import core_radius, core_support
 
 LO, HI = 0, 3  # a bounding box row (6,): lo (3,) then hi (3,), metres in {s}
@@ -60,10 +63,15 @@ def shape_of(table, hints, T_sg, k):
 
 @njit(**UNCOUNTED)
 def bounding_boxes(table, hints, T_sg, boxes):
-    """boxes (G, 6) <- every geometry's bounding box in {s} (module docstring), lo then hi;
+    """boxes (G, 6) <- every geometry's bounding box in {s} (module docstring), lo then hi
+    (a halfspace's: all of space);
     hints (G,) int, each hull's climbing start (support.py)."""
     for k in range(boxes.shape[0]):
         shape = shape_of(table, hints, T_sg, k)
+        if shape[0] == HALFSPACE:  # unbounded: near everything
+            for i in range(3):
+                boxes[k, LO + i], boxes[k, HI + i] = -math.inf, math.inf
+            continue
         r = core_radius(shape[0], shape[1])
         for i in range(3):
             e = (1.0 if i == 0 else 0.0, 1.0 if i == 1 else 0.0, 1.0 if i == 2 else 0.0)

@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..._runtime.status import Status
-from ...multibody.joints import quaternion_status
+from ...multibody.joints import FREE, quaternion_status
 from .. import checks
 
 
@@ -34,7 +34,8 @@ def _configuration(model, q, name, what):
     """A configuration: a finite (nq,) array whose quaternions (a floating base) have unit
     norm within joints.QUATERNION_TOLERANCE."""
     q = _single(model, q, name, what, model.nq)
-    if model.floating_base and quaternion_status(model._ibuf, q) == Status.Q_NOT_UNIT_QUATERNION:
+    free = np.any(model.jtype == FREE)
+    if free and quaternion_status(model._ibuf, q) == Status.Q_NOT_UNIT_QUATERNION:
         raise ValueError(f"{what}: {checks.quaternion_problem(model, name)}")
     return q
 

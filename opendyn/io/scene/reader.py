@@ -12,7 +12,8 @@ The file format (every key optional unless marked required):
     name = "double pendulum swinging"      # default: the file stem
     description = "..."                    # free text
 
-    [robot]                                # required: exactly one of urdf and name
+    [robot]                                # required (but in a scene of [[objects]] alone):
+                                           # exactly one of urdf and name
     urdf = "double_pendulum.urdf"          # a URDF path, relative to the scene file's folder
     # name = "ur5"                         # or a robot name that load_urdf resolves
     mimic = false                          # passed to load_urdf
@@ -29,6 +30,33 @@ The file format (every key optional unless marked required):
     inertia = { ixx = 0.01, iyy = 0.01, izz = 0.005 }   # kg m^2 about the centre of mass,
                                            # frame axes, as a URDF <inertia>: ixx iyy izz ixy
                                            # ixz iyz, missing entries 0 (default: a point mass)
+
+    [[objects]]                            # any number: a free rigid body each, moving with the
+                                           # robot (opendyn.multibody.assembly)
+    name = "box"                           # required: its body, frame and geometry; its
+                                           # coordinates box.x ... box.qw, box.wx ... box.vz
+    shape = "box"                          # required: "box", "sphere", "cylinder", "capsule"
+    size = [0.1, 0.1, 0.1]                 # required: m, as a URDF's (box: edges; sphere: [r];
+                                           # cylinder, capsule: [r, length] along z)
+    mass = 1.0                             # required: kg > 0, spread uniformly
+    position = [0.0, 0.0, 0.05]            # m, its centre in the world (default the origin)
+    rpy = [0.0, 0.0, 0.0]                  # rad; or orientation = [x, y, z, w], a unit
+                                           # quaternion (not both; default upright)
+    velocity = [0.0, 0.0, 0.0]             # m/s, its centre's, world axes (default 0)
+    angular_velocity = [0.0, 0.0, 0.0]     # rad/s, world axes (default 0)
+
+    [[world]]                              # any number: static geometry, welded to the world
+    name = "table"                         # required
+    shape = "box"                          # required: "box", "sphere", "cylinder", "capsule",
+                                           # "plane" (the solid below the plane through
+                                           # position, normal the entry's z axis) or "mesh"
+                                           # (the convex hull of the file's vertices)
+    size = [1.0, 0.6, 0.05]                # m, as an object's; none for a plane; a mesh's is
+                                           # the scale of its file (default [1, 1, 1])
+    mesh = "step.stl"                      # mesh: the file (STL, OBJ, DAE), relative to the
+                                           # scene file
+    position = [0.5, 0.0, 0.375]           # m, its centre (a plane: a point on it)
+    rpy = [0.0, 0.0, 0.0]                  # rad
 
     [initial]
     q = { shoulder = 1.0 }                 # a table {joint = value} (others 0) or a list with
@@ -80,12 +108,24 @@ The file format (every key optional unless marked required):
     friction = 0.8                         # required: the Coulomb coefficient mu >= 0 (0 =
                                            # frictionless)
     slip_velocity = 1e-3                   # m/s > 0, regularises friction near zero slip
-    points = "urdf"                        # required: "urdf" (the spheres and box corners of
-                                           # the URDF's <collision> elements) or tables:
+    points = "urdf"                        # required but with geometry: "urdf" (the spheres
+                                           # and box corners of the <collision> elements) or
+                                           # tables [[effects.contact.points]] (below)
+    # geometry = "collision"               # instead of points: the contact between every
+                                           # collision geometry of the robot, the objects, the
+                                           # world and the ground (named "ground") at the
+                                           # same law, equal and opposite on both bodies
+    # self_collision = false               # with geometry: the robot's own pairs take part
     # [[effects.contact.points]]
     # frame = "FL_FOOT"                    # required: a frame (link or joint name) that moves
     # position = [0.0, 0.0, 0.0]           # m, the sphere's centre in the frame (default 0)
     # radius = 0.02                        # m >= 0 (default 0: a point)
+    # [[effects.contact.pairs]]            # with geometry: one pair's own law, or none
+    # a = "box"                            # required: a link, an object, a world entry or
+    # b = "table"                          # "ground"; every pair of their geometries
+    # stiffness = 1e6                      # any of stiffness, damping, friction and
+                                           # slip_velocity (default: the contact's)
+    # enabled = true                       # false: the pair never touches
 
     [[effects.wrench]]                     # any number of these
     frame = "tip"                          # required: a frame (link) or joint name
@@ -148,6 +188,8 @@ from .sections_constraints import ConstraintsSection
 from .sections_control import ControlSection
 from .sections_effects import EffectsSection
 from .sections_robot import RobotSection
+from .sections_world import WorldSection
+from ...multibody.assembly import empty_model
 from ...sim.run import RunSection
 
 TOP_KEYS = (
@@ -160,6 +202,8 @@ TOP_KEYS = (
     "control",
     "constraints",
     "baumgarte",
+    "objects",
+    "world",
 )
 
 
@@ -168,11 +212,13 @@ def _build(data, source, base_dir, default_name=None, model=None) -> Scene:
     r.base_dir = base_dir  # where paths in the file are relative to (None: the working folder)
     r.keys(data, "", TOP_KEYS)
     if model is None:
-        model = r.robot(data.get("robot"), base_dir)
+        robotless = "robot" not in data and "objects" in data  # the objects are the scene
+        model = empty_model() if robotless else r.robot(data.get("robot"), base_dir)
     r.model = model
     # after the robot is loaded or given, so that a given model (a sweep's, loaded once) gets
-    # the payload its scene names
+    # the payload and the objects its scene names
     model = r.model = r.payload((data.get("robot") or {}).get("payload"))
+    model = r.world_model(data.get("objects"), data.get("world"))
     warning = welded_mobile_warning(
         model, "set robot.floating_base = true (opendyn simulate --floating-base)"
     )
@@ -200,6 +246,8 @@ def _build(data, source, base_dir, default_name=None, model=None) -> Scene:
     )
 
 
-class _Reader(RobotSection, RunSection, EffectsSection, ConstraintsSection, ControlSection):
+class _Reader(
+    RobotSection, WorldSection, RunSection, EffectsSection, ConstraintsSection, ControlSection
+):
     """Checks one scene's values, every section; every error names ``source`` and the dotted
     key."""

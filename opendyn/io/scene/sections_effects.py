@@ -21,7 +21,12 @@ class EffectsSection(ValueReader):
         for effect in in_effects:
             if getattr(effect, "JOINTS", False) and effect.NAME in table:
                 self.joints_needed(f"effects.{effect.NAME}", f"[effects.{effect.NAME}]")
-        return {effect.NAME: effect.read(self, table.get(effect.NAME)) for effect in in_effects}
+        records = {}
+        for effect in in_effects:  # effects that share a name read the same table: one keeps it
+            record = effect.read(self, table.get(effect.NAME))
+            if records.get(effect.NAME) is None:
+                records[effect.NAME] = record
+        return records
 
     def joints_needed(self, key, what):
         """SceneError naming key when the robot has no joints: `what` would act on nothing."""

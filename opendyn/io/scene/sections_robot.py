@@ -137,28 +137,37 @@ class RobotSection(ValueReader):
         qd0[m.v_index] = self.per_joint(table.get("qd"), "initial.qd", zeros, scalar=False)
         if m.floating_base:
             self.base_state(table, q0, qd0)
+        self.object_states(q0, qd0)
         return immutable(q0), immutable(qd0)
 
     def base_state(self, table, q0, qd0):
-        """q0's (p, quat) and qd0's (omega_b, v_b) of the free joint from the base_* keys:
-        omega_b = R^T omega_s, v_b = R^T p_dot."""
+        """q0's (p, quat) and qd0's (omega_b, v_b) of the robot's free joint from the base_*
+        keys (free_state)."""
         m = self.model
-        free = int(np.flatnonzero(m.jtype == FREE)[0])
-        a, b = int(m.iq[free]), int(m.iv[free])
+        free = next(i for i in np.flatnonzero(m.jtype == FREE) if m.body_names[i] not in m.objects)
+        self.free_state(table, "initial", "base_", int(free), q0, qd0)
+
+    def free_state(self, table, where, prefix, body, q0, qd0):
+        """q0's (p, quat) and qd0's (omega_b, v_b) of the free joint of `body` from the keys
+        PREFIX position, orientation (a unit quaternion x, y, z, w) or rpy, velocity and
+        angular_velocity of `table` (world frame; each optional: at the origin, upright, at
+        rest): omega_b = R^T omega_s, v_b = R^T p_dot. `where` names the table in errors."""
+        m = self.model
+        a, b = int(m.iq[body]), int(m.iv[body])
 
         def vec3(key):
-            value = table.get(key)
-            return np.zeros(3) if value is None else self.vector(value, f"initial.{key}", 3)
+            value = table.get(prefix + key)
+            return np.zeros(3) if value is None else self.vector(value, f"{where}.{prefix}{key}", 3)
 
-        if "base_orientation" in table and "base_rpy" in table:
+        if prefix + "orientation" in table and prefix + "rpy" in table:
             self.fail(
-                "initial.base_rpy",
-                "both base_orientation and base_rpy given; give the base's orientation once: "
+                f"{where}.{prefix}rpy",
+                f"both {prefix}orientation and {prefix}rpy given; give the orientation once: "
                 "a quaternion [x, y, z, w] or roll, pitch, yaw in rad",
             )
-        if "base_orientation" in table:
-            key = "initial.base_orientation"
-            quat = self.vector(table["base_orientation"], key, 4)
+        if prefix + "orientation" in table:
+            key = f"{where}.{prefix}orientation"
+            quat = self.vector(table[prefix + "orientation"], key, 4)
             norm = float(np.linalg.norm(quat))
             if not abs(norm - 1.0) <= QUATERNION_TOLERANCE:
                 self.fail(
@@ -168,9 +177,9 @@ class RobotSection(ValueReader):
                 )
             R_sb = Rotation.from_quat(quat)
         else:
-            R_sb = Rotation.from_euler("xyz", vec3("base_rpy"))
-        q0[a : a + 3] = vec3("base_position")
+            R_sb = Rotation.from_euler("xyz", vec3("rpy"))
+        q0[a : a + 3] = vec3("position")
         q0[a + 3 : a + 7] = R_sb.as_quat()
         R = R_sb.as_matrix()
-        qd0[b : b + 3] = R.T @ vec3("base_angular_velocity")
-        qd0[b + 3 : b + 6] = R.T @ vec3("base_velocity")
+        qd0[b : b + 3] = R.T @ vec3("angular_velocity")
+        qd0[b + 3 : b + 6] = R.T @ vec3("velocity")

@@ -86,14 +86,22 @@ class Contact:
 
 
 def record(scene) -> Contact | None:
-    return scene.contact
+    return scene.contact if isinstance(scene.contact, Contact) else None
 
 
 def read(r, table) -> Contact | None:
-    """[effects.contact]: stiffness, friction and points required."""
-    if table is None:
+    """[effects.contact]: stiffness, friction and points required; None with geometry =
+    "collision" (opendyn.sim.effects.geometry_contact reads the table then)."""
+    if table is None or "geometry" in table:
         return None
     key = "effects.contact"
+    for field in ("self_collision", "pairs"):
+        if field in table:
+            r.fail(
+                f"{key}.{field}",
+                'only the contact between collision geometries (geometry = "collision") has '
+                f'{field}; add geometry = "collision" or remove it',
+            )
     r.keys(table, key, KEYS)
     for field in ("stiffness", "friction", "points"):
         if field not in table:

@@ -75,8 +75,11 @@ ENERGY_CLASSES = (CONTROL, APPLIED, PASSIVE, CONSERVATIVE)
 # Data of the model, which the kernels work in, holding the poses the step placed at q: an
 # effect's force leaves them as they are), the time t (s), the state q (nq,), qd (nv,),
 # the base acceleration dV_0 (6,) (set by the gravity stage, which runs first, read by
-# computed torque), and armature (nv,) the rotor inertias (or empty).
-Context = namedtuple("Context", ("ibuf", "fbuf", "work", "t", "q", "qd", "dV_0", "armature"))
+# computed torque), armature (nv,) the rotor inertias (or empty), and room: the geometry
+# contact's GeometryRoom (opendyn.algorithm.geometry_contact), or None for a scene without it.
+Context = namedtuple(
+    "Context", ("ibuf", "fbuf", "work", "t", "q", "qd", "dV_0", "armature", "room")
+)
 
 # What every compiled force adds to: the generalized forces (nv,) of the energy classes
 # control, applied and passive (N m or N), power (2,) (applied, passive) W, to which contact

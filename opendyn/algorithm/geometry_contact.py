@@ -1,0 +1,211 @@
+"""Contact between collision geometries: the compliant law of opendyn.algorithm.contact at every
+contact point of every pair that touches, as equal and opposite forces on the two bodies.
+
+For each pair (a, b) of geometries the narrow phase (opendyn.algorithm.collision) gives up to
+four contacts, each with its points p_A, p_B in {s}, the unit normal n from a towards b and the
+signed distance d, p_B - p_A = d n. At the midpoint x = (p_A + p_B) / 2:
+
+    delta     = -d                          penetration (m); only delta > 0 pushes
+    J         = J_b(x) - J_a(x)             (3, nv): the velocity of b's material at x relative
+                                            to a's per unit of v (J_world = 0)
+    v_r       = J v,  delta_dot = -n . v_r
+    f_n       = max(0, k delta + c delta_dot)
+    v_t       = v_r - (n . v_r) n,  s = sqrt(|v_t|^2 + v_s^2)
+    f         = f_n n - mu f_n v_t / s      the force a applies to b at x; b applies -f to a
+    tau      += J^T f
+
+(k stiffness N/m, c damping N s/m, mu the Coulomb coefficient, v_s the slip velocity m/s, each
+the pair's). The forces add up: whatever a pair pushes into b it takes out of a, so momentum
+moves between bodies and to the world only through a pair with the world.
+
+Energy: as the ground's spheres, the spring k delta is conservative with U = 1/2 k delta^2 per
+contact point; the kernel returns sum k delta delta_dot, which the step adds to the passive
+power, so that the dampers and friction are what the balance shows as passive work.
+
+Linearisation for an implicit step (K = -dtau/dq, D = -dtau/dqd), the contact points and the
+normal held where they are (their motion along the shapes and the normal's turning are left
+out; the accuracy study measures what that costs):
+
+    df/d(delta) = k u,  u = n - mu v_t / s,           d(delta)/dq = -n^T J
+    df/dv_r     = -c u n^T - mu f_n (P_t / s - v_t v_t^T / s^3),   P_t = 1 - n n^T
+    K += J^T (k u n^T) J,     D += J^T (c u n^T + mu f_n (P_t / s - v_t v_t^T / s^3)) J
+"""
+
+from __future__ import annotations
+
+from collections import namedtuple
+
+import numpy as np
+from numba import njit
+
+from .._runtime.kernel_cache import BATCH, JIT
+from ..multibody.layout import body_count, dof_count, tree
+from ..multibody.work_views import effect_rows, new_work, scratch_rows, world_poses
+from .collision import DISTANCE, MAX_CONTACTS, NORMAL, OUT_SIZE, POINT_A, POINT_B
+from .collision.narrow_phase import COLUMNS, ROWS
+from .collision.queries import pair_rows
+from .collision.world import bounding_boxes, boxes_near, place_geometries
+from .kinematics import add_point_jacobian, forward_kinematics
+
+# a pair's law, one row of `law` (P, 4)
+STIFFNESS, DAMPING, FRICTION, SLIP = range(4)
+
+# The arrays the contact pass works in, made once per run (geometry_room): the geometries'
+# world poses T_sg (G, 3, 4), each hull's climbing start hints (G,) int, their bounding boxes
+# (G, 6), the narrow phase's scratch, one pair's contact rows (MAX_CONTACTS, OUT_SIZE), and
+# rows (3, nv) for A J of the linearisation.
+GeometryRoom = namedtuple("GeometryRoom", ("T_sg", "hints", "boxes", "scratch", "rows", "AJ"))
+
+
+def geometry_room(count, nv) -> GeometryRoom:
+    """The GeometryRoom of `count` geometries on a model of nv velocity coordinates."""
+    return GeometryRoom(
+        np.zeros((count, 3, 4)),
+        np.zeros(count, dtype=np.int64),
+        np.zeros((count, 6)),
+        np.zeros((ROWS, COLUMNS)),
+        np.zeros((MAX_CONTACTS, OUT_SIZE)),
+        np.zeros((3, nv)),
+    )
+
+
+@njit(**JIT)
+def contact_force(body_tree, posed, bodies, row, law, qd, tau, linear, J, AJ, s):
+    """The law (module docstring) at one contact row (OUT_SIZE,) of bodies = (a, b) (-1 the
+    world), its pair's law (4,): tau (nv,) += J^T f; with linear = (K, D, jac) and jac, K and
+    D (nv, nv) += its linearisation. posed = (R_s, p_s) the bodies' world poses; J, AJ (3, nv)
+    and s (9, 6) scratch. Returns (k delta delta_dot (W), delta (m), |f| (N))."""
+    R_s, p_s = posed
+    K, D, jac = linear
+    nv = qd.shape[0]
+    delta = -row[DISTANCE]
+    if delta <= 0.0:
+        return 0.0, delta, 0.0
+    x, n, S = s[1, :3], s[1, 3:], s[0]
+    v_r, v_t, f, u = s[2, :3], s[2, 3:], s[3, :3], s[3, 3:]
+    for r in range(3):
+        x[r] = 0.5 * (row[POINT_A + r] + row[POINT_B + r])
+        n[r] = row[NORMAL + r]
+    J[:] = 0.0
+    a, b = bodies
+    if b >= 0:
+        add_point_jacobian(body_tree, R_s, p_s, b, x, 1.0, J, S)
+    if a >= 0:
+        add_point_jacobian(body_tree, R_s, p_s, a, x, -1.0, J, S)
+    for r in range(3):
+        v_r[r] = 0.0
+        for j in range(nv):
+            v_r[r] += J[r, j] * qd[j]
+    along = n[0] * v_r[0] + n[1] * v_r[1] + n[2] * v_r[2]
+    k, c, mu, v_s = law[STIFFNESS], law[DAMPING], law[FRICTION], law[SLIP]
+    delta_dot = -along
+    spring = k * delta * delta_dot
+    f_n = k * delta + c * delta_dot
+    if f_n <= 0.0:
+        return spring, delta, 0.0
+    for r in range(3):
+        v_t[r] = v_r[r] - along * n[r]
+    slip = np.sqrt(v_t[0] * v_t[0] + v_t[1] * v_t[1] + v_t[2] * v_t[2] + v_s * v_s)
+    for r in range(3):
+        f[r] = f_n * n[r] - mu * f_n * v_t[r] / slip
+        u[r] = n[r] - mu * v_t[r] / slip
+    for j in range(nv):
+        tau[j] += J[0, j] * f[0] + J[1, j] * f[1] + J[2, j] * f[2]
+    if jac:
+        # K += J^T (k u n^T) J
+        add_sandwich(J, AJ, k, u, n, 0.0, v_t, slip, K)
+        # D += J^T (c u n^T + mu f_n (P_t / s - v_t v_t^T / s^3)) J
+        add_sandwich(J, AJ, c, u, n, mu * f_n, v_t, slip, D)
+    return spring, delta, np.sqrt(f[0] * f[0] + f[1] * f[1] + f[2] * f[2])
+
+
+@njit(**JIT)
+def add_sandwich(J, AJ, gain, u, n, slide, v_t, slip, out):
+    """out (nv, nv) += J^T A J with A = gain u n^T + slide (P_t / s - v_t v_t^T / s^3),
+    P_t = 1 - n n^T, s = slip; AJ (3, nv) scratch."""
+    nv = J.shape[1]
+    s3 = slip * slip * slip
+    for r in range(3):
+        for j in range(nv):
+            AJ[r, j] = 0.0
+        for m in range(3):
+            A = gain * u[r] * n[m]
+            if slide != 0.0:
+                P = (1.0 if r == m else 0.0) - n[r] * n[m]
+                A += slide * (P / slip - v_t[r] * v_t[m] / s3)
+            if A != 0.0:
+                for j in range(nv):
+                    AJ[r, j] += A * J[m, j]
+    for i in range(nv):
+        for j in range(nv):
+            out[i, j] += J[0, i] * AJ[0, j] + J[1, i] * AJ[1, j] + J[2, i] * AJ[2, j]
+
+
+@njit(**JIT)
+def geometry_contact_on_poses(ibuf, fbuf, work, contacts, room, qd, tau, linear, summary):
+    """tau (nv,) += the contact forces of every pair that touches, on the world poses R_s, p_s
+    of every body that `work` holds (a Data's buffer, forward kinematics placed at a valid q);
+    with linear = (K, D, jac) and jac, K, D (nv, nv) += their linearisation. contacts =
+    (table: the GeometryTable's arrays in its order, pairs (P, 2) int, law (P, 4): k, c, mu,
+    v_s of each pair); room: a GeometryRoom. summary: None, or (3,) <- (sum of 1/2 k delta^2
+    J, the deepest penetration m, the largest force N) over the contact points. Allocates
+    nothing. Returns sum k delta delta_dot (W), the springs' share of the power."""
+    table, pairs, law = contacts
+    T_sg, hints, boxes, scratch, rows, AJ = room
+    body_tree = tree(ibuf, fbuf)
+    nb, nv = body_count(ibuf), qd.shape[0]
+    R_s, p_s = world_poses(work, nb)
+    place_geometries(R_s, p_s, table, T_sg)
+    bounding_boxes(table, hints, T_sg, boxes)
+    J = effect_rows(work, nb, nv)
+    s = scratch_rows(work, nb, nv)
+    body = table[0]
+    spring = 0.0
+    for p in range(pairs.shape[0]):
+        i, j = pairs[p, 0], pairs[p, 1]
+        if not boxes_near(boxes, i, j, 0.0):
+            continue
+        found, _ = pair_rows((table, hints, T_sg), i, j, 0.0, rows, scratch)
+        for c in range(found):
+            power, delta, force = contact_force(
+                body_tree, (R_s, p_s), (body[i], body[j]), rows[c], law[p], qd, tau, linear,
+                J, AJ, s,
+            )
+            spring += power
+            keep_summary(summary, law[p, STIFFNESS], delta, force)
+    return spring
+
+
+@njit(**JIT)
+def keep_summary(summary, k, delta, force):
+    """summary (3,) += the contact's 1/2 k delta^2, max with its delta and |f|; nothing when
+    summary is None."""
+    if summary is None or delta <= 0.0:
+        return
+    summary[0] += 0.5 * k * delta * delta
+    summary[1] = max(summary[1], delta)
+    summary[2] = max(summary[2], force)
+
+
+@njit(**BATCH)
+def geometry_contact_summary_kernel(ibuf, fbuf, contacts, states, summary, start, stop):
+    """summary (N, 3) <- at each recorded state of states = (q (N, nq), qd (N, nv)), rows
+    [start, stop): the contact springs' energy (J), the deepest penetration (m) and the largest
+    contact force (N) (geometry_contact_on_poses)."""
+    q, qd = states
+    nb, nv = body_count(ibuf), dof_count(ibuf)
+    work = new_work(nb, nv)
+    count = contacts[0][0].shape[0]
+    room = GeometryRoom(
+        np.zeros((count, 3, 4)), np.zeros(count, dtype=np.int64), np.zeros((count, 6)),
+        np.zeros((ROWS, COLUMNS)), np.zeros((MAX_CONTACTS, OUT_SIZE)), np.zeros((3, nv)),
+    )
+    tau = np.empty(nv)
+    unused = np.empty((0, 0))
+    no_jac = np.bool_(False)
+    for n in range(start, stop):
+        summary[n, :] = 0.0
+        forward_kinematics(ibuf, fbuf, work, q[n])
+        geometry_contact_on_poses(
+            ibuf, fbuf, work, contacts, room, qd[n], tau, (unused, unused, no_jac), summary[n]
+        )

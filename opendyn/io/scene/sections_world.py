@@ -1,0 +1,135 @@
+"""[[objects]] and [[world]]: the free rigid bodies that move with the robot and the static
+geometry of the world, added to the robot's Model (opendyn.multibody.assembly.with_world); their
+keys are in the file format of opendyn.io.scene.reader.
+
+A scene with objects may leave out [robot]: the objects and the world are then the whole scene.
+Names are those of new frames: neither a frame of the robot nor "ground" (the contact's ground
+plane) nor another entry's.
+"""
+
+from __future__ import annotations
+
+import pathlib
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from ...multibody.assembly import SceneObject, with_world
+from ...multibody.geometry import Geometry
+from ...sim.values import ValueReader, what_is
+from ..meshes import MeshError, hull_vertices
+
+OBJECT_KEYS = (
+    "name", "shape", "size", "mass", "position", "rpy", "orientation", "velocity",
+    "angular_velocity",
+)
+WORLD_KEYS = ("name", "shape", "size", "mesh", "position", "rpy")
+OBJECT_SHAPES = ("box", "sphere", "cylinder", "capsule")
+WORLD_SHAPES = (*OBJECT_SHAPES, "plane", "mesh")
+SIZE_COUNTS = {"box": 3, "sphere": 1, "cylinder": 2, "capsule": 2, "mesh": 3}
+RESERVED = ("ground",)  # the contact's ground plane, named in [[effects.contact.pairs]]
+
+
+class WorldSection(ValueReader):
+    """Reads [[objects]] and [[world]] into the scene's Model, and the objects' initial state."""
+
+    def world_model(self, objects, world):
+        """self.model <- the robot's Model with the objects and the world entries (with_world);
+        keeps the object tables for object_states."""
+        taken = set(self.model.frame_names) | set(RESERVED)
+        self._object_tables = []
+        found = []
+        for k, table in enumerate(self._entries(objects, "objects")):
+            where = f"objects[{k}]"
+            self.keys(table, where, OBJECT_KEYS)
+            name = self._name(table, where, taken)
+            shape = self._shape(table, where, OBJECT_SHAPES)
+            size = self._size(table, where, shape)
+            if "mass" not in table:
+                self.fail(f"{where}.mass", "missing: an object needs its mass (kg > 0)")
+            mass = self.number(table["mass"], f"{where}.mass", positive=True)
+            found.append(SceneObject(name, shape, size, mass))
+            self._object_tables.append((table, where))
+        entries = []
+        for k, table in enumerate(self._entries(world, "world")):
+            where = f"world[{k}]"
+            self.keys(table, where, WORLD_KEYS)
+            name = self._name(table, where, taken)
+            shape = self._shape(table, where, WORLD_SHAPES)
+            T_s = np.eye(4)
+            T_s[:3, 3] = self._vec3(table, where, "position")
+            T_s[:3, :3] = Rotation.from_euler("xyz", self._vec3(table, where, "rpy")).as_matrix()
+            entries.append((self._world_geometry(table, where, name, shape), T_s))
+        self.model = with_world(self.model, found, entries)
+        return self.model
+
+    def object_states(self, q0, qd0):
+        """q0, qd0 of each object's free joint from its table (free_state)."""
+        m = self.model
+        for table, where in getattr(self, "_object_tables", ()):
+            body = m.body_names.index(table["name"])
+            self.free_state(table, where, "", body, q0, qd0)
+
+    def _entries(self, value, key) -> list:
+        if value is None:
+            return []
+        if not isinstance(value, list) or not all(isinstance(t, dict) for t in value):
+            self.fail(key, f"expected tables [[{key}]], found {what_is(value)}")
+        return value
+
+    def _name(self, table, where, taken) -> str:
+        if "name" not in table:
+            self.fail(f"{where}.name", "missing: every entry needs a name")
+        name = self.string(table["name"], f"{where}.name")
+        if name in taken:
+            what = "a reserved name" if name in RESERVED else "already a frame of the scene"
+            self.fail(f"{where}.name", f"{name!r} is {what}; give the entry a name of its own")
+        taken.add(name)
+        return name
+
+    def _shape(self, table, where, shapes) -> str:
+        if "shape" not in table:
+            self.fail(f"{where}.shape", f"missing: one of {', '.join(shapes)}")
+        shape = self.string(table["shape"], f"{where}.shape", shapes)
+        if shape not in shapes:
+            self.fail(f"{where}.shape", f"expected one of {', '.join(shapes)}, found {shape!r}")
+        return shape
+
+    def _size(self, table, where, shape) -> tuple[float, ...]:
+        n = SIZE_COUNTS[shape]
+        if "size" not in table:
+            if shape == "mesh":
+                return (1.0, 1.0, 1.0)
+            self.fail(f"{where}.size", f"missing: a {shape} needs {n} lengths (m)")
+        size = tuple(float(x) for x in self.vector(table["size"], f"{where}.size", n))
+        if min(size) <= 0.0:
+            self.fail(f"{where}.size", f"expected lengths > 0 (m), found {list(size)}")
+        return size
+
+    def _vec3(self, table, where, key) -> np.ndarray:
+        value = table.get(key)
+        return np.zeros(3) if value is None else self.vector(value, f"{where}.{key}", 3)
+
+    def _world_geometry(self, table, where, name, shape) -> Geometry:
+        """The Geometry of a world entry in its own frame."""
+        if shape == "plane":
+            if "size" in table:
+                self.fail(f"{where}.size", "a plane has no size; remove it")
+            return Geometry(name, name, "halfspace", (), np.eye(4))
+        if "mesh" in table and shape != "mesh":
+            self.fail(f"{where}.mesh", f'only shape = "mesh" reads a file; this is a {shape}')
+        size = self._size(table, where, shape)
+        if shape != "mesh":
+            return Geometry(name, name, shape, size, np.eye(4))
+        if "mesh" not in table:
+            self.fail(f"{where}.mesh", "missing: a mesh entry needs its file (STL, OBJ, DAE)")
+        path = pathlib.Path(self.string(table["mesh"], f"{where}.mesh"))
+        if not path.is_absolute() and self.base_dir is not None:
+            path = pathlib.Path(self.base_dir) / path
+        if not path.is_file():
+            self.fail(f"{where}.mesh", f"no such mesh file: {path}")
+        try:
+            vertices = hull_vertices(str(path), size)
+        except MeshError as e:
+            self.fail(f"{where}.mesh", str(e))
+        return Geometry(name, name, "mesh", size, np.eye(4), vertices, str(path))

@@ -1,0 +1,176 @@
+"""A scene's world as one Model: the robot, its free objects and the static geometry.
+
+Each object is a rigid body on a free joint of its own, a root of the tree after the robot's
+bodies, so that the robot's coordinates come first and each object's follow:
+
+    q = (q_robot, p_o (3), quat_o (4), ...),     v = (v_robot, omega_o (3), v_o (3), ...)
+
+(p_o, quat_o) the pose of the object's frame {o} in the world, (omega_o, v_o) its twist in {o},
+as a floating base's (opendyn.multibody.joints). An object's frame is at its shape's centre, its
+axes the shape's (a cylinder's and a capsule's along z), and its mass is spread uniformly, so
+its centre of mass is {o}'s origin and its rotational inertia about it is diagonal:
+
+    box (x, y, z)      I_xx = m (y^2 + z^2) / 12, I_yy = m (x^2 + z^2) / 12,
+                       I_zz = m (x^2 + y^2) / 12
+    sphere (r)         I = 2/5 m r^2
+    cylinder (r, L)    I_zz = m r^2 / 2,  I_xx = I_yy = m (3 r^2 + L^2) / 12
+    capsule (r, L)     the cylinder's share m_c = m V_c / V and the two hemispheres' m_h = m V_h / V
+                       (V_c = pi r^2 L, V_h = 4/3 pi r^3, V = V_c + V_h):
+                       I_zz = m_c r^2 / 2 + 2/5 m_h r^2,
+                       I_xx = I_yy = m_c (3 r^2 + L^2) / 12 + m_h (2/5 r^2 + L^2 / 4 + 3/8 L r)
+
+(the capsule's by the parallel-axis theorem on each hemisphere, whose centroid lies 3 r / 8 from
+its flat face). The static geometry is a frame welded to the world per entry, its pose the
+entry's, carrying the entry's Geometry.
+
+Collision pairs: the robot's own (model.collision_pairs, its SRDF applied), and every new
+geometry with every earlier one on another body: robot-object, robot-world, object-object and
+object-world (the world's entries never with each other, nor with the robot's links welded to
+the world: they share the body -1).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from .._runtime.arrays import immutable
+from ..spatial.algebra import spatial_inertia
+from .geometry import Geometry
+from .joints import FREE
+from .model import Frame, Model
+
+
+@dataclass(frozen=True, eq=False)
+class SceneObject:
+    """A free rigid body of a scene: `name` (its body, frame and geometry), `shape` ("box",
+    "sphere", "cylinder" or "capsule"), `size` as a Geometry's (m), `mass` (kg > 0), spread
+    uniformly over the shape."""
+
+    name: str
+    shape: str
+    size: tuple[float, ...]
+    mass: float
+
+
+def uniform_inertia(shape, size, mass) -> np.ndarray:
+    """(3, 3) kg m^2: the rotational inertia about its centre of a solid `shape` of `size` (m)
+    and mass (kg), uniformly dense, in the shape's axes (module docstring)."""
+    if shape == "box":
+        x, y, z = size
+        moments = mass / 12.0 * np.array([y * y + z * z, x * x + z * z, x * x + y * y])
+    elif shape == "sphere":
+        moments = np.full(3, 0.4 * mass * size[0] ** 2)
+    elif shape == "cylinder":
+        r, L = size
+        side = mass * (3.0 * r * r + L * L) / 12.0
+        moments = np.array([side, side, 0.5 * mass * r * r])
+    elif shape == "capsule":
+        r, L = size
+        V_c, V_h = math.pi * r * r * L, 4.0 / 3.0 * math.pi * r**3
+        m_c, m_h = mass * V_c / (V_c + V_h), mass * V_h / (V_c + V_h)
+        side = m_c * (3.0 * r * r + L * L) / 12.0 + m_h * (
+            0.4 * r * r + 0.25 * L * L + 0.375 * L * r
+        )
+        moments = np.array([side, side, 0.5 * m_c * r * r + 0.4 * m_h * r * r])
+    else:
+        raise ValueError(f"an object's shape is box, sphere, cylinder or capsule, not {shape!r}")
+    return np.diag(moments)
+
+
+def empty_model() -> Model:
+    """A Model with no body: the fixed world alone (frame "world"), to which a scene without a
+    robot adds its objects and static geometry."""
+    none = np.zeros(0)
+    return Model.build(
+        name="world", joint_names=(), body_names=(), body_joints=(), parent=none, jtype=none,
+        mult=none, offset=none, S=np.zeros((0, 6, 6)), G=np.zeros((0, 6, 6)),
+        R_home=np.zeros((0, 3, 3)), p_home=np.zeros((0, 3)),
+        frames=[Frame("world", -1, np.eye(4))], lower=none, upper=none, velocity_limit=none,
+        effort_limit=none, damping=none, friction=none, continuous=np.zeros(0, bool),
+    )
+
+
+def _follows(model) -> dict:
+    """{body: the body whose coordinate it follows} of the model's mimic joints: the 1-dof
+    bodies whose joint owns no coordinate (Model.build's `follows`)."""
+    owners = {}
+    for i in range(model.nb):
+        if model.jtype[i] != FREE and model.body_joints[i] in model.joint_names:
+            owners[int(model.iq[i])] = i
+    return {
+        i: owners[int(model.iq[i])]
+        for i in range(model.nb)
+        if model.jtype[i] != FREE and model.body_joints[i] not in model.joint_names
+    }
+
+
+def with_world(model: Model, objects=(), world=()) -> Model:
+    """The Model of the robot `model` with the free `objects` (SceneObjects) and the static
+    `world` ((Geometry, T_s (4, 4)) pairs: each geometry on a frame of its own name welded to
+    the world at T_s): its bodies, frames, geometries and pairs as the module docstring lays
+    out. `model` itself when there is neither. Names must be new frame names (the scene reader
+    checks them)."""
+    if not objects and not world:
+        return model
+    first = model.nb
+    bodies = len(objects)
+    S = np.zeros((bodies, 6, 6))
+    S[:] = np.eye(6)
+    G = np.array(
+        [spatial_inertia(o.mass, np.zeros(3), uniform_inertia(o.shape, o.size, o.mass))
+         for o in objects]
+    ).reshape(bodies, 6, 6)
+    frames = list(model.frames)
+    frames += [Frame(o.name, first + k, np.eye(4)) for k, o in enumerate(objects)]
+    frames += [Frame(g.link, -1, T_s) for g, T_s in world]
+    geometries = list(model.geometries)
+    geometries += [Geometry(o.name, o.name, o.shape, o.size, np.eye(4)) for o in objects]
+    geometries += [g for g, _ in world]
+    names = {f.name for f in model.frames}
+    aliases = {
+        alias: model.frames[k].name for alias, k in model._frame_index.items() if alias not in names
+    }
+    limits = {
+        key: getattr(model, key)
+        for key in ("lower", "upper", "velocity_limit", "effort_limit", "damping", "friction")
+    }
+    merged = Model.build(
+        name=model.name,
+        joint_names=model.joint_names,
+        body_names=(*model.body_names, *(o.name for o in objects)),
+        body_joints=(*model.body_joints, *(o.name for o in objects)),
+        parent=np.concatenate([model.parent, np.full(bodies, -1)]),
+        jtype=np.concatenate([model.jtype, np.full(bodies, FREE)]),
+        follows=_follows(model),
+        mult=np.concatenate([model.mult, np.ones(bodies)]),
+        offset=np.concatenate([model.offset, np.zeros(bodies)]),
+        S=np.concatenate([model.S, S]),
+        G=np.concatenate([model.G, G]),
+        R_home=np.concatenate([model.R_home, np.tile(np.eye(3), (bodies, 1, 1))]),
+        p_home=np.concatenate([model.p_home, np.zeros((bodies, 3))]),
+        frames=frames,
+        gravity=model.gravity,
+        report=model.report,
+        source=model.source,
+        frame_aliases=aliases,
+        collision_spheres=model.collision_spheres,
+        geometries=geometries,
+        objects=(*model.objects, *(o.name for o in objects)),
+        world=(*model.world, *(g.link for g, _ in world)),
+        continuous=model.continuous,
+        **limits,
+    )
+    body = merged.geometry_table.body
+    robot = len(model.geometries)
+    added = [
+        (a, b)
+        for b in range(robot, len(geometries))
+        for a in range(b)
+        if body[a] != body[b]
+    ]
+    pairs = np.concatenate([model.collision_pairs, np.array(added, np.int64).reshape(-1, 2)])
+    return dataclasses.replace(merged, collision_pairs=immutable(pairs, np.int64))
