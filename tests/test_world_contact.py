@@ -12,13 +12,10 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 import opendyn as od
-from opendyn.algorithm.geometry_contact import geometry_contact_on_poses, geometry_room
-from opendyn.algorithm.kinematics import forward_kinematics
 from opendyn.errors import SceneError
 from opendyn.io.scene.files import shipped_scenes
 from opendyn.io.urdf import shipped_robots_dir
 from opendyn.multibody.joints import FREE
-from opendyn.sim.effects import geometry_contact
 
 G = 9.81
 
@@ -31,28 +28,19 @@ def scene(name, **changes):
     return od.scene_from_dict(data, source=str(path), base_dir=path.parent)
 
 
-def pair_force(s, q, qd, a, b):
-    """The force (3,) N, world axes, that the pairs between the geometries named a and b apply
-    to b's object at (q, qd): the generalized force of those pairs alone, on b's free joint
-    (its linear part is the force in b's axes)."""
-    model = s.model
-    table, pairs, law = geometry_contact.pack(s.contact, model)
-    names = [g.link for g in model.geometries] + ["ground"]
-    keep = [k for k, (i, j) in enumerate(pairs) if {names[i], names[j]} == {a, b}]
-    assert keep, f"no pair {a}-{b}"
-    contacts = (table, pairs[keep], law[keep])
-    work = model.data()._work
-    forward_kinematics(model._ibuf, model._fbuf, work, np.array(q, dtype=float))
-    tau = np.zeros(model.nv)
-    unused = np.zeros((0, 0))
-    geometry_contact_on_poses(
-        model._ibuf, model._fbuf, work, contacts, geometry_room(len(names), model.nv),
-        np.array(qd, dtype=float), tau, (unused, unused, np.bool_(False)), None,
-    )
-    body = model.body_names.index(b)
-    iq, iv = model.iq[body], model.iv[body]
-    R_sb = Rotation.from_quat(q[iq + 3 : iq + 7]).as_matrix()
-    return R_sb @ tau[iv + 3 : iv + 6]
+def force_on(traj, k, a, b):
+    """The sum of the forces (3,) N, world axes, that geometry a applies to geometry b at
+    sample k, from the trajectory's contact table (a row's force is what its a applies to its
+    b)."""
+    rows = traj.contacts.at(k)
+    total = np.zeros(3)
+    for pair, force in zip(rows.pair, rows.force):
+        names = rows.pair_names[pair]
+        if names == (a, b):
+            total += force
+        elif names == (b, a):
+            total -= force
+    return total
 
 
 def test_box_on_table_rests_on_its_weight():
@@ -61,27 +49,47 @@ def test_box_on_table_rests_on_its_weight():
     assert traj.complete
     drift = np.abs(traj.q[:, :3] - traj.q[0, :3]).max()
     assert drift < 1e-4  # m over 5 s
-    # at rest the table's forces carry the weight: sum f = (0, 0, m g) to 1e-6 relative
-    f = pair_force(s, traj.q[-1], traj.qd[-1], "table", "box")
-    assert np.allclose(f, [0.0, 0.0, 1.0 * G], rtol=0, atol=1e-6 * G)
-    # nothing on the ground: the box stands on the table
-    assert np.allclose(pair_force(s, traj.q[-1], traj.qd[-1], "ground", "box"), 0.0)
+    # at rest the table's forces carry the weight: sum f = (0, 0, m g) to 1e-6 relative, at
+    # the four bottom corners
+    k = len(traj.t) - 1
+    assert np.allclose(force_on(traj, k, "table", "box"), [0, 0, G], rtol=0, atol=1e-6 * G)
+    last = traj.contacts.at(k)
+    assert len(last) == 4 and set(last.a) | set(last.b) == {"box", "table"}
+    assert np.allclose(np.abs(last.point[:, :2]), 0.1) and np.allclose(last.normal[:, 2], -1.0)
     # the springs' energy is in E: the balance closes with the dampers as passive work
     assert np.abs(traj.energy_error).max() < 1e-6
 
 
 def test_each_box_of_a_stack_carries_the_weight_above_it():
-    s = scene("box_stack")
-    traj = od.simulate(s)
+    traj = od.simulate(scene("box_stack"))
     assert traj.complete
-    q, qd = traj.q[-1], traj.qd[-1]
+    k = len(traj.t) - 1
     for a, b, carried in (("ground", "bottom", 3), ("bottom", "middle", 2), ("middle", "top", 1)):
-        f = pair_force(s, q, qd, a, b)
+        f = force_on(traj, k, a, b)
         assert np.allclose(f, [0.0, 0.0, carried * G], rtol=0, atol=1e-6 * carried * G), (a, b)
-    # equal and opposite: what pushes the middle box up pushes the bottom one down
-    up = pair_force(s, q, qd, "bottom", "middle")
-    down = pair_force(s, q, qd, "middle", "bottom")
-    assert np.allclose(up, -down, rtol=0, atol=1e-12)
+    # no pair that does not touch has a row
+    touching = {traj.contacts.pair_names[p] for p in traj.contacts.pair}
+    assert touching == {("bottom", "middle"), ("middle", "top"), ("bottom", "ground")}
+
+
+def test_the_contact_table_is_saved_loaded_and_written_as_csv_and_parquet(tmp_path):
+    traj = od.simulate(scene("box_stack").replace_run(duration=0.05))
+    table = traj.contacts
+    loaded = od.Trajectory.load(traj.save(tmp_path / "run.npz")).contacts
+    for name in ("sample", "pair", "point", "normal", "force", "depth"):
+        np.testing.assert_array_equal(getattr(loaded, name), getattr(table, name))
+    assert loaded.pair_names == table.pair_names
+    traj.to_csv(tmp_path / "run.csv")
+    lines = (tmp_path / "run.contacts.csv").read_text().splitlines()
+    assert lines[0] == "sample,t,pair,a,b,x,y,z,nx,ny,nz,fx,fy,fz,depth"
+    assert len(lines) == 1 + len(table)
+    first = lines[1].split(",")
+    assert (first[3], first[4]) == table.pair_names[table.pair[0]]
+    assert float(first[-1]) == table.depth[0]
+    pq = pytest.importorskip("pyarrow.parquet")
+    columns = pq.read_table(table.to_parquet(tmp_path / "c.parquet", traj.t)).to_pydict()
+    np.testing.assert_array_equal(columns["fz"], table.force[:, 2])
+    assert columns["a"] == list(table.a)
 
 
 def test_a_box_on_an_incline_holds_or_slides_as_coulomb_says():

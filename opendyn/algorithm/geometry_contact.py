@@ -74,18 +74,20 @@ def contact_force(body_tree, posed, bodies, row, law, qd, tau, linear, J, AJ, s)
     """The law (module docstring) at one contact row (OUT_SIZE,) of bodies = (a, b) (-1 the
     world), its pair's law (4,): tau (nv,) += J^T f; with linear = (K, D, jac) and jac, K and
     D (nv, nv) += its linearisation. posed = (R_s, p_s) the bodies' world poses; J, AJ (3, nv)
-    and s (9, 6) scratch. Returns (k delta delta_dot (W), delta (m), |f| (N))."""
+    and s (9, 6) scratch, which it leaves holding x (s[1, :3]), n (s[1, 3:]) and f (s[3, :3],
+    zero where the clamp holds f_n at zero). Returns (k delta delta_dot (W), delta (m))."""
     R_s, p_s = posed
     K, D, jac = linear
     nv = qd.shape[0]
-    delta = -row[DISTANCE]
-    if delta <= 0.0:
-        return 0.0, delta, 0.0
     x, n, S = s[1, :3], s[1, 3:], s[0]
     v_r, v_t, f, u = s[2, :3], s[2, 3:], s[3, :3], s[3, 3:]
+    f[:] = 0.0
     for r in range(3):
         x[r] = 0.5 * (row[POINT_A + r] + row[POINT_B + r])
         n[r] = row[NORMAL + r]
+    delta = -row[DISTANCE]
+    if delta <= 0.0:
+        return 0.0, delta
     J[:] = 0.0
     a, b = bodies
     if b >= 0:
@@ -102,7 +104,7 @@ def contact_force(body_tree, posed, bodies, row, law, qd, tau, linear, J, AJ, s)
     spring = k * delta * delta_dot
     f_n = k * delta + c * delta_dot
     if f_n <= 0.0:
-        return spring, delta, 0.0
+        return spring, delta
     for r in range(3):
         v_t[r] = v_r[r] - along * n[r]
     slip = np.sqrt(v_t[0] * v_t[0] + v_t[1] * v_t[1] + v_t[2] * v_t[2] + v_s * v_s)
@@ -116,7 +118,7 @@ def contact_force(body_tree, posed, bodies, row, law, qd, tau, linear, J, AJ, s)
         add_sandwich(J, AJ, k, u, n, 0.0, v_t, slip, K)
         # D += J^T (c u n^T + mu f_n (P_t / s - v_t v_t^T / s^3)) J
         add_sandwich(J, AJ, c, u, n, mu * f_n, v_t, slip, D)
-    return spring, delta, np.sqrt(f[0] * f[0] + f[1] * f[1] + f[2] * f[2])
+    return spring, delta
 
 
 @njit(**JIT)
@@ -142,14 +144,14 @@ def add_sandwich(J, AJ, gain, u, n, slide, v_t, slip, out):
 
 
 @njit(**JIT)
-def geometry_contact_on_poses(ibuf, fbuf, work, contacts, room, qd, tau, linear, summary):
+def geometry_contact_on_poses(ibuf, fbuf, work, contacts, room, qd, tau, linear, record):
     """tau (nv,) += the contact forces of every pair that touches, on the world poses R_s, p_s
     of every body that `work` holds (a Data's buffer, forward kinematics placed at a valid q);
     with linear = (K, D, jac) and jac, K, D (nv, nv) += their linearisation. contacts =
     (table: the GeometryTable's arrays in its order, pairs (P, 2) int, law (P, 4): k, c, mu,
-    v_s of each pair); room: a GeometryRoom. summary: None, or (3,) <- (sum of 1/2 k delta^2
-    J, the deepest penetration m, the largest force N) over the contact points. Allocates
-    nothing. Returns sum k delta delta_dot (W), the springs' share of the power."""
+    v_s of each pair); room: a GeometryRoom. record: None, or (rows (R, ROW), count (1,) int):
+    each contact point that overlaps is counted, and written while count < R (keep_contact).
+    Allocates nothing. Returns sum k delta delta_dot (W), the springs' share of the power."""
     table, pairs, law = contacts
     T_sg, hints, boxes, scratch, rows, AJ = room
     body_tree = tree(ibuf, fbuf)
@@ -167,32 +169,50 @@ def geometry_contact_on_poses(ibuf, fbuf, work, contacts, room, qd, tau, linear,
             continue
         found, _ = pair_rows((table, hints, T_sg), i, j, 0.0, rows, scratch)
         for c in range(found):
-            power, delta, force = contact_force(
+            power, delta = contact_force(
                 body_tree, (R_s, p_s), (body[i], body[j]), rows[c], law[p], qd, tau, linear,
                 J, AJ, s,
             )
             spring += power
-            keep_summary(summary, law[p, STIFFNESS], delta, force)
+            if delta > 0.0:
+                keep_contact(record, p, s, delta)
     return spring
 
 
+# a row of the contact record: the pair's index, the point x (3) m, the normal n (3) from a to
+# b, the force f (3) N that a applies to b, all in {s}, and the depth delta m
+PAIR, POINT, NORMAL_AT, FORCE, DEPTH = 0, 1, 4, 7, 10
+ROW = 11
+
+
 @njit(**JIT)
-def keep_summary(summary, k, delta, force):
-    """summary (3,) += the contact's 1/2 k delta^2, max with its delta and |f|; nothing when
-    summary is None."""
-    if summary is None or delta <= 0.0:
+def keep_contact(record, p, s, delta):
+    """record = (rows, count): rows[count] <- (p, x, n, f, delta) of the contact that
+    contact_force left in s, while count < len(rows); count += 1. Nothing for None."""
+    if record is None:
         return
-    summary[0] += 0.5 * k * delta * delta
-    summary[1] = max(summary[1], delta)
-    summary[2] = max(summary[2], force)
+    rows, count = record
+    k = count[0]
+    count[0] = k + 1
+    if k >= rows.shape[0]:
+        return
+    rows[k, PAIR] = p
+    for r in range(3):
+        rows[k, POINT + r] = s[1, r]
+        rows[k, NORMAL_AT + r] = s[1, 3 + r]
+        rows[k, FORCE + r] = s[3, r]
+    rows[k, DEPTH] = delta
 
 
 @njit(**BATCH)
-def geometry_contact_summary_kernel(ibuf, fbuf, contacts, states, summary, start, stop):
-    """summary (N, 3) <- at each recorded state of states = (q (N, nq), qd (N, nv)), rows
-    [start, stop): the contact springs' energy (J), the deepest penetration (m) and the largest
-    contact force (N) (geometry_contact_on_poses)."""
+def geometry_contact_record_kernel(ibuf, fbuf, contacts, states, out, start, stop):
+    """The contact points of the recorded states = (q (N, nq), qd (N, nv)), rows [start,
+    stop): out = (counts (N,) int64, offsets (N,) int64, rows (R, ROW)): counts[n] <- how many
+    points overlap at state n, written (keep_contact) into rows[offsets[n]:] up to the room
+    the last counts left there (run it once with empty rows to count, then with rows of
+    sum(counts) at offsets, the counts' running sums, to fill)."""
     q, qd = states
+    counts, offsets, rows = out
     nb, nv = body_count(ibuf), dof_count(ibuf)
     work = new_work(nb, nv)
     count = contacts[0][0].shape[0]
@@ -203,9 +223,13 @@ def geometry_contact_summary_kernel(ibuf, fbuf, contacts, states, summary, start
     tau = np.empty(nv)
     unused = np.empty((0, 0))
     no_jac = np.bool_(False)
+    found = np.zeros(1, dtype=np.int64)
     for n in range(start, stop):
-        summary[n, :] = 0.0
+        found[0] = 0
+        mine = rows[offsets[n] : offsets[n] + counts[n]]
         forward_kinematics(ibuf, fbuf, work, q[n])
         geometry_contact_on_poses(
-            ibuf, fbuf, work, contacts, room, qd[n], tau, (unused, unused, no_jac), summary[n]
+            ibuf, fbuf, work, contacts, room, qd[n], tau, (unused, unused, no_jac),
+            (mine, found),
         )
+        counts[n] = found[0]

@@ -17,7 +17,7 @@ import tempfile
 
 from .._runtime.files import unwritable
 from .._runtime.signals import held_interrupt
-from ..sim.trajectory import saved_paths
+from ..sim.trajectory import contacts_csv_path, saved_paths
 from .interrupts import _doing
 
 # the options of `simulate` that name an output file, and their attributes in args
@@ -98,7 +98,7 @@ def _write_outputs(scene, traj, args, saved) -> bool:
     lost. Returns whether everything asked for was written, the trajectory's file included."""
     writes = []
     if args.csv is not None:
-        writes.append(("--csv", args.csv, lambda: [traj.to_csv(args.csv)]))
+        writes.append(("--csv", args.csv, lambda: _write_csv(traj, args.csv)))
     if args.plot is not None:
         writes.append(("--plot", args.plot, lambda: [traj.plot(args.plot)]))
     if args.html is not None:
@@ -179,3 +179,11 @@ def _write_html(scene, traj, path, collision=False):
 
 def _slug(name):
     return "".join(c if c.isalnum() or c in "-_" else "_" for c in name).strip("_") or "scene"
+
+
+def _write_csv(traj, path) -> list:
+    """The trajectory's CSV, and its contact table's beside it when it has one."""
+    written = [traj.to_csv(path)]
+    if traj.contacts is not None:
+        written.append(contacts_csv_path(path))
+    return written

@@ -287,6 +287,8 @@ def summary(scene, traj):
         )
     if traj.has_contact and len(traj.t):
         lines.append(_contact_line(traj))
+    if traj.contacts is not None and len(traj.t):
+        lines.append(_contacts_line(traj))
     if len(traj.com) and not (
         scene.contact or scene.wrenches or scene.constraints or scene.armature is not None
     ):
@@ -321,6 +323,24 @@ def _momentum_line(scene, traj):
         f"momentum    about the centre of mass (only gravity acts from outside): max |k_G - "
         f"k_G(0)| = {k_drift:.3g} kg m^2/s (max |k_G| {np.abs(h[:, :3]).max():.3g}), max |l_G - "
         f"l_G(0) - M g t| = {l_drift:.3g} kg m/s (max |l_G| {np.abs(h[:, 3:]).max():.3g})"
+    )
+
+
+def _contacts_line(traj):
+    """The contact between geometries in one line: how many points at most, the deepest
+    penetration and the largest force, each with its pair and time."""
+    table = traj.contacts
+    if not len(table):
+        return f"contact     no pair touched ({len(table.pair_names)} pairs checked)"
+    most = int(np.bincount(table.sample).max())
+    depth, deep_pair = table.deepest()
+    force, force_pair = table.largest_force()
+    deep_t = traj.t[table.sample[np.argmax(table.depth)]]
+    force_t = traj.t[table.sample[np.argmax(np.linalg.norm(table.force, axis=1))]]
+    return (
+        f"contact     up to {most} points of {len(table.pair_names)} geometry pairs: max "
+        f"penetration {depth * 1e3:.3g} mm ({deep_pair} at t = {deep_t:.4g} s), max force "
+        f"{force:.4g} N ({force_pair} at t = {force_t:.4g} s)"
     )
 
 

@@ -16,7 +16,7 @@ from ..algorithm.energy import energies
 from ..errors import SceneError
 from ..multibody.joints import FREE
 from . import effects, integrators, step
-from .record import contact_record, geometry_contact_summary, gravity_of, violation
+from .record import contact_record, geometry_contact_record, gravity_of, violation
 
 # what compiling a scene's pieces takes on a 2-core machine, by integrator (measured by
 # scripts/bench_coldstart.py; constraints add about half again)
@@ -95,7 +95,7 @@ def load_kernels(scene, integ, table, data, x, loop):
         pieces.append(lambda: contact_record(model, table.params(effects.contact), *state))
     if effects.geometry_contact.record(scene) is not None:
         params = table.params(effects.geometry_contact)
-        pieces.append(lambda: geometry_contact_summary(model, params, *state))
+        pieces.append(lambda: geometry_contact_record(model, params, *state))
     what = f"the simulation step for {integ.name} with {', '.join(table.names) or 'no effects'}"
     with compiling(what, len(pieces), _COMPILE_ESTIMATE[integ.kind]) as done:
         for piece in pieces:

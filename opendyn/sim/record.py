@@ -16,7 +16,17 @@ from .._runtime.version import __version__
 from ..algorithm.centroidal import centroidal_record
 from ..algorithm.constraints import ROW_COUNT, constraint_terms_kernel
 from ..algorithm.contact import contact_record_kernel
-from ..algorithm.geometry_contact import geometry_contact_summary_kernel
+from ..algorithm.geometry_contact import (
+    DEPTH,
+    FORCE,
+    NORMAL_AT,
+    PAIR,
+    POINT,
+    ROW,
+    geometry_contact_record_kernel,
+)
+from .contacts import ContactTable
+from .effects.geometry_contact import GROUND
 from ..algorithm.energy import energies
 from .scene import thaw
 from ..multibody.joints import FREE
@@ -87,14 +97,14 @@ def energies_of(scene, table, q, qd):
     `scene` (its stage table `table`): T = 1/2 qd^T (M + diag(armature)) qd and U = the gravity
     potential plus the contact springs' sum_p 1/2 k delta_p^2 (J); contact: the spheres'
     contact record (points, forces, penetrations; contact_record) or the geometry contact's
-    summary (geometry_contact_summary), or None without contact."""
+    ContactTable (geometry_contact_record), or None without contact."""
     model = scene.model
     contact = None
     spheres = effects.contact.record(scene)
     if spheres is not None:
         contact = contact_record(model, table.params(effects.contact), q, qd)
     elif effects.geometry_contact.record(scene) is not None:
-        contact = geometry_contact_summary(model, table.params(effects.geometry_contact), q, qd)
+        contact = geometry_contact_record(model, table.params(effects.geometry_contact), q, qd)
     if not len(q):
         return np.zeros(0), np.zeros(0), contact
     kinetic, potential = energies(model, q, qd, gravity_of(scene))
@@ -102,8 +112,11 @@ def energies_of(scene, table, q, qd):
         kinetic = kinetic + 0.5 * (qd[:, model.v_index] ** 2) @ scene.armature
     if spheres is not None:
         potential = potential + 0.5 * spheres.stiffness * (contact[2] ** 2).sum(axis=1)
-    elif contact is not None:
-        potential = potential + contact[:, 0]
+    elif contact is not None:  # each point's spring, at its pair's stiffness
+        k = table.params(effects.geometry_contact)[2][contact.pair, 0]
+        potential = potential + np.bincount(
+            contact.sample, 0.5 * k * contact.depth**2, minlength=len(q)
+        )
     return kinetic, potential, contact
 
 
@@ -131,7 +144,9 @@ def trajectory_of(scene, table, out, n, complete, message, stats):
         kinetic = potential = np.full(n, np.nan)
         spheres, off, centroidal = None, (np.zeros(0),) * 2, {}
     contact = {}
-    if spheres is not None and effects.contact.record(scene) is not None:
+    if isinstance(spheres, ContactTable):
+        contact = {"contacts": spheres}
+    elif spheres is not None:
         points, forces, depth = spheres
         contact = dict(
             contact_names=tuple(p.name for p in scene.contact.points),
@@ -203,16 +218,28 @@ def contact_record(model, contacts, q, qd):
     return points, forces, depth
 
 
-def geometry_contact_summary(model, contacts, q, qd):
-    """(K, 3): the geometry contact's springs' energy (J), deepest penetration (m) and largest
-    contact force (N) at the samples (q (K, nq), qd (K, nv)); contacts: a stage table's
-    parameters of effects.geometry_contact (opendyn.algorithm.geometry_contact)."""
-    summary = np.zeros((len(q), 3))
-    run_rows(
-        geometry_contact_summary_kernel, len(q), model._ibuf, model._fbuf, contacts, (q, qd),
-        summary,
+def geometry_contact_record(model, contacts, q, qd):
+    """The ContactTable of the contact points at the samples (q (K, nq), qd (K, nv));
+    contacts: a stage table's parameters of effects.geometry_contact (pair_names from
+    model.geometries, the last geometry the ground): counted, then written
+    (opendyn.algorithm.geometry_contact.geometry_contact_record_kernel)."""
+    counts, offsets = np.zeros(len(q), dtype=np.int64), np.zeros(len(q), dtype=np.int64)
+    args = (model._ibuf, model._fbuf, contacts, (q, qd))
+    run_rows(geometry_contact_record_kernel, len(q), *args, (counts, offsets, np.zeros((0, ROW))))
+    offsets[1:] = np.cumsum(counts)[:-1]
+    rows = np.zeros((int(counts.sum()), ROW))
+    run_rows(geometry_contact_record_kernel, len(q), *args, (counts, offsets, rows))
+    names = [g.name for g in model.geometries] + [GROUND]
+    pairs = contacts[1]
+    return ContactTable(
+        sample=np.repeat(np.arange(len(q)), counts),
+        pair=rows[:, PAIR].astype(np.int64),
+        point=rows[:, POINT : POINT + 3],
+        normal=rows[:, NORMAL_AT : NORMAL_AT + 3],
+        force=rows[:, FORCE : FORCE + 3],
+        depth=rows[:, DEPTH],
+        pair_names=tuple((names[a], names[b]) for a, b in pairs),
     )
-    return summary
 
 
 def _provenance(scene, table):

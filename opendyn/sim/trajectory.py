@@ -28,6 +28,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .._runtime.files import atomic_write, kind_of, name_too_long
+from .contacts import ContactTable
 
 _ARRAYS = ("t", "q", "qd", "tau", "kinetic", "potential", "work_applied", "work_passive")
 _VIOLATION = ("violation_position", "violation_velocity")  # empty without constraints
@@ -54,6 +55,12 @@ def _check_shapes(traj, path):
                 f"{k} samples, {nq} coordinates q, {nv} velocities): the file was changed "
                 "after opendyn saved it"
             )
+
+
+def contacts_csv_path(path) -> pathlib.Path:
+    """Where `Trajectory.to_csv(path)` writes the contact table: run.csv -> run.contacts.csv."""
+    path = pathlib.Path(path)
+    return path.with_name(path.stem + ".contacts.csv")
 
 
 def saved_paths(path) -> tuple[pathlib.Path, pathlib.Path]:
@@ -91,6 +98,9 @@ class Trajectory:
     (k_G, l_G), the angular momentum about the centre of mass (kg m^2/s) and the linear
     momentum (kg m/s) in world-aligned axes, angular first (opendyn.algorithm.centroidal);
     recorded for a floating base, empty (0, 3), (0, 6) otherwise.
+    contacts: with contact between collision geometries ([effects.contact] geometry =
+    "collision"), its ContactTable (opendyn.sim.contacts): one row per contact point per
+    sample, with its pair, point, normal, force and depth; None otherwise.
     provenance: the scene, integrator, versions and timing, as plain JSON types.
     """
 
@@ -118,6 +128,7 @@ class Trajectory:
     ground_height: float | None = None
     com: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
     centroidal_momentum: np.ndarray = field(default_factory=lambda: np.zeros((0, 6)))
+    contacts: ContactTable | None = None
 
     def __post_init__(self):
         # a fixed-base record (nq = nv = the joints) names its columns by the joints
@@ -171,6 +182,8 @@ class Trajectory:
             arrays["ground_height"] = np.array(self.ground_height)
         if len(self.com):
             arrays.update({name: getattr(self, name) for name in _CENTROIDAL})
+        if self.contacts is not None:
+            arrays.update(self.contacts.arrays())
         with atomic_write(path) as f:
             np.savez_compressed(
                 f,
@@ -225,6 +238,8 @@ class Trajectory:
                 arrays["contact_names"] = tuple(str(n) for n in data["contact_names"])
                 arrays["ground_height"] = float(data["ground_height"])
             arrays.update({name: data[name] for name in _CENTROIDAL if name in data})
+            if "contacts_sample" in data:
+                arrays["contacts"] = ContactTable.from_arrays(data)
             names = tuple(str(n) for n in data["joint_names"])
             columns = {
                 key: tuple(str(n) for n in data[key])
@@ -254,7 +269,9 @@ class Trajectory:
         violation_position, violation_velocity, with a floating base com_x, com_y, com_z (m)
         and the centroidal momentum kG_x, kG_y, kG_z (kg m^2/s), lG_x, lG_y, lG_z (kg m/s),
         world frame, and with contact, for each contact point, fx_<point>, fy_<point>,
-        fz_<point> (N, world frame) and penetration_<point> (m).
+        fz_<point> (N, world frame) and penetration_<point> (m). With contacts between
+        collision geometries, their table beside it, one row per contact point
+        (ContactTable.to_csv, at contacts_csv_path(path)).
         Written atomically, like `save`. Returns the path."""
         path = pathlib.Path(path)
         header = ["t", *(f"q_{n}" for n in self.q_names), *(f"qd_{n}" for n in self.v_names)]
@@ -274,6 +291,8 @@ class Trajectory:
         table = np.column_stack(columns)
         with atomic_write(path) as f:
             np.savetxt(f, table, delimiter=",", header=",".join(header), comments="", fmt="%.17g")
+        if self.contacts is not None:
+            self.contacts.to_csv(contacts_csv_path(path), self.t)
         return path
 
     def plot(self, path) -> pathlib.Path:
