@@ -237,3 +237,39 @@ def test_a_robot_without_collision_geometry_has_nothing_to_touch():
 def test_linearize_refuses_the_geometry_contact_naming_it():
     with pytest.raises(ValueError, match="geometry = \"collision\""):
         od.linearize(scene("box_on_table"))
+
+
+def test_an_arm_driven_into_itself_stops_only_with_self_collision():
+    stopped = od.simulate(scene("arm_self_collision"))
+    passed = od.simulate(scene("arm_self_collision", self_collision=False))
+    assert stopped.complete and passed.complete
+    elbow = list(stopped.joint_names).index("elbow_joint")
+    # od.distances puts the first overlap of the wrist with the upper arm at 2.65-2.7 rad
+    assert 2.6 < stopped.q[-1, elbow] < 2.72
+    assert passed.q[-1, elbow] == pytest.approx(3.0, abs=0.01)
+    pairs = {stopped.contacts.pair_names[p] for p in stopped.contacts.pair}
+    assert pairs and all(a.startswith("upper_arm") or b.startswith("upper_arm") for a, b in pairs)
+    assert len(passed.contacts) == 0
+    assert stopped.contacts.deepest()[0] < 0.005  # m: the spring holds the PD torque
+
+
+def test_solo12_lands_on_a_step_and_stands():
+    traj = od.simulate(scene("solo12_step"))
+    assert traj.complete and np.all(np.isfinite(traj.q))
+    last = np.flatnonzero(traj.t >= traj.t[-1] - 1.0)
+    assert np.abs(traj.qd[last]).max() < 0.1  # rad/s, m/s: at rest
+    assert np.ptp(traj.q[last, 2]) < 5e-4  # m: the trunk holds its height
+    weight = float(np.sum(od.load_urdf("solo12", floating_base=True).mass)) * G
+    for k in last[::10]:
+        rows = traj.contacts.at(k)
+        touching = {name for p in rows.pair for name in rows.pair_names[p]}
+        assert touching - {"upper_step", "lower_step"} == {
+            "FL_FOOT_0", "FR_FOOT_0", "HL_FOOT_0", "HR_FOOT_0"
+        }
+        # the steps carry the weight: every row's b is a step, its force what the foot puts
+        # on it
+        assert all(rows.pair_names[p][1].endswith("step") for p in rows.pair)
+        assert -rows.force[:, 2].sum() == pytest.approx(weight, rel=0.01)
+    # the front feet stand 7 cm higher: the trunk pitches up, about 10 degrees
+    pitch = Rotation.from_quat(traj.q[-1, 3:7]).as_euler("xyz")[1]
+    assert -0.25 < pitch < -0.1
