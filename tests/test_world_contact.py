@@ -273,3 +273,10 @@ def test_solo12_lands_on_a_step_and_stands():
     # the front feet stand 7 cm higher: the trunk pitches up, about 10 degrees
     pitch = Rotation.from_quat(traj.q[-1, 3:7]).as_euler("xyz")[1]
     assert -0.25 < pitch < -0.1
+
+
+def test_a_start_deep_inside_another_body_is_refused_naming_both():
+    data = tomllib.loads(shipped_scenes()["box_on_table"].read_text())
+    data["objects"][0]["position"] = [0.0, 0.0, 0.42]  # 3 cm into the table
+    with pytest.raises(SceneError, match="'box' starts 0.03 m inside 'table'.*J"):
+        od.simulate(od.scene_from_dict(data))

@@ -26,7 +26,7 @@ from ..errors import SceneError, SceneWarning
 from .run import MAX_STEPS, check_fixed_steps
 from ..multibody.joints import FREE
 from . import effects
-from .record import contact_record
+from .record import contact_record, geometry_contact_record
 
 # the record's arrays are built, then energies, contact and the outputs' copies: room for the
 # record three times (measured: a 1e6-sample run saved as .npz and CSV peaked at 2.45 times it)
@@ -52,6 +52,7 @@ def check_start(scene):
     naming the key to change; SceneWarning)."""
     _check_start(scene)
     _check_contact_start(scene)
+    _check_geometry_start(scene)
     _check_energy(scene)
 
 
@@ -81,6 +82,36 @@ def _check_contact_start(scene):
         f"{contact.stiffness:g} N/m) would hold {0.5 * contact.stiffness * d * d:.3g} J and "
         f"throw the robot; start it above the ground (raise {raise_by}, or lower "
         "effects.contact.ground_height), or check the point's radius",
+    )
+
+
+def _check_geometry_start(scene):
+    """The same refusal for the contact between collision geometries: no contact point at the
+    initial state deeper than START_DEPTH or twice the depth m g / k the model's weight would
+    press a pair of stiffness k to."""
+    contact = effects.geometry_contact.record(scene)
+    if contact is None:
+        return
+    model = scene.model
+    params = effects.geometry_contact.pack(contact, model)
+    q, qd = np.array(scene.q0)[None], np.array(scene.qd0)[None]
+    table = geometry_contact_record(model, params, q, qd)
+    if not len(table):
+        return
+    weight = model._total_mass * np.linalg.norm(scene.gravity if scene.gravity is not None else 0)
+    k_pair = params[2][table.pair, 0]
+    excess = table.depth - np.maximum(START_DEPTH, 2.0 * weight / k_pair)
+    worst = int(np.argmax(excess))
+    if not excess[worst] > 0:
+        return
+    d, k = float(table.depth[worst]), float(k_pair[worst])
+    a, b = table.pair_names[table.pair[worst]]
+    _fail(
+        scene,
+        "initial",
+        f"{a!r} starts {d:.3g} m inside {b!r}, where the contact's spring (stiffness {k:g} "
+        f"N/m) would hold {0.5 * k * d * d:.3g} J and throw them apart; start them apart (move "
+        "the objects' positions, initial.q or initial.base_position)",
     )
 
 
