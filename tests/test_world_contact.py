@@ -280,3 +280,15 @@ def test_a_start_deep_inside_another_body_is_refused_naming_both():
     data["objects"][0]["position"] = [0.0, 0.0, 0.42]  # 3 cm into the table
     with pytest.raises(SceneError, match="'box' starts 0.03 m inside 'table'.*J"):
         od.simulate(od.scene_from_dict(data))
+
+
+def test_a_humanoid_falls_over_onto_the_floor_with_its_whole_collision_model():
+    s = scene("humanoid_fall")
+    assert sum(g.shape == "mesh" for g in s.model.geometries) == 24  # the links' hulls
+    traj = od.simulate(s)
+    assert traj.complete and np.all(np.isfinite(traj.q)) and np.all(np.isfinite(traj.qd))
+    assert np.abs(traj.energy_error).max() < 1e-3  # J, of E about 200 J at rtol 1e-6
+    assert traj.q[-1, 2] < 0.2  # the pelvis lies on the floor
+    touching = {traj.contacts.pair_names[p] for p in traj.contacts.pair}
+    assert all(b == "ground" for _, b in touching) and len(touching) >= 4
+    assert traj.contacts.deepest()[0] < 3e-3  # m: no link below the floor by more

@@ -11,7 +11,9 @@ are
             the two between (exact for a cap lying on the plane: it rests on all four)
   capsule   its segment's two ends, less r n
   sphere    its centre less r n
-each at signed distance d_k = n . (x_k - p); those with d_k <= margin are contacts, the four
+each at signed distance d_k = n . (x_k - p) (none when the shape's support point along -n is
+beyond the margin: a hull's vertices are scanned only when it reaches the plane); those with
+d_k <= margin are contacts, the four
 deepest kept, each written as a row of the narrow phase's out layout: (d_k, x_k, x_k - d_k n, -n)
 (the normal from a towards the halfspace).
 """
@@ -25,6 +27,7 @@ from numba import njit
 from ..._runtime.kernel_cache import UNCOUNTED
 from ...multibody.shapes import BOX, CAPSULE, CYLINDER, MESH
 from .closed_forms import DISTANCE, room_by_depth, write_inflated
+from .support import core_radius, core_support
 from .vectors import axis, axpy, cross, dot, norm, origin, scale, sub, to_world
 
 MAX_CONTACTS = 4
@@ -84,6 +87,11 @@ def halfspace_contacts(code_a, size_a, hull_a, T_a, T_b, margin, contacts):
     Returns how many rows were written."""
     n = axis(T_b, 2)
     p = origin(T_b)
+    # the shape's deepest point, its support along -n (a hull's by climbing its edges): when
+    # even that is beyond the margin, no candidate is nearer (a mesh's hull is not scanned)
+    deepest = core_support((code_a, size_a, hull_a, T_a), scale(n, -1.0))
+    if dot(n, sub(deepest, p)) - core_radius(code_a, size_a) > margin:
+        return 0
     count = 0
     for k in range(candidate_count(code_a, hull_a)):
         x = candidate(code_a, size_a, hull_a, T_a, n, k)
