@@ -70,14 +70,15 @@ def geometry_room(count, nv) -> GeometryRoom:
 
 
 @njit(**JIT)
-def contact_force(body_tree, posed, bodies, row, law, qd, tau, linear, J, AJ, s):
+def contact_force(body_tree, posed, bodies, row, law, qd, tau, linear, scratch):
     """The law (module docstring) at one contact row (OUT_SIZE,) of bodies = (a, b) (-1 the
     world), its pair's law (4,): tau (nv,) += J^T f; with linear = (K, D, jac) and jac, K and
-    D (nv, nv) += its linearisation. posed = (R_s, p_s) the bodies' world poses; J, AJ (3, nv)
-    and s (9, 6) scratch, which it leaves holding x (s[1, :3]), n (s[1, 3:]) and f (s[3, :3],
+    D (nv, nv) += its linearisation. posed = (R_s, p_s) the bodies' world poses; scratch =
+    (J, AJ (3, nv), s (9, 6)), s left holding x (s[1, :3]), n (s[1, 3:]) and f (s[3, :3],
     zero where the clamp holds f_n at zero). Returns (k delta delta_dot (W), delta (m))."""
     R_s, p_s = posed
     K, D, jac = linear
+    J, AJ, s = scratch
     nv = qd.shape[0]
     x, n, S = s[1, :3], s[1, 3:], s[0]
     v_r, v_t, f, u = s[2, :3], s[2, 3:], s[3, :3], s[3, 3:]
@@ -171,7 +172,7 @@ def geometry_contact_on_poses(ibuf, fbuf, work, contacts, room, qd, tau, linear,
         for c in range(found):
             power, delta = contact_force(
                 body_tree, (R_s, p_s), (body[i], body[j]), rows[c], law[p], qd, tau, linear,
-                J, AJ, s,
+                (J, AJ, s),
             )
             spring += power
             if delta > 0.0:
