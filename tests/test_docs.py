@@ -268,10 +268,11 @@ def test_the_checked_pages_have_their_examples():
 def test_the_scene_examples_load_and_the_complete_one_runs():
     """The complete scene example runs (0.1 s); each fragment loads with the robot of its
     section: the floating base (Solo12, complete), the payload (UR5, complete), contact on
-    Solo12, constraints on the shipped four-bar scene's initial state."""
+    Solo12, the objects and world of the contact between geometries (complete: a scene of
+    objects alone), constraints on the shipped four-bar scene's initial state."""
     (full,) = (tomllib.loads(b) for b in blocks("docs/guides/scenes.md", "toml"))
     floating, payload = (tomllib.loads(b) for b in blocks("docs/guides/robots.md", "toml"))
-    (contact,) = (tomllib.loads(b) for b in blocks("docs/guides/contact.md", "toml"))
+    contact, geometry = (tomllib.loads(b) for b in blocks("docs/guides/contact.md", "toml"))
     (constraints,) = (tomllib.loads(b) for b in blocks("docs/guides/constraints.md", "toml"))
     scene = od.scene_from_dict(full, base_dir=shipped_robots_dir())
     assert scene.effects == ("gravity", "damping", "wrench", "control")
@@ -282,6 +283,9 @@ def test_the_scene_examples_load_and_the_complete_one_runs():
     assert loaded.mass.sum() == pytest.approx(od.load_urdf("ur5").mass.sum() + 2.5)
     on_ground = od.scene_from_dict({**floating, **contact})
     assert [p.frame for p in on_ground.contact.points] == ["FL_FOOT"]
+    boxed = od.scene_from_dict(geometry)
+    assert boxed.model.objects == ("box",) and boxed.model.world == ("table",)
+    assert boxed.effects == ("contact",) and boxed.contact.pairs[0].law.friction == 0.2
     four_bar = tomllib.loads((shipped_robots_dir() / "four_bar.toml").read_text())
     del four_bar["constraints"], four_bar["baumgarte"]  # the fragment's, on the same state
     closed = od.scene_from_dict({**four_bar, **constraints}, base_dir=shipped_robots_dir())

@@ -292,3 +292,15 @@ def test_a_humanoid_falls_over_onto_the_floor_with_its_whole_collision_model():
     touching = {traj.contacts.pair_names[p] for p in traj.contacts.pair}
     assert all(b == "ground" for _, b in touching) and len(touching) >= 4
     assert traj.contacts.deepest()[0] < 3e-3  # m: no link below the floor by more
+
+
+def test_the_simulator_and_rollouts_take_a_scene_of_objects():
+    s = scene("box_stack").replace_run(duration=0.2)
+    sim = od.Simulator(s)
+    sim.step(None, 0.2)
+    runs = od.rollout(s, q0=np.stack([s.q0, s.q0]))
+    traj = od.simulate(s)
+    # the same step three ways: the stack at rest where simulate leaves it
+    np.testing.assert_allclose(sim.q, traj.q[-1], atol=1e-12)
+    assert np.all(runs.complete)
+    np.testing.assert_allclose(runs.q[:, -1], [traj.q[-1]] * 2, atol=1e-12)
