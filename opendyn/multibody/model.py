@@ -220,11 +220,9 @@ class Model:
                       default: on different bodies, neither the other's parent, not disabled by
                       an SRDF
       geometry_table  the geometries packed for the collision kernels (GeometryTable)
-      objects         the names of the bodies that are a scene's free objects (each a root on
-                      a free joint of its own, after the robot's bodies; its coordinates are
-                      named NAME.x ... NAME.qw and NAME.wx ... NAME.vz): empty for a robot
-      world           the names of a scene's static world entries (each a frame welded to the
-                      world, carrying the geometry of the same name): empty for a robot
+      objects, world  a scene's free objects (roots on free joints after the robot's bodies,
+                      coordinates NAME.x ... NAME.vz) and static world entries (frames welded
+                      to the world with a geometry each), by name: empty for a robot
       gravity         (3,) default gravity vector in the world frame (m/s^2)
       report          the loader's FidelityReport (what was honoured, transformed, ignored)
     """
@@ -302,8 +300,7 @@ class Model:
         collision_spheres: CollisionSpheres, each on a link that is one of the frames.
         geometries: Geometries, each on a link that is one of the frames; disabled_links: the
         link pairs (frozensets of two names) whose geometries are not checked by default.
-        objects, world: the names of a scene's free objects and static world entries
-        (Model.objects, Model.world).
+        objects, world: a scene's objects and world entries by name (Model.objects, .world).
         """
         nb = len(body_names)
         jtype = np.asarray(jtype, dtype=np.int64).reshape(nb)
@@ -441,8 +438,7 @@ class Model:
         # the velocity coordinates no joint owns: a free joint's twist (a floating base's)
         object.__setattr__(self, "_unactuated", np.setdiff1d(np.arange(nv), self.v_index))
 
-    def _is_object(self, i) -> bool:
-        """Whether body i is one of a scene's objects."""
+    def _is_object(self, i) -> bool:  # body i is one of a scene's objects
         return self.body_names[i] in self.objects
 
     parent = property(lambda self: self._fields["parent"], doc="(nb,) parent body, -1 = world")

@@ -39,11 +39,7 @@ class WorldSection(ValueReader):
         taken = set(self.model.frame_names) | set(RESERVED)
         self._object_tables = []
         found = []
-        for k, table in enumerate(self._entries(objects, "objects")):
-            where = f"objects[{k}]"
-            self.keys(table, where, OBJECT_KEYS)
-            name = self._name(table, where, taken)
-            shape = self._shape(table, where, OBJECT_SHAPES)
+        for where, table, name, shape in self._entries(objects, "objects", taken):
             size = self._size(table, where, shape)
             if "mass" not in table:
                 self.fail(f"{where}.mass", "missing: an object needs its mass (kg > 0)")
@@ -51,11 +47,7 @@ class WorldSection(ValueReader):
             found.append(SceneObject(name, shape, size, mass))
             self._object_tables.append((table, where))
         entries = []
-        for k, table in enumerate(self._entries(world, "world")):
-            where = f"world[{k}]"
-            self.keys(table, where, WORLD_KEYS)
-            name = self._name(table, where, taken)
-            shape = self._shape(table, where, WORLD_SHAPES)
+        for where, table, name, shape in self._entries(world, "world", taken):
             T_s = np.eye(4)
             T_s[:3, 3] = self._vec3(table, where, "position")
             T_s[:3, :3] = Rotation.from_euler("xyz", self._vec3(table, where, "rpy")).as_matrix()
@@ -70,12 +62,22 @@ class WorldSection(ValueReader):
             body = m.body_names.index(table["name"])
             self.free_state(table, where, "", body, q0, qd0)
 
-    def _entries(self, value, key) -> list:
+    def _entries(self, value, key, taken) -> list:
+        """[(where, table, name, shape)] of the tables [[key]] ("objects" or "world"), each
+        checked for its keys, a new name (added to `taken`) and a shape of its kind."""
         if value is None:
             return []
         if not isinstance(value, list) or not all(isinstance(t, dict) for t in value):
             self.fail(key, f"expected tables [[{key}]], found {what_is(value)}")
-        return value
+        objects = key == "objects"
+        keys, shapes = (OBJECT_KEYS, OBJECT_SHAPES) if objects else (WORLD_KEYS, WORLD_SHAPES)
+        found = []
+        for k, table in enumerate(value):
+            where = f"{key}[{k}]"
+            self.keys(table, where, keys)
+            name = self._name(table, where, taken)
+            found.append((where, table, name, self._shape(table, where, shapes)))
+        return found
 
     def _name(self, table, where, taken) -> str:
         if "name" not in table:
