@@ -5,6 +5,7 @@ cannot be read (cut short) is a miss: it compiles again, with one warning, and i
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import pathlib
@@ -176,3 +177,42 @@ def test_a_kernel_compiled_under_an_uncounted_one_keeps_its_own_counting(tmp_pat
     for kernel in ("kinematics.forward_kinematics", "work_views.world_poses", "queries.place"):
         assert any(name.endswith(kernel) for name in found["checked"]), kernel
     assert found["wrong"] == []
+
+
+def test_two_saves_at_once_keep_each_signature_with_its_own_code(tmp_path, monkeypatch):
+    """Two processes (here two threads, each with its own file handle) that compile a kernel at
+    once both read its index before either writes it. Unlocked, both pick data file 1: the index
+    names one signature and the file holds the other's code, which crashes whoever loads it.
+    Under the lock the second reads the index after the first wrote it, and picks file 2."""
+    import threading
+
+    from numba.core.caching import IndexDataCacheFile
+
+    from opendyn._runtime import kernel_cache
+
+    folder = tmp_path / "opendyn-kernels-0"
+    folder.mkdir()
+    monkeypatch.setattr(kernel_cache, "CACHE_DIR", str(tmp_path))
+    both_read = threading.Barrier(2)
+    load_index = IndexDataCacheFile._load_index
+
+    def load_then_wait(self):
+        overloads = load_index(self)
+        with contextlib.suppress(threading.BrokenBarrierError):
+            both_read.wait(timeout=1.0)  # unlocked: both have read; locked: the first times out
+        return overloads
+
+    monkeypatch.setattr(IndexDataCacheFile, "_load_index", load_then_wait)
+
+    def save(key):
+        IndexDataCacheFile(str(folder), "kernel", source_stamp="s").save(key, f"code of {key}")
+
+    threads = [threading.Thread(target=save, args=(key,)) for key in ("f8", "i8")]
+    for thread in threads:
+        thread.start()
+    for thread in threads:
+        thread.join()
+    monkeypatch.setattr(IndexDataCacheFile, "_load_index", load_index)
+    cache_file = IndexDataCacheFile(str(folder), "kernel", source_stamp="s")
+    assert cache_file.load("f8") == "code of f8"
+    assert cache_file.load("i8") == "code of i8"

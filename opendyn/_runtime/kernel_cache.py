@@ -20,11 +20,20 @@ numba unpickles each cache entry as it finds it, so an entry cut short (an inter
 the folder into a worker image, a full disk) would raise UnpicklingError or EOFError on every
 later run. In opendyn's folder such an entry is a miss instead: it is removed, the kernel
 compiles again and is cached afresh, and one warning names the folder (`unreadable_is_a_miss`).
+
+Processes that compile the same kernel at once (the suite's workers, a sweep's) each add an entry
+to its index: numba reads the index, picks the first unused data file number, writes the index
+and then the data. Two that read the index before either writes it pick the same number, and the
+index can end up naming one signature's entry with the other's machine code: every later process
+that loads it crashes. Saves therefore take turns, under an exclusive lock on a file beside the
+index (`saves_take_turns`, where the system has flock); loads need none, as each file is written
+whole and renamed into place.
 """
 
 from __future__ import annotations
 
 import contextlib
+import functools
 import hashlib
 import os
 import pathlib
@@ -91,12 +100,17 @@ CACHE_DIR, CACHE_WHERE = _choose()
 CACHING = CACHE_DIR is not None  # the kernels' `cache=` option
 
 
+def _ours(cache_file) -> bool:
+    """Whether `cache_file` (an IndexDataCacheFile) is in opendyn's folder."""
+    folder = pathlib.Path(cache_file._cache_path).resolve()
+    return CACHE_DIR is not None and folder.is_relative_to(pathlib.Path(CACHE_DIR).resolve())
+
+
 def _discard(cache_file, path, error):
     """Remove the unreadable cache file `path` of `cache_file` (an IndexDataCacheFile) if it
     is in opendyn's folder, with a warning for the first in this process; else re-raise
     `error`."""
-    folder = pathlib.Path(cache_file._cache_path).resolve()
-    if CACHE_DIR is None or not folder.is_relative_to(pathlib.Path(CACHE_DIR).resolve()):
+    if not _ours(cache_file):
         raise error
     with contextlib.suppress(OSError):
         os.remove(path)
@@ -145,6 +159,46 @@ def unreadable_is_a_miss():
 
 
 unreadable_is_a_miss()
+
+
+@contextlib.contextmanager
+def _turn(path):
+    """Hold an exclusive lock on the file `path` (made if missing) for the block: the other
+    processes and threads that ask for it wait (a no-op where the system has no flock)."""
+    try:
+        import fcntl
+    except ImportError:  # Windows: numba's own behaviour
+        yield
+        return
+    with open(path, "a") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(lock, fcntl.LOCK_UN)
+
+
+def saves_take_turns():
+    """Make every save of a cache entry (numba's read of the index, choice of a data file,
+    write of both) one turn under a lock beside the index (module docstring), in opendyn's
+    folder; wrapped once per process. Any other folder's saves (a user's own kernels') are
+    numba's as before."""
+    if getattr(IndexDataCacheFile, "_opendyn_turns", False):
+        return
+    save = IndexDataCacheFile.save
+
+    @functools.wraps(save)
+    def _save(self, key, data):
+        if not _ours(self):
+            return save(self, key, data)
+        with _turn(self._index_path + ".lock"):
+            save(self, key, data)
+
+    IndexDataCacheFile.save = _save
+    IndexDataCacheFile._opendyn_turns = True
+
+
+saves_take_turns()
 
 
 @contextlib.contextmanager
