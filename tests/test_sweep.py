@@ -187,6 +187,26 @@ def test_a_payload_sweep_loads_the_robot_once_and_adds_each_payload(client):
     assert finals[0] != finals[1] != finals[2]  # each run carried its own payload
 
 
+def test_a_sweep_varies_an_objects_entry(client):
+    """Two boxes dropped from the heights each run gives the first: in free fall for 0.3 s,
+    z = z0 - g t^2 / 2, whatever the other box does."""
+    box = {"shape": "box", "size": [0.1, 0.1, 0.1], "mass": 1.0}
+    scene = od.scene_from_dict({
+        "objects": [{"name": "a", "position": [0.0, 0.0, 1.0], **box},
+                    {"name": "b", "position": [1.0, 0.0, 2.0], **box}],
+        "run": {"duration": 0.3, "integrator": "rk4", "dt": 0.001},
+        "effects": {"gravity": True},
+    })
+    table = od.sweep(scene, {"objects.0.position.2": "1,2.5"}, client=client)
+    rows = table.to_pylist()
+    assert [r["status"] for r in rows] == ["complete"] * 2
+    drop = 0.5 * 9.81 * 0.3**2
+    for row, z0 in zip(rows, (1.0, 2.5)):
+        assert row["objects.0.position.2"] == z0
+        np.testing.assert_allclose(row["q_final"][2], z0 - drop, atol=1e-12)
+        np.testing.assert_allclose(row["q_final"][9], 2.0 - drop, atol=1e-12)
+
+
 def test_a_seeded_monte_carlo_sweep_is_reproducible(client):
     scene = od.load_scene("double_pendulum_swing").replace_run(duration=0.2)
     vary = {"initial.q.shoulder": "uniform:-1:1", "initial.qd.elbow": "normal:0:0.5"}

@@ -33,7 +33,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from dataclasses import dataclass
 
 import numpy as np
 
@@ -42,18 +41,6 @@ from ..spatial.algebra import spatial_inertia
 from .geometry import Geometry
 from .joints import FREE
 from .model import Frame, Model
-
-
-@dataclass(frozen=True, eq=False)
-class SceneObject:
-    """A free rigid body of a scene: `name` (its body, frame and geometry), `shape` ("box",
-    "sphere", "cylinder" or "capsule"), `size` as a Geometry's (m), `mass` (kg > 0), spread
-    uniformly over the shape."""
-
-    name: str
-    shape: str
-    size: tuple[float, ...]
-    mass: float
 
 
 def uniform_inertia(shape, size, mass) -> np.ndarray:
@@ -94,6 +81,22 @@ def empty_model() -> Model:
     )
 
 
+def object_model(name, shape, size, mass) -> Model:
+    """The Model of a free rigid body `name` (its body, frame and geometry): `shape` ("box",
+    "sphere", "cylinder" or "capsule") of `size` as a Geometry's (m) and `mass` (kg > 0), spread
+    uniformly over the shape (module docstring), on a free joint."""
+    G = spatial_inertia(mass, np.zeros(3), uniform_inertia(shape, size, mass))
+    none = np.zeros(0)
+    return Model.build(
+        name=name, joint_names=(), body_names=(name,), body_joints=(name,), parent=[-1],
+        jtype=[FREE], mult=[1.0], offset=[0.0], S=np.eye(6)[None], G=G[None],
+        R_home=np.eye(3)[None], p_home=np.zeros((1, 3)), frames=[Frame(name, 0, np.eye(4))],
+        lower=none, upper=none, velocity_limit=none, effort_limit=none, damping=none,
+        friction=none, continuous=np.zeros(0, bool),
+        geometries=[Geometry(name, name, shape, tuple(size), np.eye(4))],
+    )
+
+
 def _follows(model) -> dict:
     """{body: the body whose coordinate it follows} of the model's mimic joints: the 1-dof
     bodies whose joint owns no coordinate (Model.build's `follows`)."""
@@ -108,69 +111,105 @@ def _follows(model) -> dict:
     }
 
 
+def _renamed_geometry(g, rename) -> str:
+    """A geometry's name in the merged model: one named after its link ("flap_0") keeps its
+    suffix after the link's new name ("door.flap_0"); any other takes the new name whole."""
+    if g.name.startswith(g.link):
+        return rename(g.link) + g.name[len(g.link):]
+    return rename(g.name)
+
+
+class _Parts:
+    """The per-body, per-joint and per-frame lists of the merged model, grown one part (the
+    robot, then each object) at a time."""
+
+    LIMITS = ("lower", "upper", "velocity_limit", "effort_limit", "damping", "friction")
+
+    def __init__(self):
+        self.body_names, self.body_joints, self.joint_names = [], [], []
+        self.frames, self.geometries, self.aliases, self.follows = [], [], {}, {}
+        self.arrays = {key: [] for key in (
+            "parent", "jtype", "mult", "offset", "S", "G", "R_home", "p_home", "continuous",
+            *self.LIMITS,
+        )}
+        self.owner = []  # each geometry's part: -1 the robot, k the k-th object
+
+    def add(self, model, rename, owner):
+        """Append `model`'s bodies after those added so far, its names through `rename`."""
+        first = len(self.body_names)
+        self.body_names += [rename(b) for b in model.body_names]
+        self.body_joints += [rename(j) for j in model.body_joints]
+        self.joint_names += [rename(j) for j in model.joint_names]
+        names = {f.name for f in model.frames}
+        self.frames += [
+            Frame(rename(f.name), f.body + first if f.body >= 0 else -1, f.T_body_frame)
+            for f in model.frames
+        ]
+        self.aliases.update(
+            (rename(alias), rename(model.frames[k].name))
+            for alias, k in model._frame_index.items() if alias not in names
+        )
+        self.geometries += [
+            dataclasses.replace(g, name=_renamed_geometry(g, rename), link=rename(g.link))
+            for g in model.geometries
+        ]
+        self.owner += [owner] * len(model.geometries)
+        self.follows.update((i + first, j + first) for i, j in _follows(model).items())
+        parent = np.asarray(model.parent)
+        self.arrays["parent"].append(np.where(parent >= 0, parent + first, -1))
+        for key in ("jtype", "mult", "offset", "S", "G", "R_home", "p_home"):
+            self.arrays[key].append(np.asarray(getattr(model, key)))
+        for key in ("continuous", *self.LIMITS):
+            self.arrays[key].append(np.asarray(getattr(model, key)))
+
+    def array(self, key):
+        return np.concatenate(self.arrays[key])
+
+
 def with_world(model: Model, objects=(), world=()) -> Model:
-    """The Model of the robot `model` with the free `objects` (SceneObjects) and the static
-    `world` ((Geometry, T_s (4, 4)) pairs: each geometry on a frame of its own name welded to
-    the world at T_s): its bodies, frames, geometries and pairs as the module docstring lays
-    out. `model` itself when there is neither. Names must be new frame names (the scene reader
-    checks them)."""
+    """The Model of the robot `model` with the free `objects` ((name, Model) pairs: each a
+    model whose root body is on a free joint, an object_model or a URDF loaded with a floating
+    base) and the static `world` ((Geometry, T_s (4, 4)) pairs: each geometry on a frame of its
+    own name welded to the world at T_s): its bodies, frames, geometries and pairs as the module
+    docstring lays out. `model` itself when there is neither.
+
+    An object's root body and frame take its name; its other bodies, joints, frames and
+    geometries are named "NAME.their own name" (a URDF's elbow joint of object "door": the
+    joint and coordinate "door.elbow"). Names must be new frame names (the scene reader checks
+    them)."""
     if not objects and not world:
         return model
-    first = model.nb
-    bodies = len(objects)
-    S = np.zeros((bodies, 6, 6))
-    S[:] = np.eye(6)
-    G = np.array(
-        [spatial_inertia(o.mass, np.zeros(3), uniform_inertia(o.shape, o.size, o.mass))
-         for o in objects]
-    ).reshape(bodies, 6, 6)
-    frames = list(model.frames)
-    frames += [Frame(o.name, first + k, np.eye(4)) for k, o in enumerate(objects)]
-    frames += [Frame(g.link, -1, T_s) for g, T_s in world]
-    geometries = list(model.geometries)
-    geometries += [Geometry(o.name, o.name, o.shape, o.size, np.eye(4)) for o in objects]
-    geometries += [g for g, _ in world]
-    names = {f.name for f in model.frames}
-    aliases = {
-        alias: model.frames[k].name for alias, k in model._frame_index.items() if alias not in names
-    }
-    limits = {
-        key: getattr(model, key)
-        for key in ("lower", "upper", "velocity_limit", "effort_limit", "damping", "friction")
-    }
+    parts = _Parts()
+    parts.add(model, lambda s: s, -1)
+    for k, (name, part) in enumerate(objects):
+        root = part.body_names[0]
+        parts.add(part, lambda s, name=name, root=root: name if s == root else f"{name}.{s}", k)
+    parts.frames += [Frame(g.link, -1, T_s) for g, T_s in world]
+    parts.geometries += [g for g, _ in world]
+    parts.owner += [len(objects)] * len(world)
     merged = Model.build(
         name=model.name,
-        joint_names=model.joint_names,
-        body_names=(*model.body_names, *(o.name for o in objects)),
-        body_joints=(*model.body_joints, *(o.name for o in objects)),
-        parent=np.concatenate([model.parent, np.full(bodies, -1)]),
-        jtype=np.concatenate([model.jtype, np.full(bodies, FREE)]),
-        follows=_follows(model),
-        mult=np.concatenate([model.mult, np.ones(bodies)]),
-        offset=np.concatenate([model.offset, np.zeros(bodies)]),
-        S=np.concatenate([model.S, S]),
-        G=np.concatenate([model.G, G]),
-        R_home=np.concatenate([model.R_home, np.tile(np.eye(3), (bodies, 1, 1))]),
-        p_home=np.concatenate([model.p_home, np.zeros((bodies, 3))]),
-        frames=frames,
+        joint_names=parts.joint_names,
+        body_names=parts.body_names,
+        body_joints=parts.body_joints,
+        follows=parts.follows,
+        frames=parts.frames,
         gravity=model.gravity,
         report=model.report,
         source=model.source,
-        frame_aliases=aliases,
+        frame_aliases=parts.aliases,
         collision_spheres=model.collision_spheres,
-        geometries=geometries,
-        objects=(*model.objects, *(o.name for o in objects)),
+        geometries=parts.geometries,
+        objects=(*model.objects, *(name for name, _ in objects)),
         world=(*model.world, *(g.link for g, _ in world)),
-        continuous=model.continuous,
-        **limits,
+        **{key: parts.array(key) for key in parts.arrays},
     )
-    body = merged.geometry_table.body
-    robot = len(model.geometries)
+    body, owner = merged.geometry_table.body, parts.owner
     added = [
         (a, b)
-        for b in range(robot, len(geometries))
+        for b in range(len(model.geometries), len(parts.geometries))
         for a in range(b)
-        if body[a] != body[b]
+        if owner[a] != owner[b] and (body[a] >= 0 or body[b] >= 0)
     ]
     pairs = np.concatenate([model.collision_pairs, np.array(added, np.int64).reshape(-1, 2)])
     return dataclasses.replace(merged, collision_pairs=immutable(pairs, np.int64))

@@ -35,10 +35,15 @@ The file format (every key optional unless marked required):
                                            # robot (opendyn.multibody.assembly)
     name = "box"                           # required: its body, frame and geometry; its
                                            # coordinates box.x ... box.qw, box.wx ... box.vz
-    shape = "box"                          # required: "box", "sphere", "cylinder", "capsule"
-    size = [0.1, 0.1, 0.1]                 # required: m, as a URDF's (box: edges; sphere: [r];
-                                           # cylinder, capsule: [r, length] along z)
-    mass = 1.0                             # required: kg > 0, spread uniformly
+    shape = "box"                          # required but with urdf: "box", "sphere",
+                                           # "cylinder", "capsule"
+    size = [0.1, 0.1, 0.1]                 # required with shape: m, as a URDF's (box: edges;
+                                           # sphere: [r]; cylinder, capsule: [r, length] along z)
+    mass = 1.0                             # required with shape: kg > 0, spread uniformly
+    # urdf = "mug.urdf"                    # instead of shape, size, mass: a URDF (relative to
+                                           # the scene file) on a floating base of its own; its
+                                           # root link is the object, its other links and joints
+                                           # NAME.link, NAME.joint
     position = [0.0, 0.0, 0.05]            # m, its centre in the world (default the origin)
     rpy = [0.0, 0.0, 0.0]                  # rad; or orientation = [x, y, z, w], a unit
                                            # quaternion (not both; default upright)

@@ -2,9 +2,11 @@
 geometry of the world, added to the robot's Model (opendyn.multibody.assembly.with_world); their
 keys are in the file format of opendyn.io.scene.reader.
 
-A scene with objects may leave out [robot]: the objects and the world are then the whole scene.
-Names are those of new frames: neither a frame of the robot nor "ground" (the contact's ground
-plane) nor another entry's.
+An object is a primitive shape of uniform density (shape, size, mass) or a URDF (urdf = a file,
+relative to the scene's folder) on a floating base of its own; its root link takes the object's
+name, its other links and joints "NAME.their name". A scene with objects may leave out [robot]:
+the objects and the world are then the whole scene. Names are those of new frames: neither a
+frame of the robot nor "ground" (the contact's ground plane) nor another entry's.
 """
 
 from __future__ import annotations
@@ -14,13 +16,15 @@ import pathlib
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from ...multibody.assembly import SceneObject, with_world
+from ...errors import URDFError
+from ...multibody.assembly import object_model, with_world
 from ...multibody.geometry import Geometry
 from ...sim.values import ValueReader, what_is
 from ..meshes import MeshError, hull_vertices
+from ..urdf import load_urdf
 
 OBJECT_KEYS = (
-    "name", "shape", "size", "mass", "position", "rpy", "orientation", "velocity",
+    "name", "urdf", "shape", "size", "mass", "position", "rpy", "orientation", "velocity",
     "angular_velocity",
 )
 WORLD_KEYS = ("name", "shape", "size", "mesh", "position", "rpy")
@@ -37,23 +41,60 @@ class WorldSection(ValueReader):
         """self.model <- the robot's Model with the objects and the world entries (with_world);
         keeps the object tables for object_states."""
         taken = set(self.model.frame_names) | set(RESERVED)
+        object_entries = self._entries(objects, "objects", taken)
+        world_entries = self._entries(world, "world", taken)
+        named = {name: where for where, _, name, _ in (*object_entries, *world_entries)}
         self._object_tables = []
         found = []
-        for where, table, name, shape in self._entries(objects, "objects", taken):
-            size = self._size(table, where, shape)
-            if "mass" not in table:
-                self.fail(f"{where}.mass", "missing: an object needs its mass (kg > 0)")
-            mass = self.number(table["mass"], f"{where}.mass", positive=True)
-            found.append(SceneObject(name, shape, size, mass))
+        for where, table, name, shape in object_entries:
+            part = self._object(table, where, name, shape)
+            for frame in part.frame_names[1:]:  # a URDF's other links: "NAME.link"
+                if (full := f"{name}.{frame}") in named:
+                    self.fail(
+                        f"{named[full]}.name",
+                        f"{full!r} is already a frame of the scene (link {frame!r} of object "
+                        f"{name!r}); give the entry a name of its own",
+                    )
+            found.append((name, part))
             self._object_tables.append((table, where))
         entries = []
-        for where, table, name, shape in self._entries(world, "world", taken):
+        for where, table, name, shape in world_entries:
             T_s = np.eye(4)
             T_s[:3, 3] = self._vec3(table, where, "position")
             T_s[:3, :3] = Rotation.from_euler("xyz", self._vec3(table, where, "rpy")).as_matrix()
             entries.append((self._world_geometry(table, where, name, shape), T_s))
         self.model = with_world(self.model, found, entries)
         return self.model
+
+    def _object(self, table, where, name, shape):
+        """The Model of one [[objects]] entry: its URDF with a floating base, or a primitive
+        shape of uniform density (object_model)."""
+        if "urdf" not in table:
+            size = self._size(table, where, shape)
+            if "mass" not in table:
+                self.fail(f"{where}.mass", "missing: an object needs its mass (kg > 0)")
+            mass = self.number(table["mass"], f"{where}.mass", positive=True)
+            return object_model(name, shape, size, mass)
+        for key in ("shape", "size", "mass"):
+            if key in table:
+                self.fail(
+                    f"{where}.{key}",
+                    f"an object from a URDF takes its {key} from the file; remove {key}",
+                )
+        path = self._file(table, where, "urdf", "URDF")
+        try:
+            return load_urdf(str(path), floating_base=True)
+        except URDFError as e:
+            self.fail(f"{where}.urdf", str(e))
+
+    def _file(self, table, where, key, kind) -> pathlib.Path:
+        """The file named by `key` (relative to the scene's folder), which must exist."""
+        path = pathlib.Path(self.string(table[key], f"{where}.{key}"))
+        if not path.is_absolute() and self.base_dir is not None:
+            path = pathlib.Path(self.base_dir) / path
+        if not path.is_file():
+            self.fail(f"{where}.{key}", f"no such {kind} file: {path}")
+        return path
 
     def object_states(self, q0, qd0):
         """q0, qd0 of each object's free joint from its table (free_state)."""
@@ -76,7 +117,8 @@ class WorldSection(ValueReader):
             where = f"{key}[{k}]"
             self.keys(table, where, keys)
             name = self._name(table, where, taken)
-            found.append((where, table, name, self._shape(table, where, shapes)))
+            shape = None if "urdf" in table else self._shape(table, where, shapes)
+            found.append((where, table, name, shape))
         return found
 
     def _name(self, table, where, taken) -> str:
@@ -91,7 +133,8 @@ class WorldSection(ValueReader):
 
     def _shape(self, table, where, shapes) -> str:
         if "shape" not in table:
-            self.fail(f"{where}.shape", f"missing: one of {', '.join(shapes)}")
+            also = ", or urdf = a file" if shapes == OBJECT_SHAPES else ""
+            self.fail(f"{where}.shape", f"missing: one of {', '.join(shapes)}{also}")
         shape = self.string(table["shape"], f"{where}.shape", shapes)
         if shape not in shapes:
             self.fail(f"{where}.shape", f"expected one of {', '.join(shapes)}, found {shape!r}")
@@ -125,11 +168,7 @@ class WorldSection(ValueReader):
             return Geometry(name, name, shape, size, np.eye(4))
         if "mesh" not in table:
             self.fail(f"{where}.mesh", "missing: a mesh entry needs its file (STL, OBJ, DAE)")
-        path = pathlib.Path(self.string(table["mesh"], f"{where}.mesh"))
-        if not path.is_absolute() and self.base_dir is not None:
-            path = pathlib.Path(self.base_dir) / path
-        if not path.is_file():
-            self.fail(f"{where}.mesh", f"no such mesh file: {path}")
+        path = self._file(table, where, "mesh", "mesh")
         try:
             vertices = hull_vertices(str(path), size)
         except MeshError as e:

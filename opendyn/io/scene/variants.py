@@ -6,7 +6,8 @@ A key is a dotted scene key (`control.kp`, `initial.q.shoulder_pan_joint`, `run.
 `effects.damping.coefficients`, `robot.payload.mass`); a value replaces what the scene file says
 there, or adds it (`effects.damping.coefficients` switches damping on). A per-joint list or
 number in the scene (`initial.q = [...]`) takes a joint's name after it (`initial.q.JOINT`) and
-keeps its other joints' values; a list of tables takes an index (`effects.contact.points.0.radius`).
+keeps its other joints' values (a URDF object's joint is whole: `initial.q.door.hinge`); a list
+of tables takes an index (`effects.contact.points.0.radius`).
 Each variant is read (and so checked) as a scene file with those values would be; the robot is
 loaded once per process and [robot] table (a payload is added to it per variant).
 """
@@ -82,6 +83,9 @@ def _assign(settings, key, value, joints, source):
     parts = key.split(".")
     node = settings
     for depth, part in enumerate(parts):
+        rest = ".".join(parts[depth:])
+        if rest in joints and rest != part:  # an object's joint, named "OBJECT.joint"
+            parts, part = [*parts[:depth], rest], rest
         last = depth == len(parts) - 1
         if isinstance(node, list) and part.isdigit():
             index = int(part)

@@ -186,18 +186,29 @@ def _named(model) -> list[str]:
     return [*dict.fromkeys(g.link for g in model.geometries), GROUND]
 
 
+def _object_of(model, k) -> str | None:
+    """The object that geometry k belongs to (the root of its body's subtree is one), else
+    None."""
+    i = int(model.geometry_table.body[k])
+    while i >= 0 and model.parent[i] >= 0:
+        i = int(model.parent[i])
+    return model.body_names[i] if i >= 0 and model.body_names[i] in model.objects else None
+
+
 def _geometries_of(model, name) -> list[int]:
-    """The indices of the geometries of link, object or world entry `name` (the ground: the
-    index after the model's)."""
+    """The indices of the geometries of link, object (all of its links) or world entry `name`
+    (the ground: the index after the model's)."""
     if name == GROUND:
         return [len(model.geometries)]
-    return [k for k, g in enumerate(model.geometries) if g.link == name]
+    return [
+        k for k, g in enumerate(model.geometries)
+        if g.link == name or (name in model.objects and _object_of(model, k) == name)
+    ]
 
 
 def _robot_geometry(model, k) -> bool:
     """Whether geometry k is the robot's (not an object's, not a world entry's)."""
-    link = model.geometries[k].link
-    return link not in model.objects and link not in model.world
+    return _object_of(model, k) is None and model.geometries[k].link not in model.world
 
 
 def pair_table(model, contact):
