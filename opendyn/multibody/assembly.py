@@ -1,14 +1,17 @@
 """A scene's world as one Model: the robot, its free objects and the static geometry.
 
-Each object is a rigid body on a free joint of its own, a root of the tree after the robot's
-bodies, so that the robot's coordinates come first and each object's follow:
+Each object is a rigid body on a free joint of its own (or a URDF's tree on a floating base),
+a root of the tree after the robot's bodies, so that the robot's coordinates come first and each
+object's follow:
 
-    q = (q_robot, p_o (3), quat_o (4), ...),     v = (v_robot, omega_o (3), v_o (3), ...)
+    q = (q_robot, p_o (3), quat_o (4), q_o joints..., ...),
+    v = (v_robot, omega_o (3), v_o (3), qd_o joints..., ...)
 
 (p_o, quat_o) the pose of the object's frame {o} in the world, (omega_o, v_o) its twist in {o},
-as a floating base's (opendyn.multibody.joints). An object's frame is at its shape's centre, its
-axes the shape's (a cylinder's and a capsule's along z), and its mass is spread uniformly, so
-its centre of mass is {o}'s origin and its rotational inertia about it is diagonal:
+as a floating base's (opendyn.multibody.joints). A primitive object's frame is at its shape's
+centre, its axes the shape's (a cylinder's and a capsule's along z), and its mass is spread
+uniformly, so its centre of mass is {o}'s origin and its rotational inertia about it is
+diagonal:
 
     box (x, y, z)      I_xx = m (y^2 + z^2) / 12, I_yy = m (x^2 + z^2) / 12,
                        I_zz = m (x^2 + y^2) / 12
