@@ -2,6 +2,8 @@
 URDF (a floating base of their own, articulated or not) beside primitive ones, and what every
 part of opendyn does with such a model (dynamics, payloads, rollouts, sweeps, linearize)."""
 
+import warnings
+
 import numpy as np
 import pytest
 
@@ -85,6 +87,13 @@ def test_a_urdf_object_names_its_links_joints_and_coordinates_after_itself(hinge
     assert m.mass[6] == pytest.approx(2.0)
     assert np.allclose(np.diag(m.I_o[6]), [2 * (0.01 + 0.0025) / 12, 2 * (0.04 + 0.0025) / 12,
                                            2 * (0.04 + 0.01) / 12])
+
+
+def test_objects_do_not_make_a_fixed_arm_look_mobile(hinged):
+    """The arm on a pedestal has one root of its own; the objects' roots are not its legs."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert not urdf_objects(hinged).model.floating_base
 
 
 def test_each_root_of_the_tree_moves_as_it_would_alone(hinged):

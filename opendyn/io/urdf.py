@@ -66,13 +66,15 @@ def looks_mobile(model) -> bool:
     legged robot, a humanoid, a drone): its root link and the links welded to it carry mass,
     none of them is a "world" link that the URDF attaches it to, and either two or more joints
     leave them (legs, arms and a torso: an arm on a pedestal has one) or nothing moves at all (a
-    single free body). Such a robot is usually meant for load_urdf(..., floating_base=True)."""
+    single free body). A scene's objects are not the robot's. Such a robot is usually meant for
+    load_urdf(..., floating_base=True)."""
     if model.floating_base or model.report is None or model.report.welded_mass <= 0:
         return False
     welded = [f.name for f in model.frames if f.body < 0]
     if any(name.lower() == "world" for name in welded):
         return False
-    return model.nb == 0 or int(np.sum(model.parent < 0)) >= 2
+    roots = [i for i in np.flatnonzero(model.parent < 0) if not model._is_object(i)]
+    return model.nb == len(model.objects) or len(roots) >= 2
 
 
 def welded_mobile_warning(model, how) -> str | None:

@@ -436,8 +436,9 @@ def load_controller(spec, what):
 
 
 def checked_torque(model, tau, what):
-    """tau as a (nv,) float64 generalized force: (nv,), or on a floating base the joints'
-    (nv - 6,); 0.0 for None; TypeError or ValueError naming `what` otherwise."""
+    """tau as a (nv,) float64 generalized force: (nv,), or with free joints (a floating base,
+    a scene's objects) the joints' (model.v_index,); 0.0 for None; TypeError or ValueError
+    naming `what` otherwise."""
     if tau is None:
         return 0.0
     joints, base = model.v_index, model._unactuated
@@ -453,7 +454,8 @@ def checked_torque(model, tau, what):
         raise ValueError(f"{what}: not finite: {_shown(a)}")
     if base.size and np.any(a[base] != 0.0):
         raise ValueError(
-            f"{what}: the floating base is not actuated, so tau at its coordinates "
+            f"{what}: the free joints (a floating base, a scene's objects) are not actuated, "
+            f"so tau at their coordinates "
             f"{base.tolist()} must be zero, got {a[base].tolist()} (give the joints' "
             f"({len(joints)},) alone)"
         )
