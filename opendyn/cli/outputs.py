@@ -17,6 +17,8 @@ import tempfile
 
 from .._runtime.files import unwritable
 from .._runtime.signals import held_interrupt
+from ..sim.effects import geometry_contact
+from ..sim.effects.geometry_contact import GROUND
 from ..sim.trajectory import contacts_csv_path, saved_paths
 from .interrupts import _doing
 
@@ -162,8 +164,17 @@ def _save_fallback(scene, traj):
     )
 
 
-def _contact(traj):
-    """The contact argument of viz.write_html and viz.view: None without contact."""
+def _contact(scene, traj):
+    """The contact argument of viz.write_html and viz.view: None without contact; between
+    collision geometries, the contact table's slots (the force on each pair's moving body)."""
+    geometry = geometry_contact.record(scene)
+    if geometry is not None and traj.contacts is not None:
+        body = scene.model.geometry_table.body
+        static = {GROUND} | {
+            g.name for k, g in enumerate(scene.model.geometries) if body[k] < 0
+        }
+        points, forces = traj.contacts.slots(len(traj.t), static)
+        return geometry.ground_height, points, forces
     if not traj.has_contact:
         return None
     return traj.ground_height, traj.contact_point, traj.contact_force
@@ -173,7 +184,7 @@ def _write_html(scene, traj, path, collision=False):
     from ..viz import playback as viz
 
     return viz.write_html(
-        scene.model, traj.t, traj.q, path, contact=_contact(traj), collision=collision
+        scene.model, traj.t, traj.q, path, contact=_contact(scene, traj), collision=collision
     )
 
 

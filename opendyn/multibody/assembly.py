@@ -122,6 +122,15 @@ def _renamed_geometry(g, rename) -> str:
     return rename(g.name)
 
 
+def object_of(model: Model, body: int) -> str | None:
+    """The name of the scene object whose tree holds `body` (the name of its root), else None:
+    the robot's bodies and the world (-1)."""
+    i = int(body)
+    while i >= 0 and model.parent[i] >= 0:
+        i = int(model.parent[i])
+    return model.body_names[i] if i >= 0 and model.body_names[i] in model.objects else None
+
+
 class _Parts:
     """The per-body, per-joint and per-frame lists of the merged model, grown one part (the
     robot, then each object) at a time."""

@@ -80,6 +80,36 @@ class ContactTable:
         a, b = self.pair_names[self.pair[k]]
         return f"{a}-{b}"
 
+    def slots(self, samples, static=()) -> tuple[np.ndarray, np.ndarray]:
+        """(points (K, S, 3) m, forces (K, S, 3) N) for K = `samples`: the table as fixed
+        slots, one per contact point of each pair (a pair's k-th point of a sample in its k-th
+        slot, so that a slot follows one point from sample to sample), zero where a sample has
+        none. A slot's force is the one on its pair's moving body: -force (b's on a) when b is
+        in `static` (geometry names that never move: the ground, the world's, links welded to
+        the world), else force (a's on b). An empty sample's slot holds the point of the slot's
+        next sample that has one (else its last), so that playback's arrows shrink in place."""
+        rank = np.zeros(len(self), dtype=np.int64)  # a row's index among its pair's at its sample
+        seen: dict = {}
+        for r, key in enumerate(zip(self.sample.tolist(), self.pair.tolist())):
+            rank[r] = seen[key] = seen.get(key, -1) + 1
+        pairs = len(self.pair_names)
+        width = np.zeros(pairs, dtype=np.int64)
+        np.maximum.at(width, self.pair, rank + 1)
+        first = np.concatenate([[0], np.cumsum(width)])
+        slot = first[self.pair] + rank
+        points = np.zeros((samples, int(first[-1]), 3))
+        forces = np.zeros_like(points)
+        points[self.sample, slot] = self.point
+        filled = np.zeros(points.shape[:2], dtype=bool)
+        filled[self.sample, slot] = True
+        for k in range(points.shape[1]):  # an empty sample holds its slot's nearest point
+            at = np.flatnonzero(filled[:, k])
+            nearest = at[np.clip(np.searchsorted(at, np.arange(samples)), 0, len(at) - 1)]
+            points[:, k] = points[nearest, k]
+        flip = np.array([b in static for _, b in self.pair_names] or [False])[self.pair]
+        forces[self.sample, slot] = np.where(flip[:, None], -self.force, self.force)
+        return points, forces
+
     def arrays(self) -> dict:
         """The table as named arrays, as a trajectory's .npz keeps them (contacts_*)."""
         return {

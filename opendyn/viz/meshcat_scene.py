@@ -30,6 +30,7 @@ import numpy as np
 
 from ..algorithm.configuration import normalize
 from ..algorithm.kinematics import frame_pose
+from ..multibody.joints import FREE
 from .motion import _continuous, _directions, _quaternions_xyzw, _turn_z_onto, resample
 from .visuals import PlaybackWarning, Visual, _stand_in
 
@@ -37,6 +38,7 @@ MESHCAT_HINT = "playback needs meshcat: pip install 'opendyn[viz]'"
 ARROW_RGBA = (0.9, 0.1, 0.1, 1.0)  # red, the contact-force arrows
 GROUND_RGBA = (0.8, 0.82, 0.85, 0.6)  # light grey-blue, slightly transparent
 GROUND_THICKNESS = 0.02  # m, of the slab whose top face is the ground
+PLANE_WIDTH = 4.0  # m, the square drawn of a world plane
 
 
 def _meshcat():
@@ -77,6 +79,10 @@ def _geometry(mg, v):
 
         capsule = trimesh.creation.capsule(height=v.size[1], radius=v.size[0])
         return mg.TriangularMeshGeometry(capsule.vertices, capsule.faces), np.eye(4)
+    if v.shape == "halfspace":  # a slab whose top face is the plane
+        return mg.Box([PLANE_WIDTH, PLANE_WIDTH, GROUND_THICKNESS]), _translation(
+            0.0, 0.0, -GROUND_THICKNESS / 2
+        )
     if v.shape == "hull":
         from scipy.spatial import ConvexHull, QhullError
 
@@ -124,8 +130,8 @@ def _build_scene(vis, model, t, q, fps, visuals, contact=None):
     mc = _meshcat()
     mg = mc.geometry
     times, Q = resample(t, q, fps)
-    if model.floating_base:
-        Q = normalize(model, Q)  # the base's quaternion between samples
+    if np.any(model.jtype == FREE):
+        Q = normalize(model, Q)  # a floating base's or an object's quaternion between samples
     root = vis[_node_name(model.name)]
     root.delete()
     _ground_grid(vis, mg, 0.0 if contact is None else contact[0])

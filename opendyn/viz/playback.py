@@ -17,7 +17,7 @@ from .camera import _camera, _live_camera
 from .meshcat_scene import _build_scene, _meshcat
 from .motion import _check_contact, _check_motion
 from .page import _SceneRecorder
-from .visuals import collision_visuals, load_visuals
+from .visuals import scene_visuals
 
 
 def write_html(model, t, q, path, *, fps=None, contact=None, collision=False) -> pathlib.Path:
@@ -25,7 +25,8 @@ def write_html(model, t, q, path, *, fps=None, contact=None, collision=False) ->
 
     Args:
       model: the Model; its visual geometry is read from the URDF it was loaded from
-        (``load_visuals``).
+        (``load_visuals``); a scene's objects and static world are drawn from their collision
+        geometry (objects in blue, the world in grey: ``world_visuals``).
       t: (K,) sample times in s, non-decreasing.
       q: (K, nq) coordinates at those times (rad or m; a floating base's position and
         quaternion first: the base moves in the playback).
@@ -35,7 +36,8 @@ def write_html(model, t, q, path, *, fps=None, contact=None, collision=False) ->
       contact: None, or (ground_height, points, forces) sampled at the times t: the ground is
         the plane z = ground_height (m); points (K, P, 3) m, world frame, where each contact
         point touches (or would touch) the ground; forces (K, P, 3) N, world frame, the force
-        the ground applies to the robot at each point. The page then draws the ground (a
+        the ground applies to the robot at each point (or, between collision geometries,
+        ``ContactTable.slots``: the force on the moving body of each pair). The page then draws the ground (a
         light slab, the grid moved onto it) and each force as a red arrow from its point,
         |f| times one scale for the run (a round number of newtons per metre, at which the
         largest force is drawn 0.16 to 0.4 times the robot's size), stated in the page's title
@@ -59,7 +61,7 @@ def write_html(model, t, q, path, *, fps=None, contact=None, collision=False) ->
 
     recorder = _SceneRecorder()
     vis = Visualizer(window=recorder)
-    visuals = collision_visuals(model) if collision else load_visuals(model)
+    visuals = scene_visuals(model, collision)
     scene = _build_scene(vis, model, t, q, fps, visuals, contact)
     title = f"{model.name} - opendyn" + (f" ({scene.arrows})" if scene.arrows else "")
     out = pathlib.Path(path)
@@ -86,7 +88,7 @@ def view(model, t, q, *, open_browser=False, fps=None, contact=None, collision=F
 
     with contextlib.redirect_stdout(io.StringIO()):  # meshcat prints the URL; we return it
         vis = Visualizer()
-    visuals = collision_visuals(model) if collision else load_visuals(model)
+    visuals = scene_visuals(model, collision)
     scene = _build_scene(vis, model, t, q, fps, visuals, contact)
     eye = _live_camera(scene)
     # the camera's coordinates are three.js's world (y up): meshcat's (x, y, z) is (x, z, -y)

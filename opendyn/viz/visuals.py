@@ -22,6 +22,8 @@ DEFAULT_RGBA = (0.72, 0.72, 0.75, 1.0)  # light grey, for visuals without a <mat
 STAND_IN_RGBA = (0.5, 0.5, 0.5, 1.0)
 STAND_IN_SIZE = 0.05  # m, edge of the grey box drawn in place of an unusable mesh
 COLLISION_RGBA = (0.9, 0.45, 0.1, 0.6)  # translucent orange, for the collision geometry
+OBJECT_RGBA = (0.25, 0.5, 0.85, 1.0)  # blue, a scene's objects
+WORLD_RGBA = (0.62, 0.58, 0.52, 1.0)  # warm grey, a scene's static world
 
 
 class PlaybackWarning(UserWarning):
@@ -38,7 +40,8 @@ class Visual:
       T_link_visual  (4, 4) pose of the geometry in the link frame, the ``<visual> <origin>``
                      (metres)
       shape          "box", "cylinder", "sphere", "mesh", and for the collision geometry
-                     "capsule" and "hull"
+                     "capsule", "hull" and "halfspace" (a world plane: the solid below the
+                     visual frame's xy plane)
       size           box: (x, y, z) edge lengths; cylinder and capsule: (radius, length), the
                      axis along the z axis of the visual frame; sphere: (radius,); all in
                      metres; mesh and hull: (sx, sy, sz) scale factors
@@ -122,6 +125,36 @@ def collision_visuals(model) -> list[Visual]:
         )
         for g in model.geometries
     ]
+
+
+def scene_visuals(model, collision=False) -> list[Visual]:
+    """What playback draws of a model: with `collision`, its collision geometry
+    (collision_visuals); else the robot's visual geometry (load_visuals; none for a scene of
+    objects alone) and the scene's objects and static world (world_visuals)."""
+    if collision:
+        return collision_visuals(model)
+    robotless = not model.source and model.nb == len(model.objects)
+    return ([] if robotless else load_visuals(model)) + world_visuals(model)
+
+
+def world_visuals(model) -> list[Visual]:
+    """The scene's objects (model.objects: their collision geometry, in blue) and its static
+    world entries (model.world, in warm grey), ready to draw; a plane as a slab whose top face
+    is the plane. [] for a robot alone."""
+    from ..multibody.assembly import object_of
+
+    body = model.geometry_table.body
+    visuals = []
+    for k, g in enumerate(model.geometries):
+        if object_of(model, body[k]) is not None:
+            rgba = OBJECT_RGBA
+        elif g.link in model.world:
+            rgba = WORLD_RGBA
+        else:
+            continue  # the robot's: its visual geometry stands for it
+        shape = "hull" if g.shape == "mesh" else g.shape
+        visuals.append(Visual(g.link, g.placement, shape, g.size, rgba=rgba, vertices=g.vertices))
+    return visuals
 
 
 def _parse_urdf(source):

@@ -25,6 +25,7 @@ from numba import njit
 from ..._runtime.kernel_cache import JIT
 from ...algorithm.contact import contact_jacobians_kernel
 from ...algorithm.geometry_contact import geometry_contact_on_poses
+from ...multibody.assembly import object_of
 from ...multibody.geometry import Geometry, GeometryTable
 from ...multibody.model import Frame
 from .interface import OK, PASSIVE
@@ -187,12 +188,8 @@ def _named(model) -> list[str]:
 
 
 def _object_of(model, k) -> str | None:
-    """The object that geometry k belongs to (the root of its body's subtree is one), else
-    None."""
-    i = int(model.geometry_table.body[k])
-    while i >= 0 and model.parent[i] >= 0:
-        i = int(model.parent[i])
-    return model.body_names[i] if i >= 0 and model.body_names[i] in model.objects else None
+    """The object that geometry k belongs to, else None."""
+    return object_of(model, model.geometry_table.body[k])
 
 
 def _geometries_of(model, name) -> list[int]:
