@@ -11,16 +11,16 @@ N = 1 - M^-1 J_b^T Lambda J_b, the dynamically consistent null-space projector (
 the posture spring acts only in the motion that moves no tool coordinate. The set path:
 
     0   - 1.5 s   from where the tool starts (the 'ready' posture) to GAP behind the box's back
-                  face, at HEIGHT (the fingertips 1 cm above the table)
+                  face, at HEIGHT (the fingertips 2.2 cm above the table)
     1.5 - 4.0 s   forward along world x by GAP + PUSH: the fingers reach the box after GAP and
                   push it PUSH = 10 cm
     4.0 s -       held
 
-FRONT, how far the fingers' collision boxes reach ahead of the tool frame along world x, comes
-from the model's collision geometry at the ready posture (the hand keeps its orientation), so
-that the fingers' front face starts GAP behind the box: the box then moves by PUSH (less the
-tool's lag behind its set point, K^-1 times the friction it pushes against, and the contact's
-compliance, force / stiffness).
+FRONT, how far the fingertips' collision boxes reach ahead of the tool frame along world x,
+comes from the model's collision geometry at the ready posture (the hand keeps its
+orientation), so that the fingertips' front face starts GAP behind the box: the box then moves
+by PUSH (less the tool's lag behind its set point, K^-1 times the friction it pushes against,
+and the contact's compliance, force / stiffness).
 
 The controller is written for the Panda alone: it reads the robot's coordinates, the first nine
 of the scene's q and qd (a scene's objects come after the robot's), and returns the nine joint
@@ -37,8 +37,10 @@ TOOL = "panda_hand_tcp"
 N = MODEL.nq  # the robot's coordinates, first in the scene's q (9)
 Q_READY = np.array([0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785, 0.01, 0.01])
 T_READY = od.frame_pose(MODEL, Q_READY, TOOL)
-BOX_BACK = 0.51  # m: the box's back face (centre x 0.55, 0.08 m deep), as panda_push.toml has it
-HEIGHT = 0.25  # m: the tool frame's height while pushing (fingertips 1 cm above the table top)
+BOX_BACK, BOX_TOP = 0.51, 0.28  # m: the box's back face and top (centre x 0.55, 0.08 m cube on
+# a table 0.2 m high), as panda_push.toml has them
+HEIGHT = 0.262  # m: the tool frame's height while pushing: the fingertips 2.2 cm above the
+# table, the fingers' upper boxes clear of the box's top, so that the tips push its face
 GAP, PUSH = 0.02, 0.10  # m
 K = np.diag([50.0, 50.0, 50.0, 2000.0, 2000.0, 2000.0])  # N m/rad, N/m
 K_NULL, D_NULL = 5.0, 1.0  # N m/rad, N m s/rad
@@ -47,17 +49,18 @@ KP_FINGERS, KD_FINGERS = 200.0, 5.0  # N/m, N s/m
 
 
 def _front(model, q):
-    """m: how far the fingers' collision geometry reaches ahead of the tool frame along world x
-    at q."""
-    x_tool = od.frame_pose(model, q, TOOL)[0, 3]
+    """m: how far the fingers' collision boxes that reach below the box's top (with the tool
+    frame at HEIGHT) stand ahead of the tool frame along world x, the hand posed as at q."""
+    p_tool = od.frame_pose(model, q, TOOL)[:3, 3]
     corners = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)]) / 2.0
     front = -np.inf
     for g in model.geometries:
         if "finger" in g.link:
             T_sg = od.frame_pose(model, q, g.link) @ g.placement
-            points = (T_sg[:3, :3] @ (corners * g.size).T).T + T_sg[:3, 3]
-            front = max(front, points[:, 0].max())
-    return front - x_tool
+            points = (T_sg[:3, :3] @ (corners * g.size).T).T + T_sg[:3, 3] - p_tool
+            if points[:, 2].min() + HEIGHT < BOX_TOP:
+                front = max(front, points[:, 0].max())
+    return front
 
 
 FRONT = _front(MODEL, Q_READY)

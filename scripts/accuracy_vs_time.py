@@ -30,24 +30,26 @@
 4. Effects. The cost of every stage of the step (as `opendyn simulate --profile` reports it) on
    scenes that switch every effect on.
 5. Contact. The shipped ball drop (1 kg on k = 1e5 N/m, no damping or friction; 1 s, two
-   bounces; quick 0.5 s) and Solo12 drop (k = 1e5, d = 300, mu = 0.8, PD on the joints; 1 s,
-   the landing at 0.25 s and the settling; quick 0.4 s) with every integrator over a sweep of
-   steps from 10 ms to 10 us (dopri5: tolerances), samples every 1 ms. Per run: its status
-   (complete; refused before it starts by the simulator's stability check, with the stiffest
-   cause the check names; failed, with where it stopped), max and final state error against
-   dopri5 (at 1e-12 on the ball, 1e-11 on Solo12, where 1e-12 underflows its step at
-   touchdown; each bounded by its distance to the run ten times looser), the energy-balance
-   residual max |energy_error|, the deepest penetration and its error against the reference's
-   at the same samples, evaluations and wall time. Stability per fixed-step integrator: the
-   largest step run, the smallest refused, the largest that completes and the largest whose
-   max error is within 0.1 (m or rad). Then what the stiffness costs: the ball drop (0.5 s) at
-   k = 1e4 to 1e7 N/m, whose rate sqrt(k/m) sets RK4's stability step 2.8 / rate, and each
-   integrator's fastest run within 1e-3 m.
+   bounces; quick 0.5 s) and Solo12 drop (k = 1e5, d = 300, mu = 0.8, PD on the joints; 1 s, the
+   landing at 0.25 s and the settling; quick 0.4 s), and a box dropped spinning onto a table
+   (box_on_table's box let go 3 cm above it, contact between collision geometries: corner, edge
+   and face manifolds, implicit Euler's held contact points and normals; 0.5 s, quick 0.3 s)
+   with every integrator over a sweep of steps from 10 ms to 10 us (dopri5: tolerances), samples
+   every 1 ms. Per run: its status (complete; refused before it starts by the simulator's
+   stability check, with the stiffest cause the check names; failed, with where it stopped), max
+   and final state error against dopri5 (at 1e-12 on the ball, 1e-11 on Solo12, where 1e-12
+   underflows its step at touchdown, 1e-10 on the box; each bounded by its distance to the run
+   ten times looser), the energy-balance residual max |energy_error|, the deepest penetration
+   and its error against the reference's at the same samples, evaluations and wall time.
+   Stability per fixed-step integrator: the largest step run, the smallest refused, the largest
+   that completes and the largest whose max error is within 0.1 (m or rad). Then what the
+   stiffness costs: the ball drop (0.5 s) at k = 1e4 to 1e7 N/m, whose rate sqrt(k/m) sets RK4's
+   stability step 2.8 / rate, and each integrator's fastest run within 1e-3 m.
 
 Writes into --out (default accuracy_study/ in the current folder): accuracy_vs_time.png (error
 against wall time, one curve per integrator: the Pareto plot), convergence.png (error against
 step), constraint.png (the four-bar's max violation against step and wall time; solid with
-Baumgarte, dashed without), algorithms.png, contact.png (error against wall time on the two
+Baumgarte, dashed without), algorithms.png, contact.png (error against wall time on the three
 contact scenes; the stiffness cost), study.md (every table) and study.json (every number; the
 four-bar under "constrained", contact under "contact"). Only --docs writes the published study,
 docs/study/, and then study.md starts with a header that says when, on what machine and with
@@ -75,6 +77,7 @@ from tqdm import tqdm  # noqa: E402
 
 import opendyn as od  # noqa: E402
 from opendyn.algorithm.forward import METHODS, NO_ARMATURE  # noqa: E402
+from opendyn.io.scene.variants import Variants  # noqa: E402
 from opendyn.sim import effects, step  # noqa: E402
 from opendyn.sim.profile import stage_costs  # noqa: E402
 
@@ -597,6 +600,11 @@ def effect_study(mode):
 # The quadruped lands at 0.25 s and settles by about 0.6 s. Its reference runs at 1e-11: at
 # 1e-12 DOPRI5's step underflows at touchdown, where the damper's force jumps from 0 to
 # d |v_z| (720 N per foot).
+# The box drop is box_on_table's box let go 3 cm above the table, spinning: it lands on an edge
+# and a corner, rocks onto its face and settles, the contact between collision geometries
+# (points that switch from one to four, on either side of the manifolds) under each integrator;
+# implicit Euler's linearisation holds the contact points and normals fixed over a step, and
+# its rows show what that costs.
 CONTACT_SCENES = [
     ("ball_drop", "ball_drop", "ball drop (k = 1e5, no damping or friction)", 1.0, 0.5, 1e-12),
     (
@@ -607,7 +615,20 @@ CONTACT_SCENES = [
         0.4,
         1e-11,
     ),
+    (
+        "box_drop",
+        "box_on_table",
+        "box drop onto a table, geometry contact (k = 1e5, d = 300, mu = 0.5)",
+        0.5,
+        0.3,
+        1e-10,
+    ),
 ]
+BOX_DROP = {  # box_on_table's [[objects]] entry, changed
+    "objects.0.position.2": 0.48,
+    "objects.0.rpy": [0.2, -0.1, 0.3],
+    "objects.0.angular_velocity": [1.5, -2.0, 0.5],
+}
 CONTACT_OUTPUT_DT = 1e-3  # s: resolves the deepest penetration of a 10 ms contact
 CONTACT_STEPS = {
     "full": {
@@ -625,6 +646,17 @@ STIFFNESS_DURATION = 0.5  # s: the ball's fall, its bounce and half its rise
 STIFFNESS_TARGET = 1e-3  # m: the max error the stiffness study asks of every integrator
 
 
+def penetration(traj):
+    """(K, P) m: the depth of each contact point of the run at each sample (sphere contact:
+    traj.penetration; between collision geometries, the deepest point of each sample's contact
+    table, P = 1)."""
+    if traj.contacts is None:
+        return traj.penetration
+    deepest = np.zeros((len(traj.t), 1))
+    np.maximum.at(deepest[:, 0], traj.contacts.sample, traj.contacts.depth)
+    return deepest
+
+
 def contact_reference(scene, rtol):
     """The reference run of a contact scene, dopri5 at rtol = atol = `rtol`, and its summary:
     the bound on its error (its max distance to the run at 10 rtol), steps, wall time, energy
@@ -637,7 +669,7 @@ def contact_reference(scene, rtol):
         steps=int(ref.stats["steps"]),
         wall_s=ref.stats["wall_s"],
         energy_error=float(np.max(np.abs(ref.energy_error))),
-        penetration_max=float(ref.penetration.max()),
+        penetration_max=float(penetration(ref).max()),
     )
 
 
@@ -664,13 +696,13 @@ def contact_run(scene, integrator, x, ref, repeats):
         row.update(failed_at=float(traj.t[-1]) if len(traj.t) else 0.0, reason=traj.message)
         return row
     final, worst = state_error(traj, ref)
-    deepest = float(traj.penetration.max())
+    deepest = float(penetration(traj).max())
     row.update(
         error_final=final,
         error_max=worst,
         energy_error=float(np.max(np.abs(traj.energy_error))),
         penetration_max=deepest,
-        penetration_error=abs(deepest - float(ref.penetration[sample_rows(traj, ref)].max())),
+        penetration_error=abs(deepest - float(penetration(ref)[sample_rows(traj, ref)].max())),
     )
     return row
 
@@ -704,7 +736,10 @@ def contact_study(mode, repeats):
     scenes = []
     for key, shipped, title, full_T, quick_T, rtol in CONTACT_SCENES:
         duration = full_T if mode == "full" else quick_T
-        base = od.load_scene(shipped).replace_run(duration=duration, output_dt=CONTACT_OUTPUT_DT)
+        base = od.load_scene(shipped)
+        if key == "box_drop":
+            base = Variants.of(base).scene_for(BOX_DROP)
+        base = base.replace_run(duration=duration, output_dt=CONTACT_OUTPUT_DT)
         ref, reference = contact_reference(base, rtol)
         plan = [(name, x) for name in LABEL for x in sweeps[_contact_sweep(name)]]
         runs = [
@@ -932,7 +967,8 @@ def plot_contact(contact, path):
     """Max error against wall time on each contact scene (one curve per integrator, its refused
     steps in the legend), and the wall time of each integrator's fastest run within
     STIFFNESS_TARGET on the ball drop against the contact stiffness."""
-    fig, axes = plt.subplots(1, 3, figsize=(17, 5.5))
+    count = len(contact["scenes"])
+    fig, axes = plt.subplots(1, count + 1, figsize=(5.7 * (count + 1), 5.5))
     for ax, res in zip(axes, contact["scenes"]):
         for k, name in enumerate(LABEL):
             rows = [r for r in res["runs"] if r["integrator"] == name]
@@ -954,7 +990,7 @@ def plot_contact(contact, path):
         ax.grid(True, which="major", alpha=0.3)
         ax.legend(fontsize=7, loc="lower left")
     study = contact["stiffness"]
-    ax = axes[2]
+    ax = axes[-1]
     k_values = [row["stiffness"] for row in study["rows"]]
     for k, name in enumerate(LABEL):
         picks = [row["fastest"][name] for row in study["rows"]]
@@ -1108,7 +1144,7 @@ def contact_markdown(contact):
         "to the reference's deepest at the same samples. refused: the simulator refused the "
         "step before the run (its stability check at the initial state; the stiffest cause "
         "shown); failed: the run stopped.\n",
-        figure("contact.png", "error against wall time on two drops; the stiffness cost") + "\n",
+        figure("contact.png", "error against wall time on three drops; the stiffness cost") + "\n",
     ]
     for res in contact["scenes"]:
         ref = res["reference"]

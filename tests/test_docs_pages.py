@@ -29,6 +29,8 @@ BENCHMARKS = {
     "bench_sweep.py": ("sweeps.md", ("mujoco",)),
     "bench_coldstart.py": ("startup.md", ()),
     "bench_scenes.py": ("scenes.md", ()),
+    "bench_collision.py": ("collision.md", ("pinocchio",)),
+    "bench_contact.py": ("contact.md", ("mujoco",)),
 }
 
 

@@ -44,7 +44,7 @@ from ..multibody.work_views import effect_rows, new_work, scratch_rows, world_po
 from .collision import DISTANCE, MAX_CONTACTS, NORMAL, OUT_SIZE, POINT_A, POINT_B
 from .collision.narrow_phase import COLUMNS, ROWS
 from .collision.queries import pair_rows
-from .collision.world import bounding_boxes, boxes_near, place_geometries
+from .collision.world import bounding_boxes, pair_near, place_geometries
 from .kinematics import add_point_jacobian, forward_kinematics
 
 # a pair's law, one row of `law` (P, 4)
@@ -166,7 +166,7 @@ def geometry_contact_on_poses(ibuf, fbuf, work, contacts, room, qd, tau, linear,
     spring = 0.0
     for p in range(pairs.shape[0]):
         i, j = pairs[p, 0], pairs[p, 1]
-        if not boxes_near(boxes, i, j, 0.0):
+        if not pair_near(table[2], T_sg, boxes, i, j, 0.0):
             continue
         found, _ = pair_rows((table, hints, T_sg), i, j, 0.0, rows, scratch)
         for c in range(found):

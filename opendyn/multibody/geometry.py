@@ -93,6 +93,8 @@ class GeometryTable:
                     every mesh's Hull (hulls.py) one after the other: the starts are positions
                     in the arrays they index, the indices they lead to count from the
                     geometry's own first vertex or face (0 = its first)
+      hull_box      (G, 6) a hull's axis-aligned box in {g}, lo (3,) then hi (3,) (m); zeros
+                    for the shapes that have no hull
     """
 
     body: np.ndarray
@@ -110,6 +112,7 @@ class GeometryTable:
     face_vertices: np.ndarray
     vertex_face_start: np.ndarray
     vertex_faces: np.ndarray
+    hull_box: np.ndarray
 
     @classmethod
     def of(cls, geometries, frames_by_name) -> GeometryTable:
@@ -131,7 +134,11 @@ class GeometryTable:
         F = np.cumsum([0] + [len(h.face_normal) if h else 0 for h in hulls])
         ranges = np.stack([V[:-1], V[1:]], axis=1), np.stack([F[:-1], F[1:]], axis=1)
         seeds = np.array([h.seeds if h else 0 for h in hulls], dtype=np.int64)
-        arrays = (body, T_body_geom, code, size, *ranges, seeds, *packed)
+        hull_box = np.array(
+            [np.concatenate([h.vertices.min(0), h.vertices.max(0)]) if h else np.zeros(6)
+             for h in hulls]
+        ).reshape(count, 6)
+        arrays = (body, T_body_geom, code, size, *ranges, seeds, *packed, hull_box)
         return cls(*(immutable(a, a.dtype) for a in arrays))
 
 

@@ -38,7 +38,7 @@ from .closed_forms import DISTANCE, NORMAL, OUT_SIZE, POINT_A, POINT_B, swap_sid
 from .face_contacts import face_contacts
 from .manifold import MAX_CONTACTS, halfspace_contacts
 from .narrow_phase import pair_distance, work_array
-from .world import bounding_boxes, boxes_near, place_geometries, shape_of
+from .world import bounding_boxes, pair_near, place_geometries, shape_of
 
 
 class Distances(NamedTuple):
@@ -188,7 +188,7 @@ def collisions_kernel(ibuf, fbuf, work, q, table, pairs, margin, geometry_work, 
     count = 0
     for p in range(pairs.shape[0]):
         i, j = pairs[p, 0], pairs[p, 1]
-        if not boxes_near(boxes, i, j, margin):
+        if not pair_near(table[2], T_sg, boxes, i, j, margin):
             continue
         found, pair_status = pair_rows(
             (table, hints, T_sg), i, j, margin, rows[count : count + MAX_CONTACTS], scratch
