@@ -38,7 +38,7 @@
    every 1 ms. Per run: its status (complete; refused before it starts by the simulator's
    stability check, with the stiffest cause the check names; failed, with where it stopped), max
    and final state error against dopri5 (at 1e-12 on the ball, 1e-11 on Solo12, where 1e-12
-   underflows its step at touchdown, 1e-10 on the box; each bounded by its distance to the run
+   underflows its step at touchdown, 1e-12 on the box; each bounded by its distance to the run
    ten times looser), the energy-balance residual max |energy_error|, the deepest penetration
    and its error against the reference's at the same samples, evaluations and wall time.
    Stability per fixed-step integrator: the largest step run, the smallest refused, the largest
@@ -621,7 +621,7 @@ CONTACT_SCENES = [
         "box drop onto a table, geometry contact (k = 1e5, d = 300, mu = 0.5)",
         0.5,
         0.3,
-        1e-10,
+        1e-12,
     ),
 ]
 BOX_DROP = {  # box_on_table's [[objects]] entry, changed

@@ -326,7 +326,7 @@ def test_plots_show_the_recorded_data(quick_run):
         lambda r: max(r["error_max"], 1e-16), label,
     )
     stiffness = record["contact"]["stiffness"]
-    curves = _curves(contact.axes[2])
+    curves = _curves(contact.axes[-1])
     k_values = [row["stiffness"] for row in stiffness["rows"]]
     for name in label:
         picks = [row["fastest"][name] for row in stiffness["rows"]]
@@ -449,7 +449,7 @@ def test_quick_study_writes_the_contact_section_plot_and_recommendations(quick_s
     recommendations = text.split("## Convergence orders")[0]
     assert "Contact scenes" in recommendations
     scenes = record["contact"]["scenes"]
-    assert [r["key"] for r in scenes] == ["ball_drop", "quadruped_drop"]
+    assert [r["key"] for r in scenes] == ["ball_drop", "quadruped_drop", "box_drop"]
     integrators = {"euler", "semi_implicit_euler", "implicit_euler", "rk4", "dopri5"}
     for res in scenes:
         assert res["title"] in recommendations
