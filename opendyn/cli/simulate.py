@@ -199,7 +199,8 @@ def _view(scene, traj, collision=False):
     from ..viz import playback as viz
 
     url = viz.view(
-        scene.model, traj.t, traj.q, open_browser=True, contact=_contact(scene, traj), collision=collision
+        scene.model, traj.t, traj.q, open_browser=True, contact=_contact(scene, traj),
+        collision=collision,
     )
     print(f"meshcat viewer at {url} (Ctrl-C to quit)")
     _wait_for_interrupt()

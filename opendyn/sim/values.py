@@ -10,6 +10,7 @@ from __future__ import annotations
 import difflib
 import math
 import numbers
+import pathlib
 
 import numpy as np
 
@@ -56,6 +57,16 @@ class ValueReader:
                 key, f"{value!r} is not one of {', '.join(choices)}{suggest(value, choices)}"
             )
         return value
+
+    def existing_file(self, value, key, kind, base_dir) -> pathlib.Path:
+        """The file a string names, relative to `base_dir` (the scene's folder; None: the
+        working folder), which must exist: "no such KIND file" otherwise."""
+        path = pathlib.Path(self.string(value, key))
+        if not path.is_absolute() and base_dir is not None:
+            path = pathlib.Path(base_dir) / path
+        if not path.is_file():
+            self.fail(key, f"no such {kind} file: {path}")
+        return path
 
     def boolean(self, value, key) -> bool:
         if not isinstance(value, bool):

@@ -37,12 +37,12 @@ def write_html(model, t, q, path, *, fps=None, contact=None, collision=False) ->
         the plane z = ground_height (m); points (K, P, 3) m, world frame, where each contact
         point touches (or would touch) the ground; forces (K, P, 3) N, world frame, the force
         the ground applies to the robot at each point (or, between collision geometries,
-        ``ContactTable.slots``: the force on the moving body of each pair). The page then draws the ground (a
-        light slab, the grid moved onto it) and each force as a red arrow from its point,
-        |f| times one scale for the run (a round number of newtons per metre, at which the
-        largest force is drawn 0.16 to 0.4 times the robot's size), stated in the page's title
-        and at its bottom left; the arrows are interpolated like q and vanish where the force
-        is zero.
+        ``ContactTable.slots``: the force on the moving body of each pair). The page then
+        draws the ground (a light slab, the grid moved onto it) and each force as a red arrow
+        from its point, |f| times one scale for the run (a round number of newtons per metre,
+        at which the largest force is drawn 0.16 to 0.4 times the robot's size), stated in the
+        page's title and at its bottom left; the arrows are interpolated like q and vanish
+        where the force is zero.
       collision: True draws the collision geometry (``model.geometries``, meshes as their
         convex hulls, in translucent orange) instead of the visual geometry.
 

@@ -114,17 +114,13 @@ def collision_visuals(model) -> list[Visual]:
     PlaybackWarning)."""
     if not model.geometries:
         return _body_stand_ins(model, f"model {model.name!r} has no collision geometry")
-    return [
-        Visual(
-            g.link,
-            g.placement,
-            "hull" if g.shape == "mesh" else g.shape,
-            g.size,
-            rgba=COLLISION_RGBA,
-            vertices=g.vertices,
-        )
-        for g in model.geometries
-    ]
+    return [_geometry_visual(g, COLLISION_RGBA) for g in model.geometries]
+
+
+def _geometry_visual(g, rgba) -> Visual:
+    """A collision Geometry drawn in `rgba`: a mesh as its convex hull."""
+    shape = "hull" if g.shape == "mesh" else g.shape
+    return Visual(g.link, g.placement, shape, g.size, rgba=rgba, vertices=g.vertices)
 
 
 def scene_visuals(model, collision=False) -> list[Visual]:
@@ -152,8 +148,7 @@ def world_visuals(model) -> list[Visual]:
             rgba = WORLD_RGBA
         else:
             continue  # the robot's: its visual geometry stands for it
-        shape = "hull" if g.shape == "mesh" else g.shape
-        visuals.append(Visual(g.link, g.placement, shape, g.size, rgba=rgba, vertices=g.vertices))
+        visuals.append(_geometry_visual(g, rgba))
     return visuals
 
 

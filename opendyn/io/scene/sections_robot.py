@@ -9,7 +9,6 @@ v_b = R^T p_dot (R the base's orientation in the world); q0 = (p, quat, q_joints
 from __future__ import annotations
 
 import os
-import pathlib
 
 import numpy as np
 from scipy.spatial.transform import Rotation
@@ -62,21 +61,13 @@ class RobotSection(ValueReader):
             ),
         }
         if given[0] == "urdf":
-            path = pathlib.Path(target)
-            if not path.is_absolute() and base_dir is not None:
-                path = pathlib.Path(base_dir) / path
-            if not path.is_file():
-                self.fail(key, f"no such URDF file: {path}")
-            target = str(path)
+            target = str(self.existing_file(target, key, "URDF", base_dir))
         elif "/" in target or os.sep in target or target.endswith(".urdf"):
             self.fail(key, f"{target!r} is a path, not a robot name; use robot.urdf for a file")
         if "srdf" in table:
-            srdf = pathlib.Path(self.string(table["srdf"], "robot.srdf"))
-            if not srdf.is_absolute() and base_dir is not None:
-                srdf = pathlib.Path(base_dir) / srdf
-            if not srdf.is_file():
-                self.fail("robot.srdf", f"no such SRDF file: {srdf}")
-            options["srdf"] = str(srdf)
+            options["srdf"] = str(
+                self.existing_file(table["srdf"], "robot.srdf", "SRDF", base_dir)
+            )
         try:
             return load_urdf(target, **options)
         except URDFError as e:

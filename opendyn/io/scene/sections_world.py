@@ -11,7 +11,6 @@ frame of the robot nor "ground" (the contact's ground plane) nor another entry's
 
 from __future__ import annotations
 
-import pathlib
 
 import numpy as np
 from scipy.spatial.transform import Rotation
@@ -81,20 +80,11 @@ class WorldSection(ValueReader):
                     f"{where}.{key}",
                     f"an object from a URDF takes its {key} from the file; remove {key}",
                 )
-        path = self._file(table, where, "urdf", "URDF")
+        path = self.existing_file(table["urdf"], f"{where}.urdf", "URDF", self.base_dir)
         try:
             return load_urdf(str(path), floating_base=True)
         except URDFError as e:
             self.fail(f"{where}.urdf", str(e))
-
-    def _file(self, table, where, key, kind) -> pathlib.Path:
-        """The file named by `key` (relative to the scene's folder), which must exist."""
-        path = pathlib.Path(self.string(table[key], f"{where}.{key}"))
-        if not path.is_absolute() and self.base_dir is not None:
-            path = pathlib.Path(self.base_dir) / path
-        if not path.is_file():
-            self.fail(f"{where}.{key}", f"no such {kind} file: {path}")
-        return path
 
     def object_states(self, q0, qd0):
         """q0, qd0 of each object's free joint from its table (free_state)."""
@@ -168,7 +158,7 @@ class WorldSection(ValueReader):
             return Geometry(name, name, shape, size, np.eye(4))
         if "mesh" not in table:
             self.fail(f"{where}.mesh", "missing: a mesh entry needs its file (STL, OBJ, DAE)")
-        path = self._file(table, where, "mesh", "mesh")
+        path = self.existing_file(table["mesh"], f"{where}.mesh", "mesh", self.base_dir)
         try:
             vertices = hull_vertices(str(path), size)
         except MeshError as e:
