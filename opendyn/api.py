@@ -71,7 +71,10 @@ class Simulator(_simulator.Simulator):
     control_dt: a Python controller fn(t, q, qd) -> tau and its period (s), which `step` calls
     at the start of every control period and adds to its own tau; by default the scene's own
     ([control] type = "python", its control_dt or the run's, else run.dt). The scene's
-    run.duration does not bound a Simulator: it steps as far as it is asked.
+    run.duration does not bound a Simulator: it steps as far as it is asked, each step's record
+    checked against the memory the process may allocate. A long step stops at Ctrl-C with a
+    KeyboardInterrupt, the state consistent at the end of a whole integrator step; a second
+    Ctrl-C or a SIGTERM stops a controller that blocks.
     Attributes: model, scene, control_dt (s: the default duration of a step).
     """
 
@@ -90,8 +93,10 @@ def rollout(scene, q0=None, qd0=None, params=None, threads=None, record="samples
       number, or a list of k) as a scene file would, e.g. "control.kp", "effects.damping.
       coefficients", "effects.contact.stiffness", "robot.payload.mass",
       "robot.payload.com", "initial.q.shoulder_lift_joint". run.* keys and words or true/false
-      are refused (od.sweep varies them); a run whose step would compile differently from
-      run 0's fails, saying so.
+      are refused (od.sweep varies them), and so is a key that sets part of what q0 or qd0
+      gives (initial.q.*, initial.base_position, an object's position with q0; initial.qd.*,
+      an object's velocity with qd0); a run whose step would compile differently from run 0's
+      fails, saying so.
     threads: threads to run on (default: one per core).
     record: "samples" keeps every run's rows at the scene's output_dt, (N, K, ...) arrays;
       "final" only each run's last state, (N, 1, ...): memory does not grow with duration.
@@ -99,9 +104,10 @@ def rollout(scene, q0=None, qd0=None, params=None, threads=None, record="samples
     N is the length of q0, qd0 and params (which must agree), 1 when none is given. Values that
     are not finite numbers are refused before anything runs (ValueError or TypeError naming the
     argument and the run); a value the scene refuses (a negative mass) or a start simulate
-    refuses fails its run only. A run that fails keeps its rows up to the failure (status
-    "failed", message the cause, as simulate states it) and the others go on. Ctrl-C stops
-    after the runs under way and raises RolloutInterrupted carrying the result so far.
+    refuses (off a constraint, deep in the ground, beyond max_speed) fails its run only. A run
+    that fails keeps its rows up to the failure (status "failed", message the cause, as
+    simulate states it) and the others go on. Ctrl-C stops after the runs under way and raises
+    RolloutInterrupted carrying the result so far.
     """
     scene = as_scene(scene, "rollout")
     return _rollout.rollout(

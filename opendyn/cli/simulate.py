@@ -100,7 +100,7 @@ def _simulate(args) -> int:
     Returns the exit status (see the module's docstring)."""
     from ..sim.profile import profile
     from ..sim.simulate import simulate
-    from ..sim.simulator import load_controller
+    from ..sim.step_inputs import load_controller
 
     named = _named_outputs(args)
     _check_outputs(named)

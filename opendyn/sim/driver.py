@@ -5,6 +5,7 @@ chunks (opendyn.sim.integrators) and evaluated at a state."""
 
 from __future__ import annotations
 
+import math
 import signal
 import sys
 import threading
@@ -27,16 +28,42 @@ _COMPILE_ESTIMATE = {
 }
 
 
+CHUNK_SECONDS = 0.1  # wall time of one compiled chunk: progress and Ctrl-C granularity
+FIRST_CHUNK = 64  # fixed steps in the first chunk, before the rate is known
+
+
+def next_steps(steps, seconds, current):
+    """The next chunk's fixed steps: enough for about CHUNK_SECONDS at the rate of the last
+    (`steps` in `seconds`), at most 8 times `current`."""
+    if seconds <= 0:
+        return current * 4
+    return int(min(current * 8, max(16, steps / seconds * CHUNK_SECONDS)))
+
+
+def next_span(span, seconds, longest):
+    """The next chunk's simulated time (s) of adaptive steps: about CHUNK_SECONDS of wall time
+    at the rate of the last (`span` in `seconds`), between half and four times it, at most
+    `longest`."""
+    if seconds <= 0:
+        return min(longest, span * 4)
+    return min(longest, max(span * 0.5, min(span * 4, span * CHUNK_SECONDS / seconds)))
+
+
 class Interrupt:
     """While a run is on (in the main thread), Ctrl-C sets `requested` instead of raising; the
     loops stop after the current chunk, so that the record stays consistent. `signum` is the
     signal that asked (SIGINT, or SIGTERM when the command line hands it over).
+
+    Python code of the user's that the run calls (a controller) may block or spin and never let
+    the run reach its next chunk: while it runs (`in_user_code`), a second Ctrl-C, or a SIGTERM,
+    raises UserCodeInterrupted in it at once; the run's state is the one before the call.
 
     A process that started with Ctrl-C ignored (a background job of a script, nohup) keeps it
     ignored, as Python itself does: SIGINT changes nothing, and SIGTERM still stops the run."""
 
     requested = False
     signum = signal.SIGINT
+    in_user_code = False
 
     def __enter__(self):
         self._previous = None
@@ -48,12 +75,21 @@ class Interrupt:
     def _handler(self, signum, frame):
         if signum == signal.SIGINT and self._ctrl_c_ignored:
             return
+        again = self.requested or signum != signal.SIGINT
         self.requested = True
         self.signum = signum
+        if self.in_user_code and again:
+            self.in_user_code = False
+            raise UserCodeInterrupted(signum)
 
     def __exit__(self, *exc):
         if self._previous is not None:
             signal.signal(signal.SIGINT, self._previous)
+
+
+class UserCodeInterrupted(KeyboardInterrupt):
+    """A second Ctrl-C, or a SIGTERM, while the user's Python code ran within a run: raised in
+    that code (args: the signal's number)."""
 
 
 def integrator_of(scene):
@@ -176,7 +212,7 @@ class Stepper:
             output_dt=run.output_dt,
             max_speed=run.max_speed,
             size_index=error_size_index(self.scene.model),
-            land=False,
+            t_land=math.inf,
         )
         return integrators.run_adaptive(
             self.integ.tableau(), self.data, settings, at, t_stop, x, first, out.arrays(),

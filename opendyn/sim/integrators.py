@@ -100,12 +100,17 @@ FixedSettings = namedtuple("FixedSettings", ("t0", "dt", "every", "max_speed"))
 # run_adaptive's settings: t0 (s) the time of output row 0, t_end (s) the end of the run, rtol,
 # atol, output_dt (s), max_speed
 # and size_index (nv,) int64, the q index whose magnitude scales each v coordinate's position
-# error (-1: 1 rad); land: whether the steps land on t_stop (the end of a control period, where
-# the held torque changes) or merely stop once past it (a chunk of a run).
+# error (-1: 1 rad); t_land (s): a time the steps land on besides the output times (the end of
+# a control period, where the held torque changes; inf for none: a chunk of a run merely stops
+# once past its t_stop).
 AdaptiveSettings = namedtuple(
     "AdaptiveSettings",
-    ("t0", "t_end", "rtol", "atol", "output_dt", "max_speed", "size_index", "land"),
+    ("t0", "t_end", "rtol", "atol", "output_dt", "max_speed", "size_index", "t_land"),
 )
+# Two times closer than SLIVER max(1, |t|) s are one: the sums that give an output time
+# (t0 + r output_dt) and the end of a control period (t + duration) round differently, and the
+# rounding (a few 1e-17 s at t = 0.06 s) is no step to take.
+SLIVER = 1e-13
 # Where run_adaptive stands: the time t (s), the next trial step h (s), the next output row.
 Progress = namedtuple("Progress", ("t", "h", "row"))
 
@@ -381,8 +386,10 @@ def run_adaptive(tableau, scene, settings, at, t_stop, x, first, out, counters, 
     step at.h, recording row r of the Record out, from r = at.row on, at
     t = min(t0 + r output_dt, t_end) (settings: an AdaptiveSettings).
 
-    Steps are cut so that they land on the output times, and with settings.land on t_stop (no
-    row is recorded there unless it is an output time). The error of each v coordinate's
+    Steps are cut so that they land on the output times and on settings.t_land (no row is
+    recorded there unless it is an output time); the loop stops once t >= t_stop (t_stop <=
+    t_land). A time within SLIVER of t counts as reached: an output time is recorded at once,
+    and t_land ends the loop with t = t_land. The error of each v coordinate's
     position is scaled by the magnitude of q[settings.size_index[j]] (the coordinate itself for
     a joint, a floating base's position for its translation), by 1 rad where that is -1 (a
     rotation). first: the Stage at the current state (the FSAL stage), kept up to date.
@@ -399,8 +406,16 @@ def run_adaptive(tableau, scene, settings, at, t_stop, x, first, out, counters, 
     t, h, row = at.t, at.h, at.row
     while t < t_stop:
         t_out = min(settings.t0 + row * settings.output_dt, settings.t_end)
-        t_land = min(t_out, t_stop) if settings.land else t_out
-        # land on the output time (or t_stop) when the step reaches it or would leave a sliver
+        sliver = SLIVER * max(1.0, abs(t))
+        if t_out - t <= sliver:  # on an output time but for rounding: record it
+            record(out, row, t, x, first.tau)
+            row += 1
+            continue
+        if settings.t_land - t <= sliver:  # at the end of the control period but for rounding
+            t = max(t, settings.t_land)
+            break
+        t_land = min(t_out, settings.t_land)
+        # land on the output time (or t_land) when the step reaches it or would leave a sliver
         # before it
         last_before_output = h >= 0.99 * (t_land - t)
         dt = t_land - t if last_before_output else h

@@ -34,7 +34,7 @@ from .effects import registry
 from .effects.interface import CONTROL
 from .effects.tangent import LinearAt, space_axes
 from .record import gravity_of
-from .simulator import checked_configuration, checked_torque, checked_vector
+from .step_inputs import checked_configuration, checked_torque, checked_vector
 
 
 def effect_forces(scene, t, q, qd):

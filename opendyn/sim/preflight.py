@@ -5,7 +5,9 @@ or compiled.
     samples      K = N / every + 1            (adaptive: ceil(duration / output_dt) + 1)
     memory       8 K (3 + nq + 2 nv + 2 + 7 P + 2 c)  bytes, three times over, below what the
                  process may allocate (opendyn._runtime.memory: limits and cgroups included)
-    start        |qd0_k| <= max_speed,  lower_j <= q0_j <= upper_j,  K(q0, qd0), U(q0) finite
+    start        |qd0_k| <= max_speed,  lower_j <= q0_j <= upper_j,  K(q0, qd0), U(q0) finite,
+                 |phi(q0)|, |A(q0) qd0| <= CONSTRAINT_TOLERANCE, no contact point deep in the ground
+                 or in another body
 
 with P contact points and c = 1 with constraints (their violation). A scene that fails any of
 these raises SceneError naming the key to change; a joint starting outside its limits is a
@@ -21,12 +23,13 @@ import warnings
 import numpy as np
 
 from .._runtime.memory import available_memory
+from ..algorithm.constraints import CONSTRAINT_TOLERANCE, broken_constraint
 from ..algorithm.energy import energies
 from ..errors import SceneError, SceneWarning
-from .run import MAX_STEPS, check_fixed_steps
 from ..multibody.joints import FREE
 from . import effects
 from .record import contact_record, geometry_contact_record
+from .run import MAX_STEPS, check_fixed_steps
 
 # the record's arrays are built, then energies, contact and the outputs' copies: room for the
 # record three times (measured: a 1e6-sample run saved as .npz and CSV peaked at 2.45 times it)
@@ -47,13 +50,35 @@ def preflight(scene, integ):
 
 
 def check_start(scene):
-    """The initial state's checks: its velocities within max_speed, its positions within the
-    joint limits, its contact points not inside the ground, its energy finite (SceneError
-    naming the key to change; SceneWarning)."""
+    """The initial state's checks, wherever a state enters (a scene, rollout's q0 and qd0,
+    Simulator.reset): its velocities within max_speed, its positions within the joint limits,
+    its constraints met, its contact points not inside the ground or each other, its energy
+    finite (SceneError naming the key to change; SceneWarning)."""
     _check_start(scene)
+    _check_constraint_start(scene)
     _check_contact_start(scene)
     _check_geometry_start(scene)
     _check_energy(scene)
+
+
+def _check_constraint_start(scene):
+    """Refuse a start off the constraints: the run would start off their manifold (and,
+    without stabilisation, stay off it)."""
+    if not scene.constraints:
+        return
+    broken = broken_constraint(scene.model, scene.q0, scene.qd0, scene.constraints)
+    if broken is not None:
+        i, what, worst = broken
+        _fail(scene, f"constraints[{i}]", broken_message(scene.constraints[i], what, worst))
+
+
+def broken_message(constraint, what, worst):
+    """Why an initial state cannot start: it breaks `constraint` by `worst` in `what`."""
+    return (
+        f"the initial state breaks this {type(constraint).__name__} constraint: its {what} "
+        f"error is {worst:.3g} (tolerance {CONSTRAINT_TOLERANCE:g}); give [initial] q and qd "
+        "that satisfy it"
+    )
 
 
 def _check_contact_start(scene):
@@ -128,8 +153,14 @@ def run_size(scene, integ):
         return 0, 0, int(np.ceil(samples - 1e-9)) + 1
     check_fixed_steps(run, scene.source)  # as the scene's reader does, for a Run built directly
     nsteps = round(run.duration / run.dt)
-    every = max(1, round(run.output_dt / run.dt))
+    every = record_every(run)
     return nsteps, every, nsteps // every + 1 + (nsteps % every != 0)
+
+
+def record_every(run) -> int:
+    """The fixed steps of run.dt between two samples of the record: output_dt / dt, at least
+    one."""
+    return max(1, round(run.output_dt / run.dt))
 
 
 def sample_numbers(scene) -> int:

@@ -28,14 +28,20 @@ from .._runtime.status import Status
 from ..errors import SimulationError
 from . import effects, integrators
 from .diagnostics import check_contact_step, failure_message
-from .driver import Interrupt, Stepper, integrator_of, load_kernels, progress_bar
+from .driver import (
+    FIRST_CHUNK,
+    Interrupt,
+    Stepper,
+    integrator_of,
+    load_kernels,
+    next_span,
+    next_steps,
+    progress_bar,
+)
 from .effects import python_control
 from .preflight import preflight
 from .record import Samples, quaternion_norm_error, trajectory_of
 from .simulator import run_controlled
-
-_CHUNK_SECONDS = 0.1  # wall time of one compiled chunk: progress and Ctrl-C granularity
-_FIRST_CHUNK = 64  # steps in the first chunk
 
 
 def simulate(scene, *, progress=False, raise_on_failure=True, controller=None, control_dt=None):
@@ -114,17 +120,10 @@ def simulate(scene, *, progress=False, raise_on_failure=True, controller=None, c
     return traj
 
 
-def _chunk_steps(steps, seconds, current):
-    """The next chunk's size: enough steps for about _CHUNK_SECONDS at the measured rate."""
-    if seconds <= 0:
-        return current * 4
-    return int(min(current * 8, max(16, steps / seconds * _CHUNK_SECONDS)))
-
-
 def _run_fixed(stepper, nsteps, every, x, out, counters, bar, stop):
     """Fixed steps in compiled chunks. Returns (status, time reached)."""
     run = stepper.scene.run
-    done, chunk = 0, _FIRST_CHUNK
+    done, chunk = 0, FIRST_CHUNK
     while done < nsteps:
         n = min(chunk, nsteps - done)
         tic = time.perf_counter()
@@ -137,7 +136,7 @@ def _run_fixed(stepper, nsteps, every, x, out, counters, bar, stop):
             return status, done * run.dt
         if stop.requested and done < nsteps:
             return Status.INTERRUPTED, done * run.dt
-        chunk = _chunk_steps(steps, time.perf_counter() - tic, chunk)
+        chunk = next_steps(steps, time.perf_counter() - tic, chunk)
     t_end = nsteps * run.dt
     if out.filled < len(out.t):
         stepper.record_state(t_end, x, out)
@@ -169,11 +168,7 @@ def _run_adaptive(stepper, x, out, counters, bar, stop):
             return status, at.t
         if stop.requested and at.t < run.duration:
             return Status.INTERRUPTED, at.t
-        elapsed = time.perf_counter() - tic
-        if elapsed > 0:
-            span = min(
-                run.duration, max(span * 0.5, min(span * 4, span * _CHUNK_SECONDS / elapsed))
-            )
+        span = next_span(span, time.perf_counter() - tic, run.duration)
     return 0, at.t
 
 

@@ -16,42 +16,54 @@ loops as `simulate`: fixed steps, or DOPRI5 landing exactly on the end of the in
 Python controller fn(t, q, qd) -> tau (the scene's [control] type = "python", or
 simulate(controller=)) is sampled at the start of every control period and its torque held
 until the next; `run_controlled` is simulate's loop for it.
+
+Ctrl-C: a step that would take more than a moment runs in compiled chunks of about a tenth of a
+second under an Interrupt, and stops at the end of one, the state consistent there, raising
+KeyboardInterrupt; a short one runs whole, and a Ctrl-C that lands in it puts back the state
+from before it. A controller that blocks is stopped by a second Ctrl-C or a SIGTERM.
 """
 
 from __future__ import annotations
 
-import importlib
-import importlib.util
+import dataclasses
 import math
-import pathlib
-import sys
 import time
 
 import numpy as np
 
-from .._runtime.options import as_real
 from .._runtime.compile_notice import compile_seconds
 from .._runtime.entry import entry_for
+from .._runtime.memory import available_memory
+from .._runtime.options import as_real
 from .._runtime.signals import signal_name
-from ..algorithm import checks
-from ..algorithm.configuration import check_unit_quaternions
 from ..errors import SceneError, SimulationError
-from .run import whole_steps
-from ..multibody.joints import FREE
 from . import effects, integrators, step
 from .diagnostics import check_contact_step, failure_message
-from .effects import python_control
-from .preflight import preflight
-from .record import Samples, trajectory_of
 from .driver import (
+    CHUNK_SECONDS,
+    FIRST_CHUNK,
     Interrupt,
+    UserCodeInterrupted,
     error_size_index,
     free_joints,
     integrator_of,
     load_kernels,
+    next_span,
+    next_steps,
     progress_bar,
 )
-
+from .effects import python_control
+from .preflight import byte_size, check_start, record_every
+from .record import Samples, trajectory_of
+from .run import whole_steps
+from .step_inputs import (
+    checked_configuration,
+    checked_period,
+    checked_torque,
+    checked_vector,
+    controller_name,
+    controller_of,
+)
 
 
 class Simulator:
@@ -65,10 +77,10 @@ class Simulator:
     def __init__(self, scene, *, controller=None, control_dt=None):
         self.scene, self.model = scene, scene.model
         self._integ = integrator_of(scene)
-        _, self._every, _ = preflight(scene, self._integ)
+        self._every = record_every(scene.run)
         self._table = effects.stage_table(scene)
         check_contact_step(scene, self._table)
-        self._controller, self.control_dt = _controller_of(
+        self._controller, self.control_dt = controller_of(
             scene, self._integ, controller, control_dt
         )
         self._held = python_control.held_torque(self.model)
@@ -80,6 +92,9 @@ class Simulator:
         else:
             self._switches = self._integ.switches()
         self._wall = 0.0
+        self._rate = None  # wall seconds per simulated second of the last step
+        self._interrupt = None  # the Interrupt of a long step or of run_controlled
+        self._stepping = False  # within _ticks: a controller that steps again is refused
         self.reset()
         before = compile_seconds()
         tic = time.perf_counter()
@@ -107,8 +122,12 @@ class Simulator:
     def reset(self, q=None, qd=None, t=0.0):
         """Back to the scene's initial state, or (q (nq,), qd (nv,)) at time t (s): checked as
         a scene's initial state is (shapes, finite numbers, a unit quaternion for a floating
-        base). The record starts again."""
+        base, then the start checks of simulate: speeds within run.max_speed, positions within
+        enforced limits, contact points not deep in the ground or in each other, constraints
+        met, a finite energy; ValueError naming the argument and the cause). The record starts
+        again."""
         model = self.model
+        given = q is not None or qd is not None
         q = np.array(
             self.scene.q0 if q is None else checked_configuration(model, q, "Simulator.reset: q"),
             dtype=np.float64,
@@ -120,6 +139,15 @@ class Simulator:
         t = as_real(t, "Simulator.reset: t")
         if not math.isfinite(t):
             raise ValueError(f"Simulator.reset: t must be a finite time (s), got {t}")
+        if not given:
+            check_start(self.scene)
+        else:
+            try:
+                check_start(dataclasses.replace(self.scene, q0=q, qd0=qd))
+            except SceneError as error:
+                raise ValueError(
+                    f"Simulator.reset: this state cannot start the scene: {error}"
+                ) from None
         self._x = integrators.State(q, qd, np.zeros(2))
         self._t0 = self._t = t
         self._steps = 0
@@ -135,7 +163,7 @@ class Simulator:
             self._at = integrators.Progress(t, run.dt, 1)
             self._adaptive = integrators.AdaptiveSettings(
                 t0=t, t_end=math.inf, rtol=run.rtol, atol=run.atol, output_dt=run.output_dt,
-                max_speed=run.max_speed, size_index=error_size_index(model), land=True,
+                max_speed=run.max_speed, size_index=error_size_index(model), t_land=math.inf,
             )
         else:
             self._fixed = integrators.FixedSettings(
@@ -158,98 +186,188 @@ class Simulator:
         controller's torque is added to tau at the start of each.
         A failure (a state not finite or faster than run.max_speed, a singular mass matrix, a
         controller's error) raises SimulationError with the trajectory up to it; the
-        Simulator keeps that state and refuses further steps until reset.
+        Simulator keeps that state and refuses further steps until reset. Ctrl-C stops a long
+        step at the end of a compiled chunk (KeyboardInterrupt; the Simulator steps on from
+        there).
         """
         if self._stopped:
             raise SimulationError(
                 f"the simulator stopped ({self._stopped}); reset() it to step again",
                 self.trajectory(),
             )
-        tau_user = checked_torque(self.model, tau, "Simulator.step: tau")
-        duration = self.control_dt if duration is None else self._duration(duration)
-        if self._controller is None:
-            self._held[:] = tau_user
-            self._advance(duration)
-            return
-        ticks = whole_steps(duration / self.control_dt)
-        if ticks is None:
-            raise ValueError(
-                f"Simulator.step: duration = {duration:g} s is not a whole number of control "
-                f"periods control_dt = {self.control_dt:g} s (the controller runs at each)"
+        if self._stepping:
+            raise RuntimeError(
+                "Simulator.step: called while this Simulator steps (from its own controller?); "
+                "a controller returns the torque for its period and must not step the "
+                "simulator that calls it"
             )
-        for _ in range(ticks):
-            self._tick(tau_user, self.control_dt)
+        tau_user = checked_torque(self.model, tau, "Simulator.step: tau")
+        if duration is None:
+            duration = self.control_dt
+        else:
+            duration = checked_period(duration, "Simulator.step: duration", self._t)
+        ticks, period = 1, duration
+        if self._controller is not None:
+            ticks, period = whole_steps(duration / self.control_dt), self.control_dt
+            if ticks is None:
+                raise ValueError(
+                    f"Simulator.step: duration = {duration:g} s is not a whole number of "
+                    f"control periods control_dt = {self.control_dt:g} s (the controller runs "
+                    "at each)"
+                )
+        self._check_record(duration)
+        t_start = self._t
+        # each period's end from the step's start (no sum of rounded periods drifts)
+        ends = (t_start + (duration if k == ticks else k * period) for k in range(1, ticks + 1))
+        if self._interrupt is not None or not self._long(duration):
+            self._ticks(tau_user, ends)
+            return
+        with Interrupt() as stop:
+            self._interrupt = stop
+            try:
+                self._ticks(tau_user, ends)
+            except UserCodeInterrupted:
+                pass  # the controller stopped before it returned: the state is the one before
+            finally:
+                self._interrupt = None
+        if stop.requested:
+            raise KeyboardInterrupt(
+                f"Simulator.step: interrupted ({signal_name(stop.signum)}) at t = {self._t:.6g} "
+                "s, the end of a whole integrator step: the state is the one there, and step() "
+                "goes on from it"
+            )
 
-    def _tick(self, tau_user, duration):
-        """One control period: tau_held = tau_user + the controller's torque now, held over
-        `duration` s."""
-        self._held[:] = tau_user + self._control()
-        self._advance(duration)
+    def _long(self, duration):
+        """Whether a step of `duration` s may take longer than a chunk (the rate of the last
+        step, or, before any, more than FIRST_CHUNK steps of run.dt)."""
+        if self._rate is None:
+            return duration > FIRST_CHUNK * self.scene.run.dt
+        return duration * self._rate > 0.5 * CHUNK_SECONDS
 
-    def _duration(self, duration):
-        duration = as_real(duration, "Simulator.step: duration")
-        if not (math.isfinite(duration) and duration > 0):
-            raise ValueError(f"Simulator.step: duration must be a time > 0 (s), got {duration}")
-        return duration
+    def _ticks(self, tau_user, ends):
+        """One control period up to each time of `ends` (s): tau_held = tau_user + the
+        controller's torque at its start (tau_user alone without a controller), held over it.
+        Stops early once an Interrupt asked."""
+        tic, t_before = time.perf_counter(), self._t
+        self._stepping = True
+        try:
+            for t_end in ends:
+                if self._controller is None:
+                    self._held[:] = tau_user
+                else:
+                    self._held[:] = tau_user + self._control()
+                self._advance(t_end)
+                if self._interrupt is not None and self._interrupt.requested:
+                    break
+        finally:
+            self._stepping = False
+        if self._t > t_before:
+            self._rate = (time.perf_counter() - tic) / (self._t - t_before)
 
     def _control(self):
-        """The controller's torque at the current state, checked; SimulationError otherwise."""
-        fn, t = self._controller, self._t
+        """The controller's torque at the current state, checked; SimulationError otherwise.
+        Under an Interrupt, a second Ctrl-C or a SIGTERM stops a controller that blocks
+        (UserCodeInterrupted, the state untouched)."""
+        fn, t, stop = self._controller, self._t, self._interrupt
+        if stop is not None:
+            stop.in_user_code = True
         try:
             tau = fn(t, self._x.q.copy(), self._x.qd.copy())
         except Exception as error:
-            self._stop(f"controller {_name(fn)} raised {type(error).__name__}: {error} at "
-                       f"t = {t:.6g} s", error)
+            self._stop(f"controller {controller_name(fn)} raised {type(error).__name__}: "
+                       f"{error} at t = {t:.6g} s", error)
+        finally:
+            if stop is not None:
+                stop.in_user_code = False
         if tau is None:  # a controller that forgot to return: not zero torque
             self._stop(
-                f"controller {_name(fn)} returned None at t = {t:.6g} s; it must return the "
-                f"joint torques tau (a ({len(self.model.v_index)},) array; zeros for none)",
+                f"controller {controller_name(fn)} returned None at t = {t:.6g} s; it must "
+                f"return the joint torques tau (a ({len(self.model.v_index)},) array; zeros "
+                "for none)",
                 TypeError("the controller returned None"),
             )
         try:
             return checked_torque(
-                self.model, tau, f"controller {_name(fn)} at t = {t:.6g} s returned tau"
+                self.model, tau, f"controller {controller_name(fn)} at t = {t:.6g} s returned tau"
             )
         except (TypeError, ValueError) as error:
             self._stop(str(error), error)
 
-    def _advance(self, duration):
+    def _advance(self, t_end):
+        """Advance to t_end (s) with the held torque: in chunks under an Interrupt (stopping
+        after the one during which it asked), else in one compiled call, the state before it
+        put back if a Ctrl-C lands in it."""
         tic = time.perf_counter()
-        if self._integ.adaptive:
-            status = self._advance_adaptive(self._t + duration)
-        else:
-            n = whole_steps(duration / self.scene.run.dt)
-            if n is None:
-                raise ValueError(
-                    f"Simulator.step: duration = {duration:g} s is not a whole number of steps "
-                    f"of run.dt = {self.scene.run.dt:g} s ({duration / self.scene.run.dt:.6g} "
-                    f"steps; fixed-step integrator {self._integ.name!r})"
-                )
-            status = self._advance_fixed(n)
-        self._wall += time.perf_counter() - tic
+        saved = self._saved() if self._interrupt is None else None
+        try:
+            if self._integ.adaptive:
+                status = self._advance_adaptive(t_end)
+            else:
+                status = self._advance_fixed(self._whole_steps(t_end - self._t))
+        except KeyboardInterrupt:
+            if saved is not None:
+                self._restore(saved)
+            raise
+        finally:
+            self._wall += time.perf_counter() - tic
         if status:
-            steps = self._steps
             self._stop(
                 failure_message(
-                    self.scene, self._table, status, self._t, steps, self._x.q, self._x.qd,
-                    self._held,
+                    self.scene, self._table, status, self._t, self._steps, self._x.q,
+                    self._x.qd, self._held,
                 )
             )
 
-    def _advance_fixed(self, n):
-        every = self._every
-        self._reserve((self._steps + n - 1) // every + 1)
-        status, done = self._run_fixed(
-            self._switches, self._data, self._fixed, self._steps, n, self._x, self._record,
-            self._counters, self._free,
-        )
-        self._steps += done
-        self._t = self._t0 + self._steps * self.scene.run.dt
-        self._samples.filled = (self._steps - 1) // every + 1 if self._steps else 0
-        return status
-
-    def _advance_adaptive(self, t_stop):
+    def _whole_steps(self, duration):
         run = self.scene.run
+        n = whole_steps(duration / run.dt)
+        if n is None:
+            raise ValueError(
+                f"Simulator.step: duration = {duration:g} s is not a whole number of steps "
+                f"of run.dt = {run.dt:g} s ({duration / run.dt:.6g} steps; fixed-step "
+                f"integrator {self._integ.name!r})"
+            )
+        return n
+
+    def _saved(self):
+        """What a step changes: the state, the time, the step count, the record's length and
+        the adaptive loop's progress."""
+        x = self._x
+        return (x.q.copy(), x.qd.copy(), x.w.copy(), self._t, self._steps,
+                self._samples.filled, getattr(self, "_at", None))
+
+    def _restore(self, saved):
+        q, qd, w, self._t, self._steps, self._samples.filled, at = saved
+        self._x.q[:], self._x.qd[:], self._x.w[:] = q, qd, w
+        if at is not None:
+            self._at = at
+
+    def _advance_fixed(self, n):
+        """n fixed steps, in chunks of about CHUNK_SECONDS under an Interrupt. Returns the
+        status."""
+        stop, run = self._interrupt, self.scene.run
+        every, end = self._every, self._steps + n
+        chunk = n if stop is None else FIRST_CHUNK
+        self._reserve((end - 1) // every + 1)
+        while self._steps < end:
+            k = min(chunk, end - self._steps)
+            tic = time.perf_counter()
+            status, done = self._run_fixed(
+                self._switches, self._data, self._fixed, self._steps, k, self._x, self._record,
+                self._counters, self._free,
+            )
+            self._steps += done
+            self._t = self._t0 + self._steps * run.dt
+            self._samples.filled = (self._steps - 1) // every + 1 if self._steps else 0
+            if status or self._steps == end or (stop is not None and stop.requested):
+                return status
+            chunk = next_steps(done, time.perf_counter() - tic, chunk)
+        return 0
+
+    def _advance_adaptive(self, t_land):
+        """Adaptive steps landing on t_land (s), in chunks of about CHUNK_SECONDS under an
+        Interrupt. Returns the status."""
+        run, stop = self.scene.run, self._interrupt
         x, first = self._x, self._first
         # the held torque may have changed: the first (FSAL) stage is evaluated anew
         first.k[0] = x.qd
@@ -260,21 +378,49 @@ class Simulator:
         if self._samples.filled == 0:
             self._samples.put(0, self._t, x, first.tau)
             self._samples.filled = 1
-        self._reserve(int((t_stop - self._t0) / run.output_dt) + 2)
-        status, self._at = self._run_adaptive(
-            self._tableau, self._data, self._adaptive, self._at, t_stop, x, first,
-            self._record, self._counters, self._free,
-        )
-        self._t = self._at.t
-        self._samples.filled = self._at.row
-        self._steps = int(self._counters.accepted[0])
-        return status
+        self._reserve(int((t_land - self._t0) / run.output_dt) + 2)
+        settings = self._adaptive._replace(t_land=t_land)
+        span = run.output_dt if stop is not None else math.inf
+        while self._t < t_land:
+            tic = time.perf_counter()
+            status, self._at = self._run_adaptive(
+                self._tableau, self._data, settings, self._at, min(t_land, self._t + span), x,
+                first, self._record, self._counters, self._free,
+            )
+            self._t = self._at.t
+            self._samples.filled = self._at.row
+            self._steps = int(self._counters.accepted[0])
+            if status or (stop is not None and stop.requested):
+                return status
+            span = next_span(span, time.perf_counter() - tic, t_land - self._t0)
+        return 0
+
+    def _check_record(self, duration):
+        """Refuse a step whose record would not fit in the memory this process may allocate
+        (before anything is stepped): the samples every run.output_dt up to t + duration."""
+        rows = int((self._t + duration - self._t0) / self.scene.run.output_dt) + 2
+        per_row = 8 * (3 + self.model.nq + 2 * self.model.nv)  # t, q, qd, tau, w
+        room = available_memory()
+        if rows > len(self._samples.t) and room is not None and rows * per_row > room[0]:
+            have, what = room
+            raise ValueError(
+                f"Simulator.step: duration = {duration:g} s would make the record since the "
+                f"last reset {rows:.4g} samples (one every run.output_dt = "
+                f"{self.scene.run.output_dt:g} s), {byte_size(rows * per_row)}, more than the "
+                f"{byte_size(have)} that {what} leaves this process; step for less, keep "
+                "trajectory() and reset(), or raise run.output_dt"
+            )
 
     def _reserve(self, rows):
-        """Room for `rows` records (the buffer doubles when it must grow)."""
+        """Room for `rows` records (the buffer doubles when it must grow and that fits)."""
         samples = self._samples
         if rows > len(samples.t):
-            samples.grow(max(rows, 2 * len(samples.t)))
+            room = available_memory()
+            double = 2 * len(samples.t)
+            per_row = 8 * (3 + self.model.nq + 2 * self.model.nv)
+            if room is None or double * per_row < 0.5 * room[0]:
+                rows = max(rows, double)
+            samples.grow(rows)
             self._record = samples.arrays()
 
     def _stop(self, message, cause=None):
@@ -308,7 +454,7 @@ class Simulator:
         included) and work_applied its work."""
         samples = self._samples.copy()
         last = samples.t[samples.filled - 1] if samples.filled else -math.inf
-        if self._t > last:
+        if self._t - last > _sliver(self._t):
             tau = np.empty(self.model.nv)
             k, power = np.empty((2, self.model.nv)), np.empty(2)
             if self._evaluate(self._data, self._t, self._x.q, self._x.qd, k[1], tau, power):
@@ -332,13 +478,13 @@ class Simulator:
             stats,
         )
 
-    # -- torques -----------------------------------------------------------------------------
-
 
 def run_controlled(scene, controller, control_dt, progress, raise_on_failure):
     """simulate(scene, controller=...): a Simulator ticked one control period at a time over
     the scene's run.duration (the last period cut short where control_dt does not divide it),
-    with simulate's progress bar, Ctrl-C and failure handling."""
+    with simulate's progress bar, Ctrl-C and failure handling: the run stops at the end of the
+    chunk or control period during which Ctrl-C came, or at once, inside a controller that
+    blocks, on a second Ctrl-C or a SIGTERM."""
     sim = Simulator(scene, controller=controller, control_dt=control_dt)
     duration, period = scene.run.duration, sim.control_dt
     ticks = whole_steps(duration / period) or math.ceil(duration / period)
@@ -346,21 +492,24 @@ def run_controlled(scene, controller, control_dt, progress, raise_on_failure):
     shown, shown_at = 0.0, time.perf_counter()
     message = ""
     with Interrupt() as stop:
+        sim._interrupt = stop
         try:
-            for k in range(ticks):
-                sim._tick(0.0, period if k + 1 < ticks else duration - k * period)
-                if stop.requested and k + 1 < ticks:
-                    message = sim._stopped = (
-                        f"interrupted ({signal_name(stop.signum)}) at t = {sim.t:.6g} s "
-                        f"(step {sim._steps})"
-                    )
+            for k in range(1, ticks + 1):
+                t_end = duration if k == ticks else k * period
+                sim._ticks(0.0, (t_end,))
+                # asked during this period: the run stops at its end, or where it stopped
+                if stop.requested and (k < ticks or t_end - sim.t > _sliver(t_end)):
+                    message = sim._stopped = _interrupted(stop, sim)
                     break
                 if bar is not None and time.perf_counter() - shown_at > 0.1:
                     bar.update(sim.t - shown)
                     shown, shown_at = sim.t, time.perf_counter()
+        except UserCodeInterrupted:
+            message = sim._stopped = _interrupted(stop, sim, "; the controller had not returned")
         except SimulationError as error:
             message = str(error)
         finally:
+            sim._interrupt = None
             if bar is not None:
                 bar.update(sim.t - shown)
                 bar.close()
@@ -370,130 +519,13 @@ def run_controlled(scene, controller, control_dt, progress, raise_on_failure):
     return trajectory
 
 
-def _controller_of(scene, integ, controller, control_dt):
-    """(fn or None, control period s): the given controller or the scene's Python one, and
-    its period: control_dt, else the scene's [control] control_dt, else run.control_dt, else
-    run.dt; for a fixed-step integrator a whole number of steps."""
-    run = scene.run
-    own = python_control.record(scene)
-    if controller is None and own is not None:
-        controller = load_controller(own.function, f"{scene.source}: control.function")
-    if controller is not None and not callable(controller):
-        raise TypeError(
-            f"controller must be a function fn(t, q, qd) -> tau, got "
-            f"{type(controller).__name__} {controller!r}"[:200]
-        )
-    if own is not None and own.control_dt is not None and run.control_dt is not None:
-        raise SceneError(
-            f"{scene.source}: control.control_dt and run.control_dt are both given; give one"
-        )
-    if control_dt is None:
-        control_dt = next(
-            (dt for dt in (own and own.control_dt, run.control_dt) if dt is not None), run.dt
-        )
-    control_dt = as_real(control_dt, "control_dt")
-    if not (math.isfinite(control_dt) and control_dt > 0):
-        raise ValueError(f"control_dt must be a time > 0 (s), got {control_dt}")
-    if not integ.adaptive and whole_steps(control_dt / run.dt) is None:
-        raise ValueError(
-            f"{scene.source}: control_dt = {control_dt:g} s is not a whole number of steps of "
-            f"run.dt = {run.dt:g} s ({control_dt / run.dt:.6g} steps); the fixed-step "
-            f"integrator {run.integrator!r} holds the torque over whole steps"
-        )
-    return controller, control_dt
+def _sliver(t):
+    """Two times closer than this (s) are one (integrators.SLIVER)."""
+    return integrators.SLIVER * max(1.0, abs(t))
 
 
-def load_controller(spec, what):
-    """The function that spec names: "FILE.py:NAME" (a file, loaded as a module of its own) or
-    "MODULE:NAME" (imported). SceneError naming `what`, the file or module and the reason
-    when it cannot be loaded."""
-    where, name = python_control.function_parts(spec)
-    if where is None:
-        raise SceneError(f"{what}: {python_control.NOT_A_FUNCTION.format(spec=spec)}")
-    try:
-        if where.endswith(".py"):
-            path = pathlib.Path(where)
-            if not path.is_file():
-                raise SceneError(f"{what}: no file {str(path)!r}")
-            module_name = f"opendyn_controller_{abs(hash(str(path.resolve())))}"
-            spec_ = importlib.util.spec_from_file_location(module_name, path)
-            module = importlib.util.module_from_spec(spec_)
-            sys.modules[module_name] = module
-            spec_.loader.exec_module(module)
-        else:
-            module = importlib.import_module(where)
-    except SceneError:
-        raise
-    except Exception as error:
-        raise SceneError(
-            f"{what}: loading {where!r} failed: {type(error).__name__}: {error}"
-        ) from error
-    fn = getattr(module, name, None)
-    if not callable(fn):
-        found = "nothing" if fn is None else f"a {type(fn).__name__}"
-        raise SceneError(f"{what}: {where!r} has no function {name!r} ({found} by that name)")
-    return fn
-
-
-def checked_torque(model, tau, what):
-    """tau as a (nv,) float64 generalized force: (nv,), or with free joints (a floating base,
-    a scene's objects) the joints' (model.v_index,); 0.0 for None; TypeError or ValueError
-    naming `what` otherwise."""
-    if tau is None:
-        return 0.0
-    joints, base = model.v_index, model._unactuated
-    a = checks.as_float_array(tau, what)
-    if base.size and a.shape == joints.shape:
-        full = np.zeros(model.nv)
-        full[joints] = a
-        a = full
-    if a.shape != (model.nv,):
-        also = f" or the joints' ({len(joints)},)" if base.size else ""
-        raise ValueError(f"{what}: expected shape ({model.nv},){also}, got {_shown(a)}")
-    if not np.isfinite(a).all():
-        raise ValueError(f"{what}: not finite: {_shown(a)}")
-    if base.size and np.any(a[base] != 0.0):
-        raise ValueError(
-            f"{what}: the free joints (a floating base, a scene's objects) are not actuated, "
-            f"so tau at their coordinates "
-            f"{base.tolist()} must be zero, got {a[base].tolist()} (give the joints' "
-            f"({len(joints)},) alone)"
-        )
-    return a
-
-
-def checked_configuration(model, q, what):
-    """q checked as an initial configuration (nq,): finite, each quaternion within
-    QUATERNION_TOLERANCE of unit norm as every dynamics function takes it (the same check), and
-    normalised; errors name `what`."""
-    q = checked_vector(model, q, what, model.nq)
-    check_unit_quaternions(model, q, "q", what)
-    for i in np.flatnonzero(model.jtype == FREE):
-        k = int(model.iq[i]) + 3
-        q[k : k + 4] /= np.linalg.norm(q[k : k + 4])
-    return q
-
-
-def checked_vector(model, x, what, n=None):
-    """x as a finite float64 (n,) copy (n = nv by default); TypeError or ValueError naming
-    `what`."""
-    n = model.nv if n is None else n
-    a = np.array(checks.as_float_array(x, what), dtype=np.float64)
-    if a.shape != (n,):
-        raise ValueError(f"{what}: expected shape ({n},), got {_shown(a)}")
-    if not np.all(np.isfinite(a)):
-        raise ValueError(f"{what}: not finite: {_shown(a)}")
-    return a
-
-
-def _shown(a):
-    text = np.array2string(np.asarray(a), precision=4, threshold=12)
-    return f"shape {np.shape(a)}: {text}"
-
-
-def _name(fn):
-    """The controller as messages name it: its qualified name (Class.method) without the
-    "outer.<locals>." of a function defined inside another."""
-    name = getattr(fn, "__qualname__", None) or type(fn).__name__
-    return repr(name.rpartition("<locals>.")[2])
-
+def _interrupted(stop, sim, where=""):
+    return (
+        f"interrupted ({signal_name(stop.signum)}) at t = {sim.t:.6g} s (step {sim._steps})"
+        f"{where}"
+    )

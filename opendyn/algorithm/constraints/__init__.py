@@ -29,6 +29,8 @@ from ...multibody.constraint_objects import (
     POINT_TO_WORLD,
 )
 from .api import (
+    CONSTRAINT_TOLERANCE,
+    broken_constraint,
     constrained_forward_dynamics,
     constrained_inverse_dynamics,
     constraint_drift,
@@ -52,6 +54,8 @@ from .table import BODY_A, BODY_B, KIND, OFFSET, ROW_COUNT, ConstraintTable, con
 from .terms import constraint_terms_kernel
 
 __all__ = [
+    "CONSTRAINT_TOLERANCE",
+    "broken_constraint",
     "BODY_A",
     "BODY_B",
     "FIXED_POSE",

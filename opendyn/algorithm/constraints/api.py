@@ -117,6 +117,27 @@ def constraint_error(model, q, constraints, q_bound=None, data=None):
     return _term(model, q, None, constraints, q_bound, "constraint_error", "phi", data)
 
 
+# a state farther than this from its constraints (m or rad; m/s or rad/s) cannot start a run
+CONSTRAINT_TOLERANCE = 1e-6
+
+
+def broken_constraint(model, q, qd, constraints):
+    """The first of `constraints` (a sequence) that the state (q (nq,), qd (nv,)) breaks by
+    more than CONSTRAINT_TOLERANCE: (its index, "position" (|phi|, with the None targets bound
+    at q) or "velocity" (|A qd|), the largest error), or None when it meets them all."""
+    phi = constraint_error(model, q, constraints, q_bound=q)
+    velocity = constraint_jacobian(model, q, constraints) @ qd
+    row = 0
+    for i, c in enumerate(constraints):
+        k = c.n_rows(model.nv)
+        for what, values in (("position", phi), ("velocity", velocity)):
+            worst = float(np.max(np.abs(values[row : row + k])))
+            if not worst <= CONSTRAINT_TOLERANCE:
+                return i, what, worst
+        row += k
+    return None
+
+
 def constrained_forward_dynamics(
     model,
     q,

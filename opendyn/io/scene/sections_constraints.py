@@ -14,6 +14,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from ...algorithm.constraints import broken_constraint
 from ...errors import SceneError
 from ...multibody.constraint_objects import (
     FixedPose,
@@ -22,6 +23,7 @@ from ...multibody.constraint_objects import (
     PointToPoint,
     PointToWorld,
 )
+from ...sim.preflight import broken_message
 from ...sim.values import ValueReader, what_is
 
 CONSTRAINT_TYPES = (
@@ -39,8 +41,6 @@ CONSTRAINT_KEYS = {
     "joint_coupling": ("type", "coefficients", "matrix"),
 }
 BAUMGARTE_KEYS = ("alpha", "beta")
-# an initial state farther than this from the constraints (m or rad; m/s or rad/s) is refused
-CONSTRAINT_TOLERANCE = 1e-6
 
 
 class ConstraintsSection(ValueReader):
@@ -144,26 +144,13 @@ class ConstraintsSection(ValueReader):
     def _check_initial_state(self, constraints, q0, qd0):
         """Refuse an initial state that breaks a constraint: simulating it would start off the
         constraint manifold (and, without stabilisation, stay off it)."""
-        from ...algorithm.constraints import constraint_error, constraint_jacobian
-
         try:
-            phi = constraint_error(self.model, q0, constraints, q_bound=q0)
+            broken = broken_constraint(self.model, q0, qd0, constraints)
         except ValueError as e:
             self.fail("constraints", str(e))
-        velocity = constraint_jacobian(self.model, q0, constraints) @ qd0
-        row = 0
-        for i, c in enumerate(constraints):
-            k = c.n_rows(self.model.nv)
-            for what, values, unit in (("position", phi, "m or rad"), ("velocity", velocity, "")):
-                worst = float(np.max(np.abs(values[row : row + k])))
-                if not worst <= CONSTRAINT_TOLERANCE:
-                    self.fail(
-                        f"constraints[{i}]",
-                        f"the initial state breaks this {type(c).__name__} constraint: its "
-                        f"{what} error is {worst:.3g} (tolerance {CONSTRAINT_TOLERANCE:g}); give "
-                        f"[initial] q and qd that satisfy it",
-                    )
-            row += k
+        if broken is not None:
+            i, what, worst = broken
+            self.fail(f"constraints[{i}]", broken_message(constraints[i], what, worst))
 
     def baumgarte(self, table, has_constraints) -> tuple[float, float] | None:
         if table is None:
