@@ -18,10 +18,10 @@ import time
 import numpy as np
 import pyarrow.parquet as pq  # the test extra installs the sweep extra
 import pytest
-
-import opendyn as od
 from conftest import ctrl_c_default
 from plotcheck import assert_lines_shown, read_png, saved_figures
+
+import opendyn as od
 from opendyn.errors import SweepError
 from opendyn.sim.scene import thaw
 from opendyn.sweep.specs import Axis, combinations, parse_axis
@@ -588,11 +588,11 @@ def _bounded_waits(monkeypatch, timeout):
 def test_a_scheduler_address_that_is_not_dask_is_one_line_within_the_timeout(
     answer, words, tmp_path, monkeypatch, capsys
 ):
-    from opendyn.cli import sweep as sweep_command
     from opendyn.cli.main import main
+    from opendyn.sweep import cluster
 
     monkeypatch.chdir(tmp_path)
-    monkeypatch.setattr(sweep_command, "SCHEDULER_TIMEOUT", 1.0)
+    monkeypatch.setattr(cluster, "SCHEDULER_TIMEOUT", 1.0)
     waits = _bounded_waits(monkeypatch, 1.0)
     address, stop = _service(answer)
     try:

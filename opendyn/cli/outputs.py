@@ -17,8 +17,10 @@ import tempfile
 
 from .._runtime.files import unwritable
 from .._runtime.signals import held_interrupt
+from ..io.meshes import mesh_files
 from ..sim.effects import geometry_contact
 from ..sim.effects.geometry_contact import GROUND
+from ..sim.effects.python_control import function_parts
 from ..sim.trajectory import contacts_csv_path, saved_paths
 from .interrupts import _doing
 
@@ -69,6 +71,39 @@ def _check_outputs(outputs, others=()):
             hint = f" ({DEFAULT_SAVE_HINT})" if option == DEFAULT_SAVE else ""
             raise ValueError(f"{option} {name!r}:{which} {problem}{hint}")
         seen.setdefault(real, (option, name))
+
+
+def _check_not_inputs(outputs, scene, controller=None):
+    """Raise ValueError naming the option and the file for the first of `outputs` (option,
+    name, path) that is one of the run's inputs (`_inputs`): writing it would replace the
+    scene, the robot or the controller with a record."""
+    inputs = _inputs(scene, controller)
+    for option, name, path in outputs:
+        what = inputs.get(os.path.realpath(path))
+        if what is not None:
+            raise ValueError(
+                f"{option} {name!r}: is {what}, an input of this run; writing the output there "
+                "would replace it: name another file"
+            )
+
+
+def _inputs(scene, controller):
+    """{real path: what it is} of every file the run reads: the scene file, the robot's URDF,
+    the files the scene names (SRDF, objects' URDFs, world meshes, its controller's file), the
+    meshes those URDFs name, and the file of --controller FILE.py:NAME."""
+    inputs = {}
+    model = scene.model
+    named = [(scene.source, "the scene file"), (model.source, "the robot's URDF")]
+    named += [(path, "a file the scene names") for path in scene.files]
+    urdfs = [path for path, _ in named if str(path).endswith(".urdf")]
+    named += [(mesh, "a mesh of the robot or an object") for u in urdfs for mesh in mesh_files(u)]
+    where, _ = function_parts(controller) if controller else (None, None)
+    if where is not None and where.endswith(".py"):
+        named.append((where, "the controller's file"))
+    for path, what in named:
+        if path and os.path.isfile(path):
+            inputs.setdefault(os.path.realpath(path), what)
+    return inputs
 
 
 def _unplottable(path):

@@ -12,6 +12,7 @@ import time
 import numpy as np
 
 from .._runtime.signals import held_interrupt
+from ..errors import SceneError, URDFError
 from ..io.scene.files import (
     DEFAULT_SCENE,
     default_scene,
@@ -20,15 +21,15 @@ from ..io.scene.files import (
     scene_from_dict,
     shipped_scenes,
 )
-from ..errors import SceneError, URDFError
-from ..sim.scene import thaw
 from ..io.urdf import load_urdf
 from ..sim.effects import registry
 from ..sim.integrators import INTEGRATORS
+from ..sim.scene import thaw
 from ..sim.trajectory import saved_paths
 from .interrupts import _doing
 from .outputs import (
     DEFAULT_SAVE,
+    _check_not_inputs,
     _check_outputs,
     _contact,
     _default_record,
@@ -114,9 +115,10 @@ def _simulate(args) -> int:
             raise SceneError("--control-dt: give --controller FILE.py:FUNCTION with it")
     if args.output is None and not args.no_save:
         defaults = [_default_record(scene, complete) for complete in (True, False)]
-        _check_outputs(
-            [(DEFAULT_SAVE, name, path) for name in defaults for path in saved_paths(name)], named
-        )
+        defaults = [(DEFAULT_SAVE, name, path) for name in defaults for path in saved_paths(name)]
+        _check_outputs(defaults, named)
+        named += defaults
+    _check_not_inputs(named, scene, args.controller)
     if not args.quiet:
         print(_scene_header(scene))
     with _doing("getting the compiled step ready; the run had not started"):

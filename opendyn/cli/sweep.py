@@ -4,63 +4,12 @@ Parquet row per run."""
 from __future__ import annotations
 
 import pathlib
-import socket
-import struct
 import sys
 import time
 
 from .interrupts import _doing, _Interrupted
-from .outputs import _check_outputs, _slug
+from .outputs import _check_not_inputs, _check_outputs, _slug
 from .simulate import WRITE_FAILED, scene_for
-
-
-# seconds a --scheduler has to answer
-SCHEDULER_TIMEOUT = 10.0
-# Dask's TCP messages open with their length in 8 bytes (little-endian), and both ends send a
-# handshake of a few hundred bytes on connecting; a "length" beyond this is not Dask's
-_HANDSHAKE_MAX = 1 << 20
-
-
-def check_scheduler(address, timeout):
-    """ValueError in one line unless the TCP service at `address` (tcp://HOST:PORT or
-    HOST:PORT) opens as a Dask scheduler does within `timeout` seconds: with an 8-byte length
-    of a plausible handshake. Something else (an SSH banner) or silence is named here, where
-    Dask would read the banner as a length of exabytes, or wait past its own timeout. Other
-    schemes (tls://, ...) are left to Dask."""
-    scheme, _, rest = address.rpartition("://")
-    if scheme not in ("", "tcp"):
-        return
-    host, _, port = rest.rpartition(":")
-    if not host or not port.isdigit():
-        raise ValueError(f"--scheduler {address}: expected tcp://HOST:PORT")
-    deadline = time.monotonic() + timeout
-    header = b""
-    try:
-        with socket.create_connection((host.strip("[]"), int(port)), timeout=timeout) as peer:
-            while len(header) < 8:
-                peer.settimeout(max(deadline - time.monotonic(), 1e-3))
-                chunk = peer.recv(8 - len(header))
-                if not chunk:
-                    break
-                header += chunk
-    except TimeoutError:
-        raise ValueError(
-            f"--scheduler {address}: no answer within {timeout:g} s; a Dask scheduler answers "
-            "at once, so this is not one (or it is overloaded)"
-        ) from None
-    except OSError as e:
-        raise ValueError(f"--scheduler {address}: cannot connect ({e.strerror or e})") from None
-    if len(header) < 8:
-        raise ValueError(
-            f"--scheduler {address}: the service there closed the connection after "
-            f"{len(header)} bytes; it is not a Dask scheduler"
-        )
-    (length,) = struct.unpack("<Q", header)
-    if not 0 < length <= _HANDSHAKE_MAX:
-        raise ValueError(
-            f"--scheduler {address}: the service there is not a Dask scheduler (it opened with "
-            f"{header!r})"
-        )
 
 
 def _sweep(args) -> int:
@@ -85,25 +34,22 @@ def _sweep(args) -> int:
     if args.plot is not None:
         named.append(("--plot", args.plot, pathlib.Path(args.plot)))
     _check_outputs(named)
+    _check_not_inputs(named, scene)
     if args.metric is not None and args.plot is None:
         raise ValueError(
             f"--metric {args.metric}: it picks the metric --plot draws; give --plot FILE.png "
             "(every metric is a column of the results table either way)"
         )
     if args.plot is not None:
-        from ..sweep.specs import parse_axis
         from ..sweep.plot import check_plan
+        from ..sweep.specs import parse_axis
 
         check_plan([parse_axis(key, spec) for key, spec in vary.items()], args.metric)
     client = None
     if args.scheduler is not None:
-        from dask.distributed import Client
+        from ..sweep.cluster import connect
 
-        check_scheduler(args.scheduler, SCHEDULER_TIMEOUT)
-        try:
-            client = Client(args.scheduler, timeout=f"{SCHEDULER_TIMEOUT}s")
-        except (OSError, TimeoutError) as e:
-            raise ValueError(f"--scheduler {args.scheduler}: cannot connect ({e})") from None
+        client = connect(args.scheduler, "--scheduler")
     outputs = [m.strip() for m in args.outputs.split(",")] if args.outputs else None
     tic = time.perf_counter()
     try:

@@ -56,6 +56,20 @@ def resolve_mesh(filename: str, urdf_dir) -> tuple[str | None, list[str]]:
     return (str(path.resolve()) if path.is_file() else None), [str(path)]
 
 
+def mesh_files(urdf_file) -> list[str]:
+    """The mesh files a URDF names that exist (each <mesh filename> of its visuals and
+    collisions, resolve_mesh'd), as absolute paths; [] for a file that is not readable XML."""
+    from xml.etree import ElementTree
+
+    try:
+        root = ElementTree.parse(urdf_file).getroot()
+    except (OSError, ElementTree.ParseError):
+        return []
+    folder = pathlib.Path(urdf_file).resolve().parent
+    found = (resolve_mesh(mesh.get("filename") or "", folder)[0] for mesh in root.iter("mesh"))
+    return sorted({path for path in found if path})
+
+
 def _package_candidates(pkg, urdf_dir):
     """Folders that may be the package PKG, in search order (existing ones only, no repeats)."""
     seen = set()

@@ -56,6 +56,8 @@ class Scene:
     beta^2 phi = 0 of their drift, or None (A qdd + Adot qd = 0: the drift is left alone).
     other_effects: {name: record} of the effects whose module in opendyn.sim.effects keeps its
     record in no field above (FIELD = None); empty for the effects opendyn ships.
+    files: the other files the scene file names, as paths: the robot's URDF and SRDF, its
+    objects' URDFs, its world meshes, its Python controller's file.
     """
 
     name: str
@@ -76,6 +78,7 @@ class Scene:
     baumgarte: tuple[float, float] | None = None
     contact: Contact | None = None
     other_effects: Mapping = dataclasses.field(default_factory=dict)
+    files: tuple[str, ...] = ()
 
     def __post_init__(self):
         object.__setattr__(self, "settings", _freeze(thaw(self.settings)))

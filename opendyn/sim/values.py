@@ -25,6 +25,7 @@ class ValueReader:
     def __init__(self, source: str):
         self.source = source
         self.model: Model | None = None
+        self.files: list[pathlib.Path] = []  # every file read (existing_file), in order
 
     def fail(self, key: str, what: str):
         where = f"{self.source}: {key}: " if key else f"{self.source}: "
@@ -60,12 +61,14 @@ class ValueReader:
 
     def existing_file(self, value, key, kind, base_dir) -> pathlib.Path:
         """The file a string names, relative to `base_dir` (the scene's folder; None: the
-        working folder), which must exist: "no such KIND file" otherwise."""
+        working folder), which must exist: "no such KIND file" otherwise. It joins the files
+        read (`files`)."""
         path = pathlib.Path(self.string(value, key))
         if not path.is_absolute() and base_dir is not None:
             path = pathlib.Path(base_dir) / path
         if not path.is_file():
             self.fail(key, f"no such {kind} file: {path}")
+        self.files.append(path)
         return path
 
     def boolean(self, value, key) -> bool:

@@ -14,10 +14,14 @@ closes and the signal goes to its handler.
 
 from __future__ import annotations
 
+import contextlib
 import multiprocessing
 import os
 import signal
+import socket
+import struct
 import threading
+import time
 
 from .._runtime.signals import deliver
 from ..errors import SweepError
@@ -50,6 +54,68 @@ def _start_fork_server():
     return "forkserver"
 
 
+# seconds a scheduler has to answer
+SCHEDULER_TIMEOUT = 10.0
+# Dask's TCP messages open with their length in 8 bytes (little-endian), and both ends send a
+# handshake of a few hundred bytes on connecting; a "length" beyond this is not Dask's
+_HANDSHAKE_MAX = 1 << 20
+
+
+def check_scheduler(address, timeout, what):
+    """ValueError in one line unless the TCP service at `address` (tcp://HOST:PORT or
+    HOST:PORT) opens as a Dask scheduler does within `timeout` seconds (`what`: how the
+    message names the address): with an 8-byte length
+    of a plausible handshake. Something else (an SSH banner) or silence is named here, where
+    Dask would read the banner as a length of exabytes, or wait past its own timeout. Other
+    schemes (tls://, ...) are left to Dask."""
+    scheme, _, rest = address.rpartition("://")
+    if scheme not in ("", "tcp"):
+        return
+    host, _, port = rest.rpartition(":")
+    if not host or not port.isdigit():
+        raise ValueError(f"{what} {address}: expected tcp://HOST:PORT")
+    deadline = time.monotonic() + timeout
+    header = b""
+    try:
+        with socket.create_connection((host.strip("[]"), int(port)), timeout=timeout) as peer:
+            while len(header) < 8:
+                peer.settimeout(max(deadline - time.monotonic(), 1e-3))
+                chunk = peer.recv(8 - len(header))
+                if not chunk:
+                    break
+                header += chunk
+    except TimeoutError:
+        raise ValueError(
+            f"{what} {address}: no answer within {timeout:g} s; a Dask scheduler answers "
+            "at once, so this is not one (or it is overloaded)"
+        ) from None
+    except OSError as e:
+        raise ValueError(f"{what} {address}: cannot connect ({e.strerror or e})") from None
+    if len(header) < 8:
+        raise ValueError(
+            f"{what} {address}: the service there closed the connection after "
+            f"{len(header)} bytes; it is not a Dask scheduler"
+        )
+    (length,) = struct.unpack("<Q", header)
+    if not 0 < length <= _HANDSHAKE_MAX:
+        raise ValueError(
+            f"{what} {address}: the service there is not a Dask scheduler (it opened with "
+            f"{header!r})"
+        )
+
+
+def connect(address, what):
+    """A dask.distributed Client of the scheduler at `address` (tcp://HOST:PORT), checked first
+    by check_scheduler; ValueError in one line naming `what` and the address otherwise."""
+    from dask.distributed import Client
+
+    check_scheduler(address, SCHEDULER_TIMEOUT, what)
+    try:
+        return Client(address, timeout=f"{SCHEDULER_TIMEOUT}s")
+    except (OSError, TimeoutError) as e:
+        raise ValueError(f"{what} {address}: cannot connect ({e})") from None
+
+
 class LocalOrGiven:
     """`with LocalOrGiven(client, workers) as dask_client`: `client` itself, or a local cluster
     of `workers` processes (default: one per core) for the duration of the block."""
@@ -59,10 +125,22 @@ class LocalOrGiven:
             check_whole(workers, "workers", 1)
         if client is not None and workers is not None:
             raise SweepError("workers: give workers for a local cluster, or a client, not both")
+        if client is not None and not isinstance(client, str):
+            from dask.distributed import Client
+
+            if not isinstance(client, Client):
+                raise TypeError(
+                    "client: expected a dask.distributed Client or a scheduler's address "
+                    f"'tcp://HOST:PORT', got {type(client).__name__} {client!r}"[:300]
+                )
         self.client, self.workers = client, workers
 
     def __enter__(self):
         self.own = None
+        if isinstance(self.client, str):  # a scheduler's address: a client of our own
+            client = connect(self.client, "client")
+            self.own, self.config = (None, client), contextlib.nullcontext()
+            return client
         if self.client is not None:
             return self.client
         import logging
@@ -121,5 +199,6 @@ class LocalOrGiven:
             cluster, client = self.own
             self.own = None
             client.close()
-            cluster.close()
+            if cluster is not None:
+                cluster.close()
             self.config.__exit__(None, None, None)

@@ -186,16 +186,16 @@ from __future__ import annotations
 import warnings
 
 from ...errors import SceneWarning
+from ...multibody.assembly import empty_model
 from ...sim.effects.registry import scene_fields
-from ..urdf import welded_mobile_warning
+from ...sim.run import RunSection
 from ...sim.scene import Scene
+from ..urdf import welded_mobile_warning
 from .sections_constraints import ConstraintsSection
 from .sections_control import ControlSection
 from .sections_effects import EffectsSection
 from .sections_robot import RobotSection
 from .sections_world import WorldSection
-from ...multibody.assembly import empty_model
-from ...sim.run import RunSection
 
 TOP_KEYS = (
     "name",
@@ -248,6 +248,7 @@ def _build(data, source, base_dir, default_name=None, model=None) -> Scene:
         settings=data,
         constraints=r.constraints(data.get("constraints"), q0, qd0),
         baumgarte=r.baumgarte(data.get("baumgarte"), "constraints" in data),
+        files=tuple(dict.fromkeys(str(path) for path in r.files)),
     )
 
 

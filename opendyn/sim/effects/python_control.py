@@ -58,6 +58,7 @@ def read(r, table, q0) -> Control:
             path = pathlib.Path(r.base_dir) / path
         if not path.is_file():
             r.fail("control.function", f"no file {str(path)!r} (from {function!r})")
+        r.files.append(path)
         function = f"{path.resolve()}:{name}"
     control_dt = None
     if "control_dt" in table:
