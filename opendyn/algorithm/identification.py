@@ -153,6 +153,12 @@ def _least_squares(W, T, what):
     Q, R, pivots = qr(W, mode="economic", pivoting=True)
     d = np.abs(np.diag(R))
     r = int(np.sum(d > max(m, p) * np.finfo(float).eps * d[0])) if d.size else 0
+    if r == 0:
+        raise ValueError(
+            f"{what}: the samples move no torque with any parameter (the regressor is zero: "
+            "e.g. a robot at rest whose joint axes all lie along gravity); give samples with "
+            "speeds and accelerations, or poses where gravity acts on the joints"
+        )
     if m <= r:
         raise ValueError(
             f"{what}: {m} torque samples (N nv) do not overdetermine the {r} identifiable "
@@ -262,6 +268,27 @@ def _payload_from_parameters(phi, covariance):
     return mass, com, inertia, float(std[0]), std[1:4], inertia_std
 
 
+# a payload's mass within this many standard deviations of zero is no payload: its centre of
+# mass h / m and its inertia about it would be noise divided by noise
+MASS_SIGNIFICANCE = 3.0
+
+
+def _check_mass(mass, mass_std, T, tau, frame, what):
+    """Refuse an estimate whose mass is not told apart from zero (|m| <= MASS_SIGNIFICANCE std,
+    or below the rounding of the torques): the data hold no payload whose centre of mass and
+    inertia could be found."""
+    scale = np.finfo(float).eps * len(tau) * max(float(np.abs(tau).max(initial=0.0)), 1.0)
+    if abs(mass) > MASS_SIGNIFICANCE * mass_std and np.abs(T).max(initial=0.0) > scale:
+        return
+    raise ValueError(
+        f"{what}: the torques show no payload at frame {frame!r}: tau - ID(model) is "
+        f"{np.sqrt(np.mean(T**2)):.3g} N m RMS and the mass comes out {mass:.3g} +- "
+        f"{mass_std:.3g} kg, not told apart from zero, so its centre of mass and inertia "
+        "cannot be found; check that tau was measured with the payload on, and that `model` is "
+        "the robot without it"
+    )
+
+
 def identify_payload(model, frame, q, qd, qdd, tau):
     """Mass, centre of mass and inertia of an unknown rigid payload carried at `frame`.
 
@@ -276,8 +303,9 @@ def identify_payload(model, frame, q, qd, qdd, tau):
     deviations. The estimate is not forced to be physical: a payload too light for the noise
     can come out with a negative moment; look at the standard deviations.
     Where qdd is not measured, differentiate q with a smoothing filter (module docstring).
-    ValueError when the samples do not excite the payload's ten parameters, or when the frame
-    is welded to the fixed world; KeyError for an unknown frame.
+    ValueError when the samples do not excite the payload's ten parameters, when the torques
+    show no payload (its mass within MASS_SIGNIFICANCE standard deviations of zero), or when
+    the frame is welded to the fixed world; KeyError for an unknown frame.
     """
     what = "identify_payload"
     q, qd, qdd, tau = _samples(model, what, q, qd, qdd, tau)
@@ -302,6 +330,7 @@ def identify_payload(model, frame, q, qd, qdd, tau):
     phi[pivots] = fit.beta
     cov = np.empty_like(fit.covariance)
     cov[np.ix_(pivots, pivots)] = fit.covariance
+    _check_mass(phi[0], np.sqrt(cov[0, 0]), T, tau, frame, what)
     mass, com, inertia, mass_std, com_std, inertia_std = _payload_from_parameters(phi, cov)
     return PayloadEstimate(
         mass=mass,

@@ -46,6 +46,7 @@ from ..algorithm.configuration import check_unit_quaternions
 from ..errors import RolloutInterrupted, SceneError, SceneWarning
 from . import effects, integrators
 from .diagnostics import check_contact_step, failure_message
+from .driver import Interrupt, error_size_index, free_joints, integrator_of
 from .effects import python_control
 from .preflight import byte_size, check_start, run_size, sample_numbers
 from .rollout_loops import (
@@ -58,7 +59,6 @@ from .rollout_loops import (
     run_list,
 )
 from .rollout_result import COMPLETE, FAILED, INTERRUPTED, RolloutResult
-from .driver import Interrupt, error_size_index, free_joints, integrator_of
 from .step import scene_data
 
 RECORDS = ("samples", "final")
@@ -100,9 +100,10 @@ class Runs:
         i's Scene with its params set (rollout's `vary`)."""
         model = scene.model
         params = _params(params)
-        n = _count(q0, qd0, params)
+        _check_state_keys(params, q0, qd0)
         q0 = None if q0 is None else _states(model, q0, "q0", model.nq)
         qd0 = None if qd0 is None else _states(model, qd0, "qd0", model.nv)
+        n = _count(q0, qd0, params)
         shared = not params and not scene.constraints
         table = effects.stage_table(scene) if shared else None
 
@@ -251,7 +252,7 @@ class _Loop:
             settings = integrators.AdaptiveSettings(
                 t0=0.0, t_end=run.duration, rtol=run.rtol, atol=run.atol,
                 output_dt=run.output_dt, max_speed=run.max_speed,
-                size_index=error_size_index(scene.model), land=False,
+                size_index=error_size_index(scene.model), t_land=math.inf,
             )
             at = integrators.Progress(0.0, run.dt, 1)
             self.kernel, self.head = rollout_adaptive, (integ.tableau(), settings, at)
@@ -457,12 +458,12 @@ def _params(params):
                 f"rollout: params[{key!r}]: the run settings are one for the whole batch (the "
                 "steps and records of its runs); od.sweep varies them"
             )
-        if np.asarray(values).dtype.kind in "bUSO":
-            raise TypeError(
-                f"rollout: params[{key!r}]: rollout varies numbers only (the keys that leave "
-                "what is compiled as it is); od.sweep varies words and true/false"
-            )
-        a = as_float_array(values, f"rollout: params[{key!r}]")
+        a = as_float_array(
+            values,
+            f"rollout: params[{key!r}]",
+            "numbers (rollout varies the keys that leave what is compiled as it is; od.sweep "
+            "varies words and true/false)",
+        )
         if a.ndim not in (1, 2) or not len(a):
             raise ValueError(
                 f"rollout: params[{key!r}] must have shape (N,) or (N, k), got {a.shape}"
@@ -474,12 +475,40 @@ def _params(params):
     return checked
 
 
+# the scene keys that set part of the initial configuration, and of the initial velocity, which
+# q0 and qd0 replace whole: [initial] and each object's pose and speed (objects.N.KEY)
+_STATE_KEYS = {
+    "q0": (("initial.q", "initial.base_position", "initial.base_orientation",
+            "initial.base_rpy"), ("position", "orientation", "rpy")),
+    "qd0": (("initial.qd", "initial.base_velocity", "initial.base_angular_velocity"),
+            ("velocity", "angular_velocity")),
+}
+
+
+def _check_state_keys(params, q0, qd0):
+    """Refuse a params key that sets part of the initial state q0 or qd0 replaces: one of the
+    two would be dropped without a word."""
+    for name, given in (("q0", q0), ("qd0", qd0)):
+        if given is None:
+            continue
+        initial, of_object = _STATE_KEYS[name]
+        for key in params:
+            parts = key.split(".")
+            if (
+                any(key == k or key.startswith(k + ".") for k in initial)
+                or (parts[0] == "objects" and len(parts) > 2 and parts[2] in of_object)
+            ):
+                raise ValueError(
+                    f"rollout: params[{key!r}] sets part of the initial state that {name}= "
+                    f"replaces whole; give the runs' states in {name} alone, or vary {key!r} "
+                    f"without {name}="
+                )
+
+
 def _count(q0, qd0, params):
-    """N from the arguments' lengths (ValueError when they disagree), 1 when none is given."""
-    lengths = {
-        name: len(np.asarray(a)) if np.ndim(a) else 1
-        for name, a in [("q0", q0), ("qd0", qd0)] if a is not None
-    }
+    """N from the checked arguments' lengths (ValueError when they disagree), 1 when none is
+    given."""
+    lengths = {name: len(a) for name, a in [("q0", q0), ("qd0", qd0)] if a is not None}
     lengths.update({f"params[{key!r}]": len(a) for key, a in params.items()})
     if len(set(lengths.values())) > 1:
         told = ", ".join(f"{name} has {k}" for name, k in lengths.items())

@@ -128,8 +128,9 @@ def sweep(
       'log:lo:hi:n', or a distribution 'uniform:lo:hi' or 'normal:mu:sigma' (needs samples).
     samples: None for every combination of the lists and grids; N for N random runs, each key
       drawn on its own (seeded by `seed`).
-    client: a dask.distributed Client of the cluster to run on; None starts a local cluster of
-      `workers` worker processes (default: one per core) for the sweep.
+    client: a dask.distributed Client of the cluster to run on, or its scheduler's address
+      ('tcp://HOST:PORT', connected for the sweep, as `opendyn sweep --scheduler`); None
+      starts a local cluster of `workers` worker processes (default: one per core) for it.
     outputs: names of opendyn.sim.metrics.METRICS to compute for every run; None: every metric
       that applies to some run's scene.
     parquet: a Parquet file the rows are written to as they arrive (parts in the folder
@@ -161,6 +162,7 @@ def sweep(
     if chunk_size is not None:
         check_whole(chunk_size, "chunk_size (--chunk)", 1)
     _check_outputs(parquet, trajectories)
+    cluster = LocalOrGiven(client, workers)
     axes = [parse_axis(key, spec) for key, spec in vary.items()]
     runs = combinations(axes, samples, seed)
     base = Variants.of(scene)
@@ -181,6 +183,8 @@ def sweep(
         ).hexdigest()[:16],
         # and what the scene read from it: coefficients = "urdf" takes the URDF's damping
         "effects": _effects_digest(scene),
+        # and the Python controller's code: a gain edited in its file is another sweep too
+        "controller": _controller_digest(scene),
     }
     record["fingerprint"] = hashlib.sha1(
         json.dumps(record, sort_keys=True, default=str).encode()
@@ -188,7 +192,6 @@ def sweep(
     record["name"], record["opendyn"] = scene.name, __version__
     results = Results(parquet, record, axes, runs, outputs)
     todo = [(run, values) for run, values in enumerate(runs) if run not in results.finished]
-    cluster = LocalOrGiven(client, workers)
     try:
         try:
             if todo:
@@ -231,6 +234,27 @@ def _stopped_writing(unwritten, results):
         f"{unwritten.path}: {e.strerror or e}; the sweep stopped there: {kept}",
         e.errno, e.strerror, str(unwritten.path), table,
     )
+
+
+def _controller_digest(scene) -> str | None:
+    """A digest of the source of the scene's Python controller ([control] type = "python": the
+    file of "FILE.py:NAME", the module file of "MODULE:NAME"), or None without one."""
+    control = python_control.record(scene)
+    if control is None:
+        return None
+    where, _ = python_control.function_parts(control.function)
+    path = where
+    if not where.endswith(".py"):
+        try:
+            spec = importlib.util.find_spec(where)
+        except (ImportError, ValueError):
+            spec = None
+        path = getattr(spec, "origin", None)
+    try:
+        source = pathlib.Path(path).read_bytes()
+    except (OSError, TypeError):  # a built-in module, or one that is not a file
+        source = control.function.encode()
+    return hashlib.sha1(source).hexdigest()[:16]
 
 
 def _effects_digest(scene) -> str:
