@@ -461,8 +461,8 @@ def _params(params):
         a = as_float_array(
             values,
             f"rollout: params[{key!r}]",
-            "numbers (rollout varies the keys that leave what is compiled as it is; od.sweep "
-            "varies words and true/false)",
+            "numbers (rollout varies numbers only, the keys that leave what is compiled as it "
+            "is; od.sweep varies words and true/false)",
         )
         if a.ndim not in (1, 2) or not len(a):
             raise ValueError(
