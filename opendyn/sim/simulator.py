@@ -83,6 +83,9 @@ class Simulator:
         self._controller, self.control_dt = controller_of(
             scene, self._integ, controller, control_dt
         )
+        self._controller_name = (
+            None if self._controller is None else controller_name(self._controller)
+        )
         self._held = python_control.held_torque(self.model)
         self._data = step.scene_data(self.model, self._table, self._held)
         self._free = free_joints(self.model)
@@ -245,18 +248,13 @@ class Simulator:
         return duration * self._rate > 0.5 * CHUNK_SECONDS
 
     def _ticks(self, tau_user, ends):
-        """One control period up to each time of `ends` (s): tau_held = tau_user + the
-        controller's torque at its start (tau_user alone without a controller), held over it.
-        Stops early once an Interrupt asked."""
+        """One control period up to each time of `ends` (s) (`_tick`). Stops early once an
+        Interrupt asked."""
         tic, t_before = time.perf_counter(), self._t
         self._stepping = True
         try:
             for t_end in ends:
-                if self._controller is None:
-                    self._held[:] = tau_user
-                else:
-                    self._held[:] = tau_user + self._control()
-                self._advance(t_end)
+                self._tick(tau_user, t_end)
                 if self._interrupt is not None and self._interrupt.requested:
                     break
         finally:
@@ -264,32 +262,39 @@ class Simulator:
         if self._t > t_before:
             self._rate = (time.perf_counter() - tic) / (self._t - t_before)
 
+    def _tick(self, tau_user, t_end):
+        """One control period up to t_end (s): tau_held = tau_user + the controller's torque
+        at its start (tau_user alone without a controller), held over it."""
+        if self._controller is None:
+            self._held[:] = tau_user
+        else:
+            self._held[:] = tau_user + self._control()
+        self._advance(t_end)
+
     def _control(self):
         """The controller's torque at the current state, checked; SimulationError otherwise.
         Under an Interrupt, a second Ctrl-C or a SIGTERM stops a controller that blocks
         (UserCodeInterrupted, the state untouched)."""
-        fn, t, stop = self._controller, self._t, self._interrupt
+        fn, t, stop, name = self._controller, self._t, self._interrupt, self._controller_name
         if stop is not None:
             stop.in_user_code = True
         try:
             tau = fn(t, self._x.q.copy(), self._x.qd.copy())
         except Exception as error:
-            self._stop(f"controller {controller_name(fn)} raised {type(error).__name__}: "
-                       f"{error} at t = {t:.6g} s", error)
+            self._stop(f"controller {name} raised {type(error).__name__}: {error} at t = "
+                       f"{t:.6g} s", error)
         finally:
             if stop is not None:
                 stop.in_user_code = False
         if tau is None:  # a controller that forgot to return: not zero torque
             self._stop(
-                f"controller {controller_name(fn)} returned None at t = {t:.6g} s; it must "
-                f"return the joint torques tau (a ({len(self.model.v_index)},) array; zeros "
-                "for none)",
+                f"controller {name} returned None at t = {t:.6g} s; it must return the joint "
+                f"torques tau (a ({len(self.model.v_index)},) array; zeros for none)",
                 TypeError("the controller returned None"),
             )
         try:
-            return checked_torque(
-                self.model, tau, f"controller {controller_name(fn)} at t = {t:.6g} s returned tau"
-            )
+            what = f"controller {name} at t = {t:.6g} s returned tau"
+            return checked_torque(self.model, tau, what)
         except (TypeError, ValueError) as error:
             self._stop(str(error), error)
 
@@ -351,7 +356,7 @@ class Simulator:
         self._reserve((end - 1) // every + 1)
         while self._steps < end:
             k = min(chunk, end - self._steps)
-            tic = time.perf_counter()
+            tic = time.perf_counter() if k < end - self._steps else 0.0  # another chunk follows
             status, done = self._run_fixed(
                 self._switches, self._data, self._fixed, self._steps, k, self._x, self._record,
                 self._counters, self._free,
@@ -492,11 +497,11 @@ def run_controlled(scene, controller, control_dt, progress, raise_on_failure):
     shown, shown_at = 0.0, time.perf_counter()
     message = ""
     with Interrupt() as stop:
-        sim._interrupt = stop
+        sim._interrupt, sim._stepping = stop, True
         try:
             for k in range(1, ticks + 1):
                 t_end = duration if k == ticks else k * period
-                sim._ticks(0.0, (t_end,))
+                sim._tick(0.0, t_end)
                 # asked during this period: the run stops at its end, or where it stopped
                 if stop.requested and (k < ticks or t_end - sim.t > _sliver(t_end)):
                     message = sim._stopped = _interrupted(stop, sim)
@@ -509,7 +514,7 @@ def run_controlled(scene, controller, control_dt, progress, raise_on_failure):
         except SimulationError as error:
             message = str(error)
         finally:
-            sim._interrupt = None
+            sim._interrupt, sim._stepping = None, False
             if bar is not None:
                 bar.update(sim.t - shown)
                 bar.close()
