@@ -24,6 +24,7 @@ from conftest import ctrl_c_default
 from opendyn._runtime.files import atomic_write
 from opendyn._runtime.signals import held_interrupt, unswallowed_interrupt
 from opendyn.cli.main import main
+from opendyn.io.urdf import shipped_robots_dir
 
 REPO = pathlib.Path(__file__).resolve().parents[1]
 # the module (the package's attribute `simulate` is the function)
@@ -61,6 +62,19 @@ def no_run(monkeypatch):
 
     monkeypatch.setattr("opendyn.cli.simulate.scene_for", refuse)
     monkeypatch.setattr(SIMULATE, "simulate", refuse)
+
+
+@pytest.mark.parametrize("how", ["shipped", "file"])
+def test_the_default_record_is_named_after_the_scene_file_not_its_display_name(
+    how, tmp_path, monkeypatch, capsys
+):
+    # planar_3r_limits.toml's name is "planar 3R arm against its limits"
+    monkeypatch.chdir(tmp_path)
+    target = "planar_3r_limits"
+    if how == "file":
+        target = str(shipped_robots_dir() / "planar_3r_limits.toml")
+    assert main(["simulate", target, "--duration", "0.01", "--quiet"]) == 0
+    assert files_in(tmp_path) == ["planar_3r_limits.json", "planar_3r_limits.npz"]
 
 
 def test_simulate_saves_by_default_and_no_save_skips_it(tmp_path, monkeypatch, capsys):

@@ -122,8 +122,9 @@ def command_line() -> argparse.ArgumentParser:
     save.add_argument(
         "-o",
         "--output",
-        help="trajectory .npz (and its .json provenance record); default: SCENE.npz in the "
-        "current folder (SCENE-partial.npz for a run that stopped early)",
+        help="trajectory .npz (and its .json provenance record beside it); default: SCENE.npz "
+        "and SCENE.json in the current folder, SCENE the scene file's or shipped scene's name "
+        "(SCENE-partial.npz for a run that stopped early)",
     )
     save.add_argument("--no-save", action="store_true", help="save no trajectory file")
     sim.add_argument("--csv", help="trajectory as CSV")

@@ -2,9 +2,10 @@
 written, or that two options name, stops the command before anything is loaded), each written
 after it with what failed said, and a fallback file for a trajectory that would otherwise be lost.
 
-`opendyn simulate` saves the trajectory by default: SCENE.npz and SCENE.json in the current
-folder (SCENE the scene's name; SCENE-partial.npz for a run that stopped early, so that it
-never replaces a complete record), `-o` elsewhere, `--no-save` not at all.
+`opendyn simulate` saves the trajectory by default: SCENE.npz and SCENE.json (its provenance
+record) in the current folder (SCENE the scene file's name without .toml, which is a shipped
+scene's name; SCENE-partial.npz for a run that stopped early, so that it never replaces a
+complete record), `-o` elsewhere, `--no-save` not at all.
 """
 
 from __future__ import annotations
@@ -33,7 +34,14 @@ DEFAULT_SAVE_HINT = "-o names another file, --no-save skips saving"
 def _default_record(scene, complete):
     """The trajectory's file without -o: SCENE.npz in the current folder, SCENE-partial.npz for
     a run that stopped early (so that it never replaces a complete record)."""
-    return f"{_slug(scene.name)}{'' if complete else '-partial'}.npz"
+    return f"{scene_stem(scene)}{'' if complete else '-partial'}.npz"
+
+
+def scene_stem(scene):
+    """What a scene's default outputs are named after: its file's name without .toml (for a
+    shipped scene, the name it is run by), else (a URDF, a dict) its name made file-safe."""
+    source = pathlib.Path(scene.source)
+    return _slug(source.stem) if source.suffix == ".toml" else _slug(scene.name)
 
 
 def _named_outputs(args):

@@ -8,7 +8,7 @@ import sys
 import time
 
 from .interrupts import _doing, _Interrupted
-from .outputs import _check_not_inputs, _check_outputs, _slug
+from .outputs import _check_not_inputs, _check_outputs, scene_stem
 from .simulate import WRITE_FAILED, scene_for
 
 
@@ -29,7 +29,7 @@ def _sweep(args) -> int:
         vary[key.strip()] = spec.strip()
     with _doing("loading the scene and its robot; nothing was run"):
         scene = scene_for(args.target, args.floating_base)
-    output = args.output or f"{_slug(scene.name)}-sweep.parquet"
+    output = args.output or f"{scene_stem(scene)}-sweep.parquet"
     named = [("-o", output, pathlib.Path(output))]
     if args.plot is not None:
         named.append(("--plot", args.plot, pathlib.Path(args.plot)))
