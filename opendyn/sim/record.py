@@ -53,6 +53,11 @@ class Samples:
         self.w = np.full((rows, 2), np.nan)
         self.filled = 0
 
+    @staticmethod
+    def row_bytes(nq, nv) -> int:
+        """The bytes of one row: t, q (nq,), qd (nv,), tau (nv,) and w (2,), float64."""
+        return 8 * (3 + nq + 2 * nv)
+
     def arrays(self):
         """The integrators.Record (t, q, qd, tau, w) that the compiled loops write."""
         return integrators.Record(self.t, self.q, self.qd, self.tau, self.w)

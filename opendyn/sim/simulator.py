@@ -95,6 +95,7 @@ class Simulator:
         else:
             self._switches = self._integ.switches()
         self._wall = 0.0
+        self._row_bytes = Samples.row_bytes(self.model.nq, self.model.nv)
         self._rate = None  # wall seconds per simulated second of the last step
         self._interrupt = None  # the Interrupt of a long step or of run_controlled
         self._stepping = False  # within _ticks: a controller that steps again is refused
@@ -404,14 +405,16 @@ class Simulator:
         """Refuse a step whose record would not fit in the memory this process may allocate
         (before anything is stepped): the samples every run.output_dt up to t + duration."""
         rows = int((self._t + duration - self._t0) / self.scene.run.output_dt) + 2
-        per_row = 8 * (3 + self.model.nq + 2 * self.model.nv)  # t, q, qd, tau, w
+        if rows <= len(self._samples.t):  # it fits in the record as it is: no need to ask
+            return
+        need = rows * self._row_bytes
         room = available_memory()
-        if rows > len(self._samples.t) and room is not None and rows * per_row > room[0]:
+        if room is not None and need > room[0]:
             have, what = room
             raise ValueError(
                 f"Simulator.step: duration = {duration:g} s would make the record since the "
                 f"last reset {rows:.4g} samples (one every run.output_dt = "
-                f"{self.scene.run.output_dt:g} s), {byte_size(rows * per_row)}, more than the "
+                f"{self.scene.run.output_dt:g} s), {byte_size(need)}, more than the "
                 f"{byte_size(have)} that {what} leaves this process; step for less, keep "
                 "trajectory() and reset(), or raise run.output_dt"
             )
@@ -422,8 +425,7 @@ class Simulator:
         if rows > len(samples.t):
             room = available_memory()
             double = 2 * len(samples.t)
-            per_row = 8 * (3 + self.model.nq + 2 * self.model.nv)
-            if room is None or double * per_row < 0.5 * room[0]:
+            if room is None or double * self._row_bytes < 0.5 * room[0]:
                 rows = max(rows, double)
             samples.grow(rows)
             self._record = samples.arrays()

@@ -63,9 +63,8 @@ _HANDSHAKE_MAX = 1 << 20
 
 def check_scheduler(address, timeout, what):
     """ValueError in one line unless the TCP service at `address` (tcp://HOST:PORT or
-    HOST:PORT) opens as a Dask scheduler does within `timeout` seconds (`what`: how the
-    message names the address): with an 8-byte length
-    of a plausible handshake. Something else (an SSH banner) or silence is named here, where
+    HOST:PORT) opens as a Dask scheduler does within `timeout` seconds: with an 8-byte length
+    of a plausible handshake (`what`: how the message names the address). Something else (an SSH banner) or silence is named here, where
     Dask would read the banner as a length of exabytes, or wait past its own timeout. Other
     schemes (tls://, ...) are left to Dask."""
     scheme, _, rest = address.rpartition("://")
