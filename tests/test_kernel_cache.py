@@ -16,6 +16,7 @@ import sys
 import pytest
 
 import opendyn
+from opendyn._runtime import kernel_target
 from opendyn._runtime.kernel_cache import CACHE_DIR, source_digest
 
 PACKAGE = pathlib.Path(opendyn.__file__).resolve().parent
@@ -67,6 +68,17 @@ def test_a_moved_or_renamed_file_names_a_new_folder(package_copy):
     assert source_digest(package_copy) not in (before, after_move)
 
 
+def test_the_shipped_robots_and_kernels_are_not_sources(package_copy):
+    """An installed copy holds the robots' example controllers (opendyn/robots, beside the
+    package in a checkout) and a wheel's shipped kernels: neither changes the digest, so the
+    checkout, the suite and the installed copy name the same folder."""
+    before = source_digest(package_copy)
+    for folder in ("robots", "_kernels", "_kernels/sim"):
+        (package_copy / folder).mkdir()
+        (package_copy / folder / "panda_push.py").write_text("KP = 1.0\n", encoding="utf-8")
+    assert source_digest(package_copy) == before
+
+
 def test_a_new_module_names_a_new_folder(package_copy):
     before = source_digest(package_copy)
     (package_copy / "new_kernels.py").write_text("from numba import njit\n", encoding="utf-8")
@@ -81,17 +93,77 @@ _MASS_MATRIX = (
 )
 
 
-def _run(cache):
+def _run(cache, pythonpath=None, cwd=None):
     env = {**os.environ, "NUMBA_CACHE_DIR": str(cache), "PYTHONWARNINGS": "default"}
+    if pythonpath is not None:
+        env["PYTHONPATH"] = str(pythonpath)
     return subprocess.run(
-        [sys.executable, "-c", _MASS_MATRIX], env=env, capture_output=True, text=True, timeout=600
+        [sys.executable, "-c", _MASS_MATRIX],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=600,
+        cwd=cwd,
     )
+
+
+def test_two_copies_of_the_same_sources_share_one_cache(tmp_path, package_copy):
+    """numba files a kernel under its source's absolute folder, so a checkout and an installed
+    copy of the same sources compiled into caches of their own. opendyn's kernels are filed
+    under their folder inside the package: a copy of the package elsewhere loads, without
+    compiling, what this one compiled, and the entries live under package-relative folders."""
+    from opendyn.io.urdf import shipped_robots_dir
+
+    if not (package_copy / "robots").is_dir():  # a checkout: robots/ lies beside the package
+        shutil.copytree(shipped_robots_dir(), package_copy / "robots")  # as installed
+    cache = tmp_path / "cache"
+    first = _run(cache, cwd=tmp_path, pythonpath=PACKAGE.parent)
+    assert first.returncode == 0, first.stderr
+    assert "compiling opendyn.algorithm.crba.crba_kernel" in first.stderr
+    assert list(cache.glob("opendyn-kernels-*/algorithm/crba.crba_kernel-*.nbi"))
+    elsewhere = _run(cache, cwd=tmp_path, pythonpath=package_copy.parent)
+    assert elsewhere.returncode == 0, elsewhere.stderr
+    assert elsewhere.stdout == first.stdout
+    assert "compiling" not in elsewhere.stderr, elsewhere.stderr
+    # and it was that copy that ran: its own opendyn, not this one
+    probe = subprocess.run(
+        [sys.executable, "-c", "import opendyn; print(opendyn.__file__)"],
+        env={**os.environ, "PYTHONPATH": str(package_copy.parent)},
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+    )
+    assert pathlib.Path(probe.stdout.strip()).parent == package_copy
+
+
+def test_the_kernels_compile_for_the_portable_target():
+    """A cache entry is keyed by the compile target; opendyn sets LLVM's portable baseline CPU,
+    with no added features, before numba is imported, so a cache made here loads on any
+    machine of this architecture (opendyn._runtime.kernel_target)."""
+    from opendyn._runtime.kernel_target import PORTABLE, target
+
+    if os.environ.get("OPENDYN_CPU") == "host" or "portable" not in kernel_target.CHOSEN:
+        pytest.skip(f"the target was chosen otherwise: {kernel_target.CHOSEN}")
+    assert target() == (PORTABLE, "")
+    code = (
+        "import json, opendyn; from opendyn._runtime import kernel_target as k; "
+        "print(json.dumps([k.CHOSEN, k.target()]))"
+    )
+    env = {k: v for k, v in os.environ.items() if not k.startswith("NUMBA_CPU")}
+    proc = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True)
+    assert json.loads(proc.stdout) == ["portable (any CPU of this architecture)", [PORTABLE, ""]]
+    host = subprocess.run(
+        [sys.executable, "-c", code], env={**env, "OPENDYN_CPU": "host"}, capture_output=True,
+        text=True,
+    )
+    chosen, (name, features) = json.loads(host.stdout)
+    assert "OPENDYN_CPU=host" in chosen and name != PORTABLE and features
 
 
 def test_an_entry_cut_short_is_a_miss_that_compiles_again_with_one_warning(tmp_path):
     first = _run(tmp_path)
     assert first.returncode == 0, first.stderr
-    entries = sorted(tmp_path.glob("opendyn-kernels-*/algorithm_*/crba.crba_kernel-*.nb[ic]"))
+    entries = sorted(tmp_path.glob("opendyn-kernels-*/algorithm/crba.crba_kernel-*.nb[ic]"))
     assert {e.suffix for e in entries} == {".nbi", ".nbc"}, entries
     # as an interrupted copy leaves them: this kernel's first, then every other entry
     others = set(tmp_path.glob("opendyn-kernels-*/*/*.nb[ic]")) - set(entries)

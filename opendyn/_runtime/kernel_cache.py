@@ -1,20 +1,28 @@
-"""Where numba caches opendyn's compiled kernels: a writable folder named by a hash of every kernel
-source.
+"""Where numba caches opendyn's compiled kernels: one folder per machine and source version,
+named by a hash of every kernel source, shared by every copy of those sources.
 
 numba caches each compiled kernel on disk keyed on the kernel's own source file only, while the
 kernels inline or call helpers from other files (spatial/compiled.py, algorithm/rnea.py,
 sim/effects/, ...); after such a helper changes, or a file moves, a kernel would be loaded stale.
 The hash therefore covers every Python source of the package, found by pattern (`SOURCES`), with
-its path relative to the package: a new, changed, renamed or moved file names a new folder. Every
-module that defines kernels is imported inside `kernel_cache()`, which points numba at that folder
-(numba reads the setting when a function is decorated) and restores it afterwards.
+its path relative to the package: a new, changed, renamed or moved file names a new folder.
+
+numba also files each kernel under a hash of its source's absolute folder, so that a source
+checkout, the test suite and an installed copy of the same sources would each compile into a
+cache of their own. opendyn's kernels are filed instead under their folder relative to the
+package (`PackageLocator`, ahead of numba's own locators), so every copy of the same sources
+on a machine reads and writes the same entries. The entries are keyed by the signature and the
+compile target, which is portable (opendyn._runtime.kernel_target), so a folder made on one
+machine loads on another: a built wheel ships one (opendyn._runtime.shipped_kernels).
 
 The folder is the first writable one of:
   1. $NUMBA_CACHE_DIR/opendyn-kernels-HASH, when the user sets NUMBA_CACHE_DIR;
-  2. the package's own __pycache__/opendyn-kernels-HASH;
-  3. the per-user cache, $XDG_CACHE_HOME (default ~/.cache)/opendyn/kernels-HASH.
+  2. the per-user cache, $XDG_CACHE_HOME (default ~/.cache)/opendyn/kernels-HASH;
+  3. the package's own __pycache__/opendyn-kernels-HASH.
 When none is writable, the kernels run uncached (compiled in every process), with one warning;
-`import opendyn` never fails for want of a cache folder.
+`import opendyn` never fails for want of a cache folder. Kernels defined outside the package
+that call its kernels (the test suite's own) cache in the same folder when decorated inside
+`kernel_cache()`.
 
 numba unpickles each cache entry as it finds it, so an entry cut short (an interrupted copy of
 the folder into a worker image, a full disk) would raise UnpicklingError or EOFError on every
@@ -40,32 +48,56 @@ import pathlib
 import tempfile
 import warnings
 
+# first: it sets the compile target, which numba reads when it is imported
+from . import kernel_target  # noqa: F401
+
+# isort: split
 from numba.core import config as _numba_config
-from numba.core.caching import IndexDataCacheFile
+from numba.core.caching import (
+    CacheImpl,
+    IndexDataCacheFile,
+    _CacheLocator,
+    _SourceFileBackedLocatorMixin,
+)
 
 _HERE = pathlib.Path(__file__).resolve().parents[1]  # the package: opendyn/
 # every compiled source, and everything a kernel may inline or call: all of the package's Python
-# files, wherever they live in it
-SOURCES = "**/*.py"
+# files, wherever they live in it, but for the folders below
+SOURCES = "*.py"
+# not kernel sources: the caches themselves, a wheel's shipped kernels, and the shipped robots'
+# example controllers (installed as opendyn/robots, beside the package in a source checkout)
+NOT_SOURCES = ("__pycache__", "_kernels", "robots")
+
+
+def _sources(package: pathlib.Path):
+    """Every file matching SOURCES under `package`, outside the NOT_SOURCES folders."""
+    for folder, subfolders, names in os.walk(package):
+        subfolders[:] = [d for d in subfolders if d not in NOT_SOURCES]
+        for name in names:
+            if pathlib.PurePath(name).match(SOURCES):
+                yield pathlib.Path(folder, name)
 
 
 def source_digest(package: pathlib.Path = _HERE) -> str:
-    """16 hex digits of a hash of every Python source under `package` (SOURCES): each file's
-    path relative to the package, then its bytes, in path order."""
+    """16 hex digits of a hash of every Python source under `package` (`_sources`): each
+    file's path relative to the package, then its bytes, in path order."""
     digest = hashlib.sha1()
-    for source in sorted(package.glob(SOURCES)):
+    for source in sorted(_sources(package), key=lambda p: p.relative_to(package).as_posix()):
         digest.update(source.relative_to(package).as_posix().encode() + b"\0")
         digest.update(source.read_bytes())
     return digest.hexdigest()[:16]
+
+
+DIGEST = source_digest()
 
 
 def _candidates(digest):
     """The cache folders to try, in order, with a word on each."""
     if _numba_config.CACHE_DIR:
         yield pathlib.Path(_numba_config.CACHE_DIR) / f"opendyn-kernels-{digest}", "NUMBA_CACHE_DIR"
-    yield _HERE / "__pycache__" / f"opendyn-kernels-{digest}", "package folder"
     user = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
     yield pathlib.Path(user) / "opendyn" / f"kernels-{digest}", "per-user cache"
+    yield _HERE / "__pycache__" / f"opendyn-kernels-{digest}", "package folder"
 
 
 def _writable(folder: pathlib.Path) -> bool:
@@ -81,7 +113,7 @@ def _writable(folder: pathlib.Path) -> bool:
 def _choose():
     """(folder or None, where): the first writable candidate; None when there is none."""
     tried = []
-    for folder, where in _candidates(source_digest()):
+    for folder, where in _candidates(DIGEST):
         if _writable(folder):
             return str(folder), where
         tried.append(str(folder))
@@ -201,16 +233,54 @@ def saves_take_turns():
 saves_take_turns()
 
 
+def cache_subfolder(py_file) -> str | None:
+    """The folder, inside the cache folder, of the kernels of the source `py_file`: its folder
+    relative to the package ("sim/effects", "." at the top), the same for every copy of the
+    package; for a source outside it decorated inside `kernel_cache()`, "outside/" and numba's
+    own name for its folder; None for any other source (numba's own locators file it)."""
+    path = pathlib.Path(py_file).resolve()
+    if path.is_relative_to(_HERE):
+        return path.parent.relative_to(_HERE).as_posix()
+    if _outside:
+        return "outside/" + _CacheLocator.get_suitable_cache_subpath(str(path))
+    return None
+
+
+_outside = []  # non-empty inside kernel_cache(): kernels outside the package cache with ours
+
+
+class PackageLocator(_SourceFileBackedLocatorMixin, _CacheLocator):
+    """numba's cache locator for opendyn's kernels: CACHE_DIR/`cache_subfolder(py_file)`,
+    checked against the source's content (numba's stamp: a hash of the file's bytes)."""
+
+    def __init__(self, py_func, py_file):
+        self._py_file = py_file
+        self._lineno = py_func.__code__.co_firstlineno
+        self._cache_path = os.path.join(CACHE_DIR, cache_subfolder(py_file))
+
+    def get_cache_path(self):
+        return self._cache_path
+
+    @classmethod
+    def from_function(cls, py_func, py_file):
+        if not CACHING or cache_subfolder(py_file) is None:
+            return None
+        return super().from_function(py_func, py_file)
+
+
+if PackageLocator not in CacheImpl._locator_classes:
+    CacheImpl._locator_classes.insert(0, PackageLocator)
+
+
 @contextlib.contextmanager
 def kernel_cache():
-    """Import kernel modules inside this block so that they cache in the hashed folder."""
-    user_cache_dir = _numba_config.CACHE_DIR
-    if CACHING:
-        _numba_config.CACHE_DIR = CACHE_DIR
+    """Kernels decorated inside this block, outside the package (the test suite's helpers that
+    call opendyn's kernels), cache in opendyn's folder, so that they too follow its sources."""
+    _outside.append(True)
     try:
         yield
     finally:
-        _numba_config.CACHE_DIR = user_cache_dir
+        _outside.pop()
 
 
 # the options of every kernel's @njit. Reference counting (numba's runtime, NRT) is switched on

@@ -11,6 +11,7 @@ import numpy as np
 
 from .._runtime.compile_notice import compiling, quiet
 from .._runtime.kernel_cache import CACHE_DIR
+from .._runtime.shipped_kernels import export_used
 from ..algorithm import (
     centroidal,
     christoffel,
@@ -47,11 +48,20 @@ def _compile_ahead(args) -> int:
             if not everything:
                 raise
             skipped.append(f"{name} ({e})")
+    if skipped and args.export:
+        for name in skipped:
+            print(f"opendyn compile: cannot export scene {name}", file=sys.stderr)
+        print("opendyn compile: --export ships every shipped scene's kernels; install what "
+              "the scenes above need (pip install example-robot-data) first", file=sys.stderr)
+        return 1
     t0 = time.perf_counter()
     done = compile_ahead(scenes, functions=everything)
     for name in skipped:
         print(f"skipped scene {name}", file=sys.stderr)
     print(f"compiled {len(done)} items in {time.perf_counter() - t0:.1f} s")
+    if args.export:
+        entries, size = export_used(args.export)
+        print(f"exported {entries} kernels ({size / 1e6:.1f} MB) into {args.export}")
     return 0
 
 
@@ -62,8 +72,14 @@ def _cache_info() -> int:
     from .._runtime.kernel_cache import CACHE_DIR, CACHE_WHERE
 
     print(f"kernel cache  {CACHE_DIR or 'none: kernels are compiled in every process'}")
-    print(f"chosen as     {CACHE_WHERE} (first writable of NUMBA_CACHE_DIR, the package folder, "
-          "the per-user cache)")
+    from .._runtime.kernel_target import CHOSEN, target
+    from .._runtime.shipped_kernels import SHIPPED_FOLDER
+
+    print(f"chosen as     {CACHE_WHERE} (first writable of NUMBA_CACHE_DIR, the per-user cache, "
+          "the package folder)")
+    name, features = target()
+    print(f"compiled for  CPU {name!r}{' with ' + features if features else ''}: {CHOSEN}")
+    print(f"shipped       {SHIPPED_FOLDER or 'none (a source install; a built wheel ships them)'}")
     if CACHE_DIR and os.path.isdir(CACHE_DIR):
         files = [os.path.join(d, f) for d, _, fs in os.walk(CACHE_DIR) for f in fs]
         size = sum(os.path.getsize(f) for f in files)

@@ -232,6 +232,12 @@ def command_line() -> argparse.ArgumentParser:
         action="store_true",
         help="every core function and every shipped scene whose robot is installed",
     )
+    comp.add_argument(
+        "--export",
+        metavar="FOLDER",
+        help="then write the kernels these need into FOLDER, to ship as opendyn/_kernels "
+        "(scripts/build_wheel.py); refused when a shipped scene's robot is missing",
+    )
     comp.set_defaults(run=_compile_ahead)
     return parser
 
