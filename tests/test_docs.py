@@ -48,6 +48,9 @@ NOT_RUN_HERE = {
     "python -m pytest -q tests/test_effects_registry.py": "a file of this test suite",
     "mkdocs serve": "a server that runs until stopped; the site fixture builds the site",
     "mkdocs build --strict": "run by the site fixture below",
+    "python scripts/build_wheel.py": "building the whole wheel: tests/test_wheel.py builds one "
+    "for the default scene, and CI builds and checks the whole",
+    "pip install dist/opendyn-*.whl": "installing the wheel: tests/test_wheel.py and CI do",
     "python scripts/bench_core.py --quick": "a benchmark: timings are never taken by tests",
     "python scripts/bench_sim.py --quick": "a benchmark: timings are never taken by tests",
     "python scripts/bench_coldstart.py --quick": "a benchmark: timings are never taken by tests",
@@ -91,6 +94,36 @@ def test_the_readme_is_short_and_its_quick_start_is_what_ci_runs():
     assert """'^pip install "\\.\\[test\\]"'""" in ci  # CI runs the README's line, verbatim
 
 
+# run before the README's example: example-robot-data looks uninstalled, as after `pip install .`
+_WITHOUT_EXAMPLE_ROBOT_DATA = """
+import importlib.metadata as metadata
+_distribution = metadata.distribution
+def distribution(name):
+    if name == "example-robot-data":
+        raise metadata.PackageNotFoundError(name)
+    return _distribution(name)
+metadata.distribution = distribution
+"""
+
+
+def test_the_readme_example_needs_nothing_beyond_the_readmes_install(tmp_path):
+    """The README's Python example and its commands (the playback included) run right after
+    `pip install .` (and the viz extra): in a process where example-robot-data looks missing,
+    they exit cleanly, so they name only the robots and scenes opendyn ships."""
+    commands = [c for c in bash_commands("README.md") if c.split()[0] == "opendyn"]
+    assert commands and any("--html" in c for c in commands), commands
+    code = "\n".join(
+        [_WITHOUT_EXAMPLE_ROBOT_DATA, *blocks("README.md", "python"), "import shlex",
+         "from opendyn.cli.main import main"]
+        + [f"assert main(shlex.split({c!r})[1:]) == 0, {c!r}" for c in commands]
+    )
+    proc = subprocess.run(
+        [sys.executable, "-c", code], cwd=tmp_path, capture_output=True, text=True, timeout=900
+    )
+    assert proc.returncode == 0, proc.stderr
+    assert od.Trajectory.load(tmp_path / "swing.npz").complete
+
+
 def test_the_pages_show_the_commands_they_leave_to_ci_and_to_other_tests():
     shown = {c for page in PAGES for c in bash_commands(page)}
     assert set(NOT_RUN_HERE) <= shown, set(NOT_RUN_HERE) - shown
@@ -121,7 +154,7 @@ def run_page(page, tmp_path, monkeypatch):
 # what some pages' examples leave behind, checked beyond running without an error
 CHECKS = {
     "README.md": lambda ns, tmp: (
-        od.Trajectory.load(tmp / "ur5.npz").complete and (tmp / "ur5.png").is_file()
+        od.Trajectory.load(tmp / "swing.npz").complete and (tmp / "swing.png").is_file()
     ),
     "docs/getting-started.md": lambda ns, tmp: (tmp / "run.npz").is_file(),
     "docs/guides/dynamics.md": lambda ns, tmp: ns["taus"].shape == (10_000, 6),
@@ -487,3 +520,28 @@ def test_the_built_site_in_a_browser_finds_draws_and_shows(served, tmp_path):
         tmp_path / "figure",
     )
     assert width and width > 200
+
+
+def test_formulas_are_drawn_and_code_wraps_without_the_network(site, served, tmp_path):
+    """The dynamics guide's formulas are drawn by KaTeX, which the site serves itself (no page
+    loads a script or a style from another host), and a code block's long line wraps within
+    the page instead of being cut off."""
+    for page in site.rglob("*.html"):
+        html = page.read_text(encoding="utf-8")
+        outside = re.findall(r'<(?:script|link)[^>]+(?:src|href)="(https?:[^"]+)"', html)
+        assert not outside, (page.relative_to(site), outside)
+    assert (site / "assets" / "katex" / "katex.min.js").is_file()
+    guide = (site / "guides" / "dynamics" / "index.html").read_text(encoding="utf-8")
+    assert guide.count('class="arithmatex"') >= 10
+    drawn = in_browser(
+        f"{served}/guides/dynamics/",
+        "document.querySelectorAll('.arithmatex .katex').length",
+        tmp_path / "math",
+    )
+    assert drawn and drawn >= 10
+    wrapped = in_browser(
+        f"{served}/guides/dynamics/",
+        "(c => c && getComputedStyle(c).whiteSpace)(document.querySelector('pre > code'))",
+        tmp_path / "wrap",
+    )
+    assert wrapped == "pre-wrap"
