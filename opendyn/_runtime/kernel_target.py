@@ -8,10 +8,10 @@ compiles everything again. LLVM's `generic` CPU with no added features is the ar
 baseline (on x86-64: SSE2, which every x86-64 CPU has); a cache made for it is read on any
 machine of that architecture. It is not slower: the kernels work on 3- and 6-vectors and small
 matrices, where wide vector units gain nothing, and measured with scripts/bench_sim.py --quick
-(each run in a fresh cache, paired against MuJoCo's mj_step in the same run) the UR5's RK4 step
-took 8.8 us for `generic` against 9.7 and 11.3 us for the host's CPU on an AMD EPYC (ratios to
-mj_step 1.00 against 1.08 and 1.18), and 18.1 us against 20.0 us on an Intel Xeon (Cascade
-Lake).
+(each run in a fresh cache, paired against MuJoCo's mj_step in the same run, two rounds each)
+the UR5's RK4 step took 8.8 and 9.7 us for `generic` against 9.7 and 11.3 us for the host's
+CPU on an AMD EPYC (ratios to mj_step 1.00 and 0.97 against 1.08 and 1.18), and 18.1 us
+against 20.0 us on an Intel Xeon (Cascade Lake).
 
 numba reads NUMBA_CPU_NAME and NUMBA_CPU_FEATURES when it is imported, and makes its code
 generator then; `choose()`, run before opendyn imports numba, therefore sets them in the
