@@ -1,9 +1,12 @@
 """What a first run costs: numba compiling opendyn's kernels in a fresh, empty cache, against the
 same run once the on-disk cache is warm.
 
-    python scripts/bench_coldstart.py [--quick] [--json FILE] [--docs]
+    python scripts/bench_coldstart.py [--quick] [--wheel WHEEL] [--json FILE] [--docs]
 
-Measures, each in fresh processes (wall time of the whole process, import included):
+Measures, each in fresh processes (wall time of the whole process, import included), for the
+source install (the checkout) and, with --wheel, for a wheel built by scripts/build_wheel.py
+(installed into a new folder; every run in its own empty kernel cache, as on a machine that
+never ran opendyn, so that what it does not compile it loads from the wheel):
   - `opendyn simulate` on the default scene, cold (empty NUMBA_CACHE_DIR) and warm (again, in
     that cache), and `od.rollout` of the default scene (one run) the same way;
   - `opendyn simulate SCENE` for every shipped scene, each cold in its own empty cache, then
@@ -67,31 +70,47 @@ SCENES = (
 )
 
 
-def _env(cache):
+def _env(cache, site):
     env = dict(os.environ)
     env["NUMBA_CACHE_DIR"] = cache
+    if site:
+        env["PYTHONPATH"] = site
     return env
 
 
-def timed(cmd, cache):
-    """Wall time (s) of a child process run with NUMBA_CACHE_DIR=cache, and its stdout."""
+def timed(cmd, cache, site=None):
+    """Wall time (s) of a child process run with NUMBA_CACHE_DIR=cache, and its stdout; with
+    `site` (a folder the wheel is installed in), the opendyn found there, run from a folder
+    outside the checkout."""
     t0 = time.perf_counter()
-    proc = subprocess.run(cmd, env=_env(cache), capture_output=True, text=True)
+    with tempfile.TemporaryDirectory() as elsewhere:
+        proc = subprocess.run(cmd, env=_env(cache, site), capture_output=True, text=True,
+                              cwd=elsewhere if site else None)
     wall = time.perf_counter() - t0
     if proc.returncode != 0:
         raise RuntimeError(f"{' '.join(cmd)} failed:\n{proc.stdout}\n{proc.stderr}")
     return wall, proc.stdout
 
 
-def simulate_cold_warm(scene):
-    """(cold, warm) wall seconds of `opendyn simulate [scene]` in a fresh cache (--no-save:
-    the start-up and the run, as measured before the command saved by default)."""
+def simulate_cold_warm(scene, site):
+    """(cold, warm, wheel) wall seconds of `opendyn simulate [scene]` in a fresh cache
+    (--no-save: the start-up and the run), warm in that cache, and from the wheel installed in
+    `site` in another fresh cache (None without one)."""
     cmd = [sys.executable, "-m", "opendyn.cli", "simulate", "--no-save"]
     cmd += [scene] if scene else []
     with tempfile.TemporaryDirectory() as cache:
         cold, _ = timed(cmd, cache)
         warm, _ = timed(cmd, cache)
-    return cold, warm
+    return cold, warm, _from_wheel(cmd, site)[0]
+
+
+def _from_wheel(cmd, site):
+    """(wall s, stdout) of `cmd` with the wheel installed in `site`, in an empty cache; (None,
+    None) without a wheel."""
+    if not site:
+        return None, None
+    with tempfile.TemporaryDirectory() as cache:
+        return timed(cmd, cache, site)
 
 
 ROLLOUT = "import opendyn as od; od.rollout('double_pendulum_swing', threads=1)"
@@ -106,67 +125,113 @@ def rollout_cold_warm():
     return cold, warm
 
 
-def first_calls():
-    """({call: cold s}, {call: warm s}) of the first call of every core function on a UR5."""
+def first_calls(site):
+    """({call: cold s}, {call: warm s}, {call: s from the wheel} or None) of the first call of
+    every core function on a UR5."""
     cmd = [sys.executable, "-c", FIRST_CALLS]
     with tempfile.TemporaryDirectory() as cache:
         _, cold = timed(cmd, cache)
         _, warm = timed(cmd, cache)
-    return json.loads(cold), json.loads(warm)
+    _, wheel = _from_wheel(cmd, site)
+    return json.loads(cold), json.loads(warm), json.loads(wheel) if wheel else None
+
+
+def installed(wheel, folder):
+    """The folder `wheel` is installed into (pip --target), or None without a wheel."""
+    if not wheel:
+        return None
+    site = os.path.join(folder, "site")
+    subprocess.run([sys.executable, "-m", "pip", "install", "--quiet", "--no-deps", "--target",
+                    site, wheel], check=True)
+    return site
 
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--quick", action="store_true", help="default scene and functions only")
+    parser.add_argument(
+        "--wheel", help="a wheel built by scripts/build_wheel.py: its first runs too"
+    )
     parser.add_argument("--json", help="also write every number to this file")
     parser.add_argument(
         "--docs", action="store_true", help="also write the tables to docs/performance/startup.md"
     )
     args = parser.parse_args()
     title = "Start-up: compiling the kernels, and the on-disk cache"
-    with docs_page.page("startup.md", title, enabled=args.docs):
-        results = print_tables(args.quick)
+    with (
+        docs_page.page("startup.md", title, enabled=args.docs),
+        tempfile.TemporaryDirectory() as tmp,
+    ):
+        results = print_tables(args.quick, installed(args.wheel, tmp))
     if args.json:
         with open(args.json, "w") as f:
             json.dump(results, f, indent=1)
 
 
-def print_tables(quick):
-    """Measure and print every table (the shipped scenes' rows skipped when `quick`); returns
-    every number, as --json writes them."""
-    results = {}
+DEFAULT = "double_pendulum_swing"
 
-    cold, warm = simulate_cold_warm(None)
-    results["simulate (default scene)"] = (cold, warm)
+
+def estimate(scene):
+    """What the compile notice says `scene`'s step takes to compile (opendyn.sim.driver)."""
+    from opendyn import load_scene
+    from opendyn.sim.driver import compile_estimate
+
+    return compile_estimate(load_scene(scene))
+
+
+def _s(seconds, digits=1):
+    return "" if seconds is None else f"{seconds:.{digits}f}"
+
+
+def print_tables(quick, site):
+    """Measure and print every table (the shipped scenes' rows skipped when `quick`; the
+    wheel's column with `site`, the folder it is installed in); returns every number, as
+    --json writes them."""
+    results = {}
+    wheel_col = " wheel, first run |" if site else ""
+    wheel_rule = "---:|" if site else ""
+
     print("## opendyn simulate, whole process (s)\n")
-    print("| command | cold (empty cache) | warm |")
-    print("|---|---:|---:|")
-    print(f"| `opendyn simulate` (default scene) | {cold:.1f} | {warm:.2f} |")
+    print("Cold: the source install's first run, in an empty cache; warm: the same again."
+          + (" Wheel: the first run of the wheel built by `scripts/build_wheel.py`, installed"
+             " into a new folder, in an empty cache." if site else "") + "\n")
+    print("The compile notice's estimate is what it says the scene's step takes to compile "
+          "(the start check's energies, which compile first, have their own notice).\n")
+    print(f"| command | cold (empty cache) | warm | notice's estimate |{wheel_col}")
+    print(f"|---|---:|---:|---|{wheel_rule}")
+    cold, warm, wheel = simulate_cold_warm(None, site)
+    results["simulate (default scene)"] = (cold, warm, wheel)
+    print(f"| `opendyn simulate` (default scene) | {cold:.1f} | {warm:.2f} |"
+          f" {estimate(DEFAULT)} |" + (f" {_s(wheel, 2)} |" if site else ""))
     cold, warm = rollout_cold_warm()
     results["rollout (default scene)"] = (cold, warm)
-    print(f"| `od.rollout` of the default scene, one run | {cold:.1f} | {warm:.2f} |")
+    print(f"| `od.rollout` of the default scene, one run | {cold:.1f} | {warm:.2f} |"
+          f" {estimate(DEFAULT)} |" + (" |" if site else ""))
     if not quick:
         for scene in SCENES:
-            cold, warm = simulate_cold_warm(scene)
-            results[f"simulate {scene}"] = (cold, warm)
-            print(f"| `opendyn simulate {scene}` | {cold:.1f} | {warm:.2f} |")
+            cold, warm, wheel = simulate_cold_warm(scene, site)
+            results[f"simulate {scene}"] = (cold, warm, wheel)
+            print(f"| `opendyn simulate {scene}` | {cold:.1f} | {warm:.2f} |"
+                  f" {estimate(scene)} |" + (f" {_s(wheel, 2)} |" if site else ""))
     sys.stdout.flush()
 
-    cold, warm = first_calls()
-    results["first calls"] = {"cold": cold, "warm": warm}
+    cold, warm, wheel = first_calls(site)
+    results["first calls"] = {"cold": cold, "warm": warm, "wheel": wheel}
     print("\n## First call of each function on the UR5, in one process (s)\n")
-    print("| call | cold | warm |")
-    print("|---|---:|---:|")
+    print(f"| call | cold | warm |{' wheel, first call |' if site else ''}")
+    print(f"|---|---:|---:|{wheel_rule}")
     for name in cold:
-        print(f"| {name} | {cold[name]:.2f} | {warm[name]:.4f} |")
+        print(f"| {name} | {cold[name]:.2f} | {warm[name]:.4f} |"
+              + (f" {wheel[name]:.4f} |" if site else ""))
     core = [n for n in cold if n not in CONSTRAINT_CALLS and n not in ("import opendyn",)]
     core = [n for n in core if n != "load_urdf(ur5)"]
     total_core = sum(cold[n] for n in core)
     total_con = sum(cold[n] for n in CONSTRAINT_CALLS)
     print(
         f"\nCore functions (dynamics, kinematics, energy, task space; single and batch): "
-        f"{total_core:.1f} s cold, {sum(warm[n] for n in core):.3f} s warm; "
-        f"the constraint functions add {total_con:.1f} s cold."
+        f"{total_core:.1f} s cold, {sum(warm[n] for n in core):.3f} s warm"
+        + (f", {sum(wheel[n] for n in core):.3f} s from the wheel" if site else "")
+        + f"; the constraint functions add {total_con:.1f} s cold."
     )
     results["totals"] = {"core_cold": total_core, "constraints_cold": total_con}
     return results

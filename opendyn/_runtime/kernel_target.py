@@ -29,6 +29,7 @@ import os
 import sys
 
 PORTABLE = "generic"  # LLVM's baseline CPU of the architecture (no added features)
+PORTABLE_WORD = "portable (any CPU of this architecture)"
 
 
 def choose() -> str:
@@ -36,13 +37,18 @@ def choose() -> str:
     docstring); returns a word on the outcome, for `opendyn info --cache`."""
     if "numba" in sys.modules:
         return "as numba was set when imported before opendyn"
+    portable = os.environ.get("NUMBA_CPU_NAME") == PORTABLE and not os.environ.get(
+        "NUMBA_CPU_FEATURES"
+    )
+    if portable:  # set by an opendyn that started this process (a test's, a sweep's worker)
+        return PORTABLE_WORD
     if os.environ.get("NUMBA_CPU_NAME"):
         return "NUMBA_CPU_NAME, set by the user"
     if os.environ.get("OPENDYN_CPU", "").strip().lower() == "host":
         return "this machine's CPU (OPENDYN_CPU=host)"
     os.environ["NUMBA_CPU_NAME"] = PORTABLE
     os.environ["NUMBA_CPU_FEATURES"] = ""
-    return "portable (any CPU of this architecture)"
+    return PORTABLE_WORD
 
 
 CHOSEN = choose()

@@ -79,7 +79,9 @@ def _used_kernels():
     """(dispatcher, signatures) of every opendyn kernel of this process cached in opendyn's
     folder that has compiled or loaded versions."""
     for obj in gc.get_objects():
-        if not isinstance(obj, Dispatcher) or not obj.overloads:
+        # by type, not isinstance: a weak proxy among the objects, whose referent is gone,
+        # raises on any question asked of it
+        if not issubclass(type(obj), Dispatcher) or not obj.overloads:
             continue
         cache = getattr(obj, "_cache", None)
         cache_file = getattr(cache, "_cache_file", None)

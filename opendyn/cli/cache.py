@@ -55,7 +55,9 @@ def _compile_ahead(args) -> int:
               "the scenes above need (pip install example-robot-data) first", file=sys.stderr)
         return 1
     t0 = time.perf_counter()
-    done = compile_ahead(scenes, functions=everything)
+    # a wheel ships what `opendyn simulate` and the functions need; a sweep compiles its
+    # rollout loop on its first run
+    done = compile_ahead(scenes, functions=everything, rollouts=not args.export)
     for name in skipped:
         print(f"skipped scene {name}", file=sys.stderr)
     print(f"compiled {len(done)} items in {time.perf_counter() - t0:.1f} s")
@@ -166,12 +168,14 @@ def core_calls(model, batch=64):
     return calls
 
 
-def compile_ahead(scenes, functions, out=sys.stderr, simulations=True, announce=True):
-    """Compile (or load from the cache) what `scenes` (opendyn.Scene objects) need, their
-    rollouts and, with `simulations`, their simulate() (a scene with a Python controller has
-    only that), and with `functions` every public core function, with one bar over the items
-    on `out`. announce=False: say nothing unless something compiles (then the usual notice on
-    stderr). Returns [(item, seconds)]."""
+def compile_ahead(
+    scenes, functions, out=sys.stderr, simulations=True, announce=True, rollouts=True
+):
+    """Compile (or load from the cache) what `scenes` (opendyn.Scene objects) need: with
+    `rollouts` their rollouts, with `simulations` their simulate() (a scene with a Python
+    controller has only that), and with `functions` every public core function, with one bar
+    over the items on `out`. announce=False: say nothing unless something compiles (then the
+    usual notice on stderr). Returns [(item, seconds)]."""
     from tqdm import tqdm
 
     items = []
@@ -183,7 +187,7 @@ def compile_ahead(scenes, functions, out=sys.stderr, simulations=True, announce=
         compiled = python_control.record(scene) is None  # else it runs with simulate only
         if simulations or not compiled:
             items.append((f"scene {scene.name}", lambda s=short: simulate(s)))
-        if compiled:  # a sweep's workers roll its runs out
+        if compiled and rollouts:  # a sweep's workers roll its runs out
             items.append(
                 (f"rollout {scene.name}", lambda s=short: rollout(s, threads=1).trajectory(0))
             )

@@ -236,7 +236,8 @@ def command_line() -> argparse.ArgumentParser:
         "--export",
         metavar="FOLDER",
         help="then write the kernels these need into FOLDER, to ship as opendyn/_kernels "
-        "(scripts/build_wheel.py); refused when a shipped scene's robot is missing",
+        "(scripts/build_wheel.py): the functions' and the scenes' simulate, not their "
+        "rollouts; refused when a shipped scene's robot is missing",
     )
     comp.set_defaults(run=_compile_ahead)
     return parser

@@ -17,15 +17,32 @@ from ..algorithm.energy import energies
 from ..errors import SceneError
 from ..multibody.joints import FREE
 from . import effects, integrators, step
+from .effects import python_control
 from .record import contact_record, geometry_contact_record, gravity_of, violation
 
-# what compiling a scene's pieces takes on a 2-core machine, by integrator (measured by
-# scripts/bench_coldstart.py; constraints add about half again)
-_COMPILE_ESTIMATE = {
-    integrators.EXPLICIT_RK: "about 15 s",
-    integrators.SEMI_IMPLICIT: "about 20 s",
-    integrators.IMPLICIT: "about 20 s",
-}
+# what compiling a scene's pieces takes on a 2-core machine, in seconds (scripts/
+# bench_coldstart.py, docs/performance/startup.md: a scene's cold run less its warm one and
+# the start check's energies, which have their own notice): the step of any integrator with
+# joint-space effects 17-27 s, and what contact (68-72 s in all), constraints (61-67 s) and a
+# Python controller (53 s) add to it
+STEP_SECONDS = 25
+CONTACT_SECONDS = 45
+CONSTRAINT_SECONDS = 40
+CONTROLLER_SECONDS = 25
+
+
+def compile_estimate(scene) -> str:
+    """The compile notice's words on how long `scene`'s pieces take to compile (the numbers
+    above), within a factor of 1.5 of the measured time."""
+    seconds = STEP_SECONDS
+    contact = effects.contact.record(scene), effects.geometry_contact.record(scene)
+    if any(record is not None for record in contact):
+        seconds += CONTACT_SECONDS
+    if scene.constraints:
+        seconds += CONSTRAINT_SECONDS
+    if python_control.record(scene) is not None:
+        seconds += CONTROLLER_SECONDS
+    return f"about {seconds} s"
 
 
 CHUNK_SECONDS = 0.1  # wall time of one compiled chunk: progress and Ctrl-C granularity
@@ -133,7 +150,7 @@ def load_kernels(scene, integ, table, data, x, loop):
         params = table.params(effects.geometry_contact)
         pieces.append(lambda: geometry_contact_record(model, params, *state))
     what = f"the simulation step for {integ.name} with {', '.join(table.names) or 'no effects'}"
-    with compiling(what, len(pieces), _COMPILE_ESTIMATE[integ.kind]) as done:
+    with compiling(what, len(pieces), compile_estimate(scene)) as done:
         for piece in pieces:
             piece()
             done()

@@ -46,7 +46,13 @@ from ..algorithm.configuration import check_unit_quaternions
 from ..errors import RolloutInterrupted, SceneError, SceneWarning
 from . import effects, integrators
 from .diagnostics import check_contact_step, failure_message
-from .driver import Interrupt, error_size_index, free_joints, integrator_of
+from .driver import (
+    Interrupt,
+    compile_estimate,
+    error_size_index,
+    free_joints,
+    integrator_of,
+)
 from .effects import python_control
 from .preflight import byte_size, check_start, run_size, sample_numbers
 from .rollout_loops import (
@@ -287,7 +293,7 @@ class _Loop:
         what = f"the rollout loop for {self.integ.name} with " + (
             ", ".join(self.table.names) or "no effects"
         )
-        with compiling(what, 1, "about 15 s") as done:
+        with compiling(what, 1, compile_estimate(self.scene)) as done:
             self(block, 0, 0)
             done()
 
