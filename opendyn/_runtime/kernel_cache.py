@@ -238,12 +238,18 @@ def cache_subfolder(py_file) -> str | None:
     relative to the package ("sim/effects", "." at the top), the same for every copy of the
     package; for a source outside it decorated inside `kernel_cache()`, "outside/" and numba's
     own name for its folder; None for any other source (numba's own locators file it)."""
+    inside = _package_subfolder(py_file)
+    if inside is None and _outside:
+        return "outside/" + _CacheLocator.get_suitable_cache_subpath(py_file)
+    return inside
+
+
+@functools.lru_cache(maxsize=None)
+def _package_subfolder(py_file) -> str | None:
+    """`py_file`'s folder relative to the package, or None outside it; once per file (numba
+    asks for each of its kernels, twice)."""
     path = pathlib.Path(py_file).resolve()
-    if path.is_relative_to(_HERE):
-        return path.parent.relative_to(_HERE).as_posix()
-    if _outside:
-        return "outside/" + _CacheLocator.get_suitable_cache_subpath(str(path))
-    return None
+    return path.parent.relative_to(_HERE).as_posix() if path.is_relative_to(_HERE) else None
 
 
 _outside = []  # non-empty inside kernel_cache(): kernels outside the package cache with ours

@@ -4,14 +4,16 @@ rollout, `compile_ahead`), and where that cache is."""
 
 from __future__ import annotations
 
+import os
 import sys
 import time
 
 import numpy as np
 
 from .._runtime.compile_notice import compiling, quiet
-from .._runtime.kernel_cache import CACHE_DIR
-from .._runtime.shipped_kernels import export_used
+from .._runtime.kernel_cache import CACHE_DIR, CACHE_WHERE
+from .._runtime.kernel_target import CHOSEN, target
+from .._runtime.shipped_kernels import SHIPPED_FOLDER, export_used
 from ..algorithm import (
     centroidal,
     christoffel,
@@ -69,14 +71,7 @@ def _compile_ahead(args) -> int:
 
 def _cache_info() -> int:
     """opendyn info --cache: the kernel cache folder, why it is there, and its size."""
-    import os
-
-    from .._runtime.kernel_cache import CACHE_DIR, CACHE_WHERE
-
     print(f"kernel cache  {CACHE_DIR or 'none: kernels are compiled in every process'}")
-    from .._runtime.kernel_target import CHOSEN, target
-    from .._runtime.shipped_kernels import SHIPPED_FOLDER
-
     print(f"chosen as     {CACHE_WHERE} (first writable of NUMBA_CACHE_DIR, the per-user cache, "
           "the package folder)")
     name, features = target()
