@@ -447,3 +447,15 @@ def test_inertia_at_triangle_inequality_limit_is_accepted():
     # A thin flat plate has Izz = Ixx + Iyy exactly (perpendicular-axis theorem).
     G = spatial_inertia(1.0, np.zeros(3), np.diag([1.0, 2.0, 3.0]))
     np.testing.assert_array_equal(G[:3, :3], np.diag([1.0, 2.0, 3.0]))
+
+
+def test_rpy_matrix_is_urdf_s_fixed_axis_roll_pitch_yaw():
+    """Against scipy's extrinsic x-y-z Euler angles (the URDF specification's <origin rpy>)."""
+    from opendyn.spatial import rpy_matrix
+
+    rng = np.random.default_rng(7)
+    for rpy in rng.uniform(-np.pi, np.pi, (50, 3)):
+        R = rpy_matrix(rpy)
+        assert np.allclose(R, Rotation.from_euler("xyz", rpy).as_matrix(), atol=1e-14)
+    with pytest.raises(ValueError, match="rpy"):
+        rpy_matrix([0.1, 0.2])

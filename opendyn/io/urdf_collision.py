@@ -26,10 +26,10 @@ import os
 import pathlib
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from ..errors import URDFError
 from ..multibody.geometry import Geometry
+from ..spatial.algebra import rpy_matrix
 from .meshes import MeshError, hull_vertices, resolve_mesh
 from .urdf_xml import check_values, where
 
@@ -87,7 +87,7 @@ def _origin(file, el) -> np.ndarray:
             check_values(file, el, attr, el.get(attr), 3)
     T[:3, 3] = [float(v) for v in el.get("xyz", "0 0 0").split()]
     rpy = [float(v) for v in el.get("rpy", "0 0 0").split()]
-    T[:3, :3] = Rotation.from_euler("xyz", rpy).as_matrix()  # extrinsic x, y, z: Rz Ry Rx
+    T[:3, :3] = rpy_matrix(rpy)  # Rz Ry Rx
     return T
 
 

@@ -179,6 +179,26 @@ def exp_so3(w):
     return np.eye(3) + sin_ratio * W + cos_ratio * (W @ W)
 
 
+def rpy_matrix(rpy):
+    """R = Rz(yaw) Ry(pitch) Rx(roll): URDF's roll, pitch, yaw, rotations about the fixed x, y
+    and z axes in that order (the URDF specification's <origin rpy>, ROS REP 103).
+
+    rpy: (3,) angles (roll, pitch, yaw) (rad).
+    Returns the (3, 3) rotation matrix R in SO(3).
+    """
+    roll, pitch, yaw = _as_array(rpy, "rpy", (3,))
+    cr, sr = np.cos(roll), np.sin(roll)
+    cp, sp = np.cos(pitch), np.sin(pitch)
+    cy, sy = np.cos(yaw), np.sin(yaw)
+    return np.array(
+        [
+            [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
+            [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
+            [-sp, cp * sr, cp * cr],
+        ]
+    )
+
+
 def log_so3(R):
     """w = log(R) with [w] = (t / (2 sin t)) (R - R^T), cos t = (tr R - 1) / 2 (MR Section 3.2.3.3).
 

@@ -12,7 +12,6 @@ Integrating A qdd + Adot qd = 0 lets the position error phi drift; [baumgarte] p
 from __future__ import annotations
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from ...algorithm.constraints import broken_constraint
 from ...errors import SceneError
@@ -24,6 +23,7 @@ from ...multibody.constraint_objects import (
     PointToWorld,
 )
 from ...sim.preflight import broken_message
+from ...spatial.algebra import rpy_matrix
 from ...sim.values import ValueReader, what_is
 
 CONSTRAINT_TYPES = (
@@ -107,7 +107,7 @@ class ConstraintsSection(ValueReader):
                 T_ab = None
                 if "xyz" in table or "rpy" in table:
                     T_ab = np.eye(4)
-                    T_ab[:3, :3] = Rotation.from_euler("xyz", point("rpy")).as_matrix()
+                    T_ab[:3, :3] = rpy_matrix(point("rpy"))
                     T_ab[:3, 3] = point("xyz")
                 return FixedPose(frame("frame_a"), frame("frame_b"), T_ab)
             return JointCoupling(self.coupling(table, key))

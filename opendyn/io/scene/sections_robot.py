@@ -11,7 +11,6 @@ from __future__ import annotations
 import os
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from ..._runtime.arrays import immutable
 from ...errors import URDFError
@@ -143,6 +142,8 @@ class RobotSection(ValueReader):
         PREFIX position, orientation (a unit quaternion x, y, z, w) or rpy, velocity and
         angular_velocity of `table` (world frame; each optional: at the origin, upright, at
         rest): omega_b = R^T omega_s, v_b = R^T p_dot. `where` names the table in errors."""
+        from scipy.spatial.transform import Rotation  # (its import costs 0.15 s: when needed)
+
         m = self.model
         a, b = int(m.iq[body]), int(m.iv[body])
 

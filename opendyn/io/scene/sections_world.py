@@ -13,11 +13,11 @@ from __future__ import annotations
 
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from ...errors import URDFError
 from ...multibody.assembly import object_model, with_world
 from ...multibody.geometry import Geometry
+from ...spatial.algebra import rpy_matrix
 from ...sim.values import ValueReader, what_is
 from ..meshes import MeshError, hull_vertices
 from ..urdf import load_urdf
@@ -60,7 +60,7 @@ class WorldSection(ValueReader):
         for where, table, name, shape in world_entries:
             T_s = np.eye(4)
             T_s[:3, 3] = self._vec3(table, where, "position")
-            T_s[:3, :3] = Rotation.from_euler("xyz", self._vec3(table, where, "rpy")).as_matrix()
+            T_s[:3, :3] = rpy_matrix(self._vec3(table, where, "rpy"))
             entries.append((self._world_geometry(table, where, name, shape), T_s))
         self.model = with_world(self.model, found, entries)
         return self.model
