@@ -83,7 +83,7 @@ def run_views(base, batch, i, start):
         base.ibuf, run.fbuf, run.effects, run.armature, base.method, run.constraints,
         base.forces, base.loads, base.KD,
         constraint_room(run.constraints, body_count(base.ibuf), dof_count(base.ibuf)),
-        base.work, base.held, base.world, base.room,
+        base.work, base.world, base.room,
     )
     x, out, c = batch.x, batch.out, batch.counters
     return (
@@ -140,7 +140,11 @@ def rollout_fixed(switches, base, settings, nsteps, batch, free, start, stop):
         if batch.which[i - start] < 0:
             continue  # a run refused before it started
         scene, x, out, counters = run_views(base, batch, i, start)
-        status, done = run_fixed(switches, scene, settings, 0, nsteps, x, out, counters, free)
+        # from global step np.int64(0): a literal 0 would compile run_fixed once more, for
+        # Literal[int](0), instead of reusing the one simulate compiled
+        status, done = run_fixed(
+            switches, scene, settings, np.int64(0), nsteps, x, out, counters, free
+        )
         counters.accepted[0] += done
         rows = (done - 1) // every + 1 if done else 0
         end_run(scene, batch, i, status, rows, settings.t0 + done * dt, x, counters, None)

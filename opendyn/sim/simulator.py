@@ -86,8 +86,10 @@ class Simulator:
         self._controller_name = (
             None if self._controller is None else controller_name(self._controller)
         )
-        self._held = python_control.held_torque(self.model)
-        self._data = step.scene_data(self.model, self._table, self._held)
+        self._data = step.scene_data(
+            self.model, self._table, python_control.held_torque(self.model)
+        )
+        self._held = self._data.forces[step.HELD]  # written at every control period
         self._free = free_joints(self.model)
         # the joints' velocity coordinates and the floating base's (which no torque drives)
         if self._integ.adaptive:

@@ -12,8 +12,10 @@ base does not accelerate). With constraints A(q) qd = 0 the forward dynamics is 
 (M by CRBA, the multipliers as in opendyn.algorithm.constraints). tau_held (nv,) is the
 generalized force a Python caller holds over a control period (opendyn.sim.simulator: the
 torque of `Simulator.step` and of a Python controller, a zero-order hold); it is control
-torque, so its work is applied work. A run without one has None there and compiles no trace of
-it. Alongside, the power of the
+torque, so its work is applied work. It is a fourth row of the step's scratch `forces`, which a
+run without a Python caller does not have: the test is on the array's shape, not its type, so
+that one compiled step serves both (a Python controller reuses what a plain run of the scene
+compiled), and a plain run adds nothing. Alongside, the power of the
 non-conservative forces for the energy balance dE/dt = qd . tau_applied + qd . tau_passive,
 where E = T + U_gravity:
   applied = control torques and applied wrenches (work put in),
@@ -59,6 +61,8 @@ from .effects.interface import Context, Out
 
 # the gravity stage's slot: it runs first, setting the base acceleration dV_0 the others read
 GRAVITY = registry.slot(gravity)
+# the row of SceneData.forces that holds a Python caller's torque tau_held, when it has one
+HELD = 3
 
 
 @njit(**JIT)
@@ -111,26 +115,18 @@ def generalized_forces(scene, t, q, qd, tau, tau_ctrl, power, K, D, jac):
     status = run_stages(EVERY, scene.effects, ctx, out)
     if status:
         return status
-    add_held(scene.held, tau_ctrl)
+    held = scene.forces.shape[0] > HELD  # tau_ctrl += tau_held
     applied = 0.0
     passive = power[1]  # the contact springs' share, if any
     for j in range(qd.shape[0]):
+        if held:
+            tau_ctrl[j] += scene.forces[HELD, j]
         applied += qd[j] * (tau_ctrl[j] + tau_app[j])
         passive += qd[j] * tau_pas[j]
         tau[j] = tau_ctrl[j] + tau_app[j] + tau_pas[j]
     power[0] = applied
     power[1] = passive
     return Status.OK.value
-
-
-@njit(**JIT)
-def add_held(tau_held, tau_ctrl):
-    """tau_ctrl (nv,) += tau_held (nv,), the torque held over the control period; nothing when
-    tau_held is None (numba tests it against None when it compiles)."""
-    if tau_held is None:
-        return
-    for j in range(tau_ctrl.shape[0]):
-        tau_ctrl[j] += tau_held[j]
 
 
 @njit(**JIT)
@@ -174,18 +170,19 @@ def solve_with(con, aba, crba, newton_euler, scene, q, qd, tau, qdd):
 # The scene as the compiled step takes it (scene_data): the model's buffers ibuf, fbuf; the
 # stage table's effects tuple, armature and constraints (or None); the forward-dynamics method
 # as the compile-time switches of algorithm.forward.forward_kernel (none with constraints);
-# and the step's own scratch: forces (3, nv) (tau, tau_applied, tau_passive), loads (1, 6)
+# and the step's own scratch: forces (3, nv) (tau, tau_applied, tau_passive), or (4, nv) with
+# the torque tau_held (nv,) that a Python caller holds over a control period, loads (1, 6)
 # with dV_0, KD (2, nv, nv) the stiffness K and damping D of the effects for the implicit
 # integrator, con_work the constrained solve's ConstraintWork for the constraints' k rows
 # (their multipliers lam (k,), rows and scratch; None without constraints), work, the buffer
-# of a Data of the model that the kernels work in, held, the torque tau_held (nv,) held over a
-# control period, or None, world, True when an effect the scene names reads the world poses
-# (place puts them in work), or None, and room, the geometry contact's GeometryRoom, or None.
+# of a Data of the model that the kernels work in, world, True when an effect the scene names
+# reads the world poses (place puts them in work), or None, and room, the geometry contact's
+# GeometryRoom, or None.
 SceneData = namedtuple(
     "SceneData",
     (
         "ibuf", "fbuf", "effects", "armature", "method", "constraints", "forces", "loads",
-        "KD", "con_work", "work", "held", "world", "room",
+        "KD", "con_work", "work", "world", "room",
     ),
 )
 
@@ -204,9 +201,9 @@ def constraint_room(con, nb, nv):
 
 
 def scene_data(model, table, held=None):
-    """The SceneData of a model and its stage table (effects.StageTable); held: the (nv,)
-    float64 array of the held torque that the caller writes between control periods, or
-    None."""
+    """The SceneData of a model and its stage table (effects.StageTable); held: None, or the
+    (nv,) torque held at first by a Python caller, who writes it between control periods in
+    the SceneData's forces[HELD]."""
     method = method_switches(model, None if table.constraints else table.method)
     return SceneData(
         model._ibuf,
@@ -215,12 +212,11 @@ def scene_data(model, table, held=None):
         table.armature,
         method,
         table.constraints,
-        np.empty((3, model.nv)),
+        np.empty((3, model.nv)) if held is None else np.vstack((np.empty((3, model.nv)), held)),
         np.zeros((1, 6)),
         np.empty((2, model.nv, model.nv)),
         constraint_room(table.constraints, model.nb, model.nv),
         model.data()._work,
-        held,
         True if table.world_poses else None,
         contact_room(table, model.nv),
     )

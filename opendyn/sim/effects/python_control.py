@@ -6,8 +6,8 @@ A scene names it as [control] type = "python", function = "FILE.py:NAME" (a path
 scene file) or "MODULE:NAME" (an importable module), and optionally control_dt (s; default the
 run's control_dt, else its dt). The function runs in Python between compiled stretches of the
 run (opendyn.sim.simulator); the step adds the held torque as control torque (its work is put
-in), through step.SceneData.held rather than a stage of its own: the Simulator holds the sum of
-its caller's torque and the controller's there.
+in), through the held-torque row of step.SceneData.forces rather than a stage of its own: the
+Simulator holds the sum of its caller's torque and the controller's there.
 """
 
 from __future__ import annotations

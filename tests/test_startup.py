@@ -1,0 +1,80 @@
+"""What a first import and a second kind of run cost: `import opendyn` imports no layer (each
+public name is imported when first used, and is then the object of its module), and the
+compiled step a plain run of a scene made serves a Python controller and a rollout of it."""
+
+from __future__ import annotations
+
+import ast
+import pathlib
+import subprocess
+import sys
+
+import numba
+import numpy as np
+import pytest
+from numba.core import types
+
+import opendyn as od
+from opendyn.sim import effects, integrators, step
+
+INIT = pathlib.Path(od.__file__)
+
+
+def test_import_opendyn_imports_neither_numpy_nor_numba_nor_a_layer():
+    code = (
+        "import sys, opendyn\n"
+        "heavy = [m for m in ('numpy', 'numba', 'scipy', 'yourdfpy', 'opendyn.algorithm', "
+        "'opendyn.sim', 'opendyn.io') if m in sys.modules]\n"
+        "print(heavy, opendyn.__version__)"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.split("]")[0] == "[", out.stdout
+
+
+def test_every_public_name_is_the_object_its_module_defines():
+    for name in od.__all__:
+        value = getattr(od, name)
+        module = sys.modules[value.__module__]
+        assert getattr(module, name) is value, name
+    assert set(od.__all__) <= set(dir(od))
+
+
+def test_the_lazy_table_lists_exactly_the_public_names():
+    tree = ast.parse(INIT.read_text(encoding="utf-8"))
+    block = next(n for n in tree.body if isinstance(n, ast.If))
+    listed = {alias.name for line in block.body for alias in line.names}
+    assert listed == set(od.__all__)
+
+
+def test_an_unknown_name_is_an_attribute_error_and_a_subpackage_is_imported():
+    with pytest.raises(AttributeError, match="has no attribute 'mass_matrx'"):
+        od.mass_matrx  # noqa: B018
+    assert od.sim is sys.modules["opendyn.sim"]
+    from opendyn import load_urdf  # noqa: F401  (from-imports go through the same table)
+
+
+def pendulum_scene():
+    return od.load_scene("double_pendulum_swing").replace_run(duration=0.05)
+
+
+def test_a_python_controller_runs_the_step_a_plain_run_compiled():
+    """The compiled step is chosen by the numba type of its SceneData: a Simulator that holds a
+    Python caller's torque has the same type as a plain run's, so it reuses that compilation."""
+    scene = pendulum_scene()
+    table = effects.stage_table(scene)
+    plain = step.scene_data(scene.model, table)
+    sim = od.Simulator(scene, controller=lambda t, q, qd: np.ones(2), control_dt=0.01)
+    assert numba.typeof(sim._data) == numba.typeof(plain)
+    # and the held torque is applied: a constant 1 N m on each joint is work put in
+    sim.step(duration=0.05)
+    traj = sim.trajectory()
+    assert np.allclose(traj.tau[1:], 1.0)
+    assert np.all(np.diff(traj.work_applied) != 0.0)
+
+
+def test_a_rollout_calls_the_fixed_step_loop_that_simulate_compiled():
+    scene = pendulum_scene()
+    od.simulate(scene)
+    od.rollout(scene, q0=np.zeros((2, 2)))
+    step0 = [signature[3] for signature in integrators.run_fixed.signatures]
+    assert step0 and all(not isinstance(t, types.Literal) for t in step0), step0
