@@ -1,8 +1,8 @@
 """The `opendyn` command's entry point, outside the opendyn package on purpose.
 
-Importing opendyn takes about a second (numpy, numba, the compiled kernels), and Python runs the
-package's __init__ before any module inside it; only a module outside the package can turn a
-Ctrl-C or SIGTERM during that second into a one-line message instead of a traceback.
+Importing the command takes about half a second (numpy, numba, the layers it runs), and Python
+runs the package's __init__ before any module inside it; only a module outside the package can
+turn a Ctrl-C or SIGTERM during that time into a one-line message instead of a traceback.
 """
 
 from __future__ import annotations

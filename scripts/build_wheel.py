@@ -76,7 +76,7 @@ import json, sys, time
 tic = time.perf_counter()
 from opendyn.cli.main import main
 from opendyn._runtime.compile_notice import compile_seconds
-from opendyn._runtime.shipped_kernels import SHIPPED_FOLDER
+from opendyn._runtime.kernel_cache import SHIPPED_FOLDER
 status = main(["simulate", sys.argv[1], "--no-save", "-q"])
 print(json.dumps({"scene": sys.argv[1], "status": status, "compiled_s": compile_seconds(),
                   "seconds": time.perf_counter() - tic, "shipped": str(SHIPPED_FOLDER)}))

@@ -8,6 +8,10 @@ import signal
 
 import pytest
 
+# first (it imports no layer): opendyn sets its portable compile target before numba is
+# imported, which a test module imported earlier (import numba) would otherwise do first
+import opendyn  # noqa: F401
+
 
 @pytest.fixture
 def ctrl_c_raises():

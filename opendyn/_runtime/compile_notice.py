@@ -10,7 +10,8 @@ hit raises no event), so:
     happens once per machine and opendyn version) and a bar that counts the pieces compiled;
   - `compiling(what, pieces)` announces a planned compilation of known size (a simulation's
     loop, `opendyn compile` (opendyn.cli.cache)): the bar then moves over those pieces.
-`compile_seconds()` is the total time spent compiling in this process.
+`compile_seconds()` is the total time spent compiling in this process. The listener is
+installed by opendyn._runtime.kernel_cache (`watch`), which every kernel module imports.
 """
 
 from __future__ import annotations
@@ -21,8 +22,6 @@ import time
 from contextlib import contextmanager
 
 from numba.core import event
-
-from .kernel_cache import CACHE_DIR
 
 _lock = threading.RLock()
 
@@ -37,6 +36,8 @@ class _Watch(event.Listener):
         self.bar = None
         self.plan = None  # (what, pieces, estimate) of an announced compilation
         self.quiet = False
+        self.folder = None  # the cache folder the notice names (None: none is writable)
+        self.registered = False
 
     def on_start(self, ev):
         dispatcher = ev.data["dispatcher"]
@@ -74,7 +75,7 @@ class _Watch(event.Listener):
         else:
             what, pieces = f"{dispatcher.py_func.__module__}.{dispatcher.py_func.__name__}", 1
             estimate = "a few seconds"
-        where = f"cached in {CACHE_DIR}" if CACHE_DIR else "no writable cache: every process"
+        where = f"cached in {self.folder}" if self.folder else "no writable cache: every process"
         print(
             f"opendyn: compiling {what} for this machine ({estimate} on 2 cores; once per "
             f"machine and opendyn version, {where})",
@@ -94,7 +95,16 @@ class _Watch(event.Listener):
 
 
 _watch = _Watch()
-event.register("numba:compile", _watch)
+
+
+def watch(folder):
+    """Listen to numba's compilations from now on (once per process), the notice naming the
+    cache folder `folder` (None: no writable one)."""
+    with _lock:
+        _watch.folder = folder
+        if not _watch.registered:
+            event.register("numba:compile", _watch)
+            _watch.registered = True
 
 
 def compile_seconds() -> float:

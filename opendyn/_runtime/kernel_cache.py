@@ -13,7 +13,8 @@ cache of their own. opendyn's kernels are filed instead under their folder relat
 package (`PackageLocator`, ahead of numba's own locators), so every copy of the same sources
 on a machine reads and writes the same entries. The entries are keyed by the signature and the
 compile target, which is portable (opendyn._runtime.kernel_target), so a folder made on one
-machine loads on another: a built wheel ships one (opendyn._runtime.shipped_kernels).
+machine loads on another: a built wheel ships one, read where this folder misses (below;
+opendyn._runtime.shipped_kernels writes it).
 
 The folder is the first writable one of:
   1. $NUMBA_CACHE_DIR/opendyn-kernels-HASH, when the user sets NUMBA_CACHE_DIR;
@@ -59,6 +60,8 @@ from numba.core.caching import (
     _CacheLocator,
     _SourceFileBackedLocatorMixin,
 )
+
+from . import compile_notice
 
 _HERE = pathlib.Path(__file__).resolve().parents[1]  # the package: opendyn/
 # every compiled source, and everything a kernel may inline or call: all of the package's Python
@@ -129,6 +132,9 @@ def _choose():
 
 
 CACHE_DIR, CACHE_WHERE = _choose()
+# compiling said out loud, naming this folder: installed here, as every kernel module imports
+# its options from this module
+compile_notice.watch(CACHE_DIR)
 CACHING = CACHE_DIR is not None  # the kernels' `cache=` option
 
 
@@ -231,6 +237,60 @@ def saves_take_turns():
 
 
 saves_take_turns()
+
+
+# A built wheel ships kernels in the package's _kernels/ (opendyn._runtime.shipped_kernels
+# writes them), a folder of this cache's layout with a file DIGEST naming the sources they were
+# compiled from. It is read-only: a kernel that misses in the cache folder is looked up there,
+# and one found is loaded from it, as numba loads any entry: checked against its source's
+# content and its compile target (portable, opendyn._runtime.kernel_target). A kernel compiled
+# later, for a signature the wheel does not carry, goes to the cache folder as before. A
+# shipped folder of other sources (left in a checkout by an older build) is not used.
+SHIPPED = _HERE / "_kernels"
+DIGEST_FILE = "DIGEST"  # in the shipped folder: the source digest it was compiled from
+
+
+def _shipped_folder() -> pathlib.Path | None:
+    """The package's shipped kernels, when there are some and they are of these sources."""
+    try:
+        digest = (SHIPPED / DIGEST_FILE).read_text(encoding="ascii").strip()
+    except OSError:
+        return None
+    return SHIPPED if digest == DIGEST else None
+
+
+SHIPPED_FOLDER = _shipped_folder()
+
+
+def _twin(cache_file, root) -> IndexDataCacheFile:
+    """The IndexDataCacheFile of `cache_file`'s kernel (an entry of opendyn's cache folder) in
+    the folder `root` of the same layout."""
+    subfolder = os.path.relpath(cache_file._cache_path, CACHE_DIR)
+    base = cache_file._index_name[: -len(".nbi")]
+    return IndexDataCacheFile(os.path.join(root, subfolder), base, cache_file._source_stamp)
+
+
+def shipped_is_a_fallback():
+    """Make a miss in opendyn's cache folder look in the shipped kernels (above);
+    numba's reader wrapped once per process, and only when the package ships kernels."""
+    if SHIPPED_FOLDER is None or getattr(IndexDataCacheFile, "_opendyn_shipped", False):
+        return
+    load = IndexDataCacheFile.load
+
+    def _load(self, key):
+        data = load(self, key)
+        if data is None and _ours(self):
+            try:
+                data = load(_twin(self, SHIPPED_FOLDER), key)
+            except Exception:  # a damaged shipped entry: a miss, compiled into the cache
+                data = None
+        return data
+
+    IndexDataCacheFile.load = _load
+    IndexDataCacheFile._opendyn_shipped = True
+
+
+shipped_is_a_fallback()
 
 
 def cache_subfolder(py_file) -> str | None:

@@ -11,9 +11,9 @@ import time
 import numpy as np
 
 from .._runtime.compile_notice import compiling, quiet
-from .._runtime.kernel_cache import CACHE_DIR, CACHE_WHERE
+from .._runtime.kernel_cache import CACHE_DIR, CACHE_WHERE, SHIPPED_FOLDER
 from .._runtime.kernel_target import CHOSEN, target
-from .._runtime.shipped_kernels import SHIPPED_FOLDER, export_used
+from .._runtime.shipped_kernels import export_used
 from ..algorithm import (
     centroidal,
     christoffel,
