@@ -358,7 +358,8 @@ def run_interrupted_at(module, argv, tmp_path, signal_name="SIGINT"):
         "sys.exit(opendyn_launch.main())\n"
     )
     path = os.pathsep.join([str(REPO), os.environ.get("PYTHONPATH", "")])
-    env = dict(os.environ, PYTHONPATH=path)
+    # the robot read from its URDF (a Model kept on disk would not import the reader)
+    env = dict(os.environ, PYTHONPATH=path, OPENDYN_MODEL_CACHE="0")
     return subprocess.run(
         [sys.executable, "-c", script],
         cwd=tmp_path,

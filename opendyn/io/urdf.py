@@ -17,6 +17,7 @@ import numpy as np
 from .._runtime.options import flag
 from ..errors import URDFError
 from ..multibody.model import Model
+from .model_cache import cached_model
 from .urdf_model import _Builder
 from .urdf_xml import FidelityReport, read_urdf
 
@@ -47,18 +48,25 @@ def load_urdf(
         ``model.collision_pairs`` (as Pinocchio's ``removeCollisionPairs``); None: none.
 
     Returns the Model; ``model.report`` is the fidelity report (honoured, transformed, ignored).
+    A Model built once is kept on disk and returned by later loads of the same files
+    (opendyn.io.model_cache).
     Raises URDFError naming the file, the element and the problem for malformed input.
     """
     floating_base = flag(floating_base, "load_urdf: floating_base")
     mimic = flag(mimic, "load_urdf: mimic")
     check_inertia = flag(check_inertia, "load_urdf: check_inertia")
     file = resolve_robot(path)
-    report = FidelityReport(source=file)
-    root, robot = read_urdf(file, report)
     if srdf is not None and not isinstance(srdf, (str, os.PathLike)):
         raise TypeError(f"load_urdf: srdf must be a file path, got {type(srdf).__name__}")
-    builder = _Builder(file, root, robot, report, mimic, check_inertia, floating_base, srdf)
-    return builder.build()
+
+    def build():
+        report = FidelityReport(source=file)
+        root, robot = read_urdf(file, report)
+        return _Builder(
+            file, root, robot, report, mimic, check_inertia, floating_base, srdf
+        ).build()
+
+    return cached_model(file, (floating_base, mimic, check_inertia, srdf), build)
 
 
 def looks_mobile(model) -> bool:
