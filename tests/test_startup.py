@@ -53,6 +53,14 @@ def test_an_unknown_name_is_an_attribute_error_and_a_subpackage_is_imported():
     from opendyn import load_urdf  # noqa: F401  (from-imports go through the same table)
 
 
+def test_a_public_name_wins_over_the_subpackage_of_the_same_name():
+    """opendyn.sweep is the function, though importing the layer opendyn/sweep/ binds it."""
+    from opendyn.sweep import engine
+
+    assert od.sweep is engine.sweep
+    assert od.sweep.__module__ == "opendyn.sweep.engine"
+
+
 def pendulum_scene():
     return od.load_scene("double_pendulum_swing").replace_run(duration=0.05)
 

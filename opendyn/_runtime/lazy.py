@@ -12,6 +12,8 @@ from __future__ import annotations
 
 import ast
 import importlib
+import sys
+import types
 
 
 def _public_imports(init_file: str) -> dict[str, str]:
@@ -28,11 +30,24 @@ def _public_imports(init_file: str) -> dict[str, str]:
     return names
 
 
+class _Package(types.ModuleType):
+    """A package whose public names win over its subpackages of the same name (opendyn.sweep is
+    the function, opendyn/sweep/ the layer that defines it): the import system binds each
+    subpackage it imports on its parent, which would hide the public name."""
+
+    def __setattr__(self, name, value):
+        if isinstance(value, types.ModuleType) and name in self.__dict__["_public"]:
+            return
+        super().__setattr__(name, value)
+
+
 def attach(namespace: dict):
     """(__getattr__, __dir__) for the package whose __init__ has the globals `namespace`: its
     public names (`_public_imports`) and its subpackages, each imported when first asked for."""
     package = namespace["__name__"]
     modules = _public_imports(namespace["__file__"])
+    namespace["_public"] = modules
+    sys.modules[package].__class__ = _Package
 
     def __getattr__(name: str):
         if name in modules:
