@@ -23,6 +23,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import re
 import subprocess
 import sys
 import tempfile
@@ -96,16 +97,22 @@ def timed(cmd, cache, site=None):
     return wall, proc.stdout
 
 
+# the run summary's report of its step's compile: "...; 18.5 s more compiling the step, ..."
+STEP_COMPILED = re.compile(r"([0-9.]+) s more compiling the step")
+
+
 def simulate_cold_warm(scene, site):
-    """(cold, warm, wheel) wall seconds of `opendyn simulate [scene]` in a fresh cache
+    """(cold, warm, wheel, step) wall seconds of `opendyn simulate [scene]` in a fresh cache
     (--no-save: the start-up and the run), warm in that cache, and from the wheel installed in
-    `site` in another fresh cache (None without one)."""
+    `site` in another fresh cache (None without one); step: the seconds the cold run reports
+    compiling its step (None if it reports none)."""
     cmd = [sys.executable, "-m", "opendyn.cli", "simulate", "--no-save"]
     cmd += [scene] if scene else []
     with tempfile.TemporaryDirectory() as cache:
-        cold, _ = timed(cmd, cache)
+        cold, out = timed(cmd, cache)
         warm, _ = timed(cmd, cache)
-    return cold, warm, _from_wheel(cmd, site)[0]
+    step = STEP_COMPILED.search(out)
+    return cold, warm, _from_wheel(cmd, site)[0], float(step.group(1)) if step else None
 
 
 def _from_wheel(cmd, site):
@@ -200,23 +207,25 @@ def print_tables(quick, site):
           + (" Wheel: the first run of the wheel built by `scripts/build_wheel.py`, installed"
              " into a new folder, in an empty cache." if site else "") + "\n")
     print("The compile notice's estimate is what it says the scene's step takes to compile "
-          "(the start check's energies, which compile first, have their own notice).\n")
-    print(f"| command | cold (empty cache) | warm | notice's estimate |{wheel_col}")
-    print(f"|---|---:|---:|---|{wheel_rule}")
-    cold, warm, wheel = simulate_cold_warm(None, site)
-    results["simulate (default scene)"] = (cold, warm, wheel)
+          "(the start check's energies, which compile first, have their own notice); step "
+          "compiled is what the cold run then reports it took.\n")
+    print(f"| command | cold (empty cache) | warm | notice's estimate | step compiled |"
+          f"{wheel_col}")
+    print(f"|---|---:|---:|---|---:|{wheel_rule}")
+    cold, warm, wheel, step = simulate_cold_warm(None, site)
+    results["simulate (default scene)"] = (cold, warm, wheel, step)
     print(f"| `opendyn simulate` (default scene) | {cold:.1f} | {warm:.2f} |"
-          f" {estimate(DEFAULT)} |" + (f" {_s(wheel, 2)} |" if site else ""))
+          f" {estimate(DEFAULT)} | {_s(step)} |" + (f" {_s(wheel, 2)} |" if site else ""))
     cold, warm = rollout_cold_warm()
     results["rollout (default scene)"] = (cold, warm)
     print(f"| `od.rollout` of the default scene, one run | {cold:.1f} | {warm:.2f} |"
-          f" {estimate(DEFAULT)} |" + (" |" if site else ""))
+          f" {estimate(DEFAULT)} | |" + (" |" if site else ""))
     if not quick:
         for scene in SCENES:
-            cold, warm, wheel = simulate_cold_warm(scene, site)
-            results[f"simulate {scene}"] = (cold, warm, wheel)
+            cold, warm, wheel, step = simulate_cold_warm(scene, site)
+            results[f"simulate {scene}"] = (cold, warm, wheel, step)
             print(f"| `opendyn simulate {scene}` | {cold:.1f} | {warm:.2f} |"
-                  f" {estimate(scene)} |" + (f" {_s(wheel, 2)} |" if site else ""))
+                  f" {estimate(scene)} | {_s(step)} |" + (f" {_s(wheel, 2)} |" if site else ""))
     sys.stdout.flush()
 
     cold, warm, wheel = first_calls(site)

@@ -22,13 +22,13 @@ from .record import contact_record, geometry_contact_record, gravity_of, violati
 
 # what compiling a scene's pieces takes on a 2-core machine, in seconds (scripts/
 # bench_coldstart.py, docs/performance/startup.md: a scene's cold run less its warm one and
-# the start check's energies, which have their own notice): the step of any integrator with
-# joint-space effects 17-27 s, and what contact (68-72 s in all), constraints (61-67 s) and a
-# Python controller (53 s) add to it
-STEP_SECONDS = 25
-CONTACT_SECONDS = 45
-CONSTRAINT_SECONDS = 40
-CONTROLLER_SECONDS = 25
+# the start check's energies, which have their own notice, on two machines of the same kind
+# that differed by 1.3x): the step of any integrator with joint-space effects 15-27 s, and what
+# contact (45-55 s in all), constraints (48-70 s) and a Python controller (38-50 s) add to it
+STEP_SECONDS = 20
+CONTACT_SECONDS = 30
+CONSTRAINT_SECONDS = 35
+CONTROLLER_SECONDS = 20
 
 
 def compile_estimate(scene) -> str:
