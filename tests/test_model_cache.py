@@ -129,7 +129,7 @@ def test_a_load_that_warns_warns_every_time_and_is_not_stored(tmp_path, cache):
 
     for _ in range(2):
         with pytest.warns(UserWarning, match="something odd"):
-            assert model_cache.cached_model(str(path), (False,), build) == "model"
+            assert model_cache.cached_model(str(path), None, (False,), build) == "model"
     assert not list(cache.glob("*.pkl"))
 
 

@@ -10,8 +10,9 @@ hit raises no event), so:
     happens once per machine and opendyn version) and a bar that counts the pieces compiled;
   - `compiling(what, pieces)` announces a planned compilation of known size (a simulation's
     loop, `opendyn compile` (opendyn.cli.cache)): the bar then moves over those pieces.
-`compile_seconds()` is the total time spent compiling in this process. The listener is
-installed by opendyn._runtime.kernel_cache (`watch`), which every kernel module imports.
+`compile_seconds()` is the total time spent compiling in this process. The listener is on from
+this module's import, which opendyn._runtime.kernel_cache makes (every kernel module imports
+that one), naming its folder (`cached_in`).
 """
 
 from __future__ import annotations
@@ -37,7 +38,6 @@ class _Watch(event.Listener):
         self.plan = None  # (what, pieces, estimate) of an announced compilation
         self.quiet = False
         self.folder = None  # the cache folder the notice names (None: none is writable)
-        self.registered = False
 
     def on_start(self, ev):
         dispatcher = ev.data["dispatcher"]
@@ -95,16 +95,12 @@ class _Watch(event.Listener):
 
 
 _watch = _Watch()
+event.register("numba:compile", _watch)
 
 
-def watch(folder):
-    """Listen to numba's compilations from now on (once per process), the notice naming the
-    cache folder `folder` (None: no writable one)."""
-    with _lock:
-        _watch.folder = folder
-        if not _watch.registered:
-            event.register("numba:compile", _watch)
-            _watch.registered = True
+def cached_in(folder):
+    """The cache folder the notice names (None: no writable one)."""
+    _watch.folder = folder
 
 
 def compile_seconds() -> float:

@@ -132,9 +132,9 @@ def _choose():
 
 
 CACHE_DIR, CACHE_WHERE = _choose()
-# compiling said out loud, naming this folder: installed here, as every kernel module imports
-# its options from this module
-compile_notice.watch(CACHE_DIR)
+# compiling said out loud (the notice listens from its import, made here, as every kernel
+# module imports its options from this module), naming this folder
+compile_notice.cached_in(CACHE_DIR)
 CACHING = CACHE_DIR is not None  # the kernels' `cache=` option
 
 

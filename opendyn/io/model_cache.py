@@ -9,7 +9,7 @@ loaded in under a millisecond.
 
 An entry is named by a hash of everything the Model is made from:
   - opendyn's source digest (a new version names new entries);
-  - the URDF's absolute path and load_urdf's options;
+  - the URDF's and the SRDF's absolute paths and load_urdf's other options;
   - the search path of package:// mesh names (ROS_PACKAGE_PATH, AMENT_PREFIX_PATH).
 It also lists the files read, each with its content's hash: the URDF, the SRDF and every mesh
 the URDF names, as found now (io.meshes.mesh_files, which looks them up again, so that a mesh that
@@ -34,15 +34,15 @@ from .meshes import mesh_files
 FORMAT = 1  # of an entry: (FORMAT, files, model)
 
 
-def cached_model(file: str, options: tuple, build):
-    """The Model that `build()` makes of the URDF `file` under load_urdf's `options` (a tuple of
-    plain values; an SRDF path among them is read as one of the files): the stored one when
-    the cache holds an entry of the same files, else build()'s, stored for next time."""
+def cached_model(file: str, srdf, options: tuple, build):
+    """The Model that `build()` makes of the URDF `file` with the SRDF `srdf` (a path, or None)
+    under load_urdf's other `options` (a tuple of plain values): the stored one when the cache
+    holds an entry of the same files, else build()'s, stored for next time."""
     folder = _folder()
-    srdf = [option for option in options if isinstance(option, (str, os.PathLike))]
-    files = None if folder is None else _hashes([file, *srdf, *mesh_files(file)])
+    read = [file, *([] if srdf is None else [srdf]), *mesh_files(file)]
+    files = None if folder is None else _hashes(read)
     if files is not None:  # (a file that cannot be read: the build says what is wrong)
-        path = folder / f"{_key(file, options)}.pkl"
+        path = folder / f"{_key(file, srdf, options)}.pkl"
         model = _read(path, files)
         if model is not None:
             return model
@@ -65,14 +65,15 @@ def _folder() -> pathlib.Path | None:
     return pathlib.Path(CACHE_DIR) / "models"
 
 
-def _key(file: str, options: tuple) -> str:
-    """The entry's name: a hash of the sources, the URDF's path, the options and the package
-    search path (the URDF's bytes are among the entry's files)."""
+def _key(file: str, srdf, options: tuple) -> str:
+    """The entry's name: a hash of the sources, the URDF's and the SRDF's paths, the options and
+    the package search path (the URDF's and the SRDF's bytes are among the entry's files)."""
     h = hashlib.sha256()
     for part in (
         DIGEST,
         os.path.abspath(file),
-        repr([os.path.abspath(o) if isinstance(o, (str, os.PathLike)) else o for o in options]),
+        "" if srdf is None else os.path.abspath(srdf),
+        repr(options),
         os.environ.get("ROS_PACKAGE_PATH", ""),
         os.environ.get("AMENT_PREFIX_PATH", ""),
     ):

@@ -66,7 +66,7 @@ def load_urdf(
             file, root, robot, report, mimic, check_inertia, floating_base, srdf
         ).build()
 
-    return cached_model(file, (floating_base, mimic, check_inertia, srdf), build)
+    return cached_model(file, srdf, (floating_base, mimic, check_inertia), build)
 
 
 def looks_mobile(model) -> bool:
