@@ -37,6 +37,9 @@ index can end up naming one signature's entry with the other's machine code: eve
 that loads it crashes. Saves therefore take turns, under an exclusive lock on a file beside the
 index (`saves_take_turns`, where the system has flock); loads need none, as each file is written
 whole and renamed into place.
+
+A process that only loads kernels need not set up numba's compiler: opendyn's cache loads skip
+the refresh of numba's target context that numba makes before each (`loads_without_refresh`).
 """
 
 from __future__ import annotations
@@ -291,6 +294,36 @@ def shipped_is_a_fallback():
 
 
 shipped_is_a_fallback()
+
+
+def loads_without_refresh():
+    """Load opendyn's cached kernels without refreshing numba's whole target context first.
+
+    numba refreshes it before every cache load: that imports each of its lowering registries
+    (array math, with scipy's BLAS; linear algebra; three random number generators), about
+    0.3 s of a process that only loads kernels, and loading needs none of it. What the loaded
+    code does need is numba's runtime (NRT), whose functions it links to: that is initialized
+    here. A compile still refreshes both contexts (numba's compiler does, before typing), so a
+    kernel that misses the cache compiles as before."""
+    from numba.core.caching import Cache
+    from numba.core.runtime import rtsys
+
+    if getattr(Cache, "_opendyn_lazy", False):
+        return
+    load_overload = Cache.load_overload
+
+    def _load_overload(self, sig, target_context):
+        if not _ours(self._cache_file):
+            return load_overload(self, sig, target_context)
+        rtsys.initialize(target_context)
+        with self._guard_against_spurious_io_errors():
+            return self._load_overload(sig, target_context)
+
+    Cache.load_overload = _load_overload
+    Cache._opendyn_lazy = True
+
+
+loads_without_refresh()
 
 
 def cache_subfolder(py_file) -> str | None:
