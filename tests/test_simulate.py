@@ -178,7 +178,11 @@ import json
 import opendyn as od
 from opendyn.sim.effects import registry
 from opendyn.algorithm import aba, contact, crba, forward, rnea
-od.simulate(od.load_scene("double_pendulum_swing").replace_run(duration=0.01))
+from opendyn._runtime.compile_notice import compile_seconds
+scene = od.load_scene("double_pendulum_swing").replace_run(duration=0.01)
+before = compile_seconds()
+traj = od.simulate(scene)
+run = dict(compiled=compile_seconds() - before, reported=traj.stats["compile_s"])
 functions = {stage.__name__.rsplit(".", 1)[1]: stage.apply for stage in registry.stages()}
 functions.update(
     aba=aba.aba_on_poses, crba=crba.crba_kernel, rnea=rnea.rnea_kernel,
@@ -186,14 +190,16 @@ functions.update(
     contact_on_poses=contact.contact_on_poses, crba_on_poses=crba.crba_on_poses,
     rnea_on_poses=rnea.rnea_on_poses, aba_kernel=aba.aba_kernel,
 )
-print(json.dumps({name: [str(sig[0]) for sig in f.signatures] for name, f in functions.items()}))
+compiled = {name: [str(sig[0]) for sig in f.signatures] for name, f in functions.items()}
+print(json.dumps(dict(compiled, run=run)))
 """
 
 
 def test_a_scene_compiles_no_effect_it_does_not_name(tmp_path):
     """The default scene names gravity only: in an empty cache its run compiles the gravity
     effect for real parameters and no other effect at all (not even for an empty slot); ABA
-    is compiled and neither CRBA nor the seed's n-RNEA method is."""
+    is compiled and neither CRBA nor the seed's n-RNEA method is. One compile notice covers
+    the whole run, and the run reports every second of it."""
     env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path))
     proc = subprocess.run(
         [sys.executable, "-c", _COMPILED_FOR_DEFAULT_SCENE],
@@ -204,6 +210,7 @@ def test_a_scene_compiles_no_effect_it_does_not_name(tmp_path):
     )
     assert proc.returncode == 0, proc.stderr
     compiled = json.loads(proc.stdout.strip().splitlines()[-1])
+    run = compiled.pop("run")
     assert set(compiled["gravity"]) == {"array(float64, 1d, C)"}
     for stage in registry.stages():
         name = stage.__name__.rsplit(".", 1)[1]
@@ -214,8 +221,11 @@ def test_a_scene_compiles_no_effect_it_does_not_name(tmp_path):
     assert compiled["crba_on_poses"] == [] and compiled["rnea_on_poses"] == []
     assert compiled["crba"] == [] and compiled["newton_euler"] == []
     assert compiled["mass_matrix_solve"] == [] and compiled["contact_on_poses"] == []
-    # and the run said so, once, on stderr
+    # and the run said so, in one notice on stderr for all it compiled (its start checks and
+    # its record included), and reported all of it as the time it spent compiling
+    assert proc.stderr.count("opendyn: compiling") == 1, proc.stderr
     assert proc.stderr.count("opendyn: compiling the simulation step for rk4 with gravity") == 1
+    assert run["compiled"] > 0 and run["reported"] == run["compiled"]
 
 
 def _evaluate(scene, t, q, qd):

@@ -5,6 +5,7 @@ compiled step a plain run of a scene made serves a Python controller and a rollo
 from __future__ import annotations
 
 import ast
+import os
 import pathlib
 import subprocess
 import sys
@@ -16,6 +17,7 @@ from numba.core import types
 
 import opendyn as od
 from opendyn.sim import effects, integrators, step
+from opendyn.sim.rollout import BATCH_LOOP_SECONDS
 
 INIT = pathlib.Path(od.__file__)
 
@@ -83,6 +85,57 @@ def test_a_python_controller_runs_the_step_a_plain_run_compiled():
 def test_a_rollout_calls_the_fixed_step_loop_that_simulate_compiled():
     scene = pendulum_scene()
     od.simulate(scene)
+    simulate_compiled = set(integrators.run_fixed.signatures)
     od.rollout(scene, q0=np.zeros((2, 2)))
     step0 = [signature[3] for signature in integrators.run_fixed.signatures]
     assert step0 and all(not isinstance(t, types.Literal) for t in step0), step0
+    assert set(integrators.run_fixed.signatures) == simulate_compiled
+
+
+_ROLLOUT_AFTER_A_PLAIN_RUN = r"""
+import numpy as np, opendyn as od
+from opendyn._runtime.compile_notice import compile_seconds
+from opendyn.sim import rollout_loops
+result = od.rollout(od.load_scene("double_pendulum_swing").replace_run(duration=0.05),
+                    q0=np.zeros((2, 2)))
+loops = rollout_loops.rollout_fixed.stats.cache_misses
+print(result.stats["compile_s"] == compile_seconds() > 0, dict(loops) != {})
+"""
+
+
+def test_a_rollout_after_a_plain_run_compiles_its_batch_loop_alone_and_says_so(tmp_path):
+    """In a cache where a plain run of the scene compiled its step and record, a rollout's one
+    compile notice estimates its batch loop alone, and its stats report all it compiled."""
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path)}
+    plain = "import opendyn as od; od.simulate(od.load_scene('double_pendulum_swing'))"
+    subprocess.run([sys.executable, "-c", plain], env=env, capture_output=True, check=True)
+    out = subprocess.run(
+        [sys.executable, "-c", _ROLLOUT_AFTER_A_PLAIN_RUN],
+        env=env, capture_output=True, text=True, check=True,
+    )
+    assert out.stdout.split() == ["True", "True"], out.stderr
+    notices = [line for line in out.stderr.splitlines() if line.startswith("opendyn: compiling")]
+    assert len(notices) == 1 and "the rollout loop for rk4 with gravity" in notices[0], notices
+    assert f"about {BATCH_LOOP_SECONDS} s on 2 cores" in notices[0], notices
+
+
+_RUN_FROM_THE_CACHE = r"""
+import sys, numpy as np, opendyn as od
+from opendyn._runtime.compile_notice import compile_seconds
+traj = od.simulate(od.load_scene("double_pendulum_swing").replace_run(duration=0.05))
+loaded = "numba.np.random.legacy" not in sys.modules and compile_seconds() == 0.0
+print(loaded, repr(traj.q[-1].tolist()))
+"""
+
+
+def test_a_process_that_only_loads_kernels_imports_none_of_numbas_compiler_registries():
+    """numba refreshes its whole target context (every lowering registry: its random number
+    generators, array math with scipy's BLAS, ...) before each cache load; opendyn's kernels
+    load without it (kernel_cache.loads_without_refresh), and run as compiled."""
+    expected = od.simulate(pendulum_scene()).q[-1]  # compiled here, or loaded
+    out = subprocess.run(
+        [sys.executable, "-c", _RUN_FROM_THE_CACHE], capture_output=True, text=True, check=True
+    )
+    loaded, q_end = out.stdout.strip().splitlines()[-1].split(" ", 1)
+    assert loaded == "True", out.stderr
+    np.testing.assert_array_equal(np.array(ast.literal_eval(q_end)), expected)

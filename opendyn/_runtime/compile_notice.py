@@ -72,6 +72,7 @@ class _Watch(event.Listener):
 
         if self.plan is not None:
             what, pieces, estimate = self.plan
+            estimate = estimate() if callable(estimate) else estimate
         else:
             what, pieces = f"{dispatcher.py_func.__module__}.{dispatcher.py_func.__name__}", 1
             estimate = "a few seconds"
@@ -109,10 +110,11 @@ def compile_seconds() -> float:
 
 
 @contextmanager
-def compiling(what: str, pieces: int, estimate: str):
+def compiling(what: str, pieces: int, estimate):
     """Announce a compilation of `pieces` steps, each started by the block with `step()`:
-    if any step compiles, one notice names `what` and its `estimate`, and the bar moves by
-    one per step; if everything loads from the cache, nothing is printed.
+    if any step compiles, one notice names `what` and its `estimate` (words, or a function
+    that returns them when the notice is shown), and the bar moves by one per step; if
+    everything loads from the cache, nothing is printed.
 
         with compiling("the simulation loop", 3, "about 15 s") as step:
             for piece in pieces:

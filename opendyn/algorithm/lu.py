@@ -12,7 +12,6 @@ largest entry reports which coordinate has nothing moving with it.
 
 from __future__ import annotations
 
-import numpy as np
 from numba import njit
 
 from .._runtime.kernel_cache import JIT

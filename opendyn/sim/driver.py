@@ -9,21 +9,22 @@ import math
 import signal
 import sys
 import threading
+import time
+from contextlib import contextmanager
 
 import numpy as np
 
-from .._runtime.compile_notice import compiling
-from ..algorithm.energy import energies
+from .._runtime.compile_notice import compile_seconds, compiling
 from ..errors import SceneError
 from ..multibody.joints import FREE
 from . import effects, integrators, step
 from .effects import python_control
-from .record import contact_record, geometry_contact_record, gravity_of, violation
+from .record import Samples, records_of
 
-# what compiling a scene's pieces takes on a 2-core machine, in seconds (scripts/
-# bench_coldstart.py, docs/performance/startup.md: a scene's cold run less its warm one and
-# the start check's energies, which have their own notice, on two machines of the same kind
-# that differed by 1.3x): the step of any integrator with joint-space effects 15-27 s, and what
+# what compiling a run's pieces takes on a 2-core machine, in seconds: everything that
+# getting_ready's block compiles, its start checks and record included (scripts/
+# bench_coldstart.py, docs/performance/startup.md, on two machines of the same kind that
+# differed by 1.3x): the step of any integrator with joint-space effects 15-27 s, and what
 # contact (45-55 s in all), constraints (48-70 s) and a Python controller (38-50 s) add to it
 STEP_SECONDS = 20
 CONTACT_SECONDS = 30
@@ -121,39 +122,63 @@ def integrator_of(scene):
     return integ
 
 
-def load_kernels(scene, integ, table, data, x, loop):
-    """Get the run's compiled pieces ready before the clock starts, one by one: forward
-    dynamics, the effects, one evaluation, the loop (loop(): the run's loop called for zero
-    steps) and the energies of the record. data: the run's step.SceneData; x: its State.
-    numba loads each from its on-disk cache or, the first time on a machine, compiles it; then
-    a notice and a bar over these pieces show on stderr."""
-    model = scene.model
-    nv = model.nv
+# what a run gets ready before its clock starts, each a piece of the compile notice's bar: the
+# start checks (preflight, the contact step), the step's dynamics, its generalized forces, one
+# evaluation, the loop and the record (load_kernels)
+READY_PIECES = 6
+
+
+class Ready:
+    """What getting a run ready took, once getting_ready's block has ended: compile_s (seconds
+    compiling kernels, once per machine and opendyn version) and load_s (the rest: the checks,
+    the kernels loaded from the cache, the arrays). done(): the bar's next piece. estimate: the
+    notice's words on how long, read when the first compile shows it (a block whose first
+    pieces may all load from the cache says what the rest takes once they have)."""
+
+    compile_s = load_s = 0.0
+
+
+@contextmanager
+def getting_ready(what, scene, pieces=READY_PIECES):
+    """One compile notice and bar, naming `what` with `scene`'s compile_estimate, over all
+    that the block compiles: a run's start checks, its step and its record, so that the time
+    the run then reports compiling is the time the notice estimated. Yields a Ready."""
+    ready = Ready()
+    ready.estimate = compile_estimate(scene)
+    before, tic = compile_seconds(), time.perf_counter()
+    with compiling(what, pieces, lambda: ready.estimate) as ready.done:
+        yield ready
+    ready.compile_s = compile_seconds() - before
+    ready.load_s = time.perf_counter() - tic - ready.compile_s
+
+
+def step_name(integ, table, loop="simulation step"):
+    """The notice's words for a run's step: its loop, its integrator and its effects."""
+    return f"the {loop} for {integ.name} with {', '.join(table.names) or 'no effects'}"
+
+
+def load_kernels(scene, table, data, x, loop, done):
+    """Get the run's compiled pieces ready before the clock starts, one by one, calling done()
+    after each: forward dynamics, the effects, one evaluation, the loop (loop(): the run's
+    loop called for zero steps) and the record's kernels (record.records_of). data: the run's
+    step.SceneData; x: its State. numba loads each from its on-disk cache or, the first time on
+    a machine, compiles it (within getting_ready's notice)."""
+    nv = scene.model.nv
     KD = data.KD
     q, qd = x.q, x.qd
     tau, qdd = np.zeros(nv), np.empty(nv)
-    state = (q[None].copy(), qd[None].copy())
-    pieces = [
+    pieces = (
         lambda: step.dynamics(data, q, qd, tau, qdd),
         lambda: step.generalized_forces(
             data, 0.0, q, qd, np.empty(nv), np.empty(nv), np.empty(2), KD[0], KD[1], False
         ),
         lambda: step.evaluate(data, 0.0, q, qd, qdd, tau, np.empty(2)),
         loop,
-        lambda: energies(model, *state, gravity_of(scene)),
-    ]
-    if scene.constraints:
-        pieces.append(lambda: violation(model, table, *state))
-    if effects.contact.record(scene) is not None:
-        pieces.append(lambda: contact_record(model, table.params(effects.contact), *state))
-    if effects.geometry_contact.record(scene) is not None:
-        params = table.params(effects.geometry_contact)
-        pieces.append(lambda: geometry_contact_record(model, params, *state))
-    what = f"the simulation step for {integ.name} with {', '.join(table.names) or 'no effects'}"
-    with compiling(what, len(pieces), compile_estimate(scene)) as done:
-        for piece in pieces:
-            piece()
-            done()
+        lambda: records_of(scene, table, q[None].copy(), qd[None].copy()),
+    )
+    for piece in pieces:
+        piece()
+        done()
 
 
 def free_joints(model):
@@ -202,6 +227,24 @@ class Stepper:
         self.integ = integrator_of(scene) if integ is None else integ
         self.data = step.scene_data(scene.model, table)
         self.free = free_joints(scene.model)
+
+    def load(self, x, done):
+        """load_kernels for this run at the State x, its loop called for zero steps on a
+        scratch record (the types of a run's own)."""
+        model = self.scene.model
+        out, counters = Samples(1, model.nq, model.nv), integrators.new_counters()
+        if self.integ.adaptive:
+            first = integrators.Stage(np.zeros((2, model.nv)), np.zeros(2), np.zeros(model.nv))
+            at_start = integrators.Progress(0.0, self.scene.run.dt, 1)
+
+            def loop():
+                self.adaptive_chunk(at_start, 0.0, x, first, out, counters)
+        else:
+
+            def loop():
+                self.fixed_chunk(0, 0, 1, x, out, counters)
+
+        load_kernels(self.scene, self.table, self.data, x, loop, done)
 
     def fixed_chunk(self, step0, nsteps, every, x, out, counters):
         """integrators.run_fixed on the State x, the record `out` (record.Samples) and

@@ -134,9 +134,7 @@ def trajectory_of(scene, table, out, n, complete, message, stats):
     model = scene.model
     t, q, qd, tau, w = out.t[:n], out.q[:n], out.qd[:n], out.tau[:n], out.w[:n]
     try:
-        kinetic, potential, spheres = energies_of(scene, table, q, qd)
-        off = violation(model, table, q, qd) if scene.constraints else (np.zeros(0),) * 2
-        centroidal = _centroidal_record(model, q, qd)
+        (kinetic, potential, spheres), off, centroidal = records_of(scene, table, q, qd)
     except MemoryError:
         # the run's states are kept: what ran out is said once, and the rest is left out
         warnings.warn(
@@ -181,6 +179,15 @@ def trajectory_of(scene, table, out, n, complete, message, stats):
         stats=stats,
         provenance=_provenance(scene, table),
     )
+
+
+def records_of(scene, table, q, qd):
+    """What a trajectory records beside its samples q (K, nq), qd (K, nv): energies_of's
+    (kinetic, potential, contact), the constraint violation ((K,) position and velocity; empty
+    without constraints) and the centroidal record ({} but for a floating robot)."""
+    model = scene.model
+    off = violation(model, table, q, qd) if scene.constraints else (np.zeros(0),) * 2
+    return energies_of(scene, table, q, qd), off, _centroidal_record(model, q, qd)
 
 
 def _centroidal_record(model, q, qd):

@@ -37,7 +37,6 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 
 from .._runtime.arrays import immutable
-from .._runtime.compile_notice import compile_seconds, compiling
 from .._runtime.memory import available_memory
 from .._runtime.options import flag, whole
 from .._runtime.signals import signal_name
@@ -47,11 +46,14 @@ from ..errors import RolloutInterrupted, SceneError, SceneWarning
 from . import effects, integrators
 from .diagnostics import check_contact_step, failure_message
 from .driver import (
+    READY_PIECES,
     Interrupt,
-    compile_estimate,
+    Stepper,
     error_size_index,
     free_joints,
+    getting_ready,
     integrator_of,
+    step_name,
 )
 from .effects import python_control
 from .preflight import byte_size, check_start, run_size, sample_numbers
@@ -70,6 +72,9 @@ from .step import scene_data
 RECORDS = ("samples", "final")
 _BLOCK_SECONDS = 0.5  # wall time of a block of runs: progress and Ctrl-C granularity
 _MAX_BLOCK = 4096  # runs read ahead at most (their RunData stay in memory while they run)
+# what a rollout's batch loop (rollout_loops) compiles once the step it calls has: 3.4-4.4 s on
+# a 2-core machine (docs/performance/startup.md, a rollout after a plain run of its scene)
+BATCH_LOOP_SECONDS = 5
 _SLICES_PER_THREAD = 4  # a block's slices per thread, so that a thread that ends early helps
 
 
@@ -185,13 +190,16 @@ def run_batch(runs, threads, keep, progress=False):
     arrays = (x, out, counters, outcome)
     loop = _Loop(runs, integ, every if keep == "samples" else max(1, nsteps), nsteps, arrays)
     kind = signature(loop.first)
-    tic = time.perf_counter()
-    compiled_before = compile_seconds()
     size = min(n, threads * _SLICES_PER_THREAD)
-    block = _prepare(runs, range(size), which, x, notes, kind)
-    loop.load(block)
-    compile_s = compile_seconds() - compiled_before
-    load_s = time.perf_counter() - tic - compile_s
+    # one compile notice for the first block's start checks, the step and record that
+    # simulate compiles for the scene (loaded, after a plain run of it), and the batch loop
+    with getting_ready(loop.name(), runs.scene, pieces=READY_PIECES + 1) as ready:
+        block = _prepare(runs, range(size), which, x, notes, kind)
+        ready.done()
+        loop.load_step(ready.done)
+        ready.estimate = f"about {BATCH_LOOP_SECONDS} s"  # what is left to compile
+        loop.load(block)
+        ready.done()
     bar = _bar(n) if progress else None
     prepare_s, start = 0.0, time.perf_counter()
     with Interrupt() as stop, ThreadPoolExecutor(threads, "opendyn-rollout") as pool:
@@ -230,7 +238,7 @@ def run_batch(runs, threads, keep, progress=False):
         bar.close()
     result = RolloutResult(
         runs, integ, keep, (x, out), outcome, counters, notes,
-        _stats(integ, n, threads, wall, prepare_s, compile_s, load_s),
+        _stats(integ, n, threads, wall, prepare_s, ready.compile_s, ready.load_s),
     )
     if stop.requested:
         reason = f"interrupted ({signal_name(stop.signum)}) before it started"
@@ -288,14 +296,23 @@ class _Loop:
         batch = Batch(entries, which, *self.arrays)
         self.kernel(switch, base, settings, last, batch, _private(self.free), start, stop)
 
+    def name(self):
+        """The compile notice's words for this loop."""
+        return step_name(self.integ, self.table, "rollout loop")
+
+    def load_step(self, done):
+        """What simulate compiles for the run's scene (driver.Stepper.load), so that a rollout
+        after a plain run of it compiles its batch loop alone."""
+        scene = self.scene
+        x = integrators.State(
+            np.array(scene.q0, dtype=np.float64), np.array(scene.qd0, dtype=np.float64),
+            np.zeros(2),
+        )
+        Stepper(scene, self.table, self.integ).load(x, done)
+
     def load(self, block):
         """Compile or load the loop for the block's RunData type before the clock starts."""
-        what = f"the rollout loop for {self.integ.name} with " + (
-            ", ".join(self.table.names) or "no effects"
-        )
-        with compiling(what, 1, compile_estimate(self.scene)) as done:
-            self(block, 0, 0)
-            done()
+        self(block, 0, 0)
 
 
 @dataclasses.dataclass

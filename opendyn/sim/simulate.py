@@ -21,7 +21,6 @@ import time
 
 import numpy as np
 
-from .._runtime.compile_notice import compile_seconds
 from .._runtime.options import flag
 from .._runtime.signals import signal_name
 from .._runtime.status import Status
@@ -32,11 +31,12 @@ from .driver import (
     FIRST_CHUNK,
     Interrupt,
     Stepper,
+    getting_ready,
     integrator_of,
-    load_kernels,
     next_span,
     next_steps,
     progress_bar,
+    step_name,
 )
 from .effects import python_control
 from .preflight import preflight
@@ -55,31 +55,20 @@ def simulate(scene, *, progress=False, raise_on_failure=True, controller=None, c
     run = scene.run
     model = scene.model
     integ = integrator_of(scene)
-    nsteps, every, rows = preflight(scene, integ)
     table = effects.stage_table(scene)
-    check_contact_step(scene, table)
-    out = Samples(rows, model.nq, model.nv)
-    x = integrators.State(
-        np.array(scene.q0, dtype=np.float64), np.array(scene.qd0, dtype=np.float64), np.zeros(2)
-    )
-    counters = integrators.new_counters()
-    start = time.perf_counter()
-    compiled_before = compile_seconds()
-    stepper = Stepper(scene, table, integ)
-    first = integrators.Stage(np.zeros((2, model.nv)), np.zeros(2), np.zeros(model.nv))
-    at_start = integrators.Progress(0.0, run.dt, 1)
-    load_kernels(
-        scene,
-        integ,
-        table,
-        stepper.data,
-        x,
-        lambda: stepper.adaptive_chunk(at_start, 0.0, x, first, out, counters)
-        if integ.adaptive
-        else stepper.fixed_chunk(0, 0, 1, x, out, counters),
-    )
-    compile_s = compile_seconds() - compiled_before
-    load = time.perf_counter() - start - compile_s
+    with getting_ready(step_name(integ, table), scene) as ready:
+        nsteps, every, rows = preflight(scene, integ)
+        check_contact_step(scene, table)
+        ready.done()
+        out = Samples(rows, model.nq, model.nv)
+        x = integrators.State(
+            np.array(scene.q0, dtype=np.float64),
+            np.array(scene.qd0, dtype=np.float64),
+            np.zeros(2),
+        )
+        counters = integrators.new_counters()
+        stepper = Stepper(scene, table, integ)
+        stepper.load(x, ready.done)
     bar = progress_bar(run.duration) if progress else None
     start = time.perf_counter()
     with Interrupt() as stop:
@@ -106,8 +95,8 @@ def simulate(scene, *, progress=False, raise_on_failure=True, controller=None, c
         "rejected_steps": int(counters.rejected[0]),
         "evaluations": int(counters.evaluations[0]),
         "wall_s": wall,
-        "compile_s": compile_s,
-        "load_s": load,
+        "compile_s": ready.compile_s,
+        "load_s": ready.load_s,
         "simulated_s": float(out.t[out.filled - 1]) if out.filled else 0.0,
     }
     if model.floating_base:

@@ -31,7 +31,6 @@ import time
 
 import numpy as np
 
-from .._runtime.compile_notice import compile_seconds
 from .._runtime.entry import entry_for
 from .._runtime.memory import available_memory
 from .._runtime.options import as_real
@@ -46,11 +45,13 @@ from .driver import (
     UserCodeInterrupted,
     error_size_index,
     free_joints,
+    getting_ready,
     integrator_of,
     load_kernels,
     next_span,
     next_steps,
     progress_bar,
+    step_name,
 )
 from .effects import python_control
 from .preflight import byte_size, check_start, record_every
@@ -79,7 +80,19 @@ class Simulator:
         self._integ = integrator_of(scene)
         self._every = record_every(scene.run)
         self._table = effects.stage_table(scene)
-        check_contact_step(scene, self._table)
+        with getting_ready(step_name(self._integ, self._table), scene) as ready:
+            check_contact_step(scene, self._table)
+            self._start(controller, control_dt)
+            ready.done()
+            load_kernels(
+                scene, self._table, self._data, self._x, self._entries, ready.done
+            )
+        self._compile_s, self._load_s = ready.compile_s, ready.load_s
+
+    def _start(self, controller, control_dt):
+        """The controller, the step's SceneData, the integrator's settings and the initial
+        state (reset)."""
+        scene = self.scene
         self._controller, self.control_dt = controller_of(
             scene, self._integ, controller, control_dt
         )
@@ -102,11 +115,6 @@ class Simulator:
         self._interrupt = None  # the Interrupt of a long step or of run_controlled
         self._stepping = False  # within _ticks: a controller that steps again is refused
         self.reset()
-        before = compile_seconds()
-        tic = time.perf_counter()
-        load_kernels(scene, self._integ, self._table, self._data, self._x, self._entries)
-        self._compile_s = compile_seconds() - before
-        self._load_s = time.perf_counter() - tic - self._compile_s
 
     # -- the state ---------------------------------------------------------------------------
 
