@@ -18,18 +18,17 @@ from .._runtime.compile_notice import compile_seconds, compiling
 from ..errors import SceneError
 from ..multibody.joints import FREE
 from . import effects, integrators, step
-from .effects import python_control
 from .record import Samples, records_of
 
 # what compiling a run's pieces takes on a 2-core machine, in seconds: everything that
 # getting_ready's block compiles, its start checks and record included (scripts/
-# bench_coldstart.py, docs/performance/startup.md, on two machines of the same kind that
-# differed by 1.3x): the step of any integrator with joint-space effects 15-27 s, and what
-# contact (45-55 s in all), constraints (48-70 s) and a Python controller (38-50 s) add to it
-STEP_SECONDS = 20
-CONTACT_SECONDS = 30
-CONSTRAINT_SECONDS = 35
-CONTROLLER_SECONDS = 20
+# bench_coldstart.py, docs/performance/startup.md): the step of any integrator with
+# joint-space effects 20-30 s, and what contact (48-55 s in all) and constraints (38-42 s in
+# all, after the scene's reader compiled their terms: opendyn.io.scene.sections_constraints)
+# add to it. A Python controller runs the plain step; what its own calls compile is its own.
+STEP_SECONDS = 25
+CONTACT_SECONDS = 25
+CONSTRAINT_SECONDS = 15
 
 
 def compile_estimate(scene) -> str:
@@ -41,8 +40,6 @@ def compile_estimate(scene) -> str:
         seconds += CONTACT_SECONDS
     if scene.constraints:
         seconds += CONSTRAINT_SECONDS
-    if python_control.record(scene) is not None:
-        seconds += CONTROLLER_SECONDS
     return f"about {seconds} s"
 
 

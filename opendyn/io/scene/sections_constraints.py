@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..._runtime.compile_notice import compiling
 from ...algorithm.constraints import broken_constraint
 from ...errors import SceneError
 from ...multibody.constraint_objects import (
@@ -25,6 +26,12 @@ from ...multibody.constraint_objects import (
 from ...sim.preflight import broken_message
 from ...spatial.algebra import rpy_matrix
 from ...sim.values import ValueReader, what_is
+
+# what the initial state's check compiles the first time on a machine, the constraints' terms
+# (phi, A, Adot qd), which the run's start check and record then load: 18 s on 2 cores
+# (a cold `opendyn simulate four_bar`; docs/performance/startup.md, constraint_jacobian's first
+# call, 20 s)
+CHECK_COMPILE_SECONDS = 20
 
 CONSTRAINT_TYPES = (
     "point_to_world",
@@ -144,8 +151,11 @@ class ConstraintsSection(ValueReader):
     def _check_initial_state(self, constraints, q0, qd0):
         """Refuse an initial state that breaks a constraint: simulating it would start off the
         constraint manifold (and, without stabilisation, stay off it)."""
+        estimate = f"about {CHECK_COMPILE_SECONDS} s"
         try:
-            broken = broken_constraint(self.model, q0, qd0, constraints)
+            with compiling("the constraints' terms", 1, estimate) as done:
+                broken = broken_constraint(self.model, q0, qd0, constraints)
+                done()
         except ValueError as e:
             self.fail("constraints", str(e))
         if broken is not None:
