@@ -101,18 +101,21 @@ def timed(cmd, cache, site=None):
 STEP_COMPILED = re.compile(r"([0-9.]+) s more compiling the step")
 
 
-def simulate_cold_warm(scene, site):
-    """(cold, warm, wheel, step) wall seconds of `opendyn simulate [scene]` in a fresh cache
-    (--no-save: the start-up and the run), warm in that cache, and from the wheel installed in
-    `site` in another fresh cache (None without one); step: the seconds the cold run reports
-    compiling its step (None if it reports none)."""
+def simulate_cold_warm(scene, site, then=None):
+    """(cold, warm, wheel, step, after) wall seconds of `opendyn simulate [scene]` in a fresh
+    cache (--no-save: the start-up and the run), warm in that cache, and from the wheel
+    installed in `site` in another fresh cache (None without one); step: the seconds the cold
+    run reports compiling its step (None if it reports none); after: timed(then) in the same
+    cache once those ran (None without a command `then`)."""
     cmd = [sys.executable, "-m", "opendyn.cli", "simulate", "--no-save"]
     cmd += [scene] if scene else []
     with tempfile.TemporaryDirectory() as cache:
         cold, out = timed(cmd, cache)
         warm, _ = timed(cmd, cache)
+        after = timed(then, cache) if then else None
     step = STEP_COMPILED.search(out)
-    return cold, warm, _from_wheel(cmd, site)[0], float(step.group(1)) if step else None
+    step = float(step.group(1)) if step else None
+    return cold, warm, _from_wheel(cmd, site)[0], step, after
 
 
 def _from_wheel(cmd, site):
@@ -131,18 +134,13 @@ ROLLOUT = (
 
 
 def rollout_cold_warm():
-    """(cold, warm, compiled, after, after_compiled): wall seconds of a process that rolls the
-    default scene out once, in an empty cache, then warm; the seconds the cold one reports
-    compiling; and the same first rollout in a cache where `opendyn simulate` of the scene
-    ran (its step and record compiled), with what it reports compiling."""
+    """(cold, warm, compiled): wall seconds of a process that rolls the default scene out once,
+    in an empty cache, then warm; and the seconds the cold one reports compiling."""
     cmd = [sys.executable, "-c", ROLLOUT]
     with tempfile.TemporaryDirectory() as cache:
         cold, out = timed(cmd, cache)
         warm, _ = timed(cmd, cache)
-    with tempfile.TemporaryDirectory() as cache:
-        timed([sys.executable, "-m", "opendyn.cli", "simulate", "--no-save", DEFAULT], cache)
-        after, after_out = timed(cmd, cache)
-    return cold, warm, float(out.split()[-1]), after, float(after_out.split()[-1])
+    return cold, warm, float(out.split()[-1])
 
 
 def first_calls(site):
@@ -231,11 +229,14 @@ def print_tables(quick, site):
     print(f"| command | cold (empty cache) | warm | notice's estimate | compiled | ratio |"
           f"{wheel_col}")
     print(f"|---|---:|---:|---|---:|---:|{wheel_rule}")
-    cold, warm, wheel, step = simulate_cold_warm(None, site)
+    # the rollout after a plain run: in the cache the default scene's runs leave
+    rollout = [sys.executable, "-c", ROLLOUT]
+    cold, warm, wheel, step, (after, after_out) = simulate_cold_warm(None, site, rollout)
     results["simulate (default scene)"] = (cold, warm, wheel, step)
     print(f"| `opendyn simulate` (default scene) | {cold:.1f} | {warm:.2f} |"
           f" {_estimated(estimate(DEFAULT), step)} |" + (f" {_s(wheel, 2)} |" if site else ""))
-    cold, warm, compiled, after, after_compiled = rollout_cold_warm()
+    after_compiled = float(after_out.split()[-1])
+    cold, warm, compiled = rollout_cold_warm()
     results["rollout (default scene)"] = (cold, warm, compiled, after, after_compiled)
     print(f"| `od.rollout` of the default scene, one run | {cold:.1f} | {warm:.2f} |"
           f" {_estimated(estimate(DEFAULT), compiled)} |" + (" |" if site else ""))
@@ -244,7 +245,7 @@ def print_tables(quick, site):
           + (" |" if site else ""))
     if not quick:
         for scene in SCENES:
-            cold, warm, wheel, step = simulate_cold_warm(scene, site)
+            cold, warm, wheel, step, _ = simulate_cold_warm(scene, site)
             results[f"simulate {scene}"] = (cold, warm, wheel, step)
             print(f"| `opendyn simulate {scene}` | {cold:.1f} | {warm:.2f} |"
                   f" {_estimated(estimate(scene), step)} |"

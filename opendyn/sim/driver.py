@@ -132,7 +132,10 @@ class Ready:
     notice's words on how long, read when the first compile shows it (a block whose first
     pieces may all load from the cache says what the rest takes once they have)."""
 
-    compile_s = load_s = 0.0
+    def __init__(self, estimate):
+        self.estimate = estimate
+        self.done = None  # set by getting_ready
+        self.compile_s = self.load_s = 0.0
 
 
 @contextmanager
@@ -140,8 +143,7 @@ def getting_ready(what, scene, pieces=READY_PIECES):
     """One compile notice and bar, naming `what` with `scene`'s compile_estimate, over all
     that the block compiles: a run's start checks, its step and its record, so that the time
     the run then reports compiling is the time the notice estimated. Yields a Ready."""
-    ready = Ready()
-    ready.estimate = compile_estimate(scene)
+    ready = Ready(compile_estimate(scene))
     before, tic = compile_seconds(), time.perf_counter()
     with compiling(what, pieces, lambda: ready.estimate) as ready.done:
         yield ready
