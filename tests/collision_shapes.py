@@ -5,11 +5,11 @@ from __future__ import annotations
 
 import numpy as np
 from scipy.optimize import minimize
-from scipy.spatial import ConvexHull
+from scipy.spatial import ConvexHull, QhullError
 from scipy.spatial.transform import Rotation
 
 from opendyn._runtime.kernel_cache import kernel_cache
-from opendyn.multibody.shapes import BOX, CAPSULE, CYLINDER, MESH, SPHERE
+from opendyn.multibody.shapes import BOX, CAPSULE, CYLINDER, HALFSPACE, MESH, SPHERE
 
 with kernel_cache():
     from opendyn.algorithm.collision import mesh_hull, no_hull, pair_distance, work_array
@@ -27,6 +27,23 @@ def pose(R=None, p=(0.0, 0.0, 0.0)):
 
 def shape(code, size, vertices=NO_VERTICES):
     return code, np.asarray(size, dtype=float), vertices
+
+
+def random_shape(code, rng):
+    """(code, size, vertices) of random proportions, and its bounding radius."""
+    r, length = rng.uniform(0.05, 0.3), rng.uniform(0.1, 0.6)
+    if code == SPHERE:
+        return shape(code, (r, 0, 0)), r
+    if code == BOX:
+        size = rng.uniform(0.1, 0.6, 3)
+        return shape(code, size), np.linalg.norm(size) / 2
+    if code in (CYLINDER, CAPSULE):
+        return shape(code, (r, length, 0)), np.hypot(r, length / 2) + (r if code == CAPSULE else 0)
+    if code == MESH:
+        points = rng.normal(size=(40, 3)) * rng.uniform(0.05, 0.3, 3)
+        vertices = np.ascontiguousarray(points[ConvexHull(points).vertices])
+        return shape(code, (1, 1, 1), vertices), np.linalg.norm(vertices, axis=1).max()
+    return shape(HALFSPACE, (0, 0, 0)), 0.0
 
 
 def hull(vertices):
@@ -62,9 +79,23 @@ def surface_distance(a, T, x):
     if code == CAPSULE:
         return np.linalg.norm(y - [0, 0, np.clip(y[2], -size[1] / 2, size[1] / 2)]) - size[0]
     if code == MESH:
-        equations = ConvexHull(vertices).equations
+        try:
+            equations = ConvexHull(vertices).equations
+        except QhullError:  # a flat mesh: its polygon
+            return flat_distance(vertices, y)
         return (equations[:, :3] @ y + equations[:, 3]).max()  # zero exactly on the surface
     return y[2]
+
+
+def flat_distance(vertices, y):
+    """The distance of y from the polygon of coplanar vertices (its plane's distance and, beyond
+    the polygon's edges, the distance to the nearest edge line)."""
+    centre = vertices.mean(axis=0)
+    _, _, axes = np.linalg.svd(vertices - centre)
+    off_plane = (y - centre) @ axes[2]
+    edges = ConvexHull((vertices - centre) @ axes[:2].T).equations
+    outside = max((edges[:, :2] @ ((y - centre) @ axes[:2].T) + edges[:, 2]).max(), 0.0)
+    return float(np.hypot(off_plane, outside))
 
 
 def support_value(a, T, u):

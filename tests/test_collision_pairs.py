@@ -17,7 +17,6 @@ import sys
 import numpy as np
 import pytest
 from numba import njit
-from scipy.spatial import ConvexHull
 from scipy.spatial.transform import Rotation
 
 import opendyn  # (also sets the kernel cache's folder)
@@ -30,10 +29,13 @@ with kernel_cache():
     from opendyn.algorithm.collision.support import climb
 
 from collision_shapes import (
+    NO_VERTICES,
     depth_by_directions,
     distance,
+    hull,
     overlap,
     pose,
+    random_shape,
     rot,
     shape,
     surface_distance,
@@ -178,23 +180,6 @@ def test_two_halfspaces_are_unbounded():
 # ---- against coal --------------------------------------------------------------------------------
 
 
-def random_shape(code, rng):
-    """(code, size, vertices) of random proportions, and its bounding radius."""
-    r, length = rng.uniform(0.05, 0.3), rng.uniform(0.1, 0.6)
-    if code == SPHERE:
-        return shape(code, (r, 0, 0)), r
-    if code == BOX:
-        size = rng.uniform(0.1, 0.6, 3)
-        return shape(code, size), np.linalg.norm(size) / 2
-    if code in (CYLINDER, CAPSULE):
-        return shape(code, (r, length, 0)), np.hypot(r, length / 2) + (r if code == CAPSULE else 0)
-    if code == MESH:
-        points = rng.normal(size=(40, 3)) * rng.uniform(0.05, 0.3, 3)
-        vertices = np.ascontiguousarray(points[ConvexHull(points).vertices])
-        return shape(code, (1, 1, 1), vertices), np.linalg.norm(vertices, axis=1).max()
-    return shape(HALFSPACE, (0, 0, 0)), 0.0
-
-
 def coal_geometry(code, size, vertices):
     if code == SPHERE:
         return coal.Sphere(size[0])
@@ -313,7 +298,7 @@ def test_pairs_against_coal(code_a, code_b):
 
 def _hull_point_clouds():
     """Point clouds whose hulls the climb must search exactly: round, a cube with points inside
-    and on its faces (not hull vertices), a needle, a flat grid (no volume: no edges), a mesh."""
+    and on its faces (not hull vertices), a needle, a flat grid (no volume: a polygon), a mesh."""
     rng = np.random.default_rng(3)
     sphere = rng.normal(size=(800, 3))
     sphere /= np.linalg.norm(sphere, axis=1)[:, None]
@@ -334,9 +319,14 @@ def _hull_point_clouds():
 def test_a_hull_climb_finds_the_farthest_point(name, points):
     """The support of a hull by hill climbing from any start (support.climb) is the farthest of
     all the points along every direction: max_p d . p by brute force over the cloud, in 2,000
-    random directions and along the axes (ties on faces)."""
-    vertices, start, neighbors, seeds, *_ = convex_hull(points)
-    assert (start[-1] == 0) == (name == "flat grid")
+    random directions and along the axes (ties on faces). The flat grid's hull is its polygon:
+    its 4 corners, each joined to the two beside it, and 2 faces, one each side."""
+    hull = convex_hull(points)
+    vertices, start, neighbors, seeds = hull[:4]
+    if name == "flat grid":
+        assert len(vertices) == 4 and np.all(np.diff(start) == 2)
+        normals = hull.face_normal[np.argsort(hull.face_normal[:, 2])]
+        np.testing.assert_allclose(normals, [(0, 0, -1), (0, 0, 1)], atol=1e-12)
     rng = np.random.default_rng(4)
     directions = np.concatenate([rng.normal(size=(2000, 3)), np.eye(3), -np.eye(3)])
     hints = rng.integers(0, len(vertices), len(directions))
@@ -408,7 +398,7 @@ def every_pair(codes, sizes, vertices, none, poses, standing, work, rows, n):
                 if i < 5:
                     face_contacts(a, b, 0.1, rows, work)
             if codes[i] != 5:
-                halfspace_contacts(codes[i], sizes[i], vi, poses[i], poses[5], 0.1, rows)
+                halfspace_contacts((codes[i], sizes[i], vi, poses[i]), poses[5], 0.1, rows, work)
             if i == 1 or i == 2 or i == 4:  # a box, a cylinder, a cube mesh on the box's top
                 standing[:3, :] = poses[1][:3, :]
                 lift = 0.25 + (0.1 if i == 4 else 0.25) - 0.001
@@ -448,3 +438,26 @@ def test_pair_distance_allocates_nothing():
     )
     assert proc.returncode == 0, proc.stderr
     assert json.loads(proc.stdout.strip().splitlines()[-1]) == {"per pair": 0.0}
+
+
+def test_a_shape_code_no_branch_knows_is_an_error():
+    """A shape code beyond the known ones (a shape added to shapes.py and forgotten in a
+    branch) raises ValueError naming the shape code where the kernels first meet it, in the
+    narrow phase and in the halfspace manifold, instead of being a sphere (manifold.py) or a
+    point (support.py); a Geometry of an unknown shape is refused by name."""
+    from opendyn.multibody.geometry import Geometry
+
+    unknown = shape(HALFSPACE + 1, (0.1, 0.1, 0.1))
+    box = shape(BOX, (0.2, 0.2, 0.2))
+    for a, b in ((unknown, box), (box, unknown)):
+        with pytest.raises(ValueError, match="shape code"):
+            distance(a, pose(), b, pose(p=(0.0, 0.0, 0.1)))
+    with kernel_cache():
+        from opendyn.algorithm.collision import halfspace_contacts, work_array
+    rows = np.zeros((4, 10))
+    with pytest.raises(ValueError, match="shape code"):
+        halfspace_contacts(
+            (unknown[0], unknown[1], hull(NO_VERTICES), pose()), pose(), 0.0, rows, work_array()
+        )
+    with pytest.raises(ValueError, match="'torus' is not one of"):
+        Geometry("g", "link", "torus", (1.0,), np.eye(4))

@@ -35,7 +35,7 @@ from collision_shapes import WORK, distance, hull, pose, rot, shape, surface_dis
 def contacts_on_ground(a, T_a, margin=0.0):
     """The rows (d, p_A, p_B, n) of shape a's contacts with the ground z <= 0."""
     rows = np.full((MAX_CONTACTS, 10), np.nan)
-    count = halfspace_contacts(a[0], a[1], hull(a[2]), T_a, pose(), margin, rows)
+    count = halfspace_contacts((a[0], a[1], hull(a[2]), T_a), pose(), margin, rows, WORK)
     return rows[:count]
 
 
@@ -295,3 +295,109 @@ def test_shapes_meeting_at_a_point_give_one_contact():
     along_y = pose(rot((1, 0, 0), np.pi / 2), (0.0, 0.0, 0.199))
     rows = manifold(cylinder, along_x, cylinder, along_y)
     assert len(rows) == 1 and rows[0, 0] == pytest.approx(-0.001, abs=1e-9)  # EPA's tolerance
+
+
+# ---- manifolds that hold still: continuous under small motions, lying shapes, flat meshes ------
+
+
+def contact_points(rows):
+    """The contact points p_A of rows, as a sorted list of rounded tuples (to compare sets)."""
+    return sorted(map(tuple, rows[:, 1:4].round(9)))
+
+
+def support_area(rows):
+    """The area of the contact points' hull seen from above (m^2): the support polygon."""
+    return ConvexHull(rows[:, 1:3]).volume
+
+
+@pytest.mark.parametrize("yaw_degrees", range(0, 91, 5))
+def test_a_box_on_a_turned_box_keeps_a_centred_support_polygon_under_tilts(yaw_degrees):
+    """A 0.2 x 0.2 x 0.1 box on another, turned about the vertical by 0-90 degrees, 0.1 mm deep:
+    the overlap is an octagon (a square at 0 and 90). The four points kept are the same four
+    under tilts of 1e-9 to 1e-5 rad either way (the old reduction jumped to another four with a
+    1e-5 rad tilt, between opposite corners), they span at least half the overlap's area (the
+    support polygon's quadrilateral), and their centroid is within a quarter of the box's half
+    width of the boxes' common axis (the old four sat to one side)."""
+    box, size = shape(BOX, (0.2, 0.2, 0.1)), (0.2, 0.2, 0.1)
+    R = rot((0, 0, 1), np.radians(yaw_degrees))
+    T_top = pose(R, (0.0, 0.0, 0.1 - 1e-4))
+    rows = contacts_of_boxes(size, pose(), size, T_top)
+    assert len(rows) == 4
+    np.testing.assert_allclose(rows[:, 0], -1e-4, atol=1e-12)
+    check_rows(rows, box, pose(), box, T_top)
+    # the overlap's area, by counting a fine grid's points inside both squares: 0.04 at 0
+    # degrees, 0.08 (sqrt 2 - 1) at 45
+    grid = np.stack(np.meshgrid(*[np.linspace(-0.1, 0.1, 401)] * 2), -1).reshape(-1, 2)
+    both = grid[np.all(np.abs(grid @ R[:2, :2]) <= 0.1, axis=1)]
+    overlap_area = len(both) / len(grid) * 0.04
+    assert support_area(rows) >= 0.5 * overlap_area
+    assert np.linalg.norm(rows[:, 1:3].mean(axis=0)) <= 0.025
+    for axis_ in ((1, 0, 0), (0, 1, 0), (1, 1, 0)):
+        for tilt in (1e-9, -1e-9, 1e-5, -1e-5):
+            T = pose(rot(axis_, tilt) @ R, (0.0, 0.0, 0.1 - 1e-4))
+            tilted = contacts_of_boxes(size, pose(), size, T)
+            assert len(tilted) == 4, (axis_, tilt)
+            np.testing.assert_allclose(
+                contact_points(tilted), contact_points(rows), atol=2e-6, err_msg=str((axis_, tilt))
+            )
+
+
+def test_a_cylinder_lying_on_the_ground_rests_on_both_ends():
+    """Cylinder r = 0.1, length 0.4, lying along y 1 mm into the ground: two contacts, the lowest
+    rim points of its two caps, (x, -+0.2, -0.001), each 1 mm deep (the old candidates were one
+    cap's rim, which flipped between the caps from one step to the next); rolled or pitched by
+    1e-9 rad the same two; pitched by 0.1 rad, the lower end alone within a 0 margin."""
+    cylinder = shape(CYLINDER, (0.1, 0.4))
+    for roll in (0.0, 1e-9, -1e-9):
+        for pitch in (0.0, 1e-9, -1e-9):
+            R = rot((0, 1, 0), pitch) @ rot((1, 0, 0), np.pi / 2 + roll)
+            rows = contacts_on_ground(cylinder, pose(R, (0.3, 0.0, 0.099)))
+            assert len(rows) == 2, (roll, pitch)
+            ends = rows[np.argsort(rows[:, 2]), 1:4]
+            np.testing.assert_allclose(ends, [(0.3, -0.2, -0.001), (0.3, 0.2, -0.001)], atol=1e-9)
+            np.testing.assert_allclose(rows[:, 0], -0.001, atol=1e-9)
+            check_rows(rows, cylinder, pose(R, (0.3, 0.0, 0.099)), shape(HALFSPACE, (0, 0, 0)), pose())
+    R = rot((1, 0, 0), np.pi / 2 + 0.1)
+    rows = contacts_on_ground(cylinder, pose(R, (0.0, 0.0, 0.11)))
+    assert len(rows) == 1
+
+
+def test_a_round_mesh_resting_on_the_ground_keeps_its_support_polygon():
+    """A 32-sided prism mesh (a cylinder as a mesh) standing on the ground, 1 mm deep: all 32
+    bottom corners are as deep, and the four kept span a square of the ring (area 2 r^2), not
+    four neighbours (the old rule kept the four deepest, which rounding chose); the same four
+    under a 1e-9 rad tilt."""
+    angles = np.arange(32) * 2 * np.pi / 32
+    ring = np.stack([0.1 * np.cos(angles), 0.1 * np.sin(angles), np.zeros(32)], axis=1)
+    prism = shape(MESH, (1, 1, 1), np.concatenate([ring + (0, 0, -0.1), ring + (0, 0, 0.1)]))
+    rows = contacts_on_ground(prism, pose(p=(0.0, 0.0, 0.099)))
+    assert len(rows) == 4
+    assert support_area(rows) == pytest.approx(2 * 0.1**2, rel=1e-9)
+    tilted = contacts_on_ground(prism, pose(rot((1, 1, 0), 1e-9), (0.0, 0.0, 0.099)))
+    np.testing.assert_allclose(contact_points(tilted), contact_points(rows), atol=1e-9)
+
+
+def test_a_box_on_a_flat_mesh_rests_on_its_corners_as_on_a_box():
+    """A floor exported as one quad (four coplanar vertices: a hull without volume) is a face:
+    a box 1 mm into it touches at its four bottom corners, each 1 mm deep, as on a box slab (the
+    old hull had no face and gave the one deepest point); as a and as b of the pair; and the
+    box hanging over the quad's edge is cut at that edge."""
+    quad = shape(MESH, (1, 1, 1), np.array([(-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0.0)]))
+    box = shape(BOX, (0.2, 0.3, 0.1))
+    T = pose(rot((0, 0, 1), 0.3), (0.2, -0.1, 0.049))
+    corners = np.array(
+        [T[:3, :3] @ (x, y, -0.05) + T[:3, 3] for x in (-0.1, 0.1) for y in (-0.15, 0.15)]
+    )
+    rows = manifold(box, T, quad, pose())
+    assert len(rows) == 4
+    np.testing.assert_allclose(contact_points(rows), sorted(map(tuple, corners.round(9))), atol=1e-9)
+    np.testing.assert_allclose(rows[:, 0], -0.001, atol=1e-12)
+    check_rows(rows, box, T, quad, pose())
+    rows = manifold(quad, pose(), box, T)
+    assert len(rows) == 4
+    np.testing.assert_allclose(rows[:, 0], -0.001, atol=1e-12)
+    check_rows(rows, quad, pose(), box, T)
+    T = pose(p=(0.95, 0.0, 0.049))  # over the edge x = 1
+    rows = manifold(box, T, quad, pose())
+    assert len(rows) == 4
+    np.testing.assert_allclose(sorted(rows[:, 1]), [0.85, 0.85, 1.0, 1.0], atol=1e-12)

@@ -15,8 +15,9 @@ support points climb, and its faces, the polygons a face-on contact is clipped o
 
 A face is a plane's whole polygon: qhull's triangles that share an edge and a plane (normals
 within COPLANAR) are merged, so that a box-shaped mesh has six four-cornered faces, and its
-corners are the merged triangles' boundary, in order. Points that span no volume (a flat mesh)
-give their distinct points, no edges and no faces: the kernels then test every vertex.
+corners are the merged triangles' boundary, in order. Points that span no volume: a flat mesh (a
+floor exported as one quad) is its polygon, with its edges and two faces, one each side; points
+on a line are a segment, with one edge and no face.
 
 On a convex polytope a vertex no neighbor of which lies farther along d is the farthest of all
 (the edges at a vertex span the polytope's cone there), so the support point is found by walking
@@ -117,6 +118,48 @@ def _faces(corners, triangles, equations, neighbors):
     return face_normal, face_start, face_vertices, vertex_face_start, vertex_faces
 
 
+def _flat_hull(points):
+    """The Hull's parts (in its order) of points that span no volume. Points in a plane (a floor
+    exported as one quad) are their polygon: its corners in order about the plane's normal m,
+    each joined to the two beside it, and two faces, the polygon seen from either side (normal
+    m, corners counterclockwise about it, and -m, the same corners the other way round), so
+    that a face-on contact is clipped on the polygon as on a solid's face. Points on a line are
+    its two ends joined by an edge; a single point is itself. Neither has a face."""
+    from scipy.spatial import ConvexHull, QhullError
+
+    centre = points.mean(axis=0)
+    _, sigma, axes = np.linalg.svd(points - centre)
+    none = np.zeros(0, np.int64)
+    try:
+        if len(sigma) < 2 or sigma[1] <= 1e-12 * sigma[0]:
+            raise QhullError("the points span no area")
+        corners = points[ConvexHull((points - centre) @ axes[:2].T).vertices]
+    except QhullError:  # a line (its two ends) or a point
+        along = (points - centre) @ axes[0]
+        corners = np.unique(points[[np.argmin(along), np.argmax(along)]], axis=0)
+        V = len(corners)
+        start = np.arange(V + 1, dtype=np.int64) if V == 2 else np.zeros(V + 1, np.int64)
+        neighbors = np.array([1, 0], np.int64) if V == 2 else none
+        no_faces = (np.zeros((0, 3)), np.zeros(1, np.int64), none, np.zeros(V + 1, np.int64))
+        return (corners, start, neighbors, V, *no_faces, none)
+    # ConvexHull of 2-D points lists them counterclockwise about axes[0] x axes[1]
+    m = np.cross(axes[0], axes[1])
+    V = len(corners)
+    ring = np.arange(V)
+    neighbors = np.stack([(ring - 1) % V, (ring + 1) % V], axis=1).ravel().astype(np.int64)
+    return (
+        corners,
+        np.arange(0, 2 * V + 1, 2, dtype=np.int64),
+        neighbors,
+        V,
+        np.stack([m, -m]),
+        np.array([0, V, 2 * V], np.int64),
+        np.concatenate([ring, ring[::-1]]).astype(np.int64),
+        np.arange(0, 2 * V + 1, 2, dtype=np.int64),
+        np.tile([0, 1], V).astype(np.int64),
+    )
+
+
 @functools.lru_cache(maxsize=512)
 def _hull_of(data):
     """convex_hull of the points whose float64 bytes are `data`."""
@@ -126,10 +169,7 @@ def _hull_of(data):
     try:
         hull = ConvexHull(points)
     except QhullError:
-        flat = np.unique(points, axis=0)
-        none = np.zeros(0, np.int64)
-        start = np.zeros(len(flat) + 1, np.int64)
-        parts = (flat, start, none, 0, np.zeros((0, 3)), np.zeros(1, np.int64), none, start, none)
+        parts = _flat_hull(points)
     else:
         corners = points[hull.vertices]
         seeds = np.unique(np.argmax(SEED_DIRECTIONS @ corners.T, axis=1))

@@ -2,7 +2,8 @@
 by clipping (clipping.py), on the separating axis of box_box.py:
 
   1. the separating-axis test (box_box.py) gives the axis of least overlap L, from a towards b;
-     an edge pair gives its one contact, a face is the reference face, normal N (outward)
+     an edge pair gives its one contact, unless a face axis lies within features.FACE_ON of L
+     (faces a hair from parallel), a face is the reference face, normal N (outward)
   2. the incident face: the other box's face whose outward normal is most against N
   3. the incident face's four corners clipped by the reference face's four side planes
      (u_j . (x - c) <= h_j and -u_j . (x - c) <= h_j for the face's two in-plane axes)
@@ -10,7 +11,9 @@ by clipping (clipping.py), on the separating axis of box_box.py:
      contact of depth s: x on the incident box, x - s N on the reference face
   5. more than four: clipping.reduce_to_four
 
-Each contact is a row of the narrow phase's out layout (d, p_A, p_B, L).
+Each contact is a row of the narrow phase's out layout (d, p_A, p_B, L). The deepest of the
+clipped points is also the pair's one witness pair (box_witnesses: pair_distance's points of two
+overlapping boxes).
 """
 
 from __future__ import annotations
@@ -22,7 +25,8 @@ from numba import njit
 from ..._runtime.kernel_cache import UNCOUNTED
 from .box_box import box_box
 from .clipping import DEPTH, clip, reduce_to_four
-from .closed_forms import room_by_depth, write_inflated
+from .closed_forms import NORMAL, room_by_depth, write_inflated
+from .features import FACE_ON
 from .vectors import axis, axpy, dot, origin, put, row, scale, sub
 
 POLYGON, CLIPPED = 0, 8  # work rows of the polygon being clipped and of its clipped copy
@@ -57,23 +61,16 @@ def clipped_contacts(work, T_ref, h_ref, r, N, count):
 
 
 @njit(**UNCOUNTED)
-def box_contacts(code_a, size_a, hull_a, T_a, code_b, size_b, hull_b, T_b, contacts, work):
-    """Up to four contacts of boxes a and b (the arguments as pair_distance's; code_a
-    and code_b BOX) into rows of contacts (4, OUT_SIZE), the deepest first; `work`
-    as pair_distance's. Returns their count: 0 when the boxes are apart, 1 for an edge on an
-    edge (pair_distance's result)."""
-    a = (code_a, size_a, hull_a, T_a)
-    b = (code_b, size_b, hull_b, T_b)
-    kind = box_box(a, b, contacts[0])
-    if kind < 0:
-        return 0
-    if kind >= 6:
-        return 1
-    L = row(contacts, 0, 7)
+def below_reference(a, b, kind, L, work):
+    """Steps 2-4 for boxes a and b whose least-overlap axis L (from a towards b) is face axis
+    `kind` (< 6) of box_box: the incident face clipped by the reference face's side planes, the
+    points x under the reference face in work rows POLYGON.., each with its depth s = N . (x - f)
+    (<= 0) in column DEPTH. Returns (count, N) with N the reference face's outward normal (L
+    when it is A's, -L when it is B's)."""
     if kind < 3:  # A's face is the reference: N = L
-        T_ref, size_ref, T_inc, size_inc, r, N = T_a, size_a, T_b, size_b, kind, L
+        T_ref, size_ref, T_inc, size_inc, r, N = a[3], a[1], b[3], b[1], kind, L
     else:  # B's: N = -L
-        T_ref, size_ref, T_inc, size_inc, r, N = T_b, size_b, T_a, size_a, kind - 3, scale(L, -1.0)
+        T_ref, size_ref, T_inc, size_inc, r, N = b[3], b[1], a[3], a[1], kind - 3, scale(L, -1.0)
     h_ref = (0.5 * size_ref[0], 0.5 * size_ref[1], 0.5 * size_ref[2])
     h_inc = (0.5 * size_inc[0], 0.5 * size_inc[1], 0.5 * size_inc[2])
     face = axpy(math.copysign(h_ref[r], dot(N, axis(T_ref, r))), axis(T_ref, r), origin(T_ref))
@@ -87,18 +84,88 @@ def box_contacts(code_a, size_a, hull_a, T_a, code_b, size_b, hull_b, T_b, conta
             put(work, POLYGON + below, 0, x)
             work[POLYGON + below, DEPTH] = s
             below += 1
+    return below, N
+
+
+@njit(**UNCOUNTED)
+def write_face_contact(out, x, s, N, kind):
+    """out <- the contact at the incident box's point x of depth s under the reference face
+    (outward normal N): x on the incident box and x - s N on the reference face, the normal
+    from a towards b (N when A's face is the reference, kind < 3; -N otherwise)."""
+    on_ref = axpy(-s, N, x)
+    if kind < 3:
+        write_inflated(out, on_ref, x, N, 0.0, 0.0)
+    else:
+        write_inflated(out, x, on_ref, scale(N, -1.0), 0.0, 0.0)
+
+
+@njit(**UNCOUNTED)
+def box_witnesses(a, b, kind, out, work):
+    """The witness points of overlapping (or touching) boxes a and b whose box_box result
+    `kind` and out = (-depth, p_A, p_B, L) are given: for a face axis, the deepest point of the
+    incident face inside the reference face's sides (steps 2-4), on the incident box, and its
+    foot on the reference face. box_box's own points for a face axis are the incident box's
+    support vertex and that vertex moved by the depth, which lies off the reference face where
+    the vertex is beyond its sides (a box resting across another's edge); the deepest clipped
+    point is on both boxes, and at the same depth: the incident feature that reaches deepest
+    along -N is part of the incident face, and its projection meets the reference face (the
+    least-overlap axis is a face of the Minkowski difference, which holds the origin's
+    projection). An edge pair's points (kind >= 6) stay as box_box found them."""
+    if kind >= 6:
+        return
+    count, N = below_reference(a, b, kind, (out[NORMAL], out[NORMAL + 1], out[NORMAL + 2]), work)
+    if count == 0:  # (rounding) the separating-axis points
+        return
+    deepest = 0
+    for i in range(count):
+        if work[POLYGON + i, DEPTH] < work[POLYGON + deepest, DEPTH]:
+            deepest = i
+    write_face_contact(out, row(work, POLYGON + deepest, 0), work[POLYGON + deepest, DEPTH], N, kind)
+
+
+@njit(**UNCOUNTED)
+def face_on(a, b, L):
+    """(kind, L_face): the face axis of box a (kind 0-2) or b (3-5) most along the edge pair's
+    axis L, turned to point as L does, when it is within FACE_ON of L; (-1, L) otherwise. Two
+    boxes face to face whose faces are a hair from parallel (a tilt of 1e-9 rad) have an edge
+    axis of least overlap, by the tilt times their size, where the contact is a face's: the
+    face axis gives its corners, the edge axis one point, and the manifold would jump between
+    four points and one as the tilt changes sign."""
+    kind, best = -1, FACE_ON
+    L_face = L
+    for k in range(6):
+        u = axis(a[3], k) if k < 3 else axis(b[3], k - 3)
+        c = dot(u, L)
+        if abs(c) >= best:
+            kind, best, L_face = k, abs(c), (u if c > 0.0 else scale(u, -1.0))
+    return kind, L_face
+
+
+@njit(**UNCOUNTED)
+def box_contacts(code_a, size_a, hull_a, T_a, code_b, size_b, hull_b, T_b, contacts, work):
+    """Up to four contacts of boxes a and b (the arguments as pair_distance's; code_a
+    and code_b BOX) into rows of contacts (4, OUT_SIZE), the deepest first; `work`
+    as pair_distance's. Returns their count: 0 when the boxes are apart, 1 for an edge on an
+    edge (pair_distance's result)."""
+    a = (code_a, size_a, hull_a, T_a)
+    b = (code_b, size_b, hull_b, T_b)
+    kind = box_box(a, b, contacts[0])
+    if kind < 0:
+        return 0
+    L = row(contacts, 0, NORMAL)
+    if kind >= 6:  # an edge pair: a face contact still, when L is within FACE_ON of a face's
+        kind, L = face_on(a, b, L)
+        if kind < 0:
+            return 1
+    below, N = below_reference(a, b, kind, L, work)
     if below == 0:  # (rounding) the separating-axis contact alone
         return 1
     n_contacts = 0
     for i in reduce_to_four(work, POLYGON, below, N):
         if i < 0:
             continue
-        x, s = row(work, POLYGON + i, 0), work[POLYGON + i, DEPTH]
-        on_ref = axpy(-s, N, x)
+        s = work[POLYGON + i, DEPTH]
         k = room_by_depth(contacts, n_contacts, s)
-        if kind < 3:
-            write_inflated(contacts[k], on_ref, x, L, 0.0, 0.0)
-        else:
-            write_inflated(contacts[k], x, on_ref, L, 0.0, 0.0)
+        write_face_contact(contacts[k], row(work, POLYGON + i, 0), s, N, kind)
         n_contacts += 1
     return n_contacts

@@ -34,6 +34,8 @@ TOLERANCE = 1e-9  # n.w - delta at which EPA stops, metres
 # w sees a face when it is farther than this beyond its plane (metres): a face w lies on stays,
 # as one on either side of it by rounding would make the horizon ragged
 VISIBLE = 1e-13
+# faces whose normals are this close (cosine) lie in one plane of D, for the witness points
+COPLANAR = 1.0 - 1e-9
 DISTINCT = 1e-10  # a support point nearer than this to the polytope's span adds no dimension
 MAX_VERTICES = 256
 MAX_FACES = 2 * MAX_VERTICES  # a closed triangulated polytope has 2 V - 4 faces
@@ -155,22 +157,60 @@ def nearest_face(work):
 
 
 @njit(**UNCOUNTED)
-def face_witnesses(work, f):
-    """(p_A, p_B) of the boundary point delta n of face f, by its barycentric weights
-    (Ericson 3.4): delta n = sum lambda w, p_A = sum lambda s_A, p_B = sum lambda s_B. A sliver
-    face's weights leave p_A - p_B off delta n by a little; each point takes half of that
-    residue back, so that p_A - p_B = delta n exactly."""
-    i, j, k = int(work[f, I]), int(work[f, J]), int(work[f, K])
-    a = vertex(work, i)
-    v0, v1 = sub(vertex(work, j), a), sub(vertex(work, k), a)
-    closest = scale(row(work, f, NORMAL), work[f, DELTA])
+def face_weights(work, f, closest):
+    """(lambda_i, lambda_j, lambda_k): the barycentric weights of the point `closest` of face
+    f's plane (Ericson 3.4), each in [0, 1] when the point is inside the face."""
+    a = vertex(work, int(work[f, I]))
+    v0, v1 = sub(vertex(work, int(work[f, J])), a), sub(vertex(work, int(work[f, K])), a)
     v2 = sub(closest, a)
     d00, d01, d11 = dot(v0, v0), dot(v0, v1), dot(v1, v1)
     d20, d21 = dot(v2, v0), dot(v2, v1)
     denom = d00 * d11 - d01 * d01
     lj = (d11 * d20 - d01 * d21) / denom if denom > 0.0 else 0.0
     lk = (d00 * d21 - d01 * d20) / denom if denom > 0.0 else 0.0
-    li = 1.0 - lj - lk
+    return 1.0 - lj - lk, lj, lk
+
+
+@njit(**UNCOUNTED)
+def witness_face(work, f):
+    """The face whose barycentric weights of delta n hold best (their least is largest) among
+    face f and the live faces in its plane (delta within TOLERANCE, normal within COPLANAR).
+    Two shapes face to face make a flat part of D out of many triangles of the same delta, some
+    of them slivers: the nearest by rounding may hold delta n far outside itself, where its
+    weights would put p_A and p_B off their shapes; the triangle that holds delta n puts them
+    on the features that touch."""
+    closest = scale(row(work, f, NORMAL), work[f, DELTA])
+    best, held = f, min(face_weights(work, f, closest))
+    for g in range(FACES, EDGES):
+        if held >= 0.0:
+            break
+        if (
+            work[g, ALIVE] == 0.0
+            or work[g, DELTA] > work[f, DELTA] + TOLERANCE
+            or dot(row(work, g, NORMAL), row(work, f, NORMAL)) < COPLANAR
+        ):
+            continue
+        weight = min(face_weights(work, g, closest))
+        if weight > held:
+            best, held = g, weight
+    return best
+
+
+@njit(**UNCOUNTED)
+def face_witnesses(work, f):
+    """(p_A, p_B) of the boundary point delta n of face f, by barycentric weights
+    (face_weights of witness_face): delta n = sum lambda w, p_A = sum lambda s_A,
+    p_B = sum lambda s_B. The weights are clamped to [0, 1] (a sliver face's rounding), so that
+    the points are convex combinations of support points; each then takes back half of what
+    the clamp left between p_A - p_B and delta n, so that p_A - p_B = delta n exactly. On the
+    face that holds delta n that residue is rounding: the points stay on their shapes."""
+    closest = scale(row(work, f, NORMAL), work[f, DELTA])
+    f = witness_face(work, f)
+    i, j, k = int(work[f, I]), int(work[f, J]), int(work[f, K])
+    li, lj, lk = face_weights(work, f, closest)
+    li, lj, lk = max(li, 0.0), max(lj, 0.0), max(lk, 0.0)
+    total = li + lj + lk
+    li, lj, lk = li / total, lj / total, lk / total
     p_a = add(
         add(scale(row(work, VERTICES + i, A), li), scale(row(work, VERTICES + j, A), lj)),
         scale(row(work, VERTICES + k, A), lk),

@@ -7,15 +7,17 @@ For the halfspace b = {x : n . (x - p) <= 0} (n = z_g of b) the candidate points
 are
   box       its 8 vertices
   mesh      its hull's vertices
-  cylinder  4 points of the rim of the cap nearer the plane: the deepest, the opposite one and
-            the two between (exact for a cap lying on the plane: it rests on all four)
+  cylinder  4 points of the rim of each cap: the deepest, the opposite one and the two between
+            (exact for a cap resting on the plane: it rests on all four; a cylinder lying on its
+            side rests on the deepest point of each cap, its two ends)
   capsule   its segment's two ends, less r n
   sphere    its centre less r n
 each at signed distance d_k = n . (x_k - p) (none when the shape's support point along -n is
 beyond the margin: a hull's vertices are scanned only when it reaches the plane); those with
-d_k <= margin are contacts, the four
-deepest kept, each written as a row of the narrow phase's out layout: (d_k, x_k, x_k - d_k n, -n)
-(the normal from a towards the halfspace).
+d_k <= margin are contacts, reduced to four as every manifold is (clipping.reduce_to_four: the
+deepest, or a flat face's outermost, and the largest quadrilateral with it, so that a mesh
+resting on many vertices keeps its support polygon), each written as a row of the narrow phase's
+out layout: (d_k, x_k, x_k - d_k n, -n) (the normal from a towards the halfspace).
 """
 
 from __future__ import annotations
@@ -25,12 +27,16 @@ import math
 from numba import njit
 
 from ..._runtime.kernel_cache import UNCOUNTED
-from ...multibody.shapes import BOX, CAPSULE, CYLINDER, MESH
-from .closed_forms import DISTANCE, room_by_depth, write_inflated
-from .support import core_radius, core_support
-from .vectors import axis, axpy, cross, dot, norm, origin, scale, sub, to_world
+from ...multibody.shapes import BOX, CAPSULE, CYLINDER, MESH, SPHERE
+from .clipping import DEPTH, reduce_to_four
+from .closed_forms import room_by_depth, write_inflated
+from .support import UNKNOWN_SHAPE, core_radius, core_support
+from .vectors import axis, axpy, cross, dot, norm, origin, put, row, scale, sub, to_world
 
 MAX_CONTACTS = 4
+# the most candidate points kept for the reduction (the work array's first rows): a hull with
+# more vertices within the margin keeps the deepest of them
+CANDIDATES = 256
 
 
 @njit(**UNCOUNTED)
@@ -41,10 +47,12 @@ def candidate_count(code, hull):
     if code == MESH:
         return hull[0].shape[0]
     if code == CYLINDER:
-        return 4
+        return 8
     if code == CAPSULE:
         return 2
-    return 1
+    if code == SPHERE:
+        return 1
+    raise ValueError(UNKNOWN_SHAPE)
 
 
 @njit(**UNCOUNTED)
@@ -62,43 +70,67 @@ def candidate(code, size, hull, T, n, k):
         return to_world(T, (vertices[k, 0], vertices[k, 1], vertices[k, 2]))
     z = axis(T, 2)
     if code == CYLINDER:
-        # the cap nearer the plane, and in it the rim's direction most against n, u; then
-        # u turned by k quarter turns about z: u, z x u, -u, -z x u
-        cap = axpy(-math.copysign(0.5 * size[1], dot(z, n)), z, origin(T))
+        # a cap (k < 4: +z_g's, else -z_g's), and in it the rim's direction most against n, u;
+        # then u turned by k quarter turns about z: u, z x u, -u, -z x u
+        cap = axpy((0.5 if k < 4 else -0.5) * size[1], z, origin(T))
         u = axpy(dot(n, z), z, scale(n, -1.0))  # -n less its part along z
         length = norm(u)
         u = scale(u, 1.0 / length) if length > 1e-12 else axis(T, 0)
         side = cross(z, u)
+        quarter = k % 4
         direction = (
-            u if k == 0 else (side if k == 1 else (scale(u, -1.0) if k == 2 else scale(side, -1.0)))
+            u
+            if quarter == 0
+            else (side if quarter == 1 else (scale(u, -1.0) if quarter == 2 else scale(side, -1.0)))
         )
         return axpy(size[0], direction, cap)
     if code == CAPSULE:
         end = axpy((0.5 if k == 0 else -0.5) * size[1], z, origin(T))
         return axpy(-size[0], n, end)
-    return axpy(-size[0], n, origin(T))  # SPHERE
+    if code == SPHERE:
+        return axpy(-size[0], n, origin(T))
+    raise ValueError(UNKNOWN_SHAPE)
 
 
 @njit(**UNCOUNTED)
-def halfspace_contacts(code_a, size_a, hull_a, T_a, T_b, margin, contacts):
-    """Up to MAX_CONTACTS contacts of shape a (code, size (3,), hull (support.py), pose T_a) with
-    the halfspace of pose T_b: rows of contacts (MAX_CONTACTS, OUT_SIZE) as the module docstring
-    lays out, the deepest first, of the candidates at signed distance <= margin (metres).
-    Returns how many rows were written."""
+def halfspace_contacts(a, T_b, margin, contacts, work):
+    """Up to MAX_CONTACTS contacts of shape a (code, size (3,), hull (support.py), pose T_a)
+    with the halfspace of pose T_b: rows of contacts (MAX_CONTACTS, OUT_SIZE) as the module
+    docstring lays out, the deepest first, of the candidates at signed distance <= margin
+    (metres), reduced to four by clipping.reduce_to_four; `work` as pair_distance's (the
+    candidates' rows). Returns how many rows were written."""
+    code_a, size_a, hull_a, T_a = a
     n = axis(T_b, 2)
     p = origin(T_b)
     # the shape's deepest point, its support along -n (a hull's by climbing its edges): when
     # even that is beyond the margin, no candidate is nearer (a mesh's hull is not scanned)
-    deepest = core_support((code_a, size_a, hull_a, T_a), scale(n, -1.0))
+    deepest = core_support(a, scale(n, -1.0))
     if dot(n, sub(deepest, p)) - core_radius(code_a, size_a) > margin:
         return 0
     count = 0
     for k in range(candidate_count(code_a, hull_a)):
         x = candidate(code_a, size_a, hull_a, T_a, n, k)
         d = dot(n, sub(x, p))
-        if d > margin or (count == MAX_CONTACTS and d >= contacts[count - 1, DISTANCE]):
+        if d > margin:
             continue
-        r = room_by_depth(contacts, min(count, MAX_CONTACTS - 1), d)  # the last falls off when full
+        if count == CANDIDATES:  # full: the deepest kept, in place of the shallowest
+            r = 0
+            for i in range(count):
+                if work[i, DEPTH] > work[r, DEPTH]:
+                    r = i
+            if d >= work[r, DEPTH]:
+                continue
+        else:
+            r = count
+            count += 1
+        put(work, r, 0, x)
+        work[r, DEPTH] = d
+    written = 0
+    for i in reduce_to_four(work, 0, count, scale(n, -1.0)):
+        if i < 0:
+            continue
+        x, d = row(work, i, 0), work[i, DEPTH]
+        r = room_by_depth(contacts, written, d)
         write_inflated(contacts[r], x, axpy(-d, n, x), scale(n, -1.0), 0.0, 0.0)
-        count = min(count + 1, MAX_CONTACTS)
-    return count
+        written += 1
+    return written

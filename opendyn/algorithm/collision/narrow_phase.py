@@ -21,7 +21,8 @@ It allocates nothing. Swapping a and b swaps p_A and p_B and negates n. The meth
 
   sphere, capsule  x sphere, capsule     closed form (closest points of the cores)
   sphere x box                           closed form (the centre clamped to the box)
-  box x box                              separating axes when they overlap, GJK when separated
+  box x box                              separating axes when they overlap (the witness points
+                                         clipped on the faces that touch), GJK when separated
   anything x halfspace                   closed form (the support point along -n)
   every other pair                       GJK on the cores, EPA when the cores overlap
 """
@@ -36,6 +37,7 @@ from ..._runtime.status import Status
 from ...multibody.hulls import convex_hull
 from ...multibody.shapes import BOX, CAPSULE, HALFSPACE, SPHERE
 from .box_box import box_box
+from .box_manifold import box_witnesses
 from .closed_forms import halfspace, rounded, sphere_box, swap_sides, write_inflated
 from .epa import ROWS, epa
 from .gjk import gjk
@@ -95,8 +97,11 @@ def ordered_distance(a, b, out, work):
     if code_a == SPHERE and code_b == BOX:
         sphere_box(a, b, out)
         return Status.OK.value
-    if code_a == BOX and code_b == BOX and box_box(a, b, out) >= 0:
-        return Status.OK.value
+    if code_a == BOX and code_b == BOX:
+        kind = box_box(a, b, out)
+        if kind >= 0:
+            box_witnesses(a, b, kind, out, work)
+            return Status.OK.value
     return convex(a, b, out, work)
 
 

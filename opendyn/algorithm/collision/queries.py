@@ -153,9 +153,9 @@ def pair_contacts(a, b, margin, rows, scratch):
         if count:
             return count, Status.OK.value
     elif b[0] == HALFSPACE and a[0] != HALFSPACE:
-        return halfspace_contacts(a[0], a[1], a[2], a[3], b[3], margin, rows), Status.OK.value
+        return halfspace_contacts(a, b[3], margin, rows, scratch), Status.OK.value
     elif a[0] == HALFSPACE and b[0] != HALFSPACE:
-        count = halfspace_contacts(b[0], b[1], b[2], b[3], a[3], margin, rows)
+        count = halfspace_contacts(b, a[3], margin, rows, scratch)
         for k in range(count):
             swap_sides(rows[k])
         return count, Status.OK.value

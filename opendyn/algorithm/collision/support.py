@@ -35,6 +35,13 @@ from ..._runtime.kernel_cache import UNCOUNTED, UNCOUNTED_INLINE
 from ...multibody.shapes import BOX, CAPSULE, CYLINDER, MESH, SPHERE
 from .vectors import sub, to_local, to_world
 
+# a shape code that no branch knows (a halfspace has no bounded support) is an error, never the
+# wrong shape: the branch a new shape forgot would otherwise be a sphere's or a point's physics
+UNKNOWN_SHAPE = (
+    "opendyn: a collision shape code without a support function (opendyn.multibody.shapes: "
+    "SPHERE, BOX, CYLINDER, CAPSULE, MESH have one; a HALFSPACE is met by its closed forms)"
+)
+
 
 @njit(**UNCOUNTED)
 def core_radius(code, size):
@@ -77,7 +84,8 @@ def local_core_support(code, size, vertices, start, neighbors, seeds, hint, d):
       box       (sign(d_x) x/2, sign(d_y) y/2, sign(d_z) z/2)
       cylinder  (r d_xy/|d_xy|, sign(d_z) length/2); the cap's centre when d_xy = 0
       mesh      the hull's vertex of largest d . v
-    (sign(0) = +1: any point of a supporting face is a support point)."""
+    (sign(0) = +1: any point of a supporting face is a support point). Any other code raises
+    ValueError (UNKNOWN_SHAPE)."""
     if code == BOX:
         return (
             math.copysign(0.5 * size[0], d[0]),
@@ -95,7 +103,9 @@ def local_core_support(code, size, vertices, start, neighbors, seeds, hint, d):
     if code == MESH:
         k = climb(vertices, start, neighbors, seeds, hint, d)
         return (vertices[k, 0], vertices[k, 1], vertices[k, 2])
-    return (0.0, 0.0, 0.0)  # SPHERE: the centre
+    if code == SPHERE:
+        return (0.0, 0.0, 0.0)  # the centre
+    raise ValueError(UNKNOWN_SHAPE)
 
 
 @njit(**UNCOUNTED_INLINE)
