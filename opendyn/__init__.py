@@ -63,6 +63,7 @@ if TYPE_CHECKING:  # the public names and their modules, read by `attach` (and b
         SweepInterrupted,
         SweepWriteError,
         URDFError,
+        URDFWarning,
     )
     from .io.scene.files import default_scene, load_scene, scene_from_dict
     from .io.urdf import available_robots, load_urdf
@@ -136,6 +137,7 @@ __all__ = [
     "SingularMassMatrixError",
     "SingularTaskSpaceError",
     "URDFError",
+    "URDFWarning",
     "available_robots",
     "bias_forces",
     "center_of_mass",

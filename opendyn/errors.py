@@ -20,6 +20,14 @@ class SceneWarning(UserWarning):
     the scene does not enforce): the message names the file and the key, as SceneError's."""
 
 
+class URDFWarning(UserWarning):
+    """A URDF (or its SRDF, or its meshes) that loads, but probably not as meant: a collision
+    mesh that cannot be read, a ``<geometry>`` of two shapes, an SRDF pair of a link with
+    itself. The message names the file, the element and what was done with it; the model's
+    fidelity report (``model.report``) lists it too. (A mesh far from convex is a line of the
+    report, and a SceneWarning of the scenes whose contact uses it.)"""
+
+
 class NonFiniteResultError(ValueError):
     """Finite arguments whose result overflowed float64 to inf or NaN: some number is too large
     for double precision (it ends near 1.8e308, and the dynamics multiply numbers together).

@@ -259,7 +259,8 @@ def test_a_mesh_that_cannot_be_read_is_a_report_line(tmp_path):
         '<collision><geometry><mesh filename="missing.stl"/></geometry></collision>'
         '<collision><geometry><mesh filename="broken.stl"/></geometry></collision>'
     )
-    model = od.load_urdf(_write(tmp_path, extra))
+    with pytest.warns(od.URDFWarning, match="missing.stl"):
+        model = od.load_urdf(_write(tmp_path, extra))
     assert [g.shape for g in model.geometries] == ["box", "capsule", "sphere", "cylinder"]
     text = "\n".join(model.report.ignored)
     assert "2 <collision> meshes that could not be read" in text

@@ -104,30 +104,67 @@ def hull_vertices(path: str, scale=(1.0, 1.0, 1.0)) -> np.ndarray:
     function max_v d . v, all the collision kernels ask of a hull, is the same over them.
     Raises MeshError naming the file and the reason when it cannot be read.
     """
+    return mesh_hull(path, scale)[0]
+
+
+def mesh_hull(path: str, scale=(1.0, 1.0, 1.0)):
+    """(vertices (n, 3) as hull_vertices gives them, facets (m, 3), neighbors (m, 3)): the
+    convex hull of the mesh in `path`, with qhull's triangles (rows of indices of `vertices`)
+    and, for each corner of a triangle, the triangle across the edge opposite it; facets and
+    neighbors are None for a mesh that spans no volume. A scale keeps the facets (a linear map
+    of non-zero determinant keeps a hull's faces)."""
     stat = os.stat(path)
-    return _file_hull(path, stat.st_mtime_ns, stat.st_size) * np.asarray(scale, dtype=float)
+    vertices, facets, neighbors = _file_hull(path, stat.st_mtime_ns, stat.st_size)
+    return vertices * np.asarray(scale, dtype=float), facets, neighbors
 
 
 @functools.lru_cache(maxsize=512)
 def _file_hull(path, mtime_ns, size):
-    """The unscaled hull vertices of a mesh file, read once per (path, mtime, size)."""
+    """The unscaled hull of a mesh file (mesh_hull), computed once per (path, mtime, size)."""
     from scipy.spatial import ConvexHull, QhullError
 
-    points = _vertices(path)
-    if len(points) == 0:
-        raise MeshError(f"{path}: the mesh has no vertices")
-    if not np.all(np.isfinite(points)):
-        raise MeshError(f"{path}: the mesh has non-finite vertices")
+    points = _file_mesh(path, mtime_ns, size)[0]
     try:
-        points = points[ConvexHull(points).vertices]
+        hull = ConvexHull(points)
     except QhullError:  # flat or degenerate: every distinct point supports the same hull
-        points = np.unique(points, axis=0)
-    points.setflags(write=False)
-    return points
+        return _read_only(np.unique(points, axis=0)), None, None
+    index = np.full(len(points), -1)
+    index[hull.vertices] = np.arange(len(hull.vertices))
+    return (
+        _read_only(points[hull.vertices]),
+        _read_only(index[hull.simplices]),
+        _read_only(hull.neighbors.copy()),
+    )
 
 
-def _vertices(path):
-    """Every vertex of a mesh file in its file's frame, in metres (COLLADA: times its unit)."""
+def _read_only(array):
+    array.setflags(write=False)
+    return array
+
+
+def read_mesh(path: str) -> tuple[np.ndarray, np.ndarray]:
+    """(vertices (n, 3) in metres, faces (m, 3) int, rows of vertex indices) of the mesh in
+    `path` (STL, OBJ or COLLADA), in its file's frame, both read-only; kept for the last few
+    files read. Raises MeshError naming the file and the reason when it cannot be read or has
+    no vertices or non-finite ones."""
+    stat = os.stat(path)
+    return _file_mesh(path, stat.st_mtime_ns, stat.st_size)
+
+
+@functools.lru_cache(maxsize=8)  # the hull and the hollow of one file read it once
+def _file_mesh(path, mtime_ns, size):
+    """The checked vertices and faces of a mesh file, read once per (path, mtime, size)."""
+    vertices, faces = _vertices_and_faces(path)
+    if len(vertices) == 0:
+        raise MeshError(f"{path}: the mesh has no vertices")
+    if not np.all(np.isfinite(vertices)):
+        raise MeshError(f"{path}: the mesh has non-finite vertices")
+    return _read_only(vertices), _read_only(faces)
+
+
+def _vertices_and_faces(path):
+    """Every vertex of a mesh file in its file's frame, in metres (COLLADA: times its unit),
+    and its triangles."""
     suffix = pathlib.Path(path).suffix.lower().lstrip(".")
     if suffix not in MESH_FORMATS:
         raise MeshError(f"{path}: a .{suffix} file; collision meshes are STL, OBJ or COLLADA (DAE)")
@@ -138,7 +175,8 @@ def _vertices(path):
     except Exception as e:  # trimesh and pycollada raise many kinds on a bad file
         raise MeshError(f"{path}: could not be read as a mesh ({type(e).__name__}: {e})") from None
     vertices = np.asarray(getattr(mesh, "vertices", np.zeros((0, 3))), dtype=float)
-    return vertices * (_collada_unit(path) if suffix == "dae" else 1.0)
+    faces = np.asarray(getattr(mesh, "faces", np.zeros((0, 3))), dtype=np.int64).reshape(-1, 3)
+    return vertices * (_collada_unit(path) if suffix == "dae" else 1.0), faces
 
 
 def _collada_unit(path) -> float:

@@ -45,11 +45,16 @@ def load_urdf(
         semi-definite, or violating the triangle inequality I_a + I_b >= I_c of the principal
         moments); False keeps them as written and lists them in the fidelity report.
       srdf: an SRDF file whose ``<disable_collisions link1 link2>`` take those link pairs out of
-        ``model.collision_pairs`` (as Pinocchio's ``removeCollisionPairs``); None: none.
+        ``model.collision_pairs`` (as Pinocchio's ``removeCollisionPairs``); None: none. A URDF
+        given here is refused.
 
     Returns the Model; ``model.report`` is the fidelity report (honoured, transformed, ignored).
     A Model built once is kept on disk and returned by later loads of the same files
-    (opendyn.io.model_cache).
+    (opendyn.io.model_cache); a load that warned is built again each time, warning again.
+    Warns (URDFWarning, naming the file and the element; the report lists each too) for what
+    loads but probably not as meant: a ``<collision>`` mesh that cannot be found or read (left
+    out), one far from convex (used as its convex hull: opendyn.io.concavity), a ``<geometry>``
+    of several shapes (its first is used), an SRDF pair of a link with itself.
     Raises URDFError naming the file, the element and the problem for malformed input.
     """
     floating_base = flag(floating_base, "load_urdf: floating_base")

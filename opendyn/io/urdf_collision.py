@@ -14,14 +14,20 @@ Pinocchio's ``<collision_checking><capsule name=.../></collision_checking>`` ins
 the cylinder of that <collision name> a capsule of the same radius and length (the report says
 so); its ``<convex name>`` changes nothing, every mesh being its convex hull.
 
-A mesh file that cannot be found or read leaves its geometry out of the model and is a line of
-the fidelity report naming the link and the file; the report counts the geometries by shape,
-loaded and not.
+A mesh file that cannot be found or read leaves its geometry out of the model: a URDFWarning and
+a line of the fidelity report name the link and the file (report.unread_meshes lists them). A
+mesh far from convex (opendyn.io.concavity) is a line of the report's "transformed" and of
+report.hollow_meshes, and a SceneWarning of every scene whose contact uses the collision
+geometry (a model for its dynamics alone is not held up by its meshes' shapes). A <geometry> of two shapes or more is read as urdfdom, Pinocchio and yourdfpy read
+it, by its first shape, with a URDFWarning naming the others. A <mesh scale> must be three
+non-zero finite numbers, or one for all three axes (a negative one mirrors the mesh). The report
+counts the geometries by shape, loaded and not.
 """
 
 from __future__ import annotations
 
 import collections
+import math
 import os
 import pathlib
 
@@ -30,6 +36,7 @@ import numpy as np
 from ..errors import URDFError
 from ..multibody.geometry import Geometry
 from ..spatial.algebra import rpy_matrix
+from .concavity import gross_hollow
 from .meshes import MeshError, hull_vertices, resolve_mesh
 from .urdf_xml import check_values, where
 
@@ -50,8 +57,11 @@ def read_geometries(file, root, report) -> tuple[Geometry, ...]:
     for link in root.iterchildren("link"):
         capsules = {el.get("name") for el in link.iterfind("collision_checking/capsule")}
         for k, el in enumerate(link.iterchildren("collision")):
-            shape_el = el.find("geometry/*")
+            shape_el, *others = el.iterfind("geometry/*")
             name = el.get("name") or f"{link.get('name')}_{k}"
+            label = f"<link name=\"{link.get('name')}\"> <collision> {name!r}"
+            if others:
+                report.warn("ignored", _first_shape_only(label, el, [shape_el, *others]))
             placement = _origin(file, el.find("origin"))
             if shape_el.tag != "mesh":
                 shape, size = shape_el.tag, _size(file, shape_el)
@@ -64,17 +74,35 @@ def read_geometries(file, root, report) -> tuple[Geometry, ...]:
                 geometries.append(Geometry(name, link.get("name"), shape, size, placement))
                 loaded[shape] += 1
                 continue
+            scale = _scale(file, label, shape_el)
             try:
-                path, scale, vertices = _mesh(file, urdf_dir, shape_el)
+                path, vertices = _mesh(urdf_dir, shape_el, scale)
+                hollow = gross_hollow(path, scale)
             except MeshError as e:
-                missing.append(f"<link name=\"{link.get('name')}\"> <collision> {name!r}: {e}")
+                missing.append(f"{label}: {e}")
                 continue
+            if hollow is not None:  # a warning where the hull meets things: the scene's
+                line = f"{label}: the mesh {path} is far from convex: " + hollow.note(
+                    "one <collision> element each"
+                )
+                report.transformed.append(line)
+                report.hollow_meshes.append(line)
             geometries.append(
                 Geometry(name, link.get("name"), "mesh", scale, placement, vertices, path)
             )
             loaded["mesh"] += 1
     _report(report, loaded, missing)
     return tuple(geometries)
+
+
+def _first_shape_only(label, el, shapes) -> str:
+    """The report's line for a <geometry> of several shapes, read by its first."""
+    tags = ", ".join(f"<{shape.tag}>" for shape in shapes)
+    return (
+        f"{label} (line {el.sourceline}): its <geometry> holds {len(shapes)} shapes ({tags}) "
+        f"where the URDF spec allows one; the first, <{shapes[0].tag}>, is used (as urdfdom, "
+        f"Pinocchio and yourdfpy read it), the others are not"
+    )
 
 
 def _origin(file, el) -> np.ndarray:
@@ -105,26 +133,39 @@ def _size(file, el) -> tuple[float, ...]:
     return tuple(size)
 
 
-def _mesh(file, urdf_dir, el):
-    """(path, scale, hull vertices (n, 3) scaled) of a <mesh filename scale> element; MeshError
-    naming the file when it cannot be found or read."""
+def _scale(file, label, el) -> tuple[float, float, float]:
+    """The scale of a <mesh> element (of the <collision> `label` names): three numbers, or one
+    for all three axes; (1, 1, 1) when absent. Raises URDFError naming the file, the link and
+    the value for anything else: a factor that is not a number, is not finite, or is 0 (it
+    flattens the mesh). A negative factor mirrors the mesh, as URDFs of left and right limbs
+    use it."""
+    text = el.get("scale")
+    if text is None:
+        return (1.0, 1.0, 1.0)
+    try:
+        factors = [float(v) for v in text.split()]
+    except ValueError:
+        factors = []
+    if len(factors) in (1, 3) and all(math.isfinite(v) and v != 0.0 for v in factors):
+        return tuple(factors * (3 // len(factors)))
+    raise URDFError(
+        f"{file}: {label} <mesh filename=\"{el.get('filename')}\"> (line {el.sourceline}): "
+        f"scale={text!r}: expected three finite factors other than 0, or one for all three "
+        f"axes (0 flattens the mesh; a negative factor mirrors it)"
+    )
+
+
+def _mesh(urdf_dir, el, scale):
+    """(path, hull vertices (n, 3) scaled) of a <mesh filename> element; MeshError naming the
+    file when it cannot be found or read."""
     filename = el.get("filename") or ""
-    scale = (1.0, 1.0, 1.0)
-    if el.get("scale") is not None:
-        text = el.get("scale")
-        try:
-            check_values(file, el, "scale", text, 3)
-        except URDFError:
-            check_values(file, el, "scale", text, 1)  # one number scales all three axes
-            text = " ".join([text] * 3)
-        scale = tuple(float(v) for v in text.split())
     if not filename:
         raise MeshError("a <mesh> without a filename")
     path, tried = resolve_mesh(filename, urdf_dir)
     if path is None:
         looked = f" (looked in: {', '.join(tried[:4])}{', ...' if len(tried) > 4 else ''})"
         raise MeshError(f"mesh file {filename!r} not found" + (looked if tried else ""))
-    return path, scale, hull_vertices(path, scale)
+    return path, hull_vertices(path, scale)
 
 
 def _report(report, loaded, missing):
@@ -136,7 +177,9 @@ def _report(report, loaded, missing):
             f"meshes as their convex hulls)"
         )
     if missing:
-        report.ignored.append(
+        report.unread_meshes.extend(missing)
+        report.warn(
+            "ignored",
             f"{len(missing)} <collision> mesh{'es' * (len(missing) > 1)} that could not be "
-            f"read, not in model.geometries:\n      " + "\n      ".join(missing)
+            f"read, not in model.geometries:\n      " + "\n      ".join(missing),
         )

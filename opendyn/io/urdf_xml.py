@@ -14,13 +14,14 @@ import copy
 import io
 import math
 import re
+import warnings
 from dataclasses import dataclass, field
 
 from lxml import etree
 
 from .._runtime.files import kind_of
 from .._runtime.signals import held_interrupt
-from ..errors import URDFError
+from ..errors import URDFError, URDFWarning
 
 URDF_GEOMETRIES = ("box", "cylinder", "sphere", "mesh")  # the shapes of the URDF spec
 # <collision> shapes read: the URDF's and Pinocchio's <capsule radius length> (yourdfpy does not
@@ -38,6 +39,10 @@ class FidelityReport:
     ignored:     content the model does not use (visuals, collision meshes, transmissions, ...)
     welded_mass: the mass (kg) of the links welded to the fixed world, whose inertia is unused
                  (0 with a floating base)
+    unread_meshes: each <collision> mesh that could not be found or read (left out of
+                 model.geometries): where it is and why, also among `ignored`
+    hollow_meshes: each <collision> mesh far from convex (opendyn.io.concavity), also among
+                 `transformed`: a scene whose contact uses the collision geometry warns of them
     """
 
     source: str
@@ -45,6 +50,14 @@ class FidelityReport:
     transformed: list[str] = field(default_factory=list)
     ignored: list[str] = field(default_factory=list)
     welded_mass: float = 0.0
+    unread_meshes: list[str] = field(default_factory=list)
+    hollow_meshes: list[str] = field(default_factory=list)
+
+    def warn(self, kind: str, line: str) -> None:
+        """Add `line` to the list `kind` ("transformed" or "ignored") and issue it as a
+        URDFWarning naming the file: what a user should not miss."""
+        getattr(self, kind).append(line)
+        warnings.warn(f"{self.source}: {line}", URDFWarning, stacklevel=2)
 
     def __str__(self) -> str:
         lines = [f"URDF fidelity report for {self.source}"]

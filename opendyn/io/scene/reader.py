@@ -55,7 +55,8 @@ The file format (every key optional unless marked required):
     shape = "box"                          # required: "box", "sphere", "cylinder", "capsule",
                                            # "plane" (the solid below the plane through
                                            # position, normal the entry's z axis) or "mesh"
-                                           # (the convex hull of the file's vertices)
+                                           # (the convex hull of the file's vertices; one
+                                           # far from convex warns: split it in entries)
     size = [1.0, 0.6, 0.05]                # m, as an object's; none for a plane; a mesh's is
                                            # the scale of its file (default [1, 1, 1])
     mesh = "step.stl"                      # mesh: the file (STL, OBJ, DAE), relative to the
@@ -235,7 +236,9 @@ def _build(data, source, base_dir, default_name=None, model=None) -> Scene:
         r.string(data["description"], "description")
     q0, qd0 = r.initial(data.get("initial", {}))
     run = r.run(data.get("run", {}))
+    r.meshes_readable(data.get("effects"))
     records = r.effects(data.get("effects", {}))
+    r.contact_reaches(records["contact"])
     records["control"] = r.control(data.get("control"), q0[model.q_index])
     return Scene(
         name=name,

@@ -7,18 +7,31 @@ relative to the scene's folder) on a floating base of its own; its root link tak
 name, its other links and joints "NAME.their name". A scene with objects may leave out [robot]:
 the objects and the world are then the whole scene. Names are those of new frames: neither a
 frame of the robot nor "ground" (the contact's ground plane) nor another entry's.
+
+Objects and world entries touch only through [effects.contact] with geometry = "collision": a
+scene that has them without it runs with a SceneWarning naming them and the key (a free body may
+tumble on its own; a box meant to rest on a table falls through it). A world entry's mesh with a
+hollow that a thing could enter (opendyn.io.concavity, environment=True) is a SceneWarning too:
+it is used as its convex hull. Refused, naming the key: an
+[[effects.contact.pairs]] entry that matches no pair the contact checks, and a contact with
+nothing to touch because the <collision> meshes of the robot's or the objects' URDFs could not
+be read (each one named).
 """
 
 from __future__ import annotations
 
+import dataclasses
+import warnings
 
 import numpy as np
 
-from ...errors import URDFError
+from ...errors import SceneWarning, URDFError
 from ...multibody.assembly import object_model, with_world
 from ...multibody.geometry import Geometry
-from ...spatial.algebra import rpy_matrix
+from ...sim.effects.geometry_contact import GROUND, GeometryContact, pair_table
 from ...sim.values import ValueReader, what_is
+from ...spatial.algebra import rpy_matrix
+from ..concavity import gross_hollow
 from ..meshes import MeshError, hull_vertices
 from ..urdf import load_urdf
 
@@ -44,6 +57,9 @@ class WorldSection(ValueReader):
         world_entries = self._entries(world, "world", taken)
         named = {name: where for where, _, name, _ in (*object_entries, *world_entries)}
         self._object_tables = []
+        report = self.model.report
+        self._unread_meshes = [f"{report.source}: {line}" for line in _unread(report)]
+        self._hollow_meshes = [f"{report.source}: {line}" for line in _hollow(report)]
         found = []
         for where, table, name, shape in object_entries:
             part = self._object(table, where, name, shape)
@@ -82,9 +98,12 @@ class WorldSection(ValueReader):
                 )
         path = self.existing_file(table["urdf"], f"{where}.urdf", "URDF", self.base_dir)
         try:
-            return load_urdf(str(path), floating_base=True)
+            model = load_urdf(str(path), floating_base=True)
         except URDFError as e:
             self.fail(f"{where}.urdf", str(e))
+        self._unread_meshes += [f"{where}.urdf {path}: {line}" for line in _unread(model.report)]
+        self._hollow_meshes += [f"{where}.urdf {path}: {line}" for line in _hollow(model.report)]
+        return model
 
     def object_states(self, q0, qd0):
         """q0, qd0 of each object's free joint from its table (free_state)."""
@@ -161,6 +180,108 @@ class WorldSection(ValueReader):
         path = self.existing_file(table["mesh"], f"{where}.mesh", "mesh", self.base_dir)
         try:
             vertices = hull_vertices(str(path), size)
+            hollow = gross_hollow(str(path), size, environment=True)
         except MeshError as e:
             self.fail(f"{where}.mesh", str(e))
+        if hollow is not None:
+            self.warn(
+                f"{where}.mesh",
+                f"{str(path)!r} is far from convex: " + hollow.note("one [[world]] entry each"),
+            )
         return Geometry(name, name, "mesh", size, np.eye(4), vertices, str(path))
+
+    def warn(self, key, what):
+        """A SceneWarning naming the file and `key`: the scene runs, probably not as meant."""
+        warnings.warn(f"{self.source}: {key}: {what}", SceneWarning, stacklevel=3)
+
+    def meshes_readable(self, effects):
+        """SceneError when [effects.contact] geometry = "collision" would find nothing that
+        moves with collision geometry because <collision> meshes could not be read: the
+        contact's own check would blame the URDF for having none."""
+        contact = effects.get("contact") if isinstance(effects, dict) else None
+        if not isinstance(contact, dict) or "geometry" not in contact or not self._unread_meshes:
+            return
+        if np.any(self.model.geometry_table.body >= 0):
+            return
+        self.fail(
+            "effects.contact",
+            'geometry = "collision": nothing can touch: no body that moves has collision '
+            "geometry, because these <collision> meshes could not be read:\n  "
+            + "\n  ".join(self._unread_meshes),
+        )
+
+    def contact_reaches(self, contact):
+        """A SceneWarning when the scene's objects and world entries take part in no contact
+        (`contact`: the record of [effects.contact], None without it); with the contact between
+        collision geometries, a SceneWarning for each mesh of the robot's or an object's URDF
+        far from convex, and a SceneError naming each [[effects.contact.pairs]] entry that
+        matches no pair the contact checks."""
+        m = self.model
+        if isinstance(contact, GeometryContact):
+            for line in self._hollow_meshes:
+                self.warn("effects.contact.geometry", line)
+            for k, setting in enumerate(contact.pairs):
+                if not _matches_a_pair(m, contact, setting):
+                    self.fail(
+                        f"effects.contact.pairs[{k}]",
+                        f"a = {setting.a!r} and b = {setting.b!r} match no pair of geometries "
+                        f"that the contact checks: {_why_no_pair(m, setting)}",
+                    )
+            return
+        parts = [
+            f"{what} {', '.join(map(repr, names))}"
+            for what, names in (("objects", m.objects), ("world entries", m.world))
+            if names
+        ]
+        if not parts:
+            return
+        why = (
+            "the scene has no [effects.contact]"
+            if contact is None
+            else "[effects.contact] points are the robot's spheres on the ground alone"
+        )
+        self.warn(
+            "effects.contact.geometry",
+            f"the {' and the '.join(parts)} touch nothing ({why}): they pass through each "
+            'other, the robot and the ground; add [effects.contact] with geometry = "collision" '
+            "(and its stiffness and friction) for them to touch",
+        )
+
+
+def _hollow(report) -> list[str]:
+    """The <collision> meshes far from convex that a model's FidelityReport (None: a model not
+    read from a URDF) names."""
+    return [] if report is None else report.hollow_meshes
+
+
+def _unread(report) -> list[str]:
+    """The <collision> meshes that a model's FidelityReport (None: a model not read from a
+    URDF) says could not be read."""
+    return [] if report is None else report.unread_meshes
+
+
+def _matches_a_pair(model, contact, setting) -> bool:
+    """Whether the [[effects.contact.pairs]] `setting` matches a pair the contact may check
+    (the robot's own pairs too): switched off, it takes one out (pair_table)."""
+    every = dataclasses.replace(contact, self_collision=True, pairs=())
+    without = dataclasses.replace(every, pairs=(dataclasses.replace(setting, enabled=False),))
+    return len(pair_table(model, without)[0]) < len(pair_table(model, every)[0])
+
+
+def _why_no_pair(model, setting) -> str:
+    """Why the geometries of `setting`'s a and b are never a pair."""
+    if setting.a == setting.b:
+        return "a and b name the same link, object or entry, and a pair is two different ones"
+
+    def moves(name):  # an object, or a link of the robot not welded to the world
+        return name != GROUND and model.frames[model.frame_index(name)].body >= 0
+
+    if not moves(setting.a) and not moves(setting.b):
+        return (
+            "neither moves (world entries, the ground and the links welded to the world never "
+            "touch each other)"
+        )
+    return (
+        "their geometries are on one body, or on a body and its parent (which meet at their "
+        "joint), or on links the SRDF's <disable_collisions> takes out"
+    )
