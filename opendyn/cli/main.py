@@ -24,7 +24,7 @@ import sys
 import warnings
 
 from .._runtime.signals import SigtermAsInterrupt, signal_name
-from ..errors import SceneError, SceneWarning, URDFError
+from ..errors import SceneError, SceneWarning, URDFError, URDFWarning
 from ..io.scene.files import DEFAULT_SCENE, shipped_scenes
 from ..sim.effects import registry
 from ..sim.run import integrator_names
@@ -244,12 +244,12 @@ def command_line() -> argparse.ArgumentParser:
 
 
 def _warning_printer(command):
-    """showwarning for the command: a scene's warnings as one line, "opendyn CMD: warning: ..."
-    on stderr; any other warning as Python prints it."""
+    """showwarning for the command: a scene's and a URDF's warnings as one line, "opendyn CMD:
+    warning: ..." on stderr; any other warning as Python prints it."""
     default = warnings.showwarning
 
     def show(message, category, filename, lineno, file=None, line=None):
-        if issubclass(category, SceneWarning):
+        if issubclass(category, (SceneWarning, URDFWarning)):
             print(f"opendyn {command}: warning: {message}", file=sys.stderr)
         else:
             default(message, category, filename, lineno, file, line)
