@@ -94,13 +94,13 @@ def lying_cylinder(out):
     """A cylinder r = 0.1, length 0.4 lying along y, 1 mm into the ground (the halfspace z <= 0),
     its contacts as the contact between collision geometries finds them (halfspace_contacts)."""
     with kernel_cache():
-        from opendyn.algorithm.collision import halfspace_contacts, no_hull, work_array
+        from opendyn.algorithm.collision import halfspace_contacts, no_hull
     T = np.eye(4)
     T[:3, :3] = [[1, 0, 0], [0, 0, -1], [0, 1, 0]]  # its z axis along y
     T[:3, 3] = (0.0, 0.0, 0.099)
     rows = np.zeros((4, 10))
     cylinder = (CYLINDER, np.array([0.1, 0.4, 0.0]), no_hull(), T)
-    count = halfspace_contacts(cylinder, np.eye(4), 0.0, rows, work_array())
+    count = halfspace_contacts(cylinder, np.eye(4), 0.0, rows)
     points = rows[:count, 1:4]
     angles = np.linspace(0, 2 * np.pi, 65)
     rims = [np.stack([0.1 * np.cos(angles), np.full(65, y), 0.099 + 0.1 * np.sin(angles)], 1)

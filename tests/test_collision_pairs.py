@@ -398,7 +398,7 @@ def every_pair(codes, sizes, vertices, none, poses, standing, work, rows, n):
                 if i < 5:
                     face_contacts(a, b, 0.1, rows, work)
             if codes[i] != 5:
-                halfspace_contacts((codes[i], sizes[i], vi, poses[i]), poses[5], 0.1, rows, work)
+                halfspace_contacts((codes[i], sizes[i], vi, poses[i]), poses[5], 0.1, rows)
             if i == 1 or i == 2 or i == 4:  # a box, a cylinder, a cube mesh on the box's top
                 standing[:3, :] = poses[1][:3, :]
                 lift = 0.25 + (0.1 if i == 4 else 0.25) - 0.001
@@ -453,11 +453,11 @@ def test_a_shape_code_no_branch_knows_is_an_error():
         with pytest.raises(ValueError, match="shape code"):
             distance(a, pose(), b, pose(p=(0.0, 0.0, 0.1)))
     with kernel_cache():
-        from opendyn.algorithm.collision import halfspace_contacts, work_array
+        from opendyn.algorithm.collision import halfspace_contacts
     rows = np.zeros((4, 10))
     with pytest.raises(ValueError, match="shape code"):
         halfspace_contacts(
-            (unknown[0], unknown[1], hull(NO_VERTICES), pose()), pose(), 0.0, rows, work_array()
+            (unknown[0], unknown[1], hull(NO_VERTICES), pose()), pose(), 0.0, rows
         )
     with pytest.raises(ValueError, match="'torus' is not one of"):
         Geometry("g", "link", "torus", (1.0,), np.eye(4))

@@ -19,13 +19,14 @@ import math
 from numba import njit
 
 from ..._runtime.kernel_cache import UNCOUNTED
-from .vectors import axpy, cross, dot, put, row, sub
+from .vectors import axpy, cross, dot, put, row, scale, sub
 
 DEPTH = 3  # the work column of a contact's signed distance
 # depths within this fraction of the points' spread count as one depth (a face resting flat:
 # tilted by less than about half a degree)
 FLAT = 0.01
 AREA_TIE = 1e-9  # areas within this fraction of each other count as equal
+PRESELECT = 16  # more points than this: the quadrilateral is looked for among 9 of them
 # the direction along which the reduction orders points it cannot tell apart otherwise: fixed in
 # the world, and lined up with no face or edge a body rests on by design, (1, 1/phi, 1/phi^2)
 # normalised (phi the golden ratio)
@@ -95,6 +96,8 @@ def reduce_to_four(work, first, count, N):
     if count <= 4:
         return 0, 1 if count > 1 else -1, 2 if count > 2 else -1, 3 if count > 3 else -1
     i0 = anchor(work, first, count)
+    if count > PRESELECT:
+        count, i0 = preselect(work, first, count, N, i0), 0
     best, far, j_far = 0.0, 0.0, -1
     for j in range(count):
         best = max(best, diagonal(work, first, count, N, i0, j)[2])
@@ -111,6 +114,42 @@ def reduce_to_four(work, first, count, N):
                 chosen = j
     k_plus, k_minus, _ = diagonal(work, first, count, N, i0, chosen)
     return i0, chosen, k_plus, k_minus
+
+
+@njit(**UNCOUNTED)
+def preselect(work, first, count, N, i0):
+    """The rows of the points the quadrilateral is looked for among when there are more than
+    PRESELECT (a hull's many vertices on a halfspace), moved to the front: the anchor i0 (row
+    first), then each point farthest along one of 8 directions of the plane seen along N, 45
+    degrees apart from TIE_BREAK's part in it (the farther along TIE_BREAK of two within
+    AREA_TIE of the spread). The support polygon's corners are among them, and the search over
+    them costs 81 area terms instead of count^2. Returns how many rows were kept (2 to 9)."""
+    swap_rows(work, first, first + i0)
+    u1 = sub(TIE_BREAK, scale(N, dot(TIE_BREAK, N)))
+    u1 = scale(u1, 1.0 / math.sqrt(dot(u1, u1)))
+    u2 = cross(N, u1)
+    x0 = row(work, first, 0)
+    kept = 1
+    for k in range(8):
+        u = axpy(math.sin(0.25 * math.pi * k), u2, scale(u1, math.cos(0.25 * math.pi * k)))
+        best, high = 0, 0.0
+        for i in range(count):
+            h = dot(sub(row(work, first + i, 0), x0), u)
+            tie = AREA_TIE * abs(high)
+            farther = along_g(work, first, i) > along_g(work, first, best)
+            if h > high + tie or (h >= high - tie and farther):
+                best, high = i, h
+        if best >= kept:
+            swap_rows(work, first + kept, first + best)
+            kept += 1
+    return kept
+
+
+@njit(**UNCOUNTED)
+def swap_rows(work, r, s):
+    """Rows r and s of the work array exchange a point and its depth (columns 0 to DEPTH)."""
+    for c in range(DEPTH + 1):
+        work[r, c], work[s, c] = work[s, c], work[r, c]
 
 
 @njit(**UNCOUNTED)

@@ -14,29 +14,24 @@ are
   sphere    its centre less r n
 each at signed distance d_k = n . (x_k - p) (none when the shape's support point along -n is
 beyond the margin: a hull's vertices are scanned only when it reaches the plane); those with
-d_k <= margin are contacts, reduced to four as every manifold is (clipping.reduce_to_four: the
-deepest, or a flat face's outermost, and the largest quadrilateral with it, so that a mesh
-resting on many vertices keeps its support polygon), each written as a row of the narrow phase's
-out layout: (d_k, x_k, x_k - d_k n, -n) (the normal from a towards the halfspace).
+d_k <= margin are contacts, the four deepest kept, each written as a row of the narrow phase's
+out layout: (d_k, x_k, x_k - d_k n, -n) (the normal from a towards the halfspace). (A hull
+resting flat on many vertices keeps the four deepest by rounding, not its support polygon: the
+support-polygon reduction of the face contacts, clipping.reduce_to_four, made a humanoid lying
+on the floor step so slowly under DOPRI5 that it is not used here yet.)
 """
 
 from __future__ import annotations
-
-import math
 
 from numba import njit
 
 from ..._runtime.kernel_cache import UNCOUNTED
 from ...multibody.shapes import BOX, CAPSULE, CYLINDER, MESH, SPHERE
-from .clipping import DEPTH, reduce_to_four
-from .closed_forms import room_by_depth, write_inflated
+from .closed_forms import DISTANCE, room_by_depth, write_inflated
 from .support import UNKNOWN_SHAPE, core_radius, core_support
-from .vectors import axis, axpy, cross, dot, norm, origin, put, row, scale, sub, to_world
+from .vectors import axis, axpy, cross, dot, norm, origin, scale, sub, to_world
 
 MAX_CONTACTS = 4
-# the most candidate points kept for the reduction (the work array's first rows): a hull with
-# more vertices within the margin keeps the deepest of them
-CANDIDATES = 256
 
 
 @njit(**UNCOUNTED)
@@ -93,12 +88,11 @@ def candidate(code, size, hull, T, n, k):
 
 
 @njit(**UNCOUNTED)
-def halfspace_contacts(a, T_b, margin, contacts, work):
+def halfspace_contacts(a, T_b, margin, contacts):
     """Up to MAX_CONTACTS contacts of shape a (code, size (3,), hull (support.py), pose T_a)
     with the halfspace of pose T_b: rows of contacts (MAX_CONTACTS, OUT_SIZE) as the module
     docstring lays out, the deepest first, of the candidates at signed distance <= margin
-    (metres), reduced to four by clipping.reduce_to_four; `work` as pair_distance's (the
-    candidates' rows). Returns how many rows were written."""
+    (metres). Returns how many rows were written."""
     code_a, size_a, hull_a, T_a = a
     n = axis(T_b, 2)
     p = origin(T_b)
@@ -111,26 +105,9 @@ def halfspace_contacts(a, T_b, margin, contacts, work):
     for k in range(candidate_count(code_a, hull_a)):
         x = candidate(code_a, size_a, hull_a, T_a, n, k)
         d = dot(n, sub(x, p))
-        if d > margin:
+        if d > margin or (count == MAX_CONTACTS and d >= contacts[count - 1, DISTANCE]):
             continue
-        if count == CANDIDATES:  # full: the deepest kept, in place of the shallowest
-            r = 0
-            for i in range(count):
-                if work[i, DEPTH] > work[r, DEPTH]:
-                    r = i
-            if d >= work[r, DEPTH]:
-                continue
-        else:
-            r = count
-            count += 1
-        put(work, r, 0, x)
-        work[r, DEPTH] = d
-    written = 0
-    for i in reduce_to_four(work, 0, count, scale(n, -1.0)):
-        if i < 0:
-            continue
-        x, d = row(work, i, 0), work[i, DEPTH]
-        r = room_by_depth(contacts, written, d)
+        r = room_by_depth(contacts, min(count, MAX_CONTACTS - 1), d)  # the last falls off when full
         write_inflated(contacts[r], x, axpy(-d, n, x), scale(n, -1.0), 0.0, 0.0)
-        written += 1
-    return written
+        count = min(count + 1, MAX_CONTACTS)
+    return count

@@ -153,9 +153,9 @@ def pair_contacts(a, b, margin, rows, scratch):
         if count:
             return count, Status.OK.value
     elif b[0] == HALFSPACE and a[0] != HALFSPACE:
-        return halfspace_contacts(a, b[3], margin, rows, scratch), Status.OK.value
+        return halfspace_contacts(a, b[3], margin, rows), Status.OK.value
     elif a[0] == HALFSPACE and b[0] != HALFSPACE:
-        count = halfspace_contacts(b, a[3], margin, rows, scratch)
+        count = halfspace_contacts(b, a[3], margin, rows)
         for k in range(count):
             swap_sides(rows[k])
         return count, Status.OK.value
