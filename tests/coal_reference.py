@@ -17,6 +17,9 @@ import opendyn as od
 from opendyn.multibody.shapes import BOX, CAPSULE, CYLINDER, MESH, SHAPE_NAMES, SPHERE
 
 ON_SURFACE = 1e-9  # m: how far a witness point may lie from its own shape
+# where a cylinder's curved side takes part, GJK and EPA converge to their tolerances: EPA's
+# points sit up to 2e-8 m off on the robots (test_witness_points.CURVED says more)
+CURVED = 5e-7
 
 
 def coal_hull(points):
@@ -154,11 +157,12 @@ def check_against_coal(model, configurations, seed, worst=None):
                 shapes[i], geometry_data.oMg[i], shapes[j], geometry_data.oMg[j]
             )
             what = (model.geometries[a].name, model.geometries[b].name, q.tolist())
+            curved = CYLINDER in (ours_shapes[a][0], ours_shapes[b][0])
             for k, point in ((a, ours.point_a[p]), (b, ours.point_b[p])):
                 T = geometry_data.oMg[index[k]].homogeneous
                 off = abs(surface_distance(ours_shapes[k], T, point))
-                note("witness point off its shape", off)
-                assert off <= ON_SURFACE, (what, k, off)
+                note(f"witness point off its shape{', a cylinder' if curved else ''}", off)
+                assert off <= (CURVED if curved else ON_SURFACE), (what, k, off)
             if d_c > 0:  # separated: the distance to 1e-6, and the normal (unique)
                 note("distance, separated", abs(d - d_c))
                 assert abs(d - d_c) <= 1e-6, (what, d, d_c)
