@@ -201,7 +201,7 @@ def test_simulate_reports_contact_and_draws_the_ground_and_its_forces(tmp_path, 
     args = ["simulate", "ball_drop", "--duration", "0.4", "--html", str(page), "--no-save"]
     assert main(args) == 0
     out = capsys.readouterr().out
-    line = re.search(r"contact +1 points on the ground z = 0 m: max penetration ([0-9.]+) mm "
+    line = re.search(r"contact +1 point on the ground z = 0 m: max penetration ([0-9.]+) mm "
                      r"\(ball at t = ([0-9.]+) s\), max force ([0-9.]+) N", out)
     assert line, out
     depth, t, force = (float(x) for x in line.groups())

@@ -209,7 +209,8 @@ def test_every_stage_is_reached_by_the_dispatch_and_adds_to_its_energy_class(sta
             dV_0 = np.zeros(6)
             data = step.scene_data(model, table)
             ctx = Context(
-                model._ibuf, model._fbuf, data.work, t, q, qd, dV_0, table.armature, data.room
+                model._ibuf, model._fbuf, data.work, t, q, qd, dV_0, table.armature, data.room,
+                data.touch,
             )
             nv = model.nv
             out = Out(*np.zeros((3, nv)), np.zeros(2), *np.zeros((2, nv, nv)), np.bool_(True))
@@ -239,7 +240,9 @@ def stage_forces(stage, scene, q, qd, poses_q, world):
     assert step.place(data, poses_q, qd) == 0
     assert np.shares_memory(work, held.R_s)
     dV_0 = np.zeros(6)
-    ctx = Context(model._ibuf, model._fbuf, work, 0.3, q, qd, dV_0, table.armature, data.room)
+    ctx = Context(
+        model._ibuf, model._fbuf, work, 0.3, q, qd, dV_0, table.armature, data.room, data.touch
+    )
     nv = model.nv
     out = Out(*np.zeros((3, nv)), np.zeros(2), *np.zeros((2, nv, nv)), np.bool_(True))
     assert one_stage(registry.slot(effects.gravity), table.effects, ctx, out) == 0

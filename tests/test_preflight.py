@@ -14,6 +14,7 @@ import pytest
 import opendyn as od
 from opendyn.cli.main import main
 from opendyn.sim.scene import thaw
+from opendyn.io.scene.files import shipped_scenes
 from opendyn.io.urdf import shipped_robots_dir
 from opendyn.sim import preflight
 
@@ -231,6 +232,65 @@ def test_a_contact_point_that_starts_inside_the_ground_is_refused(change, words)
     # resting in the ground as deep as its weight presses it is a start, not a mistake
     box = od.load_scene("box_slide")
     assert od.simulate(box.replace_run(duration=0.01)).complete
+
+
+def box_on_table(stiffness=1e5, **box):
+    """The shipped box_on_table scene's settings, the box's and the contact's changed."""
+    data = thaw(od.load_scene("box_on_table").settings)
+    data["objects"][0].update(box)
+    data["effects"]["contact"]["stiffness"] = stiffness
+    return data
+
+
+def test_a_light_box_deep_in_a_table_is_refused_whatever_weighs_elsewhere():
+    """The start check weighed the whole scene: a 1000 kg ball elsewhere (in the air, touching
+    nothing) let a 0.1 kg box start 5 cm inside the table, 500 J in its four corners' springs,
+    which threw it metres up. A pair is weighed by the bodies resting on it."""
+    data = box_on_table(mass=0.1, position=[0.0, 0.0, 0.40])
+    data["objects"].append({"name": "anvil", "shape": "sphere", "size": [0.5], "mass": 1000.0,
+                            "position": [3.0, 0.0, 2.0]})
+    with pytest.raises(od.SceneError) as refused:
+        preflight.check_start(od.scene_from_dict(data))
+    message = str(refused.value)
+    assert "'box' starts 0.05 m inside 'table'" in message and "would hold 500 J" in message
+    assert "initial.q or initial.base_position" in message and "m g / k" in message
+
+
+def test_a_shallow_start_that_holds_joules_in_a_stiff_contact_is_refused():
+    """A box 0.9 mm into a table of k = 1e7 N/m holds 16 J in its springs, which the 1 mm depth
+    the check allowed let through (DOPRI5 threw it 1.3 m); the ball of ball_drop 0.9 mm into
+    such ground, 4 J. The stored energy is bounded instead, by the weight and the size."""
+    box = box_on_table(stiffness=1e7, position=[0.0, 0.0, 0.45 - 0.0009])
+    with pytest.raises(od.SceneError, match=r"'box' starts 0.0009 m inside 'table'.*hold 16.2 J"):
+        preflight.check_start(od.scene_from_dict(box))
+    ball = thaw(od.load_scene("ball_drop").settings)
+    ball["effects"]["contact"]["stiffness"] = 1e7
+    ball["initial"]["base_position"] = [0.0, 0.0, 0.1 - 0.0009]
+    with pytest.raises(od.SceneError, match=r"contact point 'ball' starts 0.0009 m .*hold 4.05 J"):
+        preflight.check_start(od.scene_from_dict(ball, base_dir=shipped_robots_dir()))
+
+
+def test_resting_starts_are_accepted_however_heavy_what_rests_on_the_pair():
+    """Every shipped scene with contact starts; a box resting at its own depth in a 1e7 N/m
+    table starts; and so does a stack of ten 1 kg boxes, each at the depth the boxes above
+    press it to (the bottom pair carries 10 kg: its bound is their weight's, not one box's)."""
+    for name, path in shipped_scenes().items():
+        if "[effects.contact]" in path.read_text():
+            preflight.check_start(od.load_scene(name))
+    k, weight = 1e7, 9.81
+    preflight.check_start(
+        od.scene_from_dict(box_on_table(k, position=[0.0, 0.0, 0.45 - weight / (4 * k)]))
+    )
+    k, n, z = 1e5, 10, 0.05
+    boxes = []
+    for i in range(n):
+        z -= (n - i) * weight / (4 * k)  # the corners of box i under the n - i boxes from it up
+        boxes.append({"name": f"box{i}", "shape": "box", "size": [0.2, 0.2, 0.1], "mass": 1.0,
+                      "position": [0.0, 0.0, z]})
+        z += 0.1
+    stack = {"objects": boxes, "effects": {"gravity": True, "contact": {
+        "geometry": "collision", "stiffness": k, "damping": 300.0, "friction": 0.5}}}
+    preflight.check_start(od.scene_from_dict(stack))
 
 
 # a child process that lowers its own address-space limit (ulimit -v) to what it uses now

@@ -47,6 +47,7 @@ from .._runtime.arrays import fill, zero_matrix
 from .._runtime.kernel_cache import BATCH, INLINE, JIT
 from ..multibody.layout import body_count, dof_count, tree
 from ..multibody.work_views import contact_axes, effect_rows, new_work, scratch_rows, world_poses
+from .contact_extremes import note
 from .kinematics import add_point_jacobian, forward_kinematics, space_axis
 
 # the contact parameters' layout: the shared values, then (c_b (3,), r) per point
@@ -215,7 +216,7 @@ def contact_kernel(ibuf, fbuf, work, contacts, q, qd, tau, linear, record):
     sum_p k delta_p delta_dot_p (W), the spring's share of the power. Written out where it is
     called (the record's kernel): the step calls contact_on_poses, on the poses it placed."""
     forward_kinematics(ibuf, fbuf, work, q)
-    return contact_on_poses(ibuf, fbuf, work, contacts, qd, tau, linear, record)
+    return contact_on_poses(ibuf, fbuf, work, contacts, qd, tau, linear, record, None)
 
 
 @njit(**JIT)
@@ -236,9 +237,11 @@ def keep_penetration(record, p, delta):
 
 
 @njit(**JIT)
-def contact_on_poses(ibuf, fbuf, work, contacts, qd, tau, linear, record):
+def contact_on_poses(ibuf, fbuf, work, contacts, qd, tau, linear, record, touch):
     """contact_kernel on the world poses R_s, p_s of every body that `work` holds
-    (forward_kinematics at a valid q). Returns the springs' power as contact_kernel's."""
+    (forward_kinematics at a valid q); touch: None, or the run's extremes, to which each point
+    that overlaps is noted as pair p (opendyn.algorithm.contact_extremes.note). Returns the
+    springs' power as contact_kernel's."""
     bodies, params = contacts
     K, D, jac = linear
     body_tree = tree(ibuf, fbuf)
@@ -273,11 +276,13 @@ def contact_on_poses(ibuf, fbuf, work, contacts, qd, tau, linear, record):
         # f_n = max(0, k delta + d delta_dot); f_t = -mu f_n v_t / s
         f_n = k * delta + d * delta_dot
         if f_n <= 0.0:
+            note(touch, p, delta, 0.0)
             continue
         slip = np.sqrt(v_p[0] * v_p[0] + v_p[1] * v_p[1] + v_s * v_s)
         f_p[0] = -mu * f_n * v_p[0] / slip
         f_p[1] = -mu * f_n * v_p[1] / slip
         f_p[2] = f_n
+        note(touch, p, delta, np.sqrt(f_p[0] * f_p[0] + f_p[1] * f_p[1] + f_n * f_n))
         # tau += J_p^T f_p
         for j in range(nv):
             tau[j] += J_p[0, j] * f_p[0] + J_p[1, j] * f_p[1] + J_p[2, j] * f_p[2]

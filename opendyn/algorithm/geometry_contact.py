@@ -55,6 +55,7 @@ from .collision import DISTANCE, MAX_CONTACTS, NORMAL, OUT_SIZE, POINT_A, POINT_
 from .collision.narrow_phase import COLUMNS, ROWS
 from .collision.queries import pair_rows
 from .collision.world import bounding_boxes, pair_near, place_geometries
+from .contact_extremes import note
 from .kinematics import add_point_jacobian, forward_kinematics
 
 # a pair's law, one row of `law` (P, 4)
@@ -154,14 +155,16 @@ def add_sandwich(J, AJ, gain, u, n, slide, slip, out):
 
 
 @njit(**JIT)
-def geometry_contact_on_poses(ibuf, fbuf, work, contacts, room, qd, tau, linear, record):
+def geometry_contact_on_poses(ibuf, fbuf, work, contacts, room, qd, tau, linear, record, touch):
     """tau (nv,) += the contact forces of every pair that touches, on the world poses R_s, p_s
     of every body that `work` holds (a Data's buffer, forward kinematics placed at a valid q);
     with linear = (K, D, jac) and jac, K, D (nv, nv) += their linearisation. contacts =
     (table: the GeometryTable's arrays in its order, pairs (P, 2) int, law (P, 4): k, c, mu,
     v_s of each pair); room: a GeometryRoom. record: None, or (rows (R, ROW), count (1,) int):
     each contact point that overlaps is counted, and written while count < R (keep_contact).
-    Allocates nothing. Returns sum k delta delta_dot (W), the springs' share of the power."""
+    touch: None, or the run's extremes, to which each contact point that overlaps is noted
+    with its pair (opendyn.algorithm.contact_extremes.note). Allocates nothing. Returns
+    sum k delta delta_dot (W), the springs' share of the power."""
     table, pairs, law = contacts
     T_sg, hints, boxes, scratch, rows, AJ = room
     body_tree = tree(ibuf, fbuf)
@@ -186,6 +189,8 @@ def geometry_contact_on_poses(ibuf, fbuf, work, contacts, room, qd, tau, linear,
             spring += power
             if delta > 0.0:
                 keep_contact(record, p, s, delta)
+                f = s[3, :3]  # |f|, the force contact_force left there
+                note(touch, p, delta, np.sqrt(f[0] * f[0] + f[1] * f[1] + f[2] * f[2]))
     return spring
 
 
@@ -240,6 +245,6 @@ def geometry_contact_record_kernel(ibuf, fbuf, contacts, states, out, start, sto
         forward_kinematics(ibuf, fbuf, work, q[n])
         geometry_contact_on_poses(
             ibuf, fbuf, work, contacts, room, qd[n], tau, (unused, unused, no_jac),
-            (mine, found),
+            (mine, found), None,
         )
         counts[n] = found[0]

@@ -242,13 +242,19 @@ def _scene_header(scene):
 
 
 def summary(scene, traj):
-    """The run in a few lines: time, speed, steps, integrator statistics, energy; for a floating
-    robot that nothing but gravity acts on from outside, how well its momentum was kept."""
+    """The run in a few lines: time, speed, steps, integrator statistics, energy; the
+    contact's extremes over every step, and a warning where a pair went deeper than half its
+    thinner geometry; for a floating robot that nothing but gravity acts on from outside, how
+    well its momentum was kept."""
     stats = traj.stats
     wall = stats["wall_s"]
     simulated = stats["simulated_s"]
     factor = simulated / wall if wall > 0 else float("inf")
+    extremes = traj.contact_extremes
+    too_deep = extremes.warning() if extremes is not None else ""
     status = "complete" if traj.complete else "STOPPED EARLY (partial record)"
+    if too_deep:
+        status += ", with the warning below"
     if stats["compile_s"] > 0:
         ready = (
             f"{stats['compile_s']:.3g} s more compiling the step, once per machine and opendyn "
@@ -288,10 +294,10 @@ def summary(scene, traj):
             f"base        max | |quat| - 1 | = {stats['quaternion_norm_error']:.2g} over the "
             f"samples (bound {QUATERNION_NORM_BOUND:g}: integrate keeps it a unit quaternion)"
         )
-    if traj.has_contact and len(traj.t):
-        lines.append(_contact_line(traj))
-    if traj.contacts is not None and len(traj.t):
-        lines.append(_contacts_line(traj))
+    if extremes is not None and len(traj.t):
+        lines.append(_contact_line(traj) if traj.has_contact else _contacts_line(traj))
+    if too_deep:
+        lines.append(f"WARNING     {too_deep}")
     if len(traj.com) and not (
         scene.contact or scene.wrenches or scene.constraints or scene.armature is not None
     ):
@@ -330,32 +336,44 @@ def _momentum_line(scene, traj):
 
 
 def _contacts_line(traj):
-    """The contact between geometries in one line: how many points at most, the deepest
-    penetration and the largest force, each with its pair and time."""
-    table = traj.contacts
-    if not len(table):
-        return f"contact     no pair touched ({len(table.pair_names)} pairs checked)"
-    most = int(np.bincount(table.sample).max())
-    depth, deep_pair = table.deepest()
-    force, force_pair = table.largest_force()
-    deep_t = traj.t[table.sample[np.argmax(table.depth)]]
-    force_t = traj.t[table.sample[np.argmax(np.linalg.norm(table.force, axis=1))]]
+    """The contact between geometries in one line, from its extremes over every step: how
+    many points at most, the deepest penetration and the largest force, each with its pair and
+    time."""
+    extremes = traj.contact_extremes
+    pairs = len(extremes.pairs)
+    if not extremes.touched:
+        return f"contact     no pair touched at any {_kept(extremes)} ({pairs} pairs checked)"
     return (
-        f"contact     up to {most} points of {len(table.pair_names)} geometry pairs: max "
-        f"penetration {depth * 1e3:.3g} mm ({deep_pair} at t = {deep_t:.4g} s), max force "
-        f"{force:.4g} N ({force_pair} at t = {force_t:.4g} s)"
+        f"contact     up to {extremes.most_points} points of {pairs} geometry pairs: "
+        f"{_extremes(extremes)}; over every {_kept(extremes)}"
     )
 
 
 def _contact_line(traj):
-    """The contact in one line: the points, the largest penetration and force, where and when."""
-    names = traj.contact_names
-    depth = traj.penetration
-    force = np.linalg.norm(traj.contact_force, axis=2)
-    k, p = np.unravel_index(np.argmax(depth), depth.shape)
-    kf, pf = np.unravel_index(np.argmax(force), force.shape)
+    """The ground contact of spheres in one line, from its extremes over every step: the
+    points, the largest penetration and force, where and when."""
+    extremes = traj.contact_extremes
+    n = len(extremes.pairs)
+    where = f"{n} point{'s' if n != 1 else ''} on the ground z = {traj.ground_height:g} m"
+    if not extremes.touched:
+        return f"contact     {where}: none touched it at any {_kept(extremes)}"
+    return f"contact     {where}: {_extremes(extremes)}; over every {_kept(extremes)}"
+
+
+def _kept(extremes):
+    """What the contact's extremes were taken over: every "step", or every "sample" alone."""
+    return "step" if extremes.every_step else "sample"
+
+
+def _extremes(extremes):
+    """The deepest penetration and the largest force, each with its pair and time."""
+    force = "max force 0 N"
+    if extremes.largest_pair >= 0:
+        force = (
+            f"max force {extremes.largest_force:.4g} N "
+            f"({extremes.pairs[extremes.largest_pair]} at t = {extremes.largest_t:.4g} s)"
+        )
     return (
-        f"contact     {len(names)} points on the ground z = {traj.ground_height:g} m: max "
-        f"penetration {depth[k, p] * 1e3:.3g} mm ({names[p]} at t = {traj.t[k]:.4g} s), max "
-        f"force {force[kf, pf]:.4g} N ({names[pf]} at t = {traj.t[kf]:.4g} s)"
+        f"max penetration {extremes.deepest * 1e3:.3g} mm "
+        f"({extremes.pairs[extremes.deepest_pair]} at t = {extremes.deepest_t:.4g} s), {force}"
     )

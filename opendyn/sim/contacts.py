@@ -1,6 +1,7 @@
 """The contacts of a run between collision geometries, as a table: one row per contact point
 per recorded sample (their number changes from sample to sample), as opendyn.algorithm.
-geometry_contact finds them.
+geometry_contact finds them; and any contact's extremes over every step of a run
+(ContactExtremes, below the table).
 
     sample  (C,) int    the sample's index into the trajectory's t
     pair    (C,) int    the pair's index into pair_names
@@ -22,6 +23,18 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .._runtime.files import atomic_write
+from ..algorithm.contact_extremes import (
+    DEEPEST,
+    DEEPEST_PAIR,
+    DEEPEST_T,
+    HEAD,
+    LARGEST,
+    LARGEST_PAIR,
+    LARGEST_T,
+    POINTS,
+    RUN,
+    extremes_room,
+)
 
 COLUMNS = (
     "sample", "pair", "a", "b", "x", "y", "z", "nx", "ny", "nz", "fx", "fy", "fz", "depth",
@@ -171,6 +184,119 @@ class ContactTable:
         with atomic_write(path) as f:
             pq.write_table(table, f)
         return path
+
+
+@dataclass
+class ContactExtremes:
+    """A run's contact at its worst, over every state the integrator stepped through (each
+    accepted step, opendyn.algorithm.contact_extremes) and every recorded sample: the samples
+    alone miss a contact that begins and ends between two of them.
+
+    pairs (P,): each pair's name, "a-b" of its geometries' names (the geometry contact's
+      pairs, as ContactTable.pair_names), or a contact point's name (the spheres' contact:
+      each point with the ground)
+    depth (P,) m: each pair's largest penetration delta
+    limit (P,) m: the depth past which a pair's contact no longer describes two bodies
+      touching: half the smaller of its geometries' smallest dimensions (a sphere's radius;
+      inf where it has none, as the ground). Deeper, the shortest way out of the overlap may
+      lie through the far side of the thinner body, its normal flips, and the spring pulls
+      it through instead of pushing it out
+    deepest m, deepest_pair, deepest_t s: the largest penetration, its pair (-1: none) and time
+    largest_force N, largest_pair, largest_t s: the largest |force| at a contact point, its
+      pair and time
+    most_points: the most points in contact at once
+    every_step: True when the extremes are of every step; False when of the samples alone (a
+      rollout's trajectories)
+    """
+
+    pairs: tuple[str, ...] = ()
+    depth: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    limit: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    deepest: float = 0.0
+    deepest_pair: int = -1
+    deepest_t: float = 0.0
+    largest_force: float = 0.0
+    largest_pair: int = -1
+    largest_t: float = 0.0
+    most_points: int = 0
+    every_step: bool = False
+
+    @classmethod
+    def of(cls, touch, rows, t, pairs, limit) -> ContactExtremes:
+        """The extremes of a run: its steps' (touch: the step's running extremes, or None
+        where it kept none) and its samples' (rows = (sample, pair (C,) int, depth (C,) m,
+        force (C,) N) of every point that overlaps at a sample, t (K,) s the samples' times),
+        the largest of both; pairs and limit as the fields."""
+        run = extremes_room(len(pairs))[RUN] if touch is None else np.array(touch[RUN])
+        sample, pair, depth, force = rows
+        if len(sample):
+            np.maximum.at(run[HEAD:], pair, depth)
+            run[POINTS] = max(run[POINTS], np.bincount(sample).max())
+            for at, values in ((DEEPEST, depth), (LARGEST, force)):
+                k = int(np.argmax(values))
+                if values[k] > run[at]:
+                    run[at : at + 3] = values[k], pair[k], t[sample[k]]
+        return cls(
+            pairs=tuple(pairs),
+            depth=run[HEAD:],
+            limit=np.asarray(limit, dtype=np.float64),
+            deepest=float(run[DEEPEST]),
+            deepest_pair=int(run[DEEPEST_PAIR]),
+            deepest_t=float(run[DEEPEST_T]),
+            largest_force=float(run[LARGEST]),
+            largest_pair=int(run[LARGEST_PAIR]),
+            largest_t=float(run[LARGEST_T]),
+            most_points=int(run[POINTS]),
+            every_step=touch is not None,
+        )
+
+    @property
+    def touched(self) -> bool:
+        """Whether any pair touched (overlapped) at any step or sample."""
+        return self.deepest > 0.0
+
+    def too_deep(self) -> np.ndarray:
+        """The pairs (indices) that went deeper than their limit."""
+        return np.flatnonzero(self.depth > self.limit)
+
+    def warning(self) -> str:
+        """What too_deep's pairs mean, in a sentence; "" when there are none."""
+        deep = self.too_deep()
+        if not len(deep):
+            return ""
+        worst = int(deep[np.argmax(self.depth[deep] / self.limit[deep])])
+        others = f" (and {len(deep) - 1} other pairs)" if len(deep) > 1 else ""
+        return (
+            f"contact {self.pairs[worst]!r}{others} went {self.depth[worst]:.3g} m deep, more "
+            f"than half its thinner geometry ({self.limit[worst]:.3g} m): past that the "
+            "bodies sink through each other rather than touch (the way out of the overlap can "
+            "flip), so the run is no contact's. The contact's stiffness is likely too low for "
+            "the weight it carries (k delta = m g): raise effects.contact.stiffness (with a "
+            "smaller step), or lighten the body"
+        )
+
+    def arrays(self) -> dict:
+        """The extremes as named arrays, as a trajectory's .npz keeps them (extremes_*)."""
+        head = (self.deepest, self.deepest_pair, self.deepest_t, self.largest_force,
+                self.largest_pair, self.largest_t, self.most_points, self.every_step)
+        return {
+            "extremes_head": np.array(head, dtype=np.float64),
+            "extremes_depth": self.depth,
+            "extremes_limit": self.limit,
+            "extremes_pairs": np.array(self.pairs, dtype=str),
+        }
+
+    @classmethod
+    def from_arrays(cls, data) -> ContactExtremes:
+        """The extremes of a trajectory's .npz (arrays' inverse)."""
+        deepest, deep_pair, deep_t, largest, large_pair, large_t, most, every = data[
+            "extremes_head"
+        ]
+        return cls(
+            tuple(str(name) for name in data["extremes_pairs"]), data["extremes_depth"],
+            data["extremes_limit"], float(deepest), int(deep_pair), float(deep_t),
+            float(largest), int(large_pair), float(large_t), int(most), bool(every),
+        )
 
 
 def _cell(value) -> str:

@@ -14,7 +14,8 @@ x1 over dt:
                          q' = q (+) v dt,   qd' = (M(q') + diag(armature))^-1 p'
                        (v by fixed-point iteration at fixed q, to FIXED_POINT_RTOL)
 
-The work w (2,) (applied, passive; J) advances by dt times the power at the start.
+The work w (2,) (applied, passive; J) advances by dt times the power at the start, and the
+contact's extremes at the start are the step's (contact_extremes.keep_step).
 """
 
 from __future__ import annotations
@@ -32,6 +33,7 @@ from ..algorithm.cholesky import (
 )
 from ..algorithm.configuration import integrate_kernel
 from ..algorithm.constraints import general_constrained_solve_at
+from ..algorithm.contact_extremes import keep_step
 from ..algorithm.crba import crba_kernel, crba_on_poses
 from ..algorithm.energy import kinetic_gradient_kernel
 from ..algorithm.lu import lu_solve
@@ -72,6 +74,7 @@ def implicit_velocity_step(scene, t, dt, x, x1, work):
     status = generalized_forces(scene, t, q, qd, tau, work.tau, power, K, D, True)
     if status:
         return status
+    keep_step(scene.touch)
     # h(q, qd) and M(q) on the poses generalized_forces placed at q
     fill(zero, 0.0)
     status = rnea_on_poses(ibuf, fbuf, data, qd, zero, loads, h)
@@ -112,6 +115,7 @@ def symplectic_euler_step(scene, t, dt, x, x1, work):
     status = generalized_forces(scene, t, q, qd, tau, work.tau, power, KD[0], KD[1], False)
     if status:
         return status
+    keep_step(scene.touch)
     # g(q): RNEA at qd = qdd = 0 under the base acceleration, on the poses generalized_forces
     # placed at q
     fill(zero, 0.0)

@@ -60,6 +60,7 @@ from .._runtime.arrays import copy_into
 from .._runtime.kernel_cache import JIT
 from .._runtime.status import Status
 from ..algorithm.configuration import integrate_kernel
+from ..algorithm.contact_extremes import fold_step, keep_step
 from ..multibody.layout import body_count
 from ..multibody.work_views import scratch_rows
 from ..spatial.compiled import ad_twist
@@ -252,7 +253,8 @@ def rk_stages(scene, tableau, t, dt, x, work, first, tau_stage, free):
     kv_i = qdd(t + c_i dt, q_i, qd_i), kw_i = power there, in work (a StepWork). first = 1 when
     stage 0 is already in kq, kv, kw (FSAL). free: None (a fixed base: the correction is not
     compiled) or the first v index of each free joint (int64). work.tau <- the control torque at
-    stage tau_stage. Returns (status, evaluations)."""
+    stage tau_stage, and the contact's extremes there are kept as the step's
+    (contact_extremes.keep_step: the state the step reports). Returns (status, evaluations)."""
     A, c = tableau.A, tableau.c
     kq, kv, v = work.kq, work.kv, work.v
     nv = x.qd.shape[0]
@@ -278,6 +280,7 @@ def rk_stages(scene, tableau, t, dt, x, work, first, tau_stage, free):
         )
         if i == tau_stage:
             copy_into(work.stage_tau, work.tau)
+            keep_step(scene.touch)
         if status:
             return status, i - first + 1
     return Status.OK.value, A.shape[0] - first
@@ -352,9 +355,11 @@ def run_fixed(switches, scene, settings, step0, nsteps, x, out, counters, free):
     name (fixed_step). The state at the start of every step whose global index is a multiple of
     settings.every is recorded in row index // every of the Record out, with the control torque
     there. Stops at the first step whose result is not finite, faster than settings.max_speed,
-    or whose dynamics fail; x stays the last good state, the start of the failed step.
-    scene: step.scene_data(model, table); free: None, or the free joints' first v indices
-    (rk_stages). Returns (status, steps done); counters.evaluations += dynamics evaluations."""
+    or whose dynamics fail; x stays the last good state, the start of the failed step. The
+    contact's extremes at the start of every step done are folded into the run's
+    (scene.touch: contact_extremes.fold_step). scene: step.scene_data(model, table); free:
+    None, or the free joints' first v indices (rk_stages). Returns (status, steps done);
+    counters.evaluations += dynamics evaluations."""
     nq, nv = x.q.shape[0], x.qd.shape[0]
     tableau = switches.tableau
     work = rk_work(rk_stage_count(tableau), nq, nv)
@@ -371,6 +376,7 @@ def run_fixed(switches, scene, settings, step0, nsteps, x, out, counters, free):
             status = state_ok(x1.q, x1.qd, settings.max_speed)
         if status:
             return status, n
+        fold_step(scene.touch)
         if g % every == 0:
             record(out, g // every, t, x, work.tau)
         copy_into(x1.q, x.q)
@@ -393,9 +399,10 @@ def run_adaptive(tableau, scene, settings, at, t_stop, x, first, out, counters, 
     position is scaled by the magnitude of q[settings.size_index[j]] (the coordinate itself for
     a joint, a floating base's position for its translation), by 1 rad where that is -1 (a
     rotation). first: the Stage at the current state (the FSAL stage), kept up to date.
-    scene: step.scene_data(model, table); free: None, or the free joints' first v indices
-    (rk_stages). Returns (status, Progress(t, h, row)); counters += (evaluations, accepted,
-    rejected)."""
+    The contact's extremes at the end of every accepted step are folded into the run's
+    (scene.touch: contact_extremes.fold_step). scene: step.scene_data(model, table); free:
+    None, or the free joints' first v indices (rk_stages). Returns (status, Progress(t, h,
+    row)); counters += (evaluations, accepted, rejected)."""
     A, b, e = tableau.A, tableau.b, tableau.e
     rtol, atol, size_index = settings.rtol, settings.atol, settings.size_index
     q, qd, nv = x.q, x.qd, x.qd.shape[0]
@@ -456,6 +463,7 @@ def run_adaptive(tableau, scene, settings, at, t_stop, x, first, out, counters, 
             h = dt * max(0.2, 0.9 * err**-0.2)
             continue
         counters.accepted[0] += 1
+        fold_step(scene.touch)
         t = t_land if last_before_output else t + dt
         copy_into(x1.q, q)
         copy_into(x1.qd, qd)

@@ -6,8 +6,11 @@ or compiled.
     memory       8 K (3 + nq + 2 nv + 2 + 7 P + 2 c)  bytes, three times over, below what the
                  process may allocate (opendyn._runtime.memory: limits and cgroups included)
     start        |qd0_k| <= max_speed,  lower_j <= q0_j <= upper_j,  K(q0, qd0), U(q0) finite,
-                 |phi(q0)|, |A(q0) qd0| <= CONSTRAINT_TOLERANCE, no contact point deep in the ground
-                 or in another body
+                 |phi(q0)|, |A(q0) qd0| <= CONSTRAINT_TOLERANCE, and per contact pair (a sphere
+                 and the ground, or two geometries) its springs' energy at q0
+                 sum k delta^2 / 2 <= max(2 (m g)^2 / k, LIFT g min_b m_b s_b)
+                 (allowed_energy: m the mass resting on the pair, m_b and s_b each moving body's
+                 mass and size)
 
 with P contact points and c = 1 with constraints (their violation). A scene that fails any of
 these raises SceneError naming the key to change; a joint starting outside its limits is a
@@ -28,15 +31,17 @@ from ..algorithm.energy import energies
 from ..errors import SceneError, SceneWarning
 from ..multibody.joints import FREE
 from . import effects
-from .record import contact_record, geometry_contact_record
+from .record import contact_record, geometry_contact_record, gravity_of
 from .run import MAX_STEPS, check_fixed_steps
 
 # the record's arrays are built, then energies, contact and the outputs' copies: room for the
 # record three times (measured: a 1e6-sample run saved as .npz and CSV peaked at 2.45 times it)
 _RECORD_COPIES = 3
-# how deep a contact point may start in the ground (m), beyond the depth the robot's weight
-# would press it to
-START_DEPTH = 1e-3
+# the energy a contact's springs may hold at the start beyond what its weight presses into them:
+# what lifts the pair's lighter body by this fraction of its own size (allowed_energy), under
+# the scene's gravity, or standard gravity (m/s^2) in a scene without
+LIFT = 0.01
+STANDARD_GRAVITY = 9.80665
 
 
 def preflight(scene, integ):
@@ -82,38 +87,43 @@ def broken_message(constraint, what, worst):
 
 
 def _check_contact_start(scene):
-    """Refuse a start with a contact point deeper in the ground than START_DEPTH or, when its
-    weight alone would press the robot deeper, than twice that depth m g / k: the spring would
-    hold energy the scene never meant to give, and throw the robot (a ball 5 cm deep in a
-    1e5 N/m ground got 125 J and flew 13 m up)."""
+    """Refuse a start with a contact sphere whose spring holds more energy than its robot's
+    weight presses into it or than lifts it by LIFT of its size (allowed_energy; the mass
+    resting on a sphere is its robot's whole tree): the spring would throw the robot with
+    energy the scene never meant to give (a ball 5 cm deep in a 1e5 N/m ground got 125 J and
+    flew 13 m up)."""
     contact = effects.contact.record(scene)
     if contact is None:
         return
     model = scene.model
+    bodies, params = effects.contact.pack(contact, model)
     q, qd = np.array(scene.q0)[None], np.array(scene.qd0)[None]
-    _, _, depth = contact_record(model, effects.contact.pack(contact, model), q, qd)
-    weight = model._total_mass * np.linalg.norm(scene.gravity if scene.gravity is not None else 0)
-    allowed = max(START_DEPTH, 2.0 * weight / contact.stiffness)
-    k = int(np.argmax(depth[0]))
-    d = float(depth[0, k])
-    if not d > allowed:
+    depth = contact_record(model, (bodies, params), q, qd)[2][0]
+    stored = 0.5 * contact.stiffness * depth**2
+    mass = tree_masses(model)[bodies]
+    lift = mass * effects.contact.point_sizes(contact, model)
+    allowed = allowed_energy(scene, contact.stiffness, mass, lift)
+    k = int(np.argmax(stored - allowed))
+    if not stored[k] > allowed[k]:
         return
     raise_by = "initial.base_position (its z)" if model.floating_base else "initial.q"
     _fail(
         scene,
         "initial",
-        f"the contact point {contact.points[k].name!r} starts {d:.3g} m inside the ground "
-        f"(z = {contact.ground_height:g} m), where its spring (effects.contact.stiffness = "
-        f"{contact.stiffness:g} N/m) would hold {0.5 * contact.stiffness * d * d:.3g} J and "
-        f"throw the robot; start it above the ground (raise {raise_by}, or lower "
-        "effects.contact.ground_height), or check the point's radius",
+        f"the contact point {contact.points[k].name!r} starts {depth[k]:.3g} m inside the "
+        f"ground (z = {contact.ground_height:g} m), where its spring (effects.contact.stiffness "
+        f"= {contact.stiffness:g} N/m) would hold {stored[k]:.3g} J, more than the "
+        f"{allowed[k]:.3g} J its robot's weight presses into it or that lift it by "
+        f"{LIFT:.0%} of its size, and throw the robot; start it above the ground (raise "
+        f"{raise_by}, or lower effects.contact.ground_height), or check the point's radius",
     )
 
 
 def _check_geometry_start(scene):
-    """The same refusal for the contact between collision geometries: no contact point at the
-    initial state deeper than START_DEPTH or twice the depth m g / k the model's weight would
-    press a pair of stiffness k to."""
+    """The same refusal for each pair of collision geometries: their springs' energy at the
+    initial state, summed over the pair's contact points, against allowed_energy, with the
+    mass resting on the pair that of the moving trees it joins and of every tree touching
+    them at the start (the boxes of a stack above it; another body elsewhere adds nothing)."""
     contact = effects.geometry_contact.record(scene)
     if contact is None:
         return
@@ -123,21 +133,69 @@ def _check_geometry_start(scene):
     table = geometry_contact_record(model, params, q, qd)
     if not len(table):
         return
-    weight = model._total_mass * np.linalg.norm(scene.gravity if scene.gravity is not None else 0)
-    k_pair = params[2][table.pair, 0]
-    excess = table.depth - np.maximum(START_DEPTH, 2.0 * weight / k_pair)
-    worst = int(np.argmax(excess))
-    if not excess[worst] > 0:
+    pairs, k = params[1], params[2][:, 0]
+    stored = np.bincount(table.pair, 0.5 * k[table.pair] * table.depth**2, minlength=len(pairs))
+    # each side's body (-1: the world, the ground among it), its tree's mass (a static side's
+    # infinite: nothing lifts it) and its geometry's size
+    bodies = np.append(model.geometry_table.body, -1)[pairs]
+    moving = bodies >= 0
+    mass = np.where(moving, tree_masses(model)[bodies], np.inf)
+    lift = (mass * effects.geometry_contact.smallest_dimensions(model)[pairs]).min(axis=1)
+    on_pair = resting_masses(model, bodies[np.unique(table.pair)])[bodies]
+    resting = np.where(moving, on_pair, 0.0).max(axis=1)
+    allowed = allowed_energy(scene, k, resting, lift)
+    worst = int(np.argmax(stored - allowed))
+    if not stored[worst] > allowed[worst]:
         return
-    d, k = float(table.depth[worst]), float(k_pair[worst])
-    a, b = table.pair_names[table.pair[worst]]
+    a, b = table.pair_names[worst]
+    d = float(table.depth[table.pair == worst].max())
     _fail(
         scene,
         "initial",
-        f"{a!r} starts {d:.3g} m inside {b!r}, where the contact's spring (stiffness {k:g} "
-        f"N/m) would hold {0.5 * k * d * d:.3g} J and throw them apart; start them apart (move "
-        "the objects' positions, initial.q or initial.base_position)",
+        f"{a!r} starts {d:.3g} m inside {b!r}, where the contact's springs (stiffness "
+        f"{k[worst]:g} N/m) would hold {stored[worst]:.3g} J, more than the "
+        f"{allowed[worst]:.3g} J the weight resting on them presses in or that lift the "
+        f"lighter body by {LIFT:.0%} of its size, and throw them apart; start them apart, or "
+        "resting no deeper than their weight presses them (m g / k), by moving the objects' "
+        "positions, initial.q or initial.base_position",
     )
+
+
+def allowed_energy(scene, k, resting, lift):
+    """(P,) J: the most energy the springs of each contact pair (stiffness k (P,) N/m) may
+    hold at the start, the larger of
+
+        2 (m g)^2 / k            one spring pressed to twice the depth m g / k at which it
+                                 carries the weight of the mass m = resting (P,) kg
+        LIFT g min_b m_b s_b     what lifts the pair's moving body b (its tree's mass m_b,
+                                 the size s_b of its geometry) by LIFT of its size, the body
+                                 that rises most; lift (P,) = min_b m_b s_b kg m
+
+    g = |gravity|, and standard gravity in the lift bound of a scene without it (there a
+    start may still touch, and the energy becomes a speed of sqrt(2 LIFT g s_b) at most)."""
+    g = float(np.linalg.norm(gravity_of(scene)))
+    weight = np.asarray(resting) * g
+    return np.maximum(2.0 * weight**2 / k, LIFT * (g if g > 0 else STANDARD_GRAVITY) * lift)
+
+
+def tree_masses(model) -> np.ndarray:
+    """(nb,) kg: for each body, the mass of its tree, the bodies joined to it by joints up to
+    the fixed world (a floating robot or an object whole, a fixed robot from its first moving
+    joint down): with the joints free, all of it can rest on one of its contacts."""
+    return resting_masses(model, np.zeros((0, 2), dtype=np.int64))
+
+
+def resting_masses(model, touching) -> np.ndarray:
+    """(nb,) kg: for each body, the mass of its tree (tree_masses) and of every tree joined to
+    it through the pairs of bodies touching (C, 2) (-1: the world, which joins nothing)."""
+    group = np.arange(model.nb)
+    for i in range(model.nb):  # parent[i] < i: a tree's bodies take its root's group
+        if model.parent[i] >= 0:
+            group[i] = group[model.parent[i]]
+    for a, b in touching:
+        if a >= 0 and b >= 0 and group[a] != group[b]:
+            group[group == group[b]] = group[a]
+    return np.bincount(group, model.mass, minlength=model.nb)[group]
 
 
 def run_size(scene, integ):

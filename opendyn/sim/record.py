@@ -25,7 +25,7 @@ from ..algorithm.geometry_contact import (
     ROW,
     geometry_contact_record_kernel,
 )
-from .contacts import ContactTable
+from .contacts import ContactExtremes, ContactTable
 from .effects.geometry_contact import GROUND
 from ..algorithm.energy import energies
 from .scene import thaw
@@ -125,10 +125,12 @@ def energies_of(scene, table, q, qd):
     return kinetic, potential, contact
 
 
-def trajectory_of(scene, table, out, n, complete, message, stats):
+def trajectory_of(scene, table, out, n, complete, message, stats, touch=None):
     """The Trajectory of the first n rows of the Record out (integrators.Record: t, q, qd, tau,
     w) of a run of `scene` (its stage table `table`), with its energies, constraint violation,
-    contact and centroidal records, provenance, and complete, message and stats as given."""
+    contact and centroidal records, provenance, and complete, message and stats as given;
+    touch: the run's contact extremes that its steps kept (step.SceneData.touch), or None
+    (then the contact's extremes are its samples')."""
     from .trajectory import Trajectory
 
     model = scene.model
@@ -147,11 +149,13 @@ def trajectory_of(scene, table, out, n, complete, message, stats):
         kinetic = potential = np.full(n, np.nan)
         spheres, off, centroidal = None, (np.zeros(0),) * 2, {}
     contact = {}
+    if scene.contact is not None:
+        contact["contact_extremes"] = contact_extremes(scene, table, touch, spheres, t)
     if isinstance(spheres, ContactTable):
-        contact = {"contacts": spheres}
+        contact["contacts"] = spheres
     elif spheres is not None:
         points, forces, depth = spheres
-        contact = dict(
+        contact.update(
             contact_names=tuple(p.name for p in scene.contact.points),
             contact_point=points,
             contact_force=forces,
@@ -179,6 +183,15 @@ def trajectory_of(scene, table, out, n, complete, message, stats):
         stats=stats,
         provenance=_provenance(scene, table),
     )
+
+
+def warn_too_deep(traj, stacklevel):
+    """A RuntimeWarning (at `stacklevel` above the caller) when a contact pair of the
+    Trajectory traj went deeper than its limit (ContactExtremes.warning): the run completes,
+    but what it computed is no longer two bodies touching."""
+    extremes = traj.contact_extremes
+    if extremes is not None and extremes.warning():
+        warnings.warn(f"simulate: {extremes.warning()}", RuntimeWarning, stacklevel=stacklevel + 1)
 
 
 def records_of(scene, table, q, qd):
@@ -241,8 +254,6 @@ def geometry_contact_record(model, contacts, q, qd):
     offsets[1:] = np.cumsum(counts)[:-1]
     rows = np.zeros((int(counts.sum()), ROW))
     run_rows(geometry_contact_record_kernel, len(q), *args, (counts, offsets, rows))
-    names = [g.name for g in model.geometries] + [GROUND]
-    pairs = contacts[1]
     return ContactTable(
         sample=np.repeat(np.arange(len(q)), counts),
         pair=rows[:, PAIR].astype(np.int64),
@@ -250,8 +261,52 @@ def geometry_contact_record(model, contacts, q, qd):
         normal=rows[:, NORMAL_AT : NORMAL_AT + 3],
         force=rows[:, FORCE : FORCE + 3],
         depth=rows[:, DEPTH],
-        pair_names=tuple((names[a], names[b]) for a, b in pairs),
+        pair_names=pair_names(model, contacts[1]),
     )
+
+
+def pair_names(model, pairs) -> tuple[tuple[str, str], ...]:
+    """The geometries' names (a, b) of each pair (P, 2) of the geometry contact (geometry
+    len(model.geometries) is the ground)."""
+    names = [g.name for g in model.geometries] + [GROUND]
+    return tuple((names[a], names[b]) for a, b in pairs)
+
+
+def contact_extremes(scene, table, touch, contact, t):
+    """The ContactExtremes of a run of `scene` (stage table `table`) with contact: those its
+    steps kept (touch, or None) and its samples' (contact: energies_of's contact record, or
+    None where it was left out; t (K,) s the samples' times). A pair of the geometry contact
+    is named "a-b"; each sphere is its own pair with the ground."""
+    model = scene.model
+    spheres = effects.contact.record(scene)
+    if spheres is not None:
+        pairs = [p.name for p in spheres.points]
+        sizes = effects.contact.point_sizes(spheres, model)
+        limit = np.where(sizes > 0.0, 0.5 * sizes, np.inf)
+        rows = _sphere_rows(contact)
+    else:
+        ab = table.params(effects.geometry_contact)[1]
+        pairs = ["-".join(names) for names in pair_names(model, ab)]
+        sizes = effects.geometry_contact.smallest_dimensions(model)
+        limit = 0.5 * np.minimum(sizes[ab[:, 0]], sizes[ab[:, 1]])
+        rows = _table_rows(contact if contact is not None else ContactTable())
+    return ContactExtremes.of(touch, rows, t, pairs, limit)
+
+
+def _sphere_rows(contact):
+    """(sample, point, depth m, |force| N) of every sphere that overlaps the ground at a
+    sample, from contact_record's (points, forces, depth), or none for None."""
+    if contact is None:
+        return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0), np.zeros(0)
+    _, forces, depth = contact
+    sample, point = np.nonzero(depth > 0.0)
+    return sample, point, depth[sample, point], np.linalg.norm(forces[sample, point], axis=-1)
+
+
+def _table_rows(contacts):
+    """(sample, pair, depth m, |force| N) of every row of a ContactTable."""
+    force = np.linalg.norm(contacts.force, axis=1)
+    return contacts.sample, contacts.pair, contacts.depth, force
 
 
 def _provenance(scene, table):

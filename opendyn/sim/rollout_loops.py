@@ -14,7 +14,9 @@ A failed run (a state not finite or faster than max_speed, a singular mass matri
 underflows) keeps its rows up to the failure and its last good state, and the other runs go on.
 What varies between runs (the model's inertias, the effects' parameters, the armature and the
 constraints: a RunData each, several runs may share one) is read per run; the step's scratch
-(forces, loads, K and D, the Data buffer) is the caller's SceneData, one per thread.
+(forces, loads, K and D, the Data buffer, the contact's running extremes, which a rollout does
+not read: its trajectories take their contact's extremes from their samples) is the caller's
+SceneData, one per thread.
 """
 
 from __future__ import annotations
@@ -83,7 +85,7 @@ def run_views(base, batch, i, start):
         base.ibuf, run.fbuf, run.effects, run.armature, base.method, run.constraints,
         base.forces, base.loads, base.KD,
         constraint_room(run.constraints, body_count(base.ibuf), dof_count(base.ibuf)),
-        base.work, base.world, base.room,
+        base.work, base.world, base.room, base.touch,
     )
     x, out, c = batch.x, batch.out, batch.counters
     return (

@@ -40,7 +40,7 @@ from .driver import (
 )
 from .effects import python_control
 from .preflight import preflight
-from .record import Samples, quaternion_norm_error, trajectory_of
+from .record import Samples, quaternion_norm_error, trajectory_of, warn_too_deep
 from .simulator import run_controlled
 
 
@@ -103,7 +103,10 @@ def simulate(scene, *, progress=False, raise_on_failure=True, controller=None, c
         stats["quaternion_norm_error"] = float(
             quaternion_norm_error(model, out.q[: out.filled]).max(initial=0.0)
         )
-    traj = trajectory_of(scene, table, out.arrays(), out.filled, status == 0, message, stats)
+    traj = trajectory_of(
+        scene, table, out.arrays(), out.filled, status == 0, message, stats, stepper.data.touch
+    )
+    warn_too_deep(traj, stacklevel=3)  # the caller of od.simulate
     if status and raise_on_failure:
         raise SimulationError(message, traj)
     return traj

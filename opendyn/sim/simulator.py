@@ -35,6 +35,7 @@ from .._runtime.entry import entry_for
 from .._runtime.memory import available_memory
 from .._runtime.options import as_real
 from .._runtime.signals import signal_name
+from ..algorithm.contact_extremes import restart
 from ..errors import SceneError, SimulationError
 from . import effects, integrators, step
 from .diagnostics import check_contact_step, failure_message
@@ -55,7 +56,7 @@ from .driver import (
 )
 from .effects import python_control
 from .preflight import byte_size, check_start, record_every
-from .record import Samples, trajectory_of
+from .record import Samples, trajectory_of, warn_too_deep
 from .run import whole_steps
 from .step_inputs import (
     checked_configuration,
@@ -170,6 +171,7 @@ class Simulator:
         self._samples = Samples(16, model.nq, model.nv)
         self._record = self._samples.arrays()
         self._held[:] = 0.0
+        restart(self._data.touch)
         run = self.scene.run
         if self._integ.adaptive:
             nv = model.nv
@@ -346,17 +348,20 @@ class Simulator:
         return n
 
     def _saved(self):
-        """What a step changes: the state, the time, the step count, the record's length and
-        the adaptive loop's progress."""
-        x = self._x
+        """What a step changes: the state, the time, the step count, the record's length, the
+        adaptive loop's progress and the contact's extremes."""
+        x, touch = self._x, self._data.touch
         return (x.q.copy(), x.qd.copy(), x.w.copy(), self._t, self._steps,
-                self._samples.filled, getattr(self, "_at", None))
+                self._samples.filled, getattr(self, "_at", None),
+                None if touch is None else touch.copy())
 
     def _restore(self, saved):
-        q, qd, w, self._t, self._steps, self._samples.filled, at = saved
+        q, qd, w, self._t, self._steps, self._samples.filled, at, touch = saved
         self._x.q[:], self._x.qd[:], self._x.w[:] = q, qd, w
         if at is not None:
             self._at = at
+        if touch is not None:
+            self._data.touch[:] = touch
 
     def _advance_fixed(self, n):
         """n fixed steps, in chunks of about CHUNK_SECONDS under an Interrupt. Returns the
@@ -492,7 +497,7 @@ class Simulator:
         complete = not self._stopped
         return trajectory_of(
             self.scene, self._table, samples.arrays(), samples.filled, complete, self._stopped,
-            stats,
+            stats, self._data.touch,
         )
 
 
@@ -531,6 +536,7 @@ def run_controlled(scene, controller, control_dt, progress, raise_on_failure):
                 bar.update(sim.t - shown)
                 bar.close()
     trajectory = sim.trajectory()
+    warn_too_deep(trajectory, stacklevel=4)  # the caller of od.simulate
     if message and raise_on_failure:
         raise SimulationError(message, trajectory)
     return trajectory

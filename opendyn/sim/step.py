@@ -54,8 +54,9 @@ from ..algorithm.kinematics import place_bodies
 from ..multibody.joints import place_joints, state_status
 from ..multibody.layout import body_count, tree
 from ..multibody.work_views import joint_poses
+from ..algorithm.contact_extremes import extremes_room
 from ..algorithm.geometry_contact import geometry_room
-from .effects import geometry_contact, gravity, registry
+from .effects import contact, geometry_contact, gravity, registry
 from .effects.dispatch import EVERY, run_stages
 from .effects.interface import Context, Out
 
@@ -109,7 +110,10 @@ def generalized_forces(scene, t, q, qd, tau, tau_ctrl, power, K, D, jac):
     if jac:
         zero_matrix(K)
         zero_matrix(D)
-    ctx = Context(scene.ibuf, scene.fbuf, scene.work, t, q, qd, dV_0, scene.armature, scene.room)
+    ctx = Context(
+        scene.ibuf, scene.fbuf, scene.work, t, q, qd, dV_0, scene.armature, scene.room,
+        scene.touch,
+    )
     # np.bool_(jac): a run-time flag, so that the effects compile once for both values
     out = Out(tau_ctrl, tau_app, tau_pas, power, K, D, np.bool_(jac))
     status = run_stages(EVERY, scene.effects, ctx, out)
@@ -176,13 +180,14 @@ def solve_with(con, aba, crba, newton_euler, scene, q, qd, tau, qdd):
 # integrator, con_work the constrained solve's ConstraintWork for the constraints' k rows
 # (their multipliers lam (k,), rows and scratch; None without constraints), work, the buffer
 # of a Data of the model that the kernels work in, world, True when an effect the scene names
-# reads the world poses (place puts them in work), or None, and room, the geometry contact's
-# GeometryRoom, or None.
+# reads the world poses (place puts them in work), or None, room, the geometry contact's
+# GeometryRoom, or None, and touch, the contact's running extremes that its stage writes and
+# the loops fold at every step (opendyn.algorithm.contact_extremes), or None without contact.
 SceneData = namedtuple(
     "SceneData",
     (
         "ibuf", "fbuf", "effects", "armature", "method", "constraints", "forces", "loads",
-        "KD", "con_work", "work", "world", "room",
+        "KD", "con_work", "work", "world", "room", "touch",
     ),
 )
 
@@ -219,6 +224,7 @@ def scene_data(model, table, held=None):
         model.data()._work,
         True if table.world_poses else None,
         contact_room(table, model.nv),
+        contact_touch(table),
     )
 
 
@@ -227,6 +233,16 @@ def contact_room(table, nv):
     it names none."""
     params = table.params(geometry_contact)
     return None if params is None else geometry_room(geometry_contact.room_size(params), nv)
+
+
+def contact_touch(table):
+    """The contact's running extremes (opendyn.algorithm.contact_extremes.extremes_room) over
+    its pairs, the geometry contact's pairs or the spheres' points (table: the scene's
+    StageTable), or None when it names no contact."""
+    spheres, geometries = table.params(contact), table.params(geometry_contact)
+    if geometries is not None:
+        return extremes_room(len(geometries[1]))
+    return None if spheres is None else extremes_room(len(spheres[0]))
 
 
 @njit(**JIT)
@@ -258,7 +274,8 @@ def stage_cost_kernel(scene, which, t, q, qd):
     out = Out(tau_ctrl, tau_app, tau_pas, power, scene.KD[0], scene.KD[1], np.bool_(False))
     fill(dV_0, 0.0)
     ctx = Context(
-        scene.ibuf, scene.fbuf, scene.work, t[0], q[0], qd[0], dV_0, scene.armature, scene.room
+        scene.ibuf, scene.fbuf, scene.work, t[0], q[0], qd[0], dV_0, scene.armature, scene.room,
+        scene.touch,
     )
     run_stages(GRAVITY, scene.effects, ctx, out)
     total = 0.0
@@ -269,7 +286,7 @@ def stage_cost_kernel(scene, which, t, q, qd):
             fill(tau_pas, 0.0)
             ctx = Context(
                 scene.ibuf, scene.fbuf, scene.work, t[n], q[n], qd[n], dV_0, scene.armature,
-                scene.room,
+                scene.room, scene.touch,
             )
             place(scene, q[n], qd[n])
             run_stages(which, scene.effects, ctx, out)

@@ -28,7 +28,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .._runtime.files import atomic_write, kind_of, name_too_long
-from .contacts import ContactTable
+from .contacts import ContactExtremes, ContactTable
 
 _ARRAYS = ("t", "q", "qd", "tau", "kinetic", "potential", "work_applied", "work_passive")
 _VIOLATION = ("violation_position", "violation_velocity")  # empty without constraints
@@ -101,6 +101,10 @@ class Trajectory:
     contacts: with contact between collision geometries ([effects.contact] geometry =
     "collision"), its ContactTable (opendyn.sim.contacts): one row per contact point per
     sample, with its pair, point, normal, force and depth; None otherwise.
+    contact_extremes: with contact of either kind, its ContactExtremes (opendyn.sim.contacts):
+    the deepest penetration, the largest force, each with its pair and time, the most points
+    at once and each pair's deepest, over every step of the run and not only the samples
+    (which can miss a bounce between two of them); None without contact.
     provenance: the scene, integrator, versions and timing, as plain JSON types.
     """
 
@@ -129,6 +133,7 @@ class Trajectory:
     com: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
     centroidal_momentum: np.ndarray = field(default_factory=lambda: np.zeros((0, 6)))
     contacts: ContactTable | None = None
+    contact_extremes: ContactExtremes | None = None
 
     def __post_init__(self):
         # a fixed-base record (nq = nv = the joints) names its columns by the joints
@@ -184,6 +189,8 @@ class Trajectory:
             arrays.update({name: getattr(self, name) for name in _CENTROIDAL})
         if self.contacts is not None:
             arrays.update(self.contacts.arrays())
+        if self.contact_extremes is not None:
+            arrays.update(self.contact_extremes.arrays())
         with atomic_write(path) as f:
             np.savez_compressed(
                 f,
@@ -240,6 +247,8 @@ class Trajectory:
             arrays.update({name: data[name] for name in _CENTROIDAL if name in data})
             if "contacts_sample" in data:
                 arrays["contacts"] = ContactTable.from_arrays(data)
+            if "extremes_head" in data:
+                arrays["contact_extremes"] = ContactExtremes.from_arrays(data)
             names = tuple(str(n) for n in data["joint_names"])
             columns = {
                 key: tuple(str(n) for n in data[key])

@@ -29,6 +29,7 @@ from ...algorithm.contact import (
     contact_jacobians_kernel,
     contact_on_poses,
 )
+from ...algorithm.contact_extremes import begin
 from ..values import what_is
 from .interface import OK, PASSIVE, floats
 from .tangent import bracket, path_axes, point_velocities, wrench_tangent
@@ -196,6 +197,19 @@ def pack(contact, model):
     return contact_table(model, contact)
 
 
+def point_sizes(contact, model) -> np.ndarray:
+    """(P,) m: the size of each contact point: its sphere's diameter 2 r, or for a point
+    (r = 0) the shortest side of the box that its body's points span in the body's frame (a
+    box's eight corners span the box); 0 where neither gives one (points on a line or a
+    plane)."""
+    bodies, params = contact_table(model, contact)
+    spheres = params[SHARED:].reshape(-1, PER_POINT)
+    sizes = 2.0 * spheres[:, 3]
+    for p in np.flatnonzero(sizes == 0.0):
+        sizes[p] = np.ptp(spheres[bodies == bodies[p], :3], axis=0).min()
+    return sizes
+
+
 def label(contact, model) -> str:
     return f"contact ({len(contact.points)} points)"
 
@@ -208,13 +222,16 @@ def apply(p, ctx, out):
     linearisation (opendyn.algorithm.contact). p = (bodies (P,) int64, params), or None.
     Works on the world poses the step placed in ctx.work (WORLD_POSES) and in its scratch,
     allocating nothing; keeps no record of the points (the run's record recomputes them at
-    its samples). Returns a Status."""
+    its samples), only this evaluation's deepest point and largest force in ctx.touch
+    (opendyn.algorithm.contact_extremes), each point its own pair with the ground. Returns
+    a Status."""
     if p is None:
         return OK
     # np.bool_(jac): a run-time flag, so that the kernel compiles once for both values
     linear = (out.K, out.D, np.bool_(out.jac))
+    begin(ctx.touch, ctx.t)
     out.power[1] += contact_on_poses(
-        ctx.ibuf, ctx.fbuf, ctx.work, p, ctx.qd, out.passive, linear, None
+        ctx.ibuf, ctx.fbuf, ctx.work, p, ctx.qd, out.passive, linear, None, ctx.touch
     )
     return OK
 

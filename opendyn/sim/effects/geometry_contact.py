@@ -24,6 +24,7 @@ from numba import njit
 
 from ..._runtime.kernel_cache import JIT
 from ...algorithm.contact import contact_jacobians_kernel
+from ...algorithm.contact_extremes import begin
 from ...algorithm.geometry_contact import geometry_contact_on_poses
 from ...multibody.assembly import object_of
 from ...multibody.geometry import Geometry, GeometryTable
@@ -260,6 +261,24 @@ def pack(contact, model):
     return arrays, pairs, law
 
 
+def smallest_dimensions(model) -> np.ndarray:
+    """(G + 1,) m: the smallest dimension of each of the model's geometries (a sphere's or a
+    capsule's diameter, a box's shortest edge, the shorter of a cylinder's diameter and
+    length, the shortest side of a mesh hull's bounding box in its own frame; inf for a
+    halfspace), then the ground's, inf."""
+    sizes = np.full(len(model.geometries) + 1, np.inf)
+    for k, g in enumerate(model.geometries):
+        if g.shape in ("sphere", "capsule"):
+            sizes[k] = 2.0 * g.size[0]
+        elif g.shape == "box":
+            sizes[k] = min(g.size)
+        elif g.shape == "cylinder":
+            sizes[k] = min(2.0 * g.size[0], g.size[1])
+        elif g.shape == "mesh":
+            sizes[k] = float(np.ptp(g.vertices, axis=0).min())
+    return sizes
+
+
 def room_size(params) -> int:
     """How many geometries the pass places (the ground included): its GeometryRoom's size."""
     return params[0][0].shape[0]
@@ -274,13 +293,16 @@ def apply(p, ctx, out):
     """out.passive += sum J^T f over the touching pairs; out.power[1] += their springs' share
     sum k delta delta_dot; with out.jac, out.K, out.D += their linearisation
     (opendyn.algorithm.geometry_contact). p = (table, pairs, law), or None. Works on the world
-    poses the step placed in ctx.work and in ctx.room (a GeometryRoom), allocating nothing.
-    Returns a Status."""
+    poses the step placed in ctx.work and in ctx.room (a GeometryRoom), allocating nothing;
+    this evaluation's deepest point and largest force go to ctx.touch
+    (opendyn.algorithm.contact_extremes). Returns a Status."""
     if p is None:
         return OK
     linear = (out.K, out.D, np.bool_(out.jac))
+    begin(ctx.touch, ctx.t)
     out.power[1] += geometry_contact_on_poses(
-        ctx.ibuf, ctx.fbuf, ctx.work, p, ctx.room, ctx.qd, out.passive, linear, None
+        ctx.ibuf, ctx.fbuf, ctx.work, p, ctx.room, ctx.qd, out.passive, linear, None,
+        ctx.touch,
     )
     return OK
 
