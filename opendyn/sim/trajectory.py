@@ -27,7 +27,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .._runtime.files import atomic_write, kind_of, name_too_long
+from .._runtime.files import atomic_write, csv_field, kind_of, name_too_long
 from .contacts import ContactTable
 
 _ARRAYS = ("t", "q", "qd", "tau", "kinetic", "potential", "work_applied", "work_passive")
@@ -271,7 +271,8 @@ class Trajectory:
         world frame, and with contact, for each contact point, fx_<point>, fy_<point>,
         fz_<point> (N, world frame) and penetration_<point> (m). With contacts between
         collision geometries, their table beside it, one row per contact point
-        (ContactTable.to_csv, at contacts_csv_path(path)).
+        (ContactTable.to_csv, at contacts_csv_path(path)). A column name that holds a comma, a
+        double quote or a line break (a joint's, a point's) is quoted (csv_field).
         Written atomically, like `save`. Returns the path."""
         path = pathlib.Path(path)
         header = ["t", *(f"q_{n}" for n in self.q_names), *(f"qd_{n}" for n in self.v_names)]
@@ -289,8 +290,9 @@ class Trajectory:
             header += [f"fx_{name}", f"fy_{name}", f"fz_{name}", f"penetration_{name}"]
             columns += [self.contact_force[:, p], self.penetration[:, p]]
         table = np.column_stack(columns)
+        line = ",".join(csv_field(name) for name in header)
         with atomic_write(path) as f:
-            np.savetxt(f, table, delimiter=",", header=",".join(header), comments="", fmt="%.17g")
+            np.savetxt(f, table, delimiter=",", header=line, comments="", fmt="%.17g")
         if self.contacts is not None:
             self.contacts.to_csv(contacts_csv_path(path), self.t)
         return path
