@@ -1,21 +1,152 @@
-"""The CSV files of a run: a name (an object's, a joint's) that holds a comma or a quote stays
-one field, and a scene refuses an empty one."""
+"""`--csv run.csv` writes more files than the one it names: with contacts between collision
+geometries their table beside it (run.contacts.csv), checked before the run as the named one
+is: against the run's inputs, the other outputs, and what the file system allows. Inside them,
+a name (an object's, a joint's) that holds a comma or a quote stays one field, and a scene
+refuses an empty one."""
 
 from __future__ import annotations
 
 import csv
+import importlib
+import os
+import shutil
 
 import numpy as np
 import pytest
 
 import opendyn as od
+from opendyn.cli.main import main
 from opendyn.errors import SceneError
+from opendyn.io.urdf import shipped_robots_dir
 from opendyn.sim.contacts import ContactTable
+
+SIMULATE = importlib.import_module("opendyn.sim.simulate")
+SHORT = ["--duration", "0.02", "-q"]
+ROBOTS = shipped_robots_dir()
+
+
+def files_in(folder):
+    return {p.name: p.read_bytes() for p in folder.iterdir() if p.is_file()}
 
 
 def rows_of(path):
     with open(path, newline="") as f:
         return list(csv.reader(f))
+
+
+@pytest.fixture
+def not_run(monkeypatch):
+    """Running a scene fails the test: the checks after loading it must come before the run."""
+
+    def refuse(*args, **kwargs):
+        raise AssertionError("the scene ran before its outputs were checked")
+
+    monkeypatch.setattr(SIMULATE, "simulate", refuse)
+
+
+def after_the_run(monkeypatch, then):
+    """The command's run as it is, followed by `then(traj)`, whose result is the run's."""
+    run = SIMULATE.simulate
+    monkeypatch.setattr(SIMULATE, "simulate", lambda *a, **kw: then(run(*a, **kw)))
+
+
+# -- --csv's contact table is checked as the file it names is (before the run) ---------------
+
+
+def crate_scene(folder, named):
+    """A box robot and a crate object touching through their collision geometry, in `folder`:
+    the scene, the robot's URDF, its SRDF and the crate's URDF, `named` (one of those four, as
+    "scene", "robot", "srdf", "crate") a file name of its own. Returns the scene's path."""
+    files = {
+        "scene": "scene.toml",
+        "robot": "robot.urdf",
+        "srdf": "robot.srdf",
+        "crate": "crate.urdf",
+    }
+    files[named[0]] = named[1]
+    for key in ("robot", "crate"):
+        shutil.copy(ROBOTS / "box.urdf", folder / files[key])
+    (folder / files["srdf"]).write_text('<robot name="box"></robot>\n')
+    (folder / files["scene"]).write_text(
+        f'[robot]\nurdf = "{files["robot"]}"\nsrdf = "{files["srdf"]}"\n\n'
+        f'[[objects]]\nname = "crate"\nurdf = "{files["crate"]}"\nposition = [0.0, 0.0, 0.5]\n\n'
+        "[effects]\ngravity = true\n\n"
+        '[effects.contact]\ngeometry = "collision"\nstiffness = 1e5\nfriction = 0.5\n'
+    )
+    return folder / files["scene"]
+
+
+@pytest.mark.parametrize(
+    "named, what",
+    [(("scene", "run.contacts.csv"), "the scene file"),
+     (("robot", "run.contacts.csv"), "the robot's URDF"),
+     (("srdf", "run.contacts.csv"), "a file the scene names"),
+     (("crate", "run.contacts.csv"), "a file the scene names")],
+)  # fmt: skip
+def test_a_file_that_csv_writes_beside_its_own_is_refused_where_it_is_an_input(
+    named, what, tmp_path, monkeypatch, capsys, not_run
+):
+    """--csv run.csv was refused on an input, but the run.contacts.csv it writes beside it was
+    not: a scene, a URDF or an SRDF of that name was replaced by the contact table."""
+    scene = crate_scene(tmp_path, named)
+    monkeypatch.chdir(tmp_path)
+    before = files_in(tmp_path)
+    assert main(["simulate", str(scene), "--no-save", "--csv", "run.csv"]) == 2
+    err = capsys.readouterr().err
+    assert f"--csv 'run.csv': {named[1]}: is {what}, an input of this run" in err, err
+    assert files_in(tmp_path) == before
+
+
+def test_two_outputs_on_one_file_through_csv_s_contact_table_are_refused(
+    tmp_path, monkeypatch, capsys, not_run
+):
+    """--html run.contacts.csv --csv run.csv wrote the page and the table one over the other,
+    and reported both as written."""
+    monkeypatch.chdir(tmp_path)
+    args = ["--html", "run.contacts.csv", "--csv", "run.csv"]
+    assert main(["simulate", "box_on_table", "--no-save", *args]) == 2
+    err = capsys.readouterr().err
+    assert err == (
+        "opendyn simulate: --csv 'run.csv': run.contacts.csv: is also the file of --html "
+        "'run.contacts.csv'\n"
+    )
+    assert files_in(tmp_path) == {}
+
+
+def test_csv_s_contact_table_that_cannot_be_written_is_refused_before_the_run(
+    tmp_path, monkeypatch, capsys, not_run
+):
+    """A folder named like the contact table, or a name that fits where the table's does not:
+    the error came after the run, named --csv's file, and that file was written."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "run.contacts.csv").mkdir()
+    assert main(["simulate", "box_on_table", "--no-save", "--csv", "run.csv"]) == 2
+    err = capsys.readouterr().err
+    assert err == "opendyn simulate: --csv 'run.csv': run.contacts.csv: is a folder, not a file\n"
+    most = os.pathconf(tmp_path, "PC_NAME_MAX")
+    stem = "c" * (most - 12)  # STEM.csv fits; STEM.contacts.csv does not
+    assert main(["simulate", "box_on_table", "--no-save", "--csv", f"{stem}.csv"]) == 2
+    err = capsys.readouterr().err
+    assert f"{stem}.contacts.csv: its name is {most + 1} bytes, longer than the {most}" in err
+    assert files_in(tmp_path) == {}
+
+
+def test_a_contact_table_that_fails_after_the_run_is_named_and_nothing_is_written(
+    tmp_path, monkeypatch, capsys
+):
+    """The folder appears during the run: the message names the table's file, not --csv's,
+    and the trajectory's CSV is not written without its table."""
+    monkeypatch.chdir(tmp_path)
+
+    def then_a_folder(traj):
+        (tmp_path / "run.contacts.csv").mkdir()
+        return traj
+
+    after_the_run(monkeypatch, then_a_folder)
+    assert main(["simulate", "box_on_table", *SHORT, "-o", "run.npz", "--csv", "run.csv"]) == 3
+    err = capsys.readouterr().err
+    assert "could not write --csv 'run.csv': run.contacts.csv: is a folder, not a file" in err, err
+    assert sorted(files_in(tmp_path)) == ["run.json", "run.npz"]
 
 
 # -- names in CSV files -----------------------------------------------------------------------

@@ -63,6 +63,18 @@ def contacts_csv_path(path) -> pathlib.Path:
     return path.with_name(path.stem + ".contacts.csv")
 
 
+def _check_writable(paths):
+    """OSError naming the first of `paths` (the files one save writes) whose name is longer
+    than its file system allows, or that is a folder: raised before any of them is written, so
+    that a save writes all of its files or none."""
+    for path in paths:
+        too_long = name_too_long(path)
+        if too_long is not None:
+            raise OSError(errno.ENAMETOOLONG, too_long, str(path))
+        if path.is_dir():
+            raise IsADirectoryError(errno.EISDIR, "is a folder, not a file", str(path))
+
+
 def saved_paths(path) -> tuple[pathlib.Path, pathlib.Path]:
     """The two files `Trajectory.save(path)` writes: `path` as a .npz (its suffix replaced by
     .npz, or .npz added), and the JSON record beside it (the same name, .json)."""
@@ -170,10 +182,7 @@ class Trajectory:
                 str(path),
             )
         path, json_path = saved_paths(path)
-        for file in (path, json_path):  # both, or neither: checked before either is written
-            too_long = name_too_long(file)
-            if too_long is not None:
-                raise OSError(errno.ENAMETOOLONG, too_long, str(file))
+        _check_writable((path, json_path))
         record = self.record()
         arrays = {name: getattr(self, name) for name in _ARRAYS + _VIOLATION}
         if self.has_contact:
@@ -273,8 +282,10 @@ class Trajectory:
         collision geometries, their table beside it, one row per contact point
         (ContactTable.to_csv, at contacts_csv_path(path)). A column name that holds a comma, a
         double quote or a line break (a joint's, a point's) is quoted (csv_field).
-        Written atomically, like `save`. Returns the path."""
+        Written atomically, like `save`; a name too long or a folder in the place of either
+        file is refused before either is written. Returns the path."""
         path = pathlib.Path(path)
+        _check_writable([path] if self.contacts is None else [path, contacts_csv_path(path)])
         header = ["t", *(f"q_{n}" for n in self.q_names), *(f"qd_{n}" for n in self.v_names)]
         header += [*(f"tau_{n}" for n in self.v_names), "kinetic", "potential"]
         header += ["work_applied", "work_passive"]
