@@ -1,12 +1,14 @@
 """`--csv run.csv` writes more files than the one it names: with contacts between collision
-geometries their table beside it (run.contacts.csv), checked before the run as the named one
-is: against the run's inputs, the other outputs, and what the file system allows. Inside them,
-a name (an object's, a joint's) that holds a comma or a quote stays one field, and a scene
-refuses an empty one."""
+geometries their table beside it (run.contacts.csv), and for a run that stopped early
+run-partial.csv (and run-partial.contacts.csv) instead, never over a complete run's. Each of
+those files is checked before the run as the named one is: against the run's inputs, the other
+outputs, and what the file system allows. Inside them, a name (an object's, a joint's) that
+holds a comma or a quote stays one field, and a scene refuses an empty one."""
 
 from __future__ import annotations
 
 import csv
+import dataclasses
 import importlib
 import os
 import shutil
@@ -81,7 +83,9 @@ def crate_scene(folder, named):
     [(("scene", "run.contacts.csv"), "the scene file"),
      (("robot", "run.contacts.csv"), "the robot's URDF"),
      (("srdf", "run.contacts.csv"), "a file the scene names"),
-     (("crate", "run.contacts.csv"), "a file the scene names")],
+     (("crate", "run.contacts.csv"), "a file the scene names"),
+     (("crate", "run-partial.contacts.csv"), "a file the scene names"),
+     (("crate", "run-partial.csv"), "a file the scene names")],
 )  # fmt: skip
 def test_a_file_that_csv_writes_beside_its_own_is_refused_where_it_is_an_input(
     named, what, tmp_path, monkeypatch, capsys, not_run
@@ -97,19 +101,25 @@ def test_a_file_that_csv_writes_beside_its_own_is_refused_where_it_is_an_input(
     assert files_in(tmp_path) == before
 
 
-def test_two_outputs_on_one_file_through_csv_s_contact_table_are_refused(
-    tmp_path, monkeypatch, capsys, not_run
+@pytest.mark.parametrize(
+    "args, problem",
+    [(["--html", "run.contacts.csv", "--csv", "run.csv"],
+      "--csv 'run.csv': run.contacts.csv: is also the file of --html 'run.contacts.csv'"),
+     (["--csv", "run.csv", "--html", "run-partial.csv"],
+      "--html 'run-partial.csv': is also the file run-partial.csv of --csv 'run.csv'"),
+     (["--html", "run-partial.contacts.csv", "--csv", "run.csv"],
+      ("--csv 'run.csv': run-partial.contacts.csv: is also the file of --html "
+       "'run-partial.contacts.csv'"))],
+)  # fmt: skip
+def test_two_outputs_on_one_file_through_csv_s_other_files_are_refused(
+    args, problem, tmp_path, monkeypatch, capsys, not_run
 ):
     """--html run.contacts.csv --csv run.csv wrote the page and the table one over the other,
     and reported both as written."""
     monkeypatch.chdir(tmp_path)
-    args = ["--html", "run.contacts.csv", "--csv", "run.csv"]
     assert main(["simulate", "box_on_table", "--no-save", *args]) == 2
     err = capsys.readouterr().err
-    assert err == (
-        "opendyn simulate: --csv 'run.csv': run.contacts.csv: is also the file of --html "
-        "'run.contacts.csv'\n"
-    )
+    assert err == f"opendyn simulate: {problem}\n"
     assert files_in(tmp_path) == {}
 
 
@@ -124,7 +134,7 @@ def test_csv_s_contact_table_that_cannot_be_written_is_refused_before_the_run(
     err = capsys.readouterr().err
     assert err == "opendyn simulate: --csv 'run.csv': run.contacts.csv: is a folder, not a file\n"
     most = os.pathconf(tmp_path, "PC_NAME_MAX")
-    stem = "c" * (most - 12)  # STEM.csv fits; STEM.contacts.csv does not
+    stem = "c" * (most - 12)  # STEM.csv and STEM-partial.csv fit; STEM.contacts.csv does not
     assert main(["simulate", "box_on_table", "--no-save", "--csv", f"{stem}.csv"]) == 2
     err = capsys.readouterr().err
     assert f"{stem}.contacts.csv: its name is {most + 1} bytes, longer than the {most}" in err
@@ -147,6 +157,43 @@ def test_a_contact_table_that_fails_after_the_run_is_named_and_nothing_is_writte
     err = capsys.readouterr().err
     assert "could not write --csv 'run.csv': run.contacts.csv: is a folder, not a file" in err, err
     assert sorted(files_in(tmp_path)) == ["run.json", "run.npz"]
+
+
+# -- a run that stopped early writes its CSV files under partial names ------------------------
+
+
+def test_a_run_that_stops_early_writes_its_csv_files_beside_a_complete_run_s(
+    tmp_path, monkeypatch, capsys
+):
+    """The record went to SCENE-partial.npz, but the CSVs replaced the complete run's."""
+    monkeypatch.chdir(tmp_path)
+    complete = {"run.csv": b"a complete run\n", "run.contacts.csv": b"its contacts\n"}
+    for name, content in complete.items():
+        (tmp_path / name).write_bytes(content)
+    stopped = []
+
+    def then_stopped(traj):
+        stopped.append(dataclasses.replace(traj, complete=False, message="stopped"))
+        return stopped[0]
+
+    after_the_run(monkeypatch, then_stopped)
+    assert main(["simulate", "box_on_table", *SHORT, "--csv", "run.csv"]) == 1
+    out = capsys.readouterr().out
+    assert "wrote run-partial.csv\nwrote run-partial.contacts.csv\n" in out
+    files = files_in(tmp_path)
+    assert set(files) == {
+        "box_on_table-partial.json",
+        "box_on_table-partial.npz",
+        "run-partial.contacts.csv",
+        "run-partial.csv",
+        *complete,
+    }
+    assert {name: files[name] for name in complete} == complete
+    traj = stopped[0]
+    rows = np.loadtxt(tmp_path / "run-partial.csv", delimiter=",", skiprows=1)
+    np.testing.assert_array_equal(rows[:, 0], traj.t)
+    table = rows_of(tmp_path / "run-partial.contacts.csv")
+    assert len(traj.contacts) > 0 and len(table) == 1 + len(traj.contacts)
 
 
 # -- names in CSV files -----------------------------------------------------------------------

@@ -130,7 +130,7 @@ def command_line() -> argparse.ArgumentParser:
     sim.add_argument(
         "--csv",
         help="trajectory as CSV, with contacts between collision geometries their table beside "
-        "it (run.csv: run.contacts.csv)",
+        "it (run.csv: run.contacts.csv); run-partial.csv for a run that stopped early",
     )
     sim.add_argument("--plot", help="PNG of joint positions, velocities and energy")
     sim.add_argument("--html", help="self-contained meshcat playback page (extra viz)")
