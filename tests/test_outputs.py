@@ -149,7 +149,7 @@ def test_every_name_the_file_system_allows_is_written(tmp_path, monkeypatch, cap
     because the temporary file written beside it took a longer name."""
     monkeypatch.chdir(tmp_path)
     most = os.pathconf(tmp_path, "PC_NAME_MAX")
-    long_csv = "a" * (most - 4) + ".csv"  # exactly the limit
+    long_csv = "a" * (most - 12) + ".csv"  # as NAME-partial.csv (a stopped run's): the limit
     long_npz = "é" * ((most - 5) // 2) + ".npz"  # its .json is the limit, or one byte under
     names = ["with space.npz", 'quo"te\'s.npz', "new\nline.npz", "a:b*c?<>|.npz", "-dash.npz",
              "no-suffix", "ünïcødé 机器人.npz", ".hidden.npz", long_npz]
@@ -173,6 +173,9 @@ def test_a_name_longer_than_the_file_system_allows_is_refused_before_the_run(
         (["-o", "b" * (most - 4) + ".npz"],
          f"{'b' * (most - 4)}.json: its name is {most + 1} bytes"),
         (["--plot", "é" * (most // 2) + ".png"], f"its name is {most // 2 * 2 + 4} bytes"),
+        # the name fits; the one a run that stops early writes does not
+        (["--csv", "d" * (most - 4) + ".csv"],
+         f"{'d' * (most - 4)}-partial.csv: its name is {most + 8} bytes"),
     ]
     for args, problem in cases:
         assert main(["simulate", *args]) == 2

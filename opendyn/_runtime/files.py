@@ -1,9 +1,11 @@
-"""Files written whole or not at all."""
+"""Files written whole or not at all, the checks before writing one, and CSV fields."""
 
 from __future__ import annotations
 
 import contextlib
+import csv
 import errno
+import io
 import os
 import pathlib
 import secrets
@@ -105,6 +107,17 @@ def name_too_long(path):
     if size > most:
         return f"its name is {size} bytes, longer than the {most} this file system allows"
     return None
+
+
+def csv_field(text) -> str:
+    """`text` (a name) as one field of a CSV line, as the csv module writes it (RFC 4180): in
+    double quotes, its own doubled, where it holds a comma, a double quote or a line break (a
+    name "box,1" stays one field); else as it is (an empty one as "")."""
+    line = io.StringIO()
+    # ended by \r\n, so that a carriage return in `text` is quoted too (the csv module quotes
+    # the characters of its line ending); the line's own ending is cut off
+    csv.writer(line, lineterminator="\r\n").writerow([text])
+    return line.getvalue()[:-2]
 
 
 # the first bytes of the files a user may hand opendyn by mistake, and what they are

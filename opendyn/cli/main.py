@@ -127,7 +127,11 @@ def command_line() -> argparse.ArgumentParser:
         "(SCENE-partial.npz for a run that stopped early)",
     )
     save.add_argument("--no-save", action="store_true", help="save no trajectory file")
-    sim.add_argument("--csv", help="trajectory as CSV")
+    sim.add_argument(
+        "--csv",
+        help="trajectory as CSV, with contacts between collision geometries their table beside "
+        "it (run.csv: run.contacts.csv); run-partial.csv for a run that stopped early",
+    )
     sim.add_argument("--plot", help="PNG of joint positions, velocities and energy")
     sim.add_argument("--html", help="self-contained meshcat playback page (extra viz)")
     sim.add_argument("--view", action="store_true", help="play in the meshcat viewer (extra viz)")

@@ -5,7 +5,9 @@ after it with what failed said, and a fallback file for a trajectory that would 
 `opendyn simulate` saves the trajectory by default: SCENE.npz and SCENE.json (its provenance
 record) in the current folder (SCENE the scene file's name without .toml, which is a shipped
 scene's name; SCENE-partial.npz for a run that stopped early, so that it never replaces a
-complete record), `-o` elsewhere, `--no-save` not at all.
+complete record), `-o` elsewhere, `--no-save` not at all. `--csv NAME.csv` writes NAME.csv, with
+contacts between collision geometries NAME.contacts.csv beside it; a run that stopped early
+writes them as NAME-partial.csv and NAME-partial.contacts.csv, never over a complete run's.
 """
 
 from __future__ import annotations
@@ -33,8 +35,19 @@ DEFAULT_SAVE_HINT = "-o names another file, --no-save skips saving"
 
 def _default_record(scene, complete):
     """The trajectory's file without -o: SCENE.npz in the current folder, SCENE-partial.npz for
-    a run that stopped early (so that it never replaces a complete record)."""
-    return f"{scene_stem(scene)}{'' if complete else '-partial'}.npz"
+    a run that stopped early (`_for_run`)."""
+    return _for_run(f"{scene_stem(scene)}.npz", complete)
+
+
+def _for_run(name, complete):
+    """The file of the output `name` for a run: `name` for a complete run; for a run that
+    stopped early NAME-partial.SUFFIX beside it (run.csv -> run-partial.csv), so that it never
+    replaces a complete run's."""
+    if complete:
+        return name
+    folder, base = os.path.split(name)
+    stem, suffix = os.path.splitext(base)
+    return os.path.join(folder, f"{stem}-partial{suffix}")
 
 
 def scene_stem(scene):
@@ -46,7 +59,8 @@ def scene_stem(scene):
 
 def _named_outputs(args):
     """(option, name, path) for each file the options name: -o's .npz and its .json record,
-    --csv, --plot, --html. Raises ValueError for an empty name."""
+    --csv's file for a complete run and for one that stopped early (`_for_run`), --plot,
+    --html. Raises ValueError for an empty name."""
     named = []
     for option, attr in OUTPUT_OPTIONS.items():
         name = getattr(args, attr)
@@ -56,9 +70,28 @@ def _named_outputs(args):
             raise ValueError(f"{option}: the file name is empty")
         if option == "-o" and os.path.isdir(name):
             raise ValueError(f"{option} {name}: is a folder, not a file; name the .npz to write")
-        paths = saved_paths(name) if option == "-o" else [pathlib.Path(name)]
+        if option == "-o":
+            paths = saved_paths(name)
+        elif option == "--csv":
+            paths = [pathlib.Path(_for_run(name, complete)) for complete in (True, False)]
+        else:
+            paths = [pathlib.Path(name)]
         named += [(option, name, path) for path in paths]
     return named
+
+
+def _scene_outputs(scene, args, named):
+    """(option, name, path) for each file that `scene` adds to the outputs the options name
+    (`named`): without -o and --no-save the default record, complete and partial, with its
+    .json (`_default_record`); with contacts between collision geometries, the contact table
+    beside each of --csv's files (run.csv -> run.contacts.csv, contacts_csv_path)."""
+    found = []
+    if args.output is None and not args.no_save:
+        names = [_default_record(scene, complete) for complete in (True, False)]
+        found += [(DEFAULT_SAVE, name, path) for name in names for path in saved_paths(name)]
+    if geometry_contact.record(scene) is not None:
+        found += [(o, name, contacts_csv_path(path)) for o, name, path in named if o == "--csv"]
+    return found
 
 
 def _check_outputs(outputs, others=()):
@@ -66,19 +99,20 @@ def _check_outputs(outputs, others=()):
     name, path) that cannot be written (`unwritable`), that is also the file of another
     output (of `outputs` or `others`), or, for --plot, whose format matplotlib does not write.
     Quick: nothing is loaded or run."""
-    seen = {os.path.realpath(path): (option, name) for option, name, path in others}
+    seen = {}  # real path: the first output (option, name, path) that writes it
+    for option, name, path in (*others, *outputs):
+        seen.setdefault(os.path.realpath(path), (option, name, path))
     for option, name, path in outputs:
-        real = os.path.realpath(path)
         problem = unwritable(name, path)
-        if problem is None and seen.get(real, (option, name)) != (option, name):
-            problem = "is also the file of {} {!r}".format(*seen[real])
+        other, other_name, other_path = seen[os.path.realpath(path)]
+        if problem is None and (other, other_name) != (option, name):
+            which = f" {other_path}" if other_path != pathlib.Path(other_name) else ""
+            problem = f"is also the file{which} of {other} {other_name!r}"
         if problem is None and option == "--plot":
             problem = _unplottable(path)
         if problem is not None:
-            which = f" {path}:" if path != pathlib.Path(name) else ""
             hint = f" ({DEFAULT_SAVE_HINT})" if option == DEFAULT_SAVE else ""
-            raise ValueError(f"{option} {name!r}:{which} {problem}{hint}")
-        seen.setdefault(real, (option, name))
+            raise _refused(option, name, path, problem + hint)
 
 
 def _check_not_inputs(outputs, scene, controller=None):
@@ -89,10 +123,17 @@ def _check_not_inputs(outputs, scene, controller=None):
     for option, name, path in outputs:
         what = inputs.get(os.path.realpath(path))
         if what is not None:
-            raise ValueError(
-                f"{option} {name!r}: is {what}, an input of this run; writing the output there "
-                "would replace it: name another file"
+            raise _refused(
+                option, name, path, f"is {what}, an input of this run; writing the output "
+                "there would replace it: name another file"
             )
+
+
+def _refused(option, name, path, problem):
+    """The ValueError that refuses an output before the run: its option, the name given, the
+    file where it is another (-o's .json, --csv's contact table or partial file), and why."""
+    which = f" {path}:" if path != pathlib.Path(name) else ""
+    return ValueError(f"{option} {name!r}:{which} {problem}")
 
 
 def _inputs(scene, controller):
@@ -169,6 +210,9 @@ def _write(option, name, write) -> bool:
         reason = e.strerror if isinstance(e, OSError) and e.strerror else e
         if isinstance(e, MemoryError):
             reason = f"out of memory ({e})" if str(e) else "out of memory"
+        where = getattr(e, "filename", None)
+        if where and os.path.basename(where) != os.path.basename(name):
+            reason = f"{where}: {reason}"  # another of the output's files than the one named
         print(f"opendyn simulate: could not write {option} {name!r}: {reason}", file=sys.stderr)
         return False
     for path in paths:
@@ -235,9 +279,8 @@ def _slug(name):
     return "".join(c if c.isalnum() or c in "-_" else "_" for c in name).strip("_") or "scene"
 
 
-def _write_csv(traj, path) -> list:
-    """The trajectory's CSV, and its contact table's beside it when it has one."""
-    written = [traj.to_csv(path)]
-    if traj.contacts is not None:
-        written.append(contacts_csv_path(path))
-    return written
+def _write_csv(traj, name) -> list:
+    """The trajectory's CSV at `name`, or for a run that stopped early at NAME-partial.csv
+    (`_for_run`), and its contact table's beside it when it has one: the paths written."""
+    path = traj.to_csv(_for_run(name, traj.complete))
+    return [path] if traj.contacts is None else [path, contacts_csv_path(path)]

@@ -25,16 +25,14 @@ from ..io.urdf import load_urdf
 from ..sim.effects import registry
 from ..sim.integrators import INTEGRATORS
 from ..sim.scene import thaw
-from ..sim.trajectory import saved_paths
 from .interrupts import _doing
 from .outputs import (
-    DEFAULT_SAVE,
     _check_not_inputs,
     _check_outputs,
     _contact,
-    _default_record,
     _named_outputs,
     _save_record,
+    _scene_outputs,
     _write_outputs,
 )
 
@@ -113,12 +111,9 @@ def _simulate(args) -> int:
             controller = load_controller(args.controller, "--controller")
         elif args.control_dt is not None:
             raise SceneError("--control-dt: give --controller FILE.py:FUNCTION with it")
-    if args.output is None and not args.no_save:
-        defaults = [_default_record(scene, complete) for complete in (True, False)]
-        defaults = [(DEFAULT_SAVE, name, path) for name in defaults for path in saved_paths(name)]
-        _check_outputs(defaults, named)
-        named += defaults
-    _check_not_inputs(named, scene, args.controller)
+    derived = _scene_outputs(scene, args, named)
+    _check_outputs(derived, named)
+    _check_not_inputs(named + derived, scene, args.controller)
     if not args.quiet:
         print(_scene_header(scene))
     with _doing("getting the compiled step ready; the run had not started"):

@@ -22,7 +22,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .._runtime.files import atomic_write
+from .._runtime.files import atomic_write, csv_field
 from ..algorithm.contact_extremes import (
     DEEPEST,
     DEEPEST_PAIR,
@@ -159,9 +159,11 @@ class ContactTable:
 
     def to_csv(self, path, t=None) -> pathlib.Path:
         """One row per contact point (columns: sample, t when given, pair, a, b, x, y, z, nx,
-        ny, nz, fx, fy, fz, depth; SI units, world frame), written atomically."""
+        ny, nz, fx, fy, fz, depth; SI units, world frame), written atomically. A geometry's
+        name that holds a comma, a double quote or a line break is quoted (csv_field)."""
         path = pathlib.Path(path)
         values = self.columns(t)
+        values["a"], values["b"] = ([csv_field(n) for n in values[s]] for s in ("a", "b"))
         lines = [",".join(values)]
         for k in range(len(self)):
             lines.append(",".join(_cell(column[k]) for column in values.values()))

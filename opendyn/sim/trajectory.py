@@ -27,7 +27,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .._runtime.files import atomic_write, kind_of, name_too_long
+from .._runtime.files import atomic_write, csv_field, kind_of, name_too_long
 from .contacts import ContactExtremes, ContactTable
 
 _ARRAYS = ("t", "q", "qd", "tau", "kinetic", "potential", "work_applied", "work_passive")
@@ -61,6 +61,18 @@ def contacts_csv_path(path) -> pathlib.Path:
     """Where `Trajectory.to_csv(path)` writes the contact table: run.csv -> run.contacts.csv."""
     path = pathlib.Path(path)
     return path.with_name(path.stem + ".contacts.csv")
+
+
+def _check_writable(paths):
+    """OSError naming the first of `paths` (the files one save writes) whose name is longer
+    than its file system allows, or that is a folder: raised before any of them is written, so
+    that a save writes all of its files or none."""
+    for path in paths:
+        too_long = name_too_long(path)
+        if too_long is not None:
+            raise OSError(errno.ENAMETOOLONG, too_long, str(path))
+        if path.is_dir():
+            raise IsADirectoryError(errno.EISDIR, "is a folder, not a file", str(path))
 
 
 def saved_paths(path) -> tuple[pathlib.Path, pathlib.Path]:
@@ -175,10 +187,7 @@ class Trajectory:
                 str(path),
             )
         path, json_path = saved_paths(path)
-        for file in (path, json_path):  # both, or neither: checked before either is written
-            too_long = name_too_long(file)
-            if too_long is not None:
-                raise OSError(errno.ENAMETOOLONG, too_long, str(file))
+        _check_writable((path, json_path))
         record = self.record()
         arrays = {name: getattr(self, name) for name in _ARRAYS + _VIOLATION}
         if self.has_contact:
@@ -280,9 +289,12 @@ class Trajectory:
         world frame, and with contact, for each contact point, fx_<point>, fy_<point>,
         fz_<point> (N, world frame) and penetration_<point> (m). With contacts between
         collision geometries, their table beside it, one row per contact point
-        (ContactTable.to_csv, at contacts_csv_path(path)).
-        Written atomically, like `save`. Returns the path."""
+        (ContactTable.to_csv, at contacts_csv_path(path)). A column name that holds a comma, a
+        double quote or a line break (a joint's, a point's) is quoted (csv_field).
+        Written atomically, like `save`; a name too long or a folder in the place of either
+        file is refused before either is written. Returns the path."""
         path = pathlib.Path(path)
+        _check_writable([path] if self.contacts is None else [path, contacts_csv_path(path)])
         header = ["t", *(f"q_{n}" for n in self.q_names), *(f"qd_{n}" for n in self.v_names)]
         header += [*(f"tau_{n}" for n in self.v_names), "kinetic", "potential"]
         header += ["work_applied", "work_passive"]
@@ -298,8 +310,9 @@ class Trajectory:
             header += [f"fx_{name}", f"fy_{name}", f"fz_{name}", f"penetration_{name}"]
             columns += [self.contact_force[:, p], self.penetration[:, p]]
         table = np.column_stack(columns)
+        line = ",".join(csv_field(name) for name in header)
         with atomic_write(path) as f:
-            np.savetxt(f, table, delimiter=",", header=",".join(header), comments="", fmt="%.17g")
+            np.savetxt(f, table, delimiter=",", header=line, comments="", fmt="%.17g")
         if self.contacts is not None:
             self.contacts.to_csv(contacts_csv_path(path), self.t)
         return path

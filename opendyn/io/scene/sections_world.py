@@ -134,6 +134,8 @@ class WorldSection(ValueReader):
         if "name" not in table:
             self.fail(f"{where}.name", "missing: every entry needs a name")
         name = self.string(table["name"], f"{where}.name")
+        if not name.strip():
+            self.fail(f"{where}.name", f"{name!r} is empty: every entry needs a name")
         if name in taken:
             what = "a reserved name" if name in RESERVED else "already a frame of the scene"
             self.fail(f"{where}.name", f"{name!r} is {what}; give the entry a name of its own")
