@@ -173,6 +173,32 @@ def test_a_contact_with_only_unread_meshes_to_touch_names_them(tmp_path, as_obje
     assert "give the robot <collision> elements" not in text
 
 
+def test_a_contact_whose_objects_urdf_has_no_collision_names_the_object(tmp_path):
+    """The scene's only object is a URDF without <collision>: the message names it, not the
+    robot's geometry."""
+    urdf = str(one_body(tmp_path, ""))
+    data = {"objects": [{"name": "thing", "urdf": urdf}], "effects": {"contact": GEOMETRY_CONTACT}}
+    with pytest.raises(od.SceneError) as e:
+        od.scene_from_dict(data)
+    text = str(e.value)
+    assert "nothing can touch" in text and "the object 'thing'" in text
+    assert "without <collision> elements" in text and "give the robot" not in text
+
+
+def test_a_contact_whose_pairs_are_all_disabled_names_them(tmp_path):
+    """Every pair the box could touch (the ground, the table) disabled: the message names the
+    [[effects.contact.pairs]] entries that take them out, not the geometry."""
+    off = [{"a": "box", "b": "ground", "enabled": False},
+           {"a": "box", "b": "table", "enabled": False}]
+    data = {**OBJECTS, "effects": {"contact": {**GEOMETRY_CONTACT, "pairs": off}}}
+    with pytest.raises(od.SceneError) as e:
+        od.scene_from_dict(data)
+    text = str(e.value)
+    assert "nothing can touch" in text and "enabled = false" in text
+    assert "pairs[0] (a = 'box', b = 'ground')" in text
+    assert "pairs[1] (a = 'box', b = 'table')" in text and "<collision>" not in text
+
+
 # --- <mesh scale> and <geometry> -------------------------------------------------------------
 
 
