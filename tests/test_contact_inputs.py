@@ -173,6 +173,32 @@ def test_a_contact_with_only_unread_meshes_to_touch_names_them(tmp_path, as_obje
     assert "give the robot <collision> elements" not in text
 
 
+def test_a_contact_whose_objects_urdf_has_no_collision_names_the_object(tmp_path):
+    """The scene's only object is a URDF without <collision>: the message names it, not the
+    robot's geometry."""
+    urdf = str(one_body(tmp_path, ""))
+    data = {"objects": [{"name": "thing", "urdf": urdf}], "effects": {"contact": GEOMETRY_CONTACT}}
+    with pytest.raises(od.SceneError) as e:
+        od.scene_from_dict(data)
+    text = str(e.value)
+    assert "nothing can touch" in text and "the object 'thing'" in text
+    assert "without <collision> elements" in text and "give the robot" not in text
+
+
+def test_a_contact_whose_pairs_are_all_disabled_names_them(tmp_path):
+    """Every pair the box could touch (the ground, the table) disabled: the message names the
+    [[effects.contact.pairs]] entries that take them out, not the geometry."""
+    off = [{"a": "box", "b": "ground", "enabled": False},
+           {"a": "box", "b": "table", "enabled": False}]
+    data = {**OBJECTS, "effects": {"contact": {**GEOMETRY_CONTACT, "pairs": off}}}
+    with pytest.raises(od.SceneError) as e:
+        od.scene_from_dict(data)
+    text = str(e.value)
+    assert "nothing can touch" in text and "enabled = false" in text
+    assert "pairs[0] (a = 'box', b = 'ground')" in text
+    assert "pairs[1] (a = 'box', b = 'table')" in text and "<collision>" not in text
+
+
 # --- <mesh scale> and <geometry> -------------------------------------------------------------
 
 
@@ -191,6 +217,68 @@ def test_a_mesh_scale_of_zero_or_not_finite_is_refused_and_a_negative_one_mirror
     mesh = next(g for g in model.geometries if g.shape == "mesh")
     assert mesh.size == (1.0, -2.0, 1.0)
     np.testing.assert_allclose(np.ptp(mesh.vertices, axis=0), [1, 2, 1])
+
+
+def test_a_mesh_scale_of_four_factors_is_read_by_its_first_three_with_a_warning(tmp_path):
+    """pybullet_data's racecar gives its meshes four factors."""
+    stl(tmp_path, trimesh.creation.box(extents=(1, 1, 1)), "cube.stl")
+    path = arm(tmp_path, mesh_collision("cube.stl", "2 1 1 1"))
+    with pytest.warns(od.URDFWarning) as caught:
+        model = od.load_urdf(path)
+    (text,) = messages(caught, od.URDFWarning)
+    assert str(path) in text and '<link name="arm">' in text and "scale='2 1 1 1'" in text
+    assert "the first three are used" in text
+    assert next(g for g in model.geometries if g.shape == "mesh").size == (2.0, 1.0, 1.0)
+
+
+@pytest.mark.parametrize(
+    "element, words",
+    [
+        ('<collision><geometry><mesh filename="cube.stl" scale="a b c"/></geometry></collision>',
+         "<collision> <mesh> (line 6): scale='a b c' holds what is not a number"),
+        ('<visual><geometry><mesh filename="cube.stl" scale="a b c"/></geometry></visual>',
+         "<visual> <mesh> (line 6): scale='a b c'"),
+        ('<collision><geometry><cylinder length="1"/></geometry></collision>',
+         "<collision> <cylinder> (line 6): no radius: a <cylinder> needs radius and length"),
+        ('<visual><geometry><box/></geometry></visual>', "<visual> <box> (line 6): no size"),
+    ],
+)
+def test_a_shape_without_its_numbers_is_refused_naming_the_link_and_element(
+    tmp_path, element, words
+):
+    path = arm(tmp_path, element)
+    with pytest.raises(od.URDFError) as e:
+        od.load_urdf(path)
+    text = str(e.value)
+    assert f'{path}: <link name="arm"> {words}' in text and "could not parse" not in text
+
+
+@pytest.mark.parametrize(
+    "name, content",
+    [("corrupt.stl", b"solid x\nfacet normal garbage\n" + b"\x00\x01" * 40),
+     ("truncated.stl", b"\x00" * 80 + b"\x05\x00\x00\x00" + b"\x01" * 20),
+     ("points.obj", b"v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\n")],
+)
+def test_a_mesh_without_triangles_says_so_not_that_it_has_no_vertices(tmp_path, name, content):
+    (tmp_path / name).write_bytes(content)
+    with pytest.warns(od.URDFWarning) as caught:
+        od.load_urdf(arm(tmp_path, mesh_collision(name)))
+    (text,) = messages(caught, od.URDFWarning)
+    assert name in text and "no triangles could be read" in text and "no vertices" not in text
+
+
+def test_a_folder_given_as_a_mesh_an_srdf_or_a_world_mesh_is_named_a_folder(tmp_path):
+    (tmp_path / "meshes.stl").mkdir()
+    with pytest.warns(od.URDFWarning) as caught:
+        od.load_urdf(arm(tmp_path, mesh_collision("meshes.stl")))
+    (text,) = messages(caught, od.URDFWarning)
+    assert "is the folder" in text and "not found" not in text
+    with pytest.raises(od.URDFError, match="is a folder, not an SRDF file"):
+        od.load_urdf(arm(tmp_path), srdf=tmp_path / "meshes.stl")
+    world = {"name": "w", "shape": "mesh", "mesh": str(tmp_path / "meshes.stl"), "size": [1] * 3}
+    with pytest.raises(od.SceneError) as e:
+        od.scene_from_dict({**OBJECTS, "world": [world], "effects": {"contact": GEOMETRY_CONTACT}})
+    assert "world[0].mesh" in str(e.value) and "is a folder, not a mesh file" in str(e.value)
 
 
 def test_a_geometry_of_two_shapes_is_read_by_its_first_as_pinocchio_reads_it(tmp_path):

@@ -184,6 +184,17 @@ def test_a_data_of_another_model_is_refused_naming_it(robot):
         od.mass_matrix(robot, q, data={"M": None})
 
 
+def test_a_data_of_another_load_of_the_same_robot_is_refused_saying_so():
+    """Two loads of one URDF are two models of the same name and size: the message says the
+    data is another load's, not "made for 'double_pendulum', not for 'double_pendulum'"."""
+    model, again = od.load_urdf("double_pendulum"), od.load_urdf("double_pendulum")
+    with pytest.raises(ValueError) as e:
+        od.mass_matrix(model, od.neutral(model), data=again.data())
+    text = str(e.value)
+    assert "another load of 'double_pendulum'" in text and "model.data()" in text
+    assert "not for this model" not in text
+
+
 def test_data_with_a_batch_is_refused(robot):
     q = np.array([od.neutral(robot)] * 3)
     with pytest.raises(ValueError, match="data= works for a single state"):

@@ -550,3 +550,23 @@ def test_a_record_changed_after_it_was_saved_is_refused_naming_the_array(tmp_pat
                        r"\(2, 1\) fits the record \(2 samples, 1 coordinates q, 1 velocities\): "
                        r"the file was changed after opendyn saved it"):
         od.Trajectory.load(tmp_path / "changed.npz")
+
+
+def test_a_contact_table_with_too_few_times_is_refused_naming_both_lengths(tmp_path):
+    """Rows of samples 0 and 2 need three times: two are a ValueError naming t's length and
+    the samples', not numpy's IndexError, and nothing is written."""
+    from opendyn.sim.contacts import ContactTable
+
+    table = ContactTable(
+        sample=np.array([0, 2]), pair=np.array([0, 0]), point=np.zeros((2, 3)),
+        normal=np.zeros((2, 3)), force=np.zeros((2, 3)), depth=np.ones(2),
+        pair_names=(("a", "ground"),),
+    )
+    for t in ([0.0, 0.1], np.zeros((3, 1))):
+        with pytest.raises(ValueError) as e:
+            table.to_csv(tmp_path / "c.csv", t=t)
+        text = str(e.value)
+        assert "t of shape" in text and "for the table's 3 samples" in text
+        assert not (tmp_path / "c.csv").exists()
+    written = table.to_csv(tmp_path / "c.csv", t=[0.0, 0.1, 0.2]).read_text().splitlines()
+    assert [line.split(",")[1] for line in written[1:]] == ["0.0", "0.2"]

@@ -122,6 +122,24 @@ def test_params_set_each_runs_keys_as_a_scene_file_would():
     assert not np.array_equal(result.q_final[0], result.q_final[2])  # each its own payload
 
 
+@pytest.mark.parametrize(
+    "key, entry",
+    [("objects.0.velocity.0", "objects.0.velocity"),
+     ("effects.contact.pairs.0.a", "effects.contact.pairs")],
+)
+def test_an_index_into_an_entry_the_scene_does_not_give_says_it_is_absent(key, entry):
+    """Not "expected a list of 3 numbers, found {'0': 0.0}" nor "pairs[0].0: unknown key": the
+    entry is absent, and the message says how to give it."""
+    box = {"name": "box", "shape": "box", "size": [0.1, 0.1, 0.1], "mass": 1.0}
+    contact = {"geometry": "collision", "stiffness": 1e4, "friction": 0.5}
+    scene = od.scene_from_dict({"objects": [box], "effects": {"contact": contact}})
+    with pytest.raises(SceneError) as e:
+        Variants.of(scene).scene_for({key: 0.0})
+    text = str(e.value)
+    assert f"{key}: the scene gives no {entry}, so it has no entry 0" in text
+    assert f"set the whole {entry}" in text and f"add {entry} to the scene file" in text
+
+
 def test_final_keeps_the_last_states_of_samples_and_threads_change_nothing():
     scene = pendulum(duration=0.5)
     q0, qd0 = starts(scene, 12, seed=1)

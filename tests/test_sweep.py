@@ -129,6 +129,8 @@ def test_a_distribution_needs_samples():
         ({"run.integrator": "rk4,rk5"}, "'rk5' is not one of"),
         ({"run.dt": "0.001,0.003"}, "run.output_dt"),
         ({"run.duration.x": "1"}, "run.duration is 0.5 in the scene, not a table"),
+        ({"effects.contact.pairs.0.friction": "0.1"},
+         "the scene gives no effects.contact.pairs, so it has no entry 0"),
     ],
 )
 def test_a_bad_key_or_value_is_refused_before_anything_runs(vary, words, tmp_path):

@@ -66,6 +66,12 @@ def work_of(model, data, what):
             f"{what}: data must be an opendyn Data (od.Data(model) or model.data()), got "
             f"{type(data).__name__} {short_repr(data)}"
         )
+    if data.model.name == model.name and data.model.nv == model.nv:
+        raise ValueError(
+            f"{what}: data was made by another load of {model.name!r} (another Model object, "
+            f"from another load_urdf or scene), not by this model: a Data holds its own "
+            f"model's buffers; use this model's data() (model.data())"
+        )
     raise ValueError(
         f"{what}: data was made for model {data.model.name!r} (nv={data.model.nv}), not "
         f"for this model {model.name!r} (nv={model.nv}); make one with model.data()"

@@ -156,7 +156,10 @@ def _file_mesh(path, mtime_ns, size):
     """The checked vertices and faces of a mesh file, read once per (path, mtime, size)."""
     vertices, faces = _vertices_and_faces(path)
     if len(vertices) == 0:
-        raise MeshError(f"{path}: the mesh has no vertices")
+        raise MeshError(
+            f"{path}: no triangles could be read from it: the file is empty, truncated or "
+            "corrupt, or (an OBJ) gives vertices but no faces; export the mesh again with its faces"
+        )
     if not np.all(np.isfinite(vertices)):
         raise MeshError(f"{path}: the mesh has non-finite vertices")
     return _read_only(vertices), _read_only(faces)

@@ -36,6 +36,8 @@ def disabled_link_pairs(path, link_names, report) -> frozenset:
     <disable_collisions> without link1 or link2.
     """
     path = os.fspath(path)
+    if os.path.isdir(path):
+        raise URDFError(f"{path}: is a folder, not an SRDF file: name the .srdf file in it")
     if not os.path.isfile(path):
         raise URDFError(f"{path}: the SRDF file does not exist")
     try:

@@ -20,7 +20,8 @@ mesh far from convex (opendyn.io.concavity) is a line of the report's "transform
 report.hollow_meshes, and a SceneWarning of every scene whose contact uses the collision
 geometry (a model for its dynamics alone is not held up by its meshes' shapes). A <geometry> of two shapes or more is read as urdfdom, Pinocchio and yourdfpy read
 it, by its first shape, with a URDFWarning naming the others. A <mesh scale> must be three
-non-zero finite numbers, or one for all three axes (a negative one mirrors the mesh). The report
+non-zero finite numbers, or one for all three axes (a negative one mirrors the mesh); of four
+(pybullet_data's racecar) the first three are read, with a URDFWarning. The report
 counts the geometries by shape, loaded and not.
 """
 
@@ -74,7 +75,7 @@ def read_geometries(file, root, report) -> tuple[Geometry, ...]:
                 geometries.append(Geometry(name, link.get("name"), shape, size, placement))
                 loaded[shape] += 1
                 continue
-            scale = _scale(file, label, shape_el)
+            scale = _scale(file, label, shape_el, report)
             try:
                 path, vertices = _mesh(urdf_dir, shape_el, scale)
                 hollow = gross_hollow(path, scale)
@@ -133,12 +134,13 @@ def _size(file, el) -> tuple[float, ...]:
     return tuple(size)
 
 
-def _scale(file, label, el) -> tuple[float, float, float]:
+def _scale(file, label, el, report) -> tuple[float, float, float]:
     """The scale of a <mesh> element (of the <collision> `label` names): three numbers, or one
-    for all three axes; (1, 1, 1) when absent. Raises URDFError naming the file, the link and
-    the value for anything else: a factor that is not a number, is not finite, or is 0 (it
-    flattens the mesh). A negative factor mirrors the mesh, as URDFs of left and right limbs
-    use it."""
+    for all three axes; (1, 1, 1) when absent. Four numbers (pybullet_data's racecar) are read
+    by their first three, with a URDFWarning (`report`). Raises
+    URDFError naming the file, the link and the value for anything else: a factor that is not a
+    number, is not finite, or is 0 (it flattens the mesh). A negative factor mirrors the mesh,
+    as URDFs of left and right limbs use it."""
     text = el.get("scale")
     if text is None:
         return (1.0, 1.0, 1.0)
@@ -146,6 +148,14 @@ def _scale(file, label, el) -> tuple[float, float, float]:
         factors = [float(v) for v in text.split()]
     except ValueError:
         factors = []
+    if len(factors) == 4:
+        report.warn(
+            "transformed",
+            f"{label} <mesh filename=\"{el.get('filename')}\"> (line {el.sourceline}): "
+            f"scale={text!r} has 4 factors where the URDF spec has 3; the first three are used "
+            f"and the fourth is ignored",
+        )
+        factors = factors[:3]
     if len(factors) in (1, 3) and all(math.isfinite(v) and v != 0.0 for v in factors):
         return tuple(factors * (3 // len(factors)))
     raise URDFError(
@@ -162,6 +172,9 @@ def _mesh(urdf_dir, el, scale):
     if not filename:
         raise MeshError("a <mesh> without a filename")
     path, tried = resolve_mesh(filename, urdf_dir)
+    folder = tried and not filename.startswith("package://") and os.path.isdir(tried[0])
+    if path is None and folder:
+        raise MeshError(f"mesh {filename!r} is the folder {tried[0]}, not a mesh file")
     if path is None:
         looked = f" (looked in: {', '.join(tried[:4])}{', ...' if len(tried) > 4 else ''})"
         raise MeshError(f"mesh file {filename!r} not found" + (looked if tried else ""))

@@ -79,6 +79,7 @@ def read_urdf(file, report: FidelityReport | None = None):
     root = _parse_xml(file, report)
     _drop_unknown_geometry(root, report)
     _check_numbers(file, root)
+    _check_shapes(file, root)
     return root, _parse_yourdfpy(file, root).robot
 
 
@@ -194,6 +195,44 @@ def _check_numbers(file, root) -> None:
                     check_values(file, el, attr, text, count)
             if el.tag in ("mass", "inertia") and el.getparent().tag == "inertial" and not el.attrib:
                 raise URDFError(f"{file}: {where(el)}: <{el.tag}> has no values")
+
+
+_SHAPES = {  # a <visual> or <collision> shape -> the attributes that yourdfpy reads as numbers
+    "box": ("size",),
+    "cylinder": ("radius", "length"),
+    "sphere": ("radius",),
+    "mesh": (),
+}
+
+
+def _check_shapes(file, root) -> None:
+    """Every <visual> and <collision> shape that yourdfpy reads has its sizes, and they and a
+    <mesh scale> are numbers (m; the scale's factors): yourdfpy's own error would name neither
+    the link nor the element. Counts and values are checked where the geometry is used
+    (opendyn.io.urdf_collision)."""
+    for link in root.iterchildren("link"):
+        for outer in link.iterchildren("visual", "collision"):
+            shape = outer.find("geometry")[0]
+            if shape.tag not in _SHAPES:
+                continue  # Pinocchio's <capsule>: yourdfpy does not read it
+            label = f'<link name="{link.get("name")}"> <{outer.tag}> <{shape.tag}>'
+            for attr in _SHAPES[shape.tag]:
+                if shape.get(attr) is None:
+                    needs = " and ".join(_SHAPES[shape.tag])
+                    raise URDFError(
+                        f"{file}: {label} (line {shape.sourceline}): no {attr}: a "
+                        f"<{shape.tag}> needs {needs} (m)"
+                    )
+            for attr in (*_SHAPES[shape.tag], "scale"):
+                text = shape.get(attr)
+                try:
+                    for word in (text or "").replace(",", " ").split():
+                        float(word)
+                except ValueError:
+                    raise URDFError(
+                        f"{file}: {label} (line {shape.sourceline}): {attr}={text!r} holds "
+                        f"what is not a number"
+                    ) from None
 
 
 def _gives_contact_spheres(el) -> bool:

@@ -149,13 +149,26 @@ class ContactTable:
         times t (K,) are given."""
         values = {"sample": self.sample}
         if t is not None:
-            values["t"] = np.asarray(t)[self.sample]
+            values["t"] = self._times(t)[self.sample]
         values.update(pair=self.pair, a=self.a, b=self.b)
         for name, array in (("", self.point), ("n", self.normal), ("f", self.force)):
             for r, axis in enumerate("xyz"):
                 values[f"{name}{axis}"] = array[:, r]
         values["depth"] = self.depth
         return values
+
+    def _times(self, t) -> np.ndarray:
+        """t (K,) s, the samples' times, checked: one per sample the rows name. ValueError
+        naming t's length and the samples' otherwise."""
+        times = np.asarray(t, dtype=float)
+        samples = int(self.sample.max()) + 1 if len(self) else 0
+        if times.ndim != 1 or len(times) < samples:
+            raise ValueError(
+                f"t: expected the samples' times, one per sample (the trajectory's t); found "
+                f"t of shape {times.shape}, {times.size} times for the table's {samples} "
+                f"samples (its rows name samples 0 to {samples - 1})"
+            )
+        return times
 
     def to_csv(self, path, t=None) -> pathlib.Path:
         """One row per contact point (columns: sample, t when given, pair, a, b, x, y, z, nx,

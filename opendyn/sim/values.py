@@ -61,11 +61,13 @@ class ValueReader:
 
     def existing_file(self, value, key, kind, base_dir) -> pathlib.Path:
         """The file a string names, relative to `base_dir` (the scene's folder; None: the
-        working folder), which must exist: "no such KIND file" otherwise. It joins the files
-        read (`files`)."""
+        working folder), which must exist: "no such KIND file" otherwise ("a folder" for one).
+        It joins the files read (`files`)."""
         path = pathlib.Path(self.string(value, key))
         if not path.is_absolute() and base_dir is not None:
             path = pathlib.Path(base_dir) / path
+        if path.is_dir():
+            self.fail(key, f"{path} is a folder, not a {kind} file: name the file in it")
         if not path.is_file():
             self.fail(key, f"no such {kind} file: {path}")
         self.files.append(path)

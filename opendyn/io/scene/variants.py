@@ -73,7 +73,8 @@ class Variants:
 def _assign(settings, key, value, joints, source):
     """settings[k1][k2]...[kn] = value for key = 'k1.k2...kn', making missing tables; a joint's
     name in a per-joint list or number turns it into a table {joint: value}, an index in a list
-    picks its entry. SceneError (naming source and key) where the key does not fit the scene."""
+    picks its entry. SceneError (naming source and key) where the key does not fit the scene: an
+    index into an entry the scene does not give among them."""
 
     def fail(what):
         raise SceneError(f"{source}: {key}: {what}")
@@ -109,6 +110,13 @@ def _assign(settings, key, value, joints, source):
             return
         child = node.get(part)
         following = parts[depth + 1]
+        if child is None and following.isdigit() and following not in joints:
+            where = ".".join(parts[: depth + 1])
+            fail(
+                f"the scene gives no {where}, so it has no entry {following}: set the whole "
+                f"{where} (a list, e.g. {where} = [...]), or add {where} to the scene file to "
+                f"set its entries one by one"
+            )
         if child is None:
             child = node[part] = {}
         elif following in joints and isinstance(child, list) and len(child) == len(joints):

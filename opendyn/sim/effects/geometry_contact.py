@@ -124,13 +124,38 @@ def read(r, table) -> GeometryContact | None:
         pairs=_pair_settings(r, table.get("pairs", []), f"{key}.pairs"),
     )
     if len(pair_table(r.model, found)[1]) == 0:
-        r.fail(
-            key,
-            f'geometry = "collision": nothing can touch: {r.model.name!r} has no collision '
-            "geometry on a moving body that a pair would check; give the robot <collision> "
-            "elements or the scene [[objects]]",
-        )
+        r.fail(key, 'geometry = "collision": nothing can touch: ' + _why_untouched(r.model, found))
     return found
+
+
+def _why_untouched(model, contact) -> str:
+    """Why `contact` checks no pair: its [[effects.contact.pairs]] with enabled = false take
+    out every pair (named), or no body that moves has collision geometry (the objects whose
+    URDF has no <collision> named)."""
+    if len(pair_table(model, dataclasses.replace(contact, pairs=()))[1]):
+        off = [
+            f"pairs[{k}] (a = {s.a!r}, b = {s.b!r})"
+            for k, s in enumerate(contact.pairs) if not s.enabled
+        ]
+        return (
+            f"[[effects.contact.pairs]] with enabled = false take out every pair it would "
+            f"check: {', '.join(off)}; enable one, or remove one of these entries"
+        )
+    bare = [name for name in model.objects if not _geometries_of(model, name)]
+    if not bare:
+        return (
+            f"{model.name!r} has no collision geometry on a moving body that a pair would "
+            "check; give the robot <collision> elements or the scene [[objects]]"
+        )
+    robot = any(object_of(model, i) is None for i in range(len(model.body_names)))
+    many = len(bare) > 1
+    return (
+        f"no body that moves has collision geometry: the object{'s' * many} "
+        f"{', '.join(map(repr, bare))} (URDF{'s' * many} without <collision> elements)"
+        + (f" and the robot {model.name!r}" if robot else "")
+        + f" ha{'ve' if many or robot else 's'} none; give them <collision> elements, or add "
+        "[[objects]] of a shape"
+    )
 
 
 def _law(r, table, key, default) -> Law:
