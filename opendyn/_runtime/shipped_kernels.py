@@ -18,7 +18,7 @@ import shutil
 from numba.core.caching import IndexDataCacheFile
 from numba.core.dispatcher import Dispatcher
 
-from .kernel_cache import DIGEST, DIGEST_FILE, _ours, _twin
+from .kernel_cache import DIGEST, DIGEST_FILE, MISSING, PLAIN, _ours, _twin
 
 
 def _used_kernels():
@@ -39,7 +39,13 @@ def export_used(folder) -> tuple[int, int]:
     """Write into `folder` (made if missing) the cache entries of every kernel version this
     process has compiled or loaded, in the cache folder's layout, and the DIGEST file: a
     folder to ship as opendyn/_kernels. Returns (entries, bytes) written. A version missing
-    from the cache folder (saved nowhere) is left out."""
+    from the cache folder (saved nowhere) is left out. With PLAIN caching (numba lacks the
+    cache's internals) there is nothing to export: RuntimeError."""
+    if PLAIN:
+        raise RuntimeError(
+            "cannot export compiled kernels: this numba lacks what opendyn's kernel cache uses "
+            f"({', '.join(MISSING)})"
+        )
     folder = pathlib.Path(folder)
     entries = size = 0
     for dispatcher, signatures in _used_kernels():
