@@ -1,12 +1,15 @@
 """The kernel cache is written for one minor version of numba and reaches into its private API:
-pyproject.toml pins that minor version, and a numba that lacks one of the internals leaves the
-kernels to numba's own caching, with one warning, and they still run."""
+pyproject.toml pins that minor version; a wheel's shipped kernels record the numba that
+compiled them, and under another numba are one warning and a compile, never a silent miss; a
+numba that lacks one of the internals leaves the kernels to numba's own caching, with one
+warning, and they still run."""
 
 from __future__ import annotations
 
 import ast
 import os
 import pathlib
+import shutil
 import subprocess
 import sys
 
@@ -18,6 +21,7 @@ from packaging.version import Version
 
 import opendyn
 from opendyn._runtime import kernel_cache, numba_internals
+from opendyn._runtime.kernel_cache import DIGEST, DIGEST_FILE
 
 PACKAGE = pathlib.Path(opendyn.__file__).resolve().parent
 PYPROJECT = PACKAGE.parent / "pyproject.toml"
@@ -98,6 +102,58 @@ def test_a_changed_load_path_is_named_as_missing(monkeypatch):
     monkeypatch.setattr(Cache, "load_overload", load_overload)
     (named,) = numba_internals.missing()
     assert named.startswith("numba.core.caching.Cache.load_overload as numba 0.68 has it")
+
+
+@pytest.fixture
+def package_copy(tmp_path):
+    """A copy of the package with its robots, as installed, to ship kernels in."""
+    from opendyn.io.urdf import shipped_robots_dir
+
+    copy = tmp_path / "site" / "opendyn"
+    shutil.copytree(PACKAGE, copy, ignore=shutil.ignore_patterns("__pycache__", "*.pyc"))
+    if not (copy / "robots").is_dir():  # a checkout: robots/ lies beside the package
+        shutil.copytree(shipped_robots_dir(), copy / "robots")
+    return copy
+
+
+_EXPORT = (
+    _MASS_MATRIX
+    + "import sys\n"
+    + "from opendyn._runtime.shipped_kernels import export_used\n"
+    + "export_used(sys.argv[1])\n"
+)
+_ANOTHER_NUMBA = "opendyn: the compiled kernels shipped in"
+
+
+def test_kernels_shipped_by_another_numba_are_one_warning_and_a_compile(tmp_path, package_copy):
+    """The DIGEST file records the numba that compiled the shipped kernels. Under that numba
+    they load (nothing compiles); under another, whose cache would refuse every entry, one
+    warning names both versions, and the kernels compile and run."""
+    shipped = package_copy / "_kernels"
+    site = package_copy.parent
+    subprocess.run(  # the kernels the test ships: compiled (or loaded) in a cache of its own
+        [sys.executable, "-c", _EXPORT, str(shipped)],
+        env={**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "build"), "PYTHONPATH": str(site)},
+        cwd=tmp_path,
+        check=True,
+        capture_output=True,
+        timeout=600,
+    )
+    stamp = (shipped / DIGEST_FILE).read_text(encoding="ascii")
+    assert stamp == f"{DIGEST}\nnumba {numba.__version__}\n"
+    expected = _expected_mass_matrix()
+
+    same = _run(_MASS_MATRIX, tmp_path / "same", site, tmp_path)
+    assert np.array_equal(ast.literal_eval(same.stdout), expected)
+    assert "compiling" not in same.stderr and "Warning" not in same.stderr, same.stderr
+
+    (shipped / DIGEST_FILE).write_text(f"{DIGEST}\nnumba 0.67.0\n", encoding="ascii")
+    other = _run(_MASS_MATRIX, tmp_path / "other", site, tmp_path)
+    assert np.array_equal(ast.literal_eval(other.stdout), expected)
+    assert other.stderr.count(_ANOTHER_NUMBA) == 1, other.stderr
+    assert other.stderr.count("Warning") == 1, other.stderr
+    assert f"built with numba 0.67.0, and this is numba {numba.__version__}" in other.stderr
+    assert _COMPILING in other.stderr
 
 
 _WITHOUT = {

@@ -284,25 +284,49 @@ saves_take_turns()
 
 # A built wheel ships kernels in the package's _kernels/ (opendyn._runtime.shipped_kernels
 # writes them), a folder of this cache's layout with a file DIGEST naming the sources they were
-# compiled from. It is read-only: a kernel that misses in the cache folder is looked up there,
-# and one found is loaded from it, as numba loads any entry: checked against its source's
-# content and its compile target (portable, opendyn._runtime.kernel_target). A kernel compiled
-# later, for a signature the wheel does not carry, goes to the cache folder as before. A
-# shipped folder of other sources (left in a checkout by an older build) is not used.
+# compiled from and the numba that compiled them. It is read-only: a kernel that misses in the
+# cache folder is looked up there, and one found is loaded from it, as numba loads any entry:
+# checked against its source's content and its compile target (portable,
+# opendyn._runtime.kernel_target). A kernel compiled later, for a signature the wheel does not
+# carry, goes to the cache folder as before. A shipped folder of other sources (left in a
+# checkout by an older build) is not used; nor is one of another numba, whose every entry numba
+# would refuse, and that one says so.
 SHIPPED = _HERE / "_kernels"
-DIGEST_FILE = "DIGEST"  # in the shipped folder: the source digest it was compiled from
+DIGEST_FILE = "DIGEST"  # in the shipped folder: the source digest and numba's version
+
+
+def shipped_stamp() -> str:
+    """The DIGEST file's text for kernels compiled in this process: the source digest, then
+    "numba VERSION"."""
+    return f"{DIGEST}\nnumba {numba_internals.VERSION}\n"
 
 
 def _shipped_folder() -> pathlib.Path | None:
-    """The package's shipped kernels, when there are some and they are of these sources; None
-    with PLAIN caching, which cannot read them."""
+    """The package's shipped kernels, when there are some, of these sources and of this numba
+    (above); one warning, naming both versions, for kernels of these sources compiled by
+    another numba. None with PLAIN caching, which cannot read them."""
     if PLAIN:
         return None
     try:
-        digest = (SHIPPED / DIGEST_FILE).read_text(encoding="ascii").strip()
+        stamp = (SHIPPED / DIGEST_FILE).read_text(encoding="ascii")
     except OSError:
         return None
-    return SHIPPED if digest == DIGEST else None
+    digest, _, built_with = stamp.partition("\n")
+    if digest.strip() != DIGEST:
+        return None
+    built_with = built_with.strip().removeprefix("numba ") or "(not recorded)"
+    if built_with != numba_internals.VERSION:
+        warnings.warn(
+            f"opendyn: the compiled kernels shipped in {SHIPPED} were built with numba "
+            f"{built_with}, and this is numba {numba_internals.VERSION}, whose cache refuses "
+            "them: they are not used, and each kernel compiles on its first use into the kernel "
+            f"cache ({CACHE_DIR or 'none: in every process'}). Install the numba they were built "
+            "with, or a wheel built with this one (scripts/build_wheel.py), to load them.",
+            RuntimeWarning,
+            stacklevel=3,
+        )
+        return None
+    return SHIPPED
 
 
 SHIPPED_FOLDER = _shipped_folder()

@@ -4,8 +4,9 @@ instead of compiling (opendyn._runtime.kernel_cache reads them where its folder 
 
 `export_used(folder)` writes such a folder: the entries of every kernel this process has
 compiled or loaded, in the cache folder's layout (one subfolder per source folder of the
-package), and a file DIGEST naming the sources they were compiled from (scripts/build_wheel.py
-runs the shipped scenes and the public functions, then exports what they used).
+package), and a file DIGEST naming the sources they were compiled from and the numba that
+compiled them (scripts/build_wheel.py runs the shipped scenes and the public functions, then
+exports what they used).
 """
 
 from __future__ import annotations
@@ -18,7 +19,7 @@ import shutil
 from numba.core.caching import IndexDataCacheFile
 from numba.core.dispatcher import Dispatcher
 
-from .kernel_cache import DIGEST, DIGEST_FILE, MISSING, PLAIN, _ours, _twin
+from .kernel_cache import DIGEST_FILE, MISSING, PLAIN, _ours, _twin, shipped_stamp
 
 
 def _used_kernels():
@@ -70,5 +71,5 @@ def export_used(folder) -> tuple[int, int]:
         target._save_index(merged)
         size += os.path.getsize(target._index_path)
         entries += len(keep)
-    (folder / DIGEST_FILE).write_text(DIGEST + "\n", encoding="ascii")
+    (folder / DIGEST_FILE).write_text(shipped_stamp(), encoding="ascii")
     return entries, size
