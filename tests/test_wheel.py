@@ -34,12 +34,16 @@ def wheel(tmp_path_factory):
 
 
 def test_the_wheel_carries_kernels_of_these_sources_for_its_platform(wheel):
+    """Its DIGEST names the sources and the numba that compiled the kernels."""
+    import numba
+
     from opendyn._runtime.kernel_cache import DIGEST
 
     assert wheel.name.startswith("opendyn-") and not wheel.name.endswith("-any.whl"), wheel.name
     with zipfile.ZipFile(wheel) as archive:
         names = archive.namelist()
-        assert archive.read("opendyn/_kernels/DIGEST").decode().strip() == DIGEST
+        stamp = archive.read("opendyn/_kernels/DIGEST").decode()
+        assert stamp == f"{DIGEST}\nnumba {numba.__version__}\n"
     kernels = [n for n in names if n.startswith("opendyn/_kernels/") and n.endswith(".nbc")]
     indexes = [n for n in names if n.startswith("opendyn/_kernels/") and n.endswith(".nbi")]
     assert kernels and indexes, names

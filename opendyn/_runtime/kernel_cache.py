@@ -40,6 +40,11 @@ whole and renamed into place.
 
 A process that only loads kernels need not set up numba's compiler: opendyn's cache loads skip
 the refresh of numba's target context that numba makes before each (`loads_without_refresh`).
+
+All of this reaches into numba's private API, as numba 0.68 has it (pyproject.toml pins that
+minor version; opendyn._runtime.numba_internals lists what is used). Each name is probed at
+import: where one is missing, numba caches the kernels by its own rules instead (`PLAIN`), and
+one warning says what is missing and what that costs.
 """
 
 from __future__ import annotations
@@ -57,14 +62,20 @@ from . import kernel_target  # noqa: F401
 
 # isort: split
 from numba.core import config as _numba_config
-from numba.core.caching import (
-    CacheImpl,
-    IndexDataCacheFile,
-    _CacheLocator,
-    _SourceFileBackedLocatorMixin,
-)
 
-from . import compile_notice
+from . import compile_notice, numba_internals
+
+# numba's internals that the cache uses, probed before any is imported: where one is missing,
+# the kernels are cached as numba caches any function (PLAIN), with one warning (below)
+MISSING = numba_internals.missing()
+PLAIN = any(name != numba_internals.NRT for name in MISSING)
+if not PLAIN:
+    from numba.core.caching import (
+        CacheImpl,
+        IndexDataCacheFile,
+        _CacheLocator,
+        _SourceFileBackedLocatorMixin,
+    )
 
 _HERE = pathlib.Path(__file__).resolve().parents[1]  # the package: opendyn/
 # every compiled source, and everything a kernel may inline or call: all of the package's Python
@@ -137,8 +148,36 @@ def _choose():
 CACHE_DIR, CACHE_WHERE = _choose()
 # compiling said out loud (the notice listens from its import, made here, as every kernel
 # module imports its options from this module), naming this folder
-compile_notice.cached_in(CACHE_DIR)
+compile_notice.cached_in("numba's own cache folders" if PLAIN and CACHE_DIR else CACHE_DIR)
 CACHING = CACHE_DIR is not None  # the kernels' `cache=` option
+
+
+def _warn_missing():
+    """One warning, where this numba lacks some of the internals the cache uses (MISSING):
+    which, and what the kernels do without them."""
+    costs = []
+    if PLAIN:
+        costs.append(
+            "the kernels are cached by numba's own rules: each copy of opendyn's sources "
+            "compiles its own, a wheel's shipped kernels are not used, an unreadable entry is "
+            "an error, and a kernel is not compiled again when only a helper it calls from "
+            "another file changes (delete numba's cache after editing opendyn's sources)"
+        )
+    if numba_internals.NRT in MISSING:
+        costs.append("the collision kernels count references, as numba does by default (slower)")
+    warnings.warn(
+        f"opendyn: numba {numba_internals.VERSION} lacks what opendyn's kernel cache is written "
+        f"for (numba {numba_internals.WRITTEN_FOR}): {', '.join(MISSING)}; "
+        + "; ".join(costs)
+        + f". Install numba {numba_internals.WRITTEN_FOR} "
+        f"(pip install 'numba=={numba_internals.WRITTEN_FOR}.*') to have them back.",
+        RuntimeWarning,
+        stacklevel=3,
+    )
+
+
+if MISSING:
+    _warn_missing()
 
 
 def _ours(cache_file) -> bool:
@@ -172,9 +211,10 @@ _discarded = []  # the first unreadable entry removed in this process
 
 def unreadable_is_a_miss():
     """Make an unreadable entry of opendyn's kernel cache a cache miss (see the module
-    docstring): numba's index and data readers, wrapped once per process; entries of any other
-    folder (a user's own numba functions) behave exactly as before."""
-    if getattr(IndexDataCacheFile, "_opendyn_guarded", False):
+    docstring): numba's index and data readers, wrapped once per process (not with PLAIN
+    caching); entries of any other folder (a user's own numba functions) behave exactly as
+    before."""
+    if PLAIN or getattr(IndexDataCacheFile, "_opendyn_guarded", False):
         return
     load_index, load_data = IndexDataCacheFile._load_index, IndexDataCacheFile._load_data
 
@@ -222,9 +262,9 @@ def _turn(path):
 def saves_take_turns():
     """Make every save of a cache entry (numba's read of the index, choice of a data file,
     write of both) one turn under a lock beside the index (module docstring), in opendyn's
-    folder; wrapped once per process. Any other folder's saves (a user's own kernels') are
-    numba's as before."""
-    if getattr(IndexDataCacheFile, "_opendyn_turns", False):
+    folder; wrapped once per process (not with PLAIN caching). Any other folder's saves (a
+    user's own kernels') are numba's as before."""
+    if PLAIN or getattr(IndexDataCacheFile, "_opendyn_turns", False):
         return
     save = IndexDataCacheFile.save
 
@@ -244,22 +284,49 @@ saves_take_turns()
 
 # A built wheel ships kernels in the package's _kernels/ (opendyn._runtime.shipped_kernels
 # writes them), a folder of this cache's layout with a file DIGEST naming the sources they were
-# compiled from. It is read-only: a kernel that misses in the cache folder is looked up there,
-# and one found is loaded from it, as numba loads any entry: checked against its source's
-# content and its compile target (portable, opendyn._runtime.kernel_target). A kernel compiled
-# later, for a signature the wheel does not carry, goes to the cache folder as before. A
-# shipped folder of other sources (left in a checkout by an older build) is not used.
+# compiled from and the numba that compiled them. It is read-only: a kernel that misses in the
+# cache folder is looked up there, and one found is loaded from it, as numba loads any entry:
+# checked against its source's content and its compile target (portable,
+# opendyn._runtime.kernel_target). A kernel compiled later, for a signature the wheel does not
+# carry, goes to the cache folder as before. A shipped folder of other sources (left in a
+# checkout by an older build) is not used; nor is one of another numba, whose every entry numba
+# would refuse, and that one says so.
 SHIPPED = _HERE / "_kernels"
-DIGEST_FILE = "DIGEST"  # in the shipped folder: the source digest it was compiled from
+DIGEST_FILE = "DIGEST"  # in the shipped folder: the source digest and numba's version
+
+
+def shipped_stamp() -> str:
+    """The DIGEST file's text for kernels compiled in this process: the source digest, then
+    "numba VERSION"."""
+    return f"{DIGEST}\nnumba {numba_internals.VERSION}\n"
 
 
 def _shipped_folder() -> pathlib.Path | None:
-    """The package's shipped kernels, when there are some and they are of these sources."""
+    """The package's shipped kernels, when there are some, of these sources and of this numba
+    (above); one warning, naming both versions, for kernels of these sources compiled by
+    another numba. None with PLAIN caching, which cannot read them."""
+    if PLAIN:
+        return None
     try:
-        digest = (SHIPPED / DIGEST_FILE).read_text(encoding="ascii").strip()
+        stamp = (SHIPPED / DIGEST_FILE).read_text(encoding="ascii")
     except OSError:
         return None
-    return SHIPPED if digest == DIGEST else None
+    digest, _, built_with = stamp.partition("\n")
+    if digest.strip() != DIGEST:
+        return None
+    built_with = built_with.strip().removeprefix("numba ") or "(not recorded)"
+    if built_with != numba_internals.VERSION:
+        warnings.warn(
+            f"opendyn: the compiled kernels shipped in {SHIPPED} were built with numba "
+            f"{built_with}, and this is numba {numba_internals.VERSION}, whose cache refuses "
+            "them: they are not used, and each kernel compiles on its first use into the kernel "
+            f"cache ({CACHE_DIR or 'none: in every process'}). Install the numba they were built "
+            "with, or a wheel built with this one (scripts/build_wheel.py), to load them.",
+            RuntimeWarning,
+            stacklevel=3,
+        )
+        return None
+    return SHIPPED
 
 
 SHIPPED_FOLDER = _shipped_folder()
@@ -304,7 +371,9 @@ def loads_without_refresh():
     0.3 s of a process that only loads kernels, and loading needs none of it. What the loaded
     code does need is numba's runtime (NRT), whose functions it links to: that is initialized
     here. A compile still refreshes both contexts (numba's compiler does, before typing), so a
-    kernel that misses the cache compiles as before."""
+    kernel that misses the cache compiles as before. Not with PLAIN caching."""
+    if PLAIN:
+        return
     from numba.core.caching import Cache
     from numba.core.runtime import rtsys
 
@@ -348,27 +417,28 @@ def _package_subfolder(py_file) -> str | None:
 _outside = []  # non-empty inside kernel_cache(): kernels outside the package cache with ours
 
 
-class PackageLocator(_SourceFileBackedLocatorMixin, _CacheLocator):
-    """numba's cache locator for opendyn's kernels: CACHE_DIR/`cache_subfolder(py_file)`,
-    checked against the source's content (numba's stamp: a hash of the file's bytes)."""
+if not PLAIN:  # its bases are numba's private classes
 
-    def __init__(self, py_func, py_file):
-        self._py_file = py_file
-        self._lineno = py_func.__code__.co_firstlineno
-        self._cache_path = os.path.join(CACHE_DIR, cache_subfolder(py_file))
+    class PackageLocator(_SourceFileBackedLocatorMixin, _CacheLocator):
+        """numba's cache locator for opendyn's kernels: CACHE_DIR/`cache_subfolder(py_file)`,
+        checked against the source's content (numba's stamp: a hash of the file's bytes)."""
 
-    def get_cache_path(self):
-        return self._cache_path
+        def __init__(self, py_func, py_file):
+            self._py_file = py_file
+            self._lineno = py_func.__code__.co_firstlineno
+            self._cache_path = os.path.join(CACHE_DIR, cache_subfolder(py_file))
 
-    @classmethod
-    def from_function(cls, py_func, py_file):
-        if not CACHING or cache_subfolder(py_file) is None:
-            return None
-        return super().from_function(py_func, py_file)
+        def get_cache_path(self):
+            return self._cache_path
 
+        @classmethod
+        def from_function(cls, py_func, py_file):
+            if not CACHING or cache_subfolder(py_file) is None:
+                return None
+            return super().from_function(py_func, py_file)
 
-if PackageLocator not in CacheImpl._locator_classes:
-    CacheImpl._locator_classes.insert(0, PackageLocator)
+    if PackageLocator not in CacheImpl._locator_classes:
+        CacheImpl._locator_classes.insert(0, PackageLocator)
 
 
 @contextlib.contextmanager
@@ -382,13 +452,19 @@ def kernel_cache():
         _outside.pop()
 
 
+def _counting(on: bool) -> dict:
+    """numba's private option of reference counting, `_nrt`, set to `on`; none where this numba
+    lacks it (MISSING), so that every kernel counts, as numba does by default."""
+    return {} if numba_internals.NRT in MISSING else {"_nrt": on}
+
+
 # the options of every kernel's @njit. Reference counting (numba's runtime, NRT) is switched on
 # by name: a compiled function whose own options leave it unset takes its caller's setting when
 # a caller compiles it, and numba keys a compiled version (in the process and in the cache) by
 # its signature alone. A kernel first compiled under an UNCOUNTED one (below) would then be
 # counted nowhere, for every later caller and process: a view it returns was freed by a counting
 # caller while still in use (a heap corruption, met as a crash of the contact scenes).
-JIT = dict(cache=CACHING, _nrt=True)
+JIT = dict(cache=CACHING, **_counting(True))
 # batch loops release the GIL so that threads run them in parallel (see run_rows); single-state
 # kernels keep it, which saves the release and re-acquisition on every call
 BATCH = dict(JIT, nogil=True)
@@ -407,5 +483,5 @@ INLINE = dict(JIT, inline="always")
 # 1.20x -> 0.68x). Such a kernel cannot make an array: numba refuses to compile one that does.
 # It calls counted kernels only for what returns no array (its references would never be
 # released), and none of them is compiled in its place (JIT above).
-UNCOUNTED = dict(JIT, _nrt=False)
-UNCOUNTED_INLINE = dict(INLINE, _nrt=False)
+UNCOUNTED = dict(JIT, **_counting(False))
+UNCOUNTED_INLINE = dict(INLINE, **_counting(False))

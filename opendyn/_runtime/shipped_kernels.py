@@ -4,8 +4,9 @@ instead of compiling (opendyn._runtime.kernel_cache reads them where its folder 
 
 `export_used(folder)` writes such a folder: the entries of every kernel this process has
 compiled or loaded, in the cache folder's layout (one subfolder per source folder of the
-package), and a file DIGEST naming the sources they were compiled from (scripts/build_wheel.py
-runs the shipped scenes and the public functions, then exports what they used).
+package), and a file DIGEST naming the sources they were compiled from and the numba that
+compiled them (scripts/build_wheel.py runs the shipped scenes and the public functions, then
+exports what they used).
 """
 
 from __future__ import annotations
@@ -18,7 +19,7 @@ import shutil
 from numba.core.caching import IndexDataCacheFile
 from numba.core.dispatcher import Dispatcher
 
-from .kernel_cache import DIGEST, DIGEST_FILE, _ours, _twin
+from .kernel_cache import DIGEST_FILE, MISSING, PLAIN, _ours, _twin, shipped_stamp
 
 
 def _used_kernels():
@@ -39,7 +40,13 @@ def export_used(folder) -> tuple[int, int]:
     """Write into `folder` (made if missing) the cache entries of every kernel version this
     process has compiled or loaded, in the cache folder's layout, and the DIGEST file: a
     folder to ship as opendyn/_kernels. Returns (entries, bytes) written. A version missing
-    from the cache folder (saved nowhere) is left out."""
+    from the cache folder (saved nowhere) is left out. With PLAIN caching (numba lacks the
+    cache's internals) there is nothing to export: RuntimeError."""
+    if PLAIN:
+        raise RuntimeError(
+            "cannot export compiled kernels: this numba lacks what opendyn's kernel cache uses "
+            f"({', '.join(MISSING)})"
+        )
     folder = pathlib.Path(folder)
     entries = size = 0
     for dispatcher, signatures in _used_kernels():
@@ -64,5 +71,5 @@ def export_used(folder) -> tuple[int, int]:
         target._save_index(merged)
         size += os.path.getsize(target._index_path)
         entries += len(keep)
-    (folder / DIGEST_FILE).write_text(DIGEST + "\n", encoding="ascii")
+    (folder / DIGEST_FILE).write_text(shipped_stamp(), encoding="ascii")
     return entries, size
