@@ -430,3 +430,12 @@ def test_a_simulator_of_a_scene_too_long_to_simulate_whole_steps_all_the_same():
     sim = od.Simulator(scene)  # which the Simulator, stepping its own durations, never makes
     sim.step(None, 0.05)
     assert sim.trajectory().complete and sim.t == pytest.approx(0.05)
+
+
+def test_a_float32_duration_is_the_decimal_it_stands_for():
+    """np.float32(0.001) holds 0.0010000000475 s: it was refused as not a whole number of steps
+    of 0.001 s."""
+    sim = od.Simulator(pendulum("rk4"))
+    sim.step(None, np.float32(0.001))
+    sim.step(None, np.float32(0.049))
+    assert sim.t == pytest.approx(0.05, abs=1e-15) and sim.trajectory().complete
