@@ -439,3 +439,13 @@ def test_a_float32_duration_is_the_decimal_it_stands_for():
     sim.step(None, np.float32(0.001))
     sim.step(None, np.float32(0.049))
     assert sim.t == pytest.approx(0.05, abs=1e-15) and sim.trajectory().complete
+
+
+def test_a_zero_quaternion_is_named_as_no_orientation_not_sent_to_normalize():
+    scene = od.load_scene("t_handle_flip")
+    q = np.array(scene.q0)
+    q[3:7] = 0.0
+    with pytest.raises(ValueError, match=r"linearize: q: the quaternion q\[3:7\] .* no "
+                                         r"orientation.*\(0, 0, 0, 1\)") as refused:
+        od.linearize(scene, q=q)
+    assert "od.normalize" not in str(refused.value)
