@@ -449,3 +449,17 @@ def test_a_zero_quaternion_is_named_as_no_orientation_not_sent_to_normalize():
                                          r"orientation.*\(0, 0, 0, 1\)") as refused:
         od.linearize(scene, q=q)
     assert "od.normalize" not in str(refused.value)
+
+
+CONTROLLER = "import numpy as np\n\ndef control(t, q, qd):\n    return np.zeros(2)\n"
+
+
+def test_a_controller_that_exits_at_import_is_an_error_naming_it(tmp_path, capsys):
+    """sys.exit(4) in the controller's module made `opendyn simulate` exit 4 without a word."""
+    path = tmp_path / "quits.py"
+    path.write_text("import sys\n\nsys.exit(4)\n" + CONTROLLER)
+    argv = ["simulate", "double_pendulum_swing", "--no-save", "-q", "--controller",
+            f"{path}:control"]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert f"--controller: loading {str(path)!r} failed: it called sys.exit(4)" in err, err

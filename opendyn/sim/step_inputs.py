@@ -98,6 +98,11 @@ def load_controller(spec, what):
             module = importlib.import_module(where)
     except SceneError:
         raise
+    except SystemExit as error:  # sys.exit() at import: not the command's exit
+        raise SceneError(
+            f"{what}: loading {where!r} failed: it called sys.exit({error.code!r}) while being "
+            "imported"
+        ) from None
     except Exception as error:
         raise SceneError(
             f"{what}: loading {where!r} failed: {type(error).__name__}: {error}"
