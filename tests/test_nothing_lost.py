@@ -463,3 +463,14 @@ def test_a_controller_that_exits_at_import_is_an_error_naming_it(tmp_path, capsy
     assert main(argv) == 2
     err = capsys.readouterr().err
     assert f"--controller: loading {str(path)!r} failed: it called sys.exit(4)" in err, err
+
+
+def test_a_controller_with_control_disabled_is_refused_naming_both(tmp_path, capsys):
+    """--disable control switched the scene's control off, and --controller ran one anyway."""
+    path = tmp_path / "ctrl.py"
+    path.write_text(CONTROLLER)
+    argv = ["simulate", "double_pendulum_push", "--no-save", "-q", "--duration", "0.01",
+            "--controller", f"{path}:control", "--disable", "control"]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert f"--controller {path}:control and --disable control" in err, err

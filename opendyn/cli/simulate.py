@@ -104,6 +104,11 @@ def _simulate(args) -> int:
     named = _named_outputs(args)
     _check_outputs(named)
     _check_meshcat(args)
+    if args.controller is not None and "control" in args.disable:
+        raise ValueError(
+            f"--controller {args.controller} and --disable control: one runs a controller, the "
+            "other switches control off; give one"
+        )
     with _doing("loading the scene and its robot; nothing was run"):
         scene = _scene_to_run(args)
         controller = None
