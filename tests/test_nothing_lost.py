@@ -474,3 +474,14 @@ def test_a_controller_with_control_disabled_is_refused_naming_both(tmp_path, cap
     assert main(argv) == 2
     err = capsys.readouterr().err
     assert f"--controller {path}:control and --disable control" in err, err
+
+
+def test_a_record_too_large_names_the_options_that_made_it(capsys):
+    """The refusal blamed run.output_dt of the scene file, which holds 0.01 s."""
+    argv = ["simulate", "double_pendulum_swing", "--no-save", "-q", "--duration", "1e6",
+            "--output-dt", "0.001"]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert "opendyn simulate: --output-dt: the record would hold 1e+09 samples" in err, err
+    assert "raise --output-dt (now 0.001 s) or shorten --duration (now 1e+06 s)" in err, err
+    assert "run." not in err and ".toml" not in err, err
