@@ -485,3 +485,12 @@ def test_a_record_too_large_names_the_options_that_made_it(capsys):
     assert "opendyn simulate: --output-dt: the record would hold 1e+09 samples" in err, err
     assert "raise --output-dt (now 0.001 s) or shorten --duration (now 1e+06 s)" in err, err
     assert "run." not in err and ".toml" not in err, err
+
+
+@pytest.mark.parametrize("command", [["sweep", "double_pendulum_push", "--vary",
+                                      "run.duration=0.01"], ["verify", "double_pendulum"]])
+def test_a_negative_seed_is_named_as_the_option(command, capsys):
+    with pytest.raises(SystemExit) as refused:
+        main([*command, "--seed", "-1"])
+    err = capsys.readouterr().err
+    assert refused.value.code == 2 and "argument --seed: invalid seed: '-1'" in err, err
