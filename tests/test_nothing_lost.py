@@ -494,3 +494,12 @@ def test_a_negative_seed_is_named_as_the_option(command, capsys):
         main([*command, "--seed", "-1"])
     err = capsys.readouterr().err
     assert refused.value.code == 2 and "argument --seed: invalid seed: '-1'" in err, err
+
+
+def test_a_joint_starting_too_far_for_its_sine_is_refused_naming_it():
+    """A revolute joint at q = 1e308 ran "complete" on sines of rounding noise."""
+    scene = od.scene_from_dict({"robot": PENDULUM, "initial": {"q": [0.2, 1e308]},
+                                "run": {"duration": 0.01}})
+    with pytest.raises(od.SceneError, match=r"initial.q.elbow: joint 'elbow' starts at 1e\+308, "
+                                            r"beyond \|q\| = 1e\+06"):
+        od.simulate(scene)
