@@ -503,3 +503,14 @@ def test_a_joint_starting_too_far_for_its_sine_is_refused_naming_it():
     with pytest.raises(od.SceneError, match=r"initial.q.elbow: joint 'elbow' starts at 1e\+308, "
                                             r"beyond \|q\| = 1e\+06"):
         od.simulate(scene)
+
+
+def test_a_rollout_with_one_bad_q0_row_fails_that_run_and_runs_the_others():
+    """A NaN row raised for the whole batch, where a run that cannot start is a failed run."""
+    scene = pendulum("rk4", duration=0.05)
+    result = od.rollout(scene, q0=[[0.2, 0.1], [np.nan, 0.0], [0.3, 0.0]],
+                        params={"effects.damping.coefficients": [0.1, 0.2, 0.3]})
+    assert list(result.status) == ["complete", "failed", "complete"]
+    assert result.message[1] == "rollout: q0[1] is not finite: [nan  0.]"
+    first = od.rollout(scene, q0=[[np.nan, 0.0], [0.2, 0.1]])
+    assert list(first.status) == ["failed", "complete"]
