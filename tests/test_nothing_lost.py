@@ -430,3 +430,87 @@ def test_a_simulator_of_a_scene_too_long_to_simulate_whole_steps_all_the_same():
     sim = od.Simulator(scene)  # which the Simulator, stepping its own durations, never makes
     sim.step(None, 0.05)
     assert sim.trajectory().complete and sim.t == pytest.approx(0.05)
+
+
+def test_a_float32_duration_is_the_decimal_it_stands_for():
+    """np.float32(0.001) holds 0.0010000000475 s: it was refused as not a whole number of steps
+    of 0.001 s."""
+    sim = od.Simulator(pendulum("rk4"))
+    sim.step(None, np.float32(0.001))
+    sim.step(None, np.float32(0.049))
+    assert sim.t == pytest.approx(0.05, abs=1e-15) and sim.trajectory().complete
+
+
+def test_a_zero_quaternion_is_named_as_no_orientation_not_sent_to_normalize():
+    scene = od.load_scene("t_handle_flip")
+    q = np.array(scene.q0)
+    q[3:7] = 0.0
+    with pytest.raises(ValueError, match=r"linearize: q: the quaternion q\[3:7\] .* no "
+                                         r"orientation.*\(0, 0, 0, 1\)") as refused:
+        od.linearize(scene, q=q)
+    assert "od.normalize" not in str(refused.value)
+
+
+CONTROLLER = "import numpy as np\n\ndef control(t, q, qd):\n    return np.zeros(2)\n"
+
+
+def test_a_controller_that_exits_at_import_is_an_error_naming_it(tmp_path, capsys):
+    """sys.exit(4) in the controller's module made `opendyn simulate` exit 4 without a word."""
+    path = tmp_path / "quits.py"
+    path.write_text("import sys\n\nsys.exit(4)\n" + CONTROLLER)
+    argv = ["simulate", "double_pendulum_swing", "--no-save", "-q", "--controller",
+            f"{path}:control"]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert f"--controller: loading {str(path)!r} failed: it called sys.exit(4)" in err, err
+
+
+def test_a_controller_with_control_disabled_is_refused_naming_both(tmp_path, capsys):
+    """--disable control switched the scene's control off, and --controller ran one anyway."""
+    path = tmp_path / "ctrl.py"
+    path.write_text(CONTROLLER)
+    argv = ["simulate", "double_pendulum_push", "--no-save", "-q", "--duration", "0.01",
+            "--controller", f"{path}:control", "--disable", "control"]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert f"--controller {path}:control and --disable control" in err, err
+
+
+def test_a_record_too_large_names_the_options_that_made_it(capsys):
+    """The refusal blamed run.output_dt of the scene file, which holds 0.01 s."""
+    argv = ["simulate", "double_pendulum_swing", "--no-save", "-q", "--duration", "1e6",
+            "--output-dt", "0.001"]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert "opendyn simulate: --output-dt: the record would hold 1e+09 samples" in err, err
+    assert "raise --output-dt (now 0.001 s) or shorten --duration (now 1e+06 s)" in err, err
+    assert "run." not in err and ".toml" not in err, err
+
+
+@pytest.mark.parametrize("command", [["sweep", "double_pendulum_push", "--vary",
+                                      "run.duration=0.01"], ["verify", "double_pendulum"]])
+def test_a_negative_seed_is_named_as_the_option(command, capsys):
+    with pytest.raises(SystemExit) as refused:
+        main([*command, "--seed", "-1"])
+    err = capsys.readouterr().err
+    assert refused.value.code == 2 and "argument --seed: invalid seed: '-1'" in err, err
+
+
+def test_a_joint_starting_too_far_for_its_sine_is_refused_naming_it():
+    """A revolute joint at q = 1e308 ran "complete" on sines of rounding noise."""
+    scene = od.scene_from_dict({"robot": PENDULUM, "initial": {"q": [0.2, 1e308]},
+                                "run": {"duration": 0.01}})
+    with pytest.raises(od.SceneError, match=r"initial.q.elbow: joint 'elbow' starts at 1e\+308, "
+                                            r"beyond \|q\| = 1e\+06"):
+        od.simulate(scene)
+
+
+def test_a_rollout_with_one_bad_q0_row_fails_that_run_and_runs_the_others():
+    """A NaN row raised for the whole batch, where a run that cannot start is a failed run."""
+    scene = pendulum("rk4", duration=0.05)
+    result = od.rollout(scene, q0=[[0.2, 0.1], [np.nan, 0.0], [0.3, 0.0]],
+                        params={"effects.damping.coefficients": [0.1, 0.2, 0.3]})
+    assert list(result.status) == ["complete", "failed", "complete"]
+    assert result.message[1] == "rollout: q0[1] is not finite: [nan  0.]"
+    first = od.rollout(scene, q0=[[np.nan, 0.0], [0.2, 0.1]])
+    assert list(first.status) == ["failed", "complete"]

@@ -29,6 +29,9 @@ from ..multibody.joints import FREE
 from ..multibody.model import Model
 from ..spatial.algebra import angular, linear
 
+# a quaternion whose norm is below this has no direction to normalise to: no orientation
+ZERO_QUATERNION = 1e-12
+
 
 
 def check_model(model, what):
@@ -198,7 +201,8 @@ def raise_status(status, model, what, result=None, arguments=None, singular=None
     if status == Status.RESULT_NOT_FINITE:
         raise NonFiniteResultError(what, result, arguments)
     if status == Status.Q_NOT_UNIT_QUATERNION:
-        raise ValueError(f"{what}: {quaternion_problem(model)}")
+        q = arguments.get("q") if arguments else None
+        raise ValueError(f"{what}: {quaternion_problem(model, q=q)}")
     if status == Status.SINGULAR and singular is not None:
         raise singular(model, arguments["q"], what)
     raise RuntimeError(f"{what}: kernel failed with status {status.name}")
@@ -212,16 +216,26 @@ def check_result(x, what, result, arguments):
     return x
 
 
-def quaternion_problem(model, name="q"):
+def quaternion_problem(model, name="q", q=None):
     """What is wrong with the quaternions of the configuration `name`, for an error message:
-    the slice of each free joint's quaternion and the tolerance."""
+    the slice of each free joint's quaternion and the tolerance; with q (nq,), the
+    configuration, a quaternion that is zero (or not finite) is named as one without an
+    orientation, which normalising cannot give it."""
     from ..multibody.joints import QUATERNION_TOLERANCE
 
-    slices = ", ".join(
-        f"{name}[{model.iq[i] + 3}:{model.iq[i] + 7}] ({model.body_names[i]})"
-        for i in range(model.nb)
-        if model.jtype[i] == FREE
-    )
+    free = [i for i in range(model.nb) if model.jtype[i] == FREE]
+    if q is not None and np.shape(q) == (model.nq,):
+        for i in free:
+            k = int(model.iq[i]) + 3
+            quat = np.asarray(q[k : k + 4], dtype=np.float64)
+            if not (np.isfinite(quat).all() and np.linalg.norm(quat) >= ZERO_QUATERNION):
+                return (
+                    f"the quaternion {name}[{k}:{k + 4}] ({model.body_names[i]}) is "
+                    f"{quat.tolist()}: it has no orientation, and normalising cannot give it one; "
+                    "give a unit quaternion (x, y, z, w), (0, 0, 0, 1) for no rotation"
+                )
+    slices = ", ".join(f"{name}[{model.iq[i] + 3}:{model.iq[i] + 7}] ({model.body_names[i]})"
+                       for i in free)
     return (
         f"the quaternion {slices} (x, y, z, w) must have unit norm (within "
         f"{QUATERNION_TOLERANCE:g}); od.normalize(model, {name}) normalises it"

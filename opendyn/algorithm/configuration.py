@@ -76,7 +76,7 @@ def _checked_q(model, q, name, what, unit=True):
         raise ValueError(f"{what}: {name} must be finite (it has NaN or inf)")
     for i, k in _quaternions(model):
         norms = np.linalg.norm(q[..., k : k + 4], axis=-1)
-        if np.any(norms < 1e-12):
+        if np.any(norms < checks.ZERO_QUATERNION):
             raise ValueError(
                 f"{what}: the quaternion {name}[{k}:{k + 4}] of {model.body_names[i]!r} is zero; "
                 f"a rotation needs a unit quaternion (x, y, z, w)"
@@ -93,8 +93,10 @@ def check_unit_quaternions(model, q, name, what):
     for _, k in _quaternions(model):
         off = np.abs(np.linalg.norm(q[..., k : k + 4], axis=-1) - 1.0)
         if np.any(off > QUATERNION_TOLERANCE):
-            row = f"{name}[{int(np.argmax(off > QUATERNION_TOLERANCE))}]" if q.ndim == 2 else name
-            raise ValueError(f"{what}: {checks.quaternion_problem(model, row)}")
+            bad = int(np.argmax(off > QUATERNION_TOLERANCE)) if q.ndim == 2 else None
+            row = name if bad is None else f"{name}[{bad}]"
+            state = q if bad is None else q[bad]
+            raise ValueError(f"{what}: {checks.quaternion_problem(model, row, state)}")
 
 
 def integrate(model, q, v, dt):

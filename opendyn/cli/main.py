@@ -57,6 +57,14 @@ def whole(text: str) -> int:
     return _option_value(text, int, "whole number")
 
 
+def seed(text: str) -> int:
+    """An option's random seed: a whole number >= 0, as numpy takes it."""
+    value = whole(text)
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"invalid seed: {text!r} (a whole number >= 0)")
+    return value
+
+
 def main(argv=None) -> int:
     args = command_line().parse_args(argv)
     with warnings.catch_warnings(), SigtermAsInterrupt() as signals, reader_may_leave():
@@ -161,7 +169,7 @@ def command_line() -> argparse.ArgumentParser:
     verify = sub.add_parser("verify", help="compare every dynamics function with Pinocchio")
     verify.add_argument("robot", help="URDF file or robot name")
     verify.add_argument("--states", type=whole, default=5, help="random states (default 5)")
-    verify.add_argument("--seed", type=whole, default=0)
+    verify.add_argument("--seed", type=seed, default=0)
     verify.add_argument("--rtol", type=number, default=1e-9, help="relative tolerance")
     verify.add_argument("--mimic", action="store_true", help="couple mimic joints")
     verify.add_argument(
@@ -204,7 +212,7 @@ def command_line() -> argparse.ArgumentParser:
         "(repeatable; lists and grids multiply)",
     )
     sw.add_argument("--samples", type=whole, help="draw N random combinations (seeded)")
-    sw.add_argument("--seed", type=whole, default=0, help="seed of the draws (default 0)")
+    sw.add_argument("--seed", type=seed, default=0, help="seed of the draws (default 0)")
     where = sw.add_mutually_exclusive_group()
     where.add_argument("--workers", type=whole, help="local worker processes (default: the cores)")
     where.add_argument("--scheduler", metavar="ADDRESS", help="an existing Dask scheduler")

@@ -104,6 +104,11 @@ def _simulate(args) -> int:
     named = _named_outputs(args)
     _check_outputs(named)
     _check_meshcat(args)
+    if args.controller is not None and "control" in args.disable:
+        raise ValueError(
+            f"--controller {args.controller} and --disable control: one runs a controller, the "
+            "other switches control off; give one"
+        )
     with _doing("loading the scene and its robot; nothing was run"):
         scene = _scene_to_run(args)
         controller = None
@@ -117,13 +122,16 @@ def _simulate(args) -> int:
     if not args.quiet:
         print(_scene_header(scene))
     with _doing("getting the compiled step ready; the run had not started"):
-        traj = simulate(
-            scene,
-            progress=not args.quiet,
-            raise_on_failure=False,
-            controller=controller,
-            control_dt=args.control_dt,
-        )
+        try:
+            traj = simulate(
+                scene,
+                progress=not args.quiet,
+                raise_on_failure=False,
+                controller=controller,
+                control_dt=args.control_dt,
+            )
+        except SceneError as e:  # the checks before the run: of the options' values too
+            raise _named_by_its_option(e, scene.source, _run_options(args)) from None
     with _doing("writing the outputs"):
         with held_interrupt():  # from the end of the run until its record is saved
             if not args.quiet or not traj.complete:
@@ -145,15 +153,7 @@ def _simulate(args) -> int:
 def _scene_to_run(args):
     """The scene the arguments name, with their run settings and effects."""
     scene = scene_for(args.target, args.floating_base)
-    run = {
-        "duration": args.duration,
-        "dt": args.dt,
-        "integrator": args.integrator,
-        "rtol": args.rtol,
-        "atol": args.atol,
-        "output_dt": args.output_dt,
-    }
-    run = {k: v for k, v in run.items() if v is not None}
+    run = _run_options(args)
     if run:
         try:
             scene = scene.replace_run(**run)
@@ -169,16 +169,30 @@ def _scene_to_run(args):
     return _with_effects(scene, args.enable, args.disable)
 
 
+def _run_options(args):
+    """{run key: value} of the run settings the options give."""
+    run = {
+        "duration": args.duration,
+        "dt": args.dt,
+        "integrator": args.integrator,
+        "rtol": args.rtol,
+        "atol": args.atol,
+        "output_dt": args.output_dt,
+    }
+    return {k: v for k, v in run.items() if v is not None}
+
+
 def _named_by_its_option(error, source, given):
-    """The SceneError of a run setting that an option gave, naming the option (`--output-dt`)
+    """The SceneError of a run setting, naming the options that gave a value (`--output-dt`)
     where it named the scene file's key (`SCENE.toml: run.output_dt`), which does not hold
     that value; other errors as they are."""
     text = str(error)
     for key in given:
         prefix = f"{source}: run.{key}: "
         if text.startswith(prefix):
-            return SceneError(f"--{key.replace('_', '-')}: {text[len(prefix):]}")
-    return error
+            text = f"run.{key}: {text[len(prefix):]}"
+        text = text.replace(f"run.{key}", f"--{key.replace('_', '-')}")
+    return error if text == str(error) else SceneError(text)
 
 
 def _check_meshcat(args):

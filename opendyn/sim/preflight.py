@@ -5,7 +5,8 @@ or compiled.
     samples      K = N / every + 1            (adaptive: ceil(duration / output_dt) + 1)
     memory       8 K (3 + nq + 2 nv + 2 + 7 P + 2 c)  bytes, three times over, below what the
                  process may allocate (opendyn._runtime.memory: limits and cgroups included)
-    start        |qd0_k| <= max_speed,  lower_j <= q0_j <= upper_j,  K(q0, qd0), U(q0) finite,
+    start        |qd0_k| <= max_speed,  |q0_j| <= MAX_POSITION,  lower_j <= q0_j <= upper_j,
+                 K(q0, qd0), U(q0) finite,
                  |phi(q0)|, |A(q0) qd0| <= CONSTRAINT_TOLERANCE, and per contact pair (a sphere
                  and the ground, or two geometries) its springs' energy at q0
                  sum k delta^2 / 2 <= max(2 (m g)^2 / k, LIFT g min_b m_b s_b)
@@ -41,6 +42,9 @@ _RECORD_COPIES = 3
 # what lifts the pair's lighter body by this fraction of its own size (allowed_energy), under
 # the scene's gravity, or standard gravity (m/s^2) in a scene without
 LIFT = 0.01
+# |q| (rad or m) of a joint at the start beyond which a run is refused: float64 spaces numbers
+# 1e-10 apart at 1e6, and sin(1e308) is a rounding artefact, not an angle
+MAX_POSITION = 1e6
 STANDARD_GRAVITY = 9.80665
 
 
@@ -56,9 +60,9 @@ def preflight(scene, integ):
 
 def check_start(scene):
     """The initial state's checks, wherever a state enters (a scene, rollout's q0 and qd0,
-    Simulator.reset): its velocities within max_speed, its positions within the joint limits,
-    its constraints met, its contact points not inside the ground or each other, its energy
-    finite (SceneError naming the key to change; SceneWarning)."""
+    Simulator.reset): its velocities within max_speed, its positions within MAX_POSITION and
+    the joint limits, its constraints met, its contact points not inside the ground or each
+    other, its energy finite (SceneError naming the key to change; SceneWarning)."""
     _check_start(scene)
     _check_constraint_start(scene)
     _check_contact_start(scene)
@@ -249,7 +253,8 @@ def _check_memory(scene, rows):
 
 
 def _check_start(scene):
-    """The initial velocities within max_speed, the initial positions within the joint limits."""
+    """The initial velocities within max_speed, the initial positions within MAX_POSITION and
+    the joint limits."""
     model, run = scene.model, scene.run
     fast = np.flatnonzero(np.abs(scene.qd0) > run.max_speed)
     if fast.size:
@@ -262,6 +267,16 @@ def _check_start(scene):
             "lower the initial velocity or raise run.max_speed",
         )
     q = scene.q0[model.q_index]
+    far = np.flatnonzero(np.abs(q) > MAX_POSITION)
+    if far.size:
+        j = int(far[0])
+        _fail(
+            scene,
+            f"initial.q.{model.joint_names[j]}",
+            f"joint {model.joint_names[j]!r} starts at {q[j]:g}, beyond |q| = {MAX_POSITION:g} "
+            "(rad or m), where float64 no longer resolves its motion (a revolute joint's sine "
+            "and cosine are rounding noise); give a position within it",
+        )
     outside = np.flatnonzero((q < model.lower) | (q > model.upper))
     enforced = scene.limits.stiffness > 0 if scene.limits is not None else np.zeros(len(q), bool)
     for j in outside:

@@ -112,8 +112,9 @@ class Runs:
         model = scene.model
         params = _params(params)
         _check_state_keys(params, q0, qd0)
-        q0 = None if q0 is None else _states(model, q0, "q0", model.nq)
-        qd0 = None if qd0 is None else _states(model, qd0, "qd0", model.nv)
+        bad = {}  # {run: why its q0 or qd0 row cannot start it}: a failed run
+        q0 = None if q0 is None else _states(model, q0, "q0", model.nq, bad)
+        qd0 = None if qd0 is None else _states(model, qd0, "qd0", model.nv, bad)
         n = _count(q0, qd0, params)
         shared = not params and not scene.constraints
         table = effects.stage_table(scene) if shared else None
@@ -122,6 +123,8 @@ class Runs:
             return {key: _plain(v[i]) for key, v in params.items()}
 
         def scene_of(i):
+            if i in bad:
+                raise SceneError(bad[i])
             run_scene = vary(values(i)) if params else scene
             changes = {}
             if q0 is not None:
@@ -134,9 +137,9 @@ class Runs:
             run_scene = scene_of(i)
             return run_scene, table if shared else effects.stage_table(run_scene)
 
-        # with params, run 0's scene stands for the batch's step (and a key that does not fit
-        # the scene is a SceneError now, not N times)
-        first = scene_of(0) if params else scene
+        # with params, run 0's scene (with the scene's initial state) stands for the batch's
+        # step, and a key that does not fit the scene is a SceneError now, not N times
+        first = vary(values(0)) if params else scene
         return cls(first, n, values, scene_and_table, shared)
 
     @classmethod
@@ -542,18 +545,26 @@ def _count(q0, qd0, params):
     return n
 
 
-def _states(model, states, name, width):
-    """(N, width) float64 initial states, finite, a floating base's quaternions unit ones."""
+def _states(model, states, name, width, bad):
+    """(N, width) float64 initial states; a row that is not finite or, in q0, whose floating
+    base's quaternion is not a unit one, is put in bad {row: why} (its run fails)."""
     a = np.ascontiguousarray(as_float_array(states, f"rollout: {name}"))
     if a.ndim != 2 or a.shape[1] != width:
         raise ValueError(
             f"rollout: {name} must have shape (N, {width}) for {model.name!r}, got {a.shape}"
         )
-    bad = np.flatnonzero(~np.isfinite(a).all(axis=1))
-    if bad.size:
-        raise ValueError(f"rollout: {name}[{bad[0]}] is not finite: {a[bad[0]]}")
+    for i in np.flatnonzero(~np.isfinite(a).all(axis=1)):
+        bad.setdefault(int(i), f"rollout: {name}[{i}] is not finite: {a[i]}")
     if name == "q0":
-        check_unit_quaternions(model, a, "q0", "rollout")
+        try:
+            check_unit_quaternions(model, a[np.isfinite(a).all(axis=1)], "q0", "rollout")
+        except ValueError:  # which rows, and why each
+            for i in range(len(a)):
+                try:
+                    if i not in bad:
+                        check_unit_quaternions(model, a[i], f"q0[{i}]", "rollout")
+                except ValueError as e:
+                    bad[i] = str(e)
     return a
 
 

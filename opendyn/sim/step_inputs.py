@@ -28,8 +28,13 @@ RESOLUTION = 1e-12
 
 def checked_period(value, what, t=0.0):
     """value as a period (s): a real number, finite, > 0 and at least RESOLUTION max(1, |t|),
-    the time t (s) it is added to; TypeError or ValueError naming `what` otherwise."""
+    the time t (s) it is added to; TypeError or ValueError naming `what` otherwise. A float32
+    (or float16) is read as the shortest decimal it stands for: np.float32(0.001) is 0.001 s,
+    not the 0.0010000000475 s that float32 holds, which no step of 0.001 s divides."""
     period = as_real(value, what)
+    dtype = getattr(value, "dtype", None)
+    if dtype is not None and dtype.kind == "f" and dtype.itemsize < 8 and math.isfinite(period):
+        period = float(str(value[()]))
     if not (math.isfinite(period) and period > 0):
         raise ValueError(f"{what} must be a time > 0 (s), got {period}")
     floor = RESOLUTION * max(1.0, abs(t))
@@ -93,6 +98,11 @@ def load_controller(spec, what):
             module = importlib.import_module(where)
     except SceneError:
         raise
+    except SystemExit as error:  # sys.exit() at import: not the command's exit
+        raise SceneError(
+            f"{what}: loading {where!r} failed: it called sys.exit({error.code!r}) while being "
+            "imported"
+        ) from None
     except Exception as error:
         raise SceneError(
             f"{what}: loading {where!r} failed: {type(error).__name__}: {error}"

@@ -36,7 +36,7 @@ def _configuration(model, q, name, what):
     q = _single(model, q, name, what, model.nq)
     free = np.any(model.jtype == FREE)
     if free and quaternion_status(model._ibuf, q) == Status.Q_NOT_UNIT_QUATERNION:
-        raise ValueError(f"{what}: {checks.quaternion_problem(model, name)}")
+        raise ValueError(f"{what}: {checks.quaternion_problem(model, name, q)}")
     return q
 
 
