@@ -4,6 +4,7 @@ boxes and spheres written here."""
 
 from __future__ import annotations
 
+import importlib.util
 import pathlib
 
 import numpy as np
@@ -12,10 +13,15 @@ import pytest
 import opendyn as od
 from opendyn.algorithm.collision.queries import CollisionWork
 
-pytest.importorskip("pinocchio")
-pytest.importorskip("coal")
-from coal_reference import check_against_coal, random_q
-from test_geometry import URDFS
+# the robots' tests need the reference (Pinocchio places the geometries, coal measures them) and
+# example-robot-data; the closed forms at the end need nothing but opendyn
+REFERENCE = all(importlib.util.find_spec(name) for name in ("pinocchio", "coal"))
+needs_reference = pytest.mark.skipif(not REFERENCE, reason="needs pin (Pinocchio and coal)")
+if REFERENCE:
+    from coal_reference import check_against_coal, random_q
+    from test_geometry import URDFS
+else:
+    URDFS = []
 
 CASES = [pytest.param(p, False, id=pathlib.Path(p).stem) for p in URDFS] + [
     pytest.param(p, True, id="solo12-floating_base")
@@ -44,6 +50,7 @@ def test_distances_match_coal_at_random_configurations(path, floating_base):
     assert checked["separated"] >= configurations * pairs // 2, checked
 
 
+@needs_reference
 def test_pairs_a_subset_and_bad_pairs_are_named():
     model = od.load_urdf("panda")
     q = od.neutral(model)
@@ -63,6 +70,7 @@ def test_pairs_a_subset_and_bad_pairs_are_named():
         od.collisions(model, q, margin=-1.0)
 
 
+@needs_reference
 def test_data_holds_the_records_arrays_and_gives_the_same_answer():
     model = od.load_urdf("panda")
     data = od.Data(model)
@@ -120,12 +128,16 @@ def test_a_box_resting_on_a_box_is_held_at_four_corners(tmp_path):
 
 def test_a_margin_reports_what_is_near_and_nothing_beyond(tmp_path):
     """The cube 2 cm above the slab: no contact within 1 cm (its bounding box is apart too),
-    one within 3 cm, 2 cm away, and od.distances says the same 2 cm."""
+    within 3 cm its four lower corners, each 2 cm away (face on face, as resting), and
+    od.distances says the same 2 cm."""
     model = _two_bodies(tmp_path, '<box size="1 1 0.1"/>', '<box size="0.2 0.2 0.2"/>')
     q = np.array([0.0, 0.05 + 0.1 + 0.02])
     assert len(od.collisions(model, q, margin=0.01).distance) == 0
     near = od.collisions(model, q, margin=0.03)
-    assert len(near.distance) >= 1
+    assert len(near.distance) == 4
+    corners = sorted(map(tuple, np.round(near.point_b[:, :2], 12)))
+    assert corners == [(-0.1, -0.1), (-0.1, 0.1), (0.1, -0.1), (0.1, 0.1)]
+    np.testing.assert_allclose(near.point_b[:, 2], 0.07, atol=1e-12)
     np.testing.assert_allclose(near.distance, 0.02, atol=1e-12)
     np.testing.assert_allclose(od.distances(model, q).distance, [0.02], atol=1e-12)
 
@@ -142,6 +154,7 @@ def test_a_sphere_on_a_box_touches_at_one_point(tmp_path):
     np.testing.assert_allclose(contacts.normal, [[0, 0, 1.0]], atol=1e-12)
 
 
+@needs_reference
 def test_collisions_are_the_pairs_closer_than_the_margin():
     """On the Panda at random configurations, the pairs od.collisions reports are exactly the
     pairs od.distances finds closer than the margin (the broad phase drops none of them)."""

@@ -96,7 +96,7 @@ def test_a_box_on_an_incline_holds_or_slides_as_coulomb_says():
     theta = math.radians(20.0)
     held = od.simulate(scene("box_incline"))  # mu = 0.5 > tan 20
     assert held.complete
-    assert np.linalg.norm(held.q[-1, :3] - held.q[0, :3]) < 1e-4
+    assert np.linalg.norm(held.q[-1, :3] - held.q[0, :3]) < 3e-5  # m (measured 23 um)
     mu = 0.2
     slid = od.simulate(scene("box_incline", friction=mu, slip_velocity=1e-3))
     assert slid.complete
@@ -105,7 +105,9 @@ def test_a_box_on_an_incline_holds_or_slides_as_coulomb_says():
     window = (slid.t >= 0.2) & (slid.t <= 0.9)  # on the ramp: 0.6 m of its 0.9 m
     a_fit = np.polyfit(slid.t[window], s[window], 2)[0] * 2.0
     expected = G * (math.sin(theta) - mu * math.cos(theta))
-    assert a_fit == pytest.approx(expected, rel=0.01)
+    # implicit Euler's secant friction is taken at the step's end velocity: 0.24% slow at 1 ms
+    # (measured 1.50791 against 1.51154, as the contact guide says), first order in dt
+    assert expected * (1 - 3e-3) < a_fit < expected * (1 - 2e-3)
 
 
 def two_spheres(**contact):
@@ -287,11 +289,14 @@ def test_a_humanoid_falls_over_onto_the_floor_with_its_whole_collision_model():
     assert sum(g.shape == "mesh" for g in s.model.geometries) == 24  # the links' hulls
     traj = od.simulate(s)
     assert traj.complete and np.all(np.isfinite(traj.q)) and np.all(np.isfinite(traj.qd))
-    assert np.abs(traj.energy_error).max() < 1e-3  # J, of E about 200 J at rtol 1e-6
+    # the guide's numbers: the balance closed to 6e-5 J of E about 200 J at rtol 1e-6 (measured
+    # 6.06e-5 J), no link deeper in the floor than 2.8 mm at any step (measured 2.77 mm; 1.76 mm
+    # at the samples)
+    assert np.abs(traj.energy_error).max() < 7e-5
     assert traj.q[-1, 2] < 0.2  # the pelvis lies on the floor
     touching = {traj.contacts.pair_names[p] for p in traj.contacts.pair}
     assert all(b == "ground" for _, b in touching) and len(touching) >= 4
-    assert traj.contacts.deepest()[0] < 3e-3  # m: no link below the floor by more
+    assert traj.contacts.deepest()[0] <= traj.contact_extremes.deepest < 2.8e-3  # m
 
 
 def test_the_simulator_and_rollouts_take_a_scene_of_objects():

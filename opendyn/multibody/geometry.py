@@ -72,6 +72,18 @@ class Geometry:
         elif self.shape == "mesh":
             raise ValueError(f"Geometry {self.name!r}: a mesh needs the vertices of its hull")
 
+    def __repr__(self) -> str:
+        """One line: the name, link, shape and size, where it sits in the link's frame, and for
+        a mesh its hull's vertex count and file (the vertices themselves are `.vertices`)."""
+        mesh = ""
+        if self.vertices is not None:
+            mesh = f", hull of {len(self.vertices)} vertices, mesh_path={self.mesh_path!r}"
+        xyz = ", ".join(f"{x:.4g}" for x in self.placement[:3, 3])
+        return (
+            f"Geometry(name={self.name!r}, link={self.link!r}, shape={self.shape!r}, "
+            f"size={self.size}, at ({xyz}) m in the link's frame{mesh})"
+        )
+
 
 @dataclass(frozen=True, eq=False)
 class GeometryTable:
