@@ -68,7 +68,8 @@ def test_a_bounce_between_two_samples_is_seen():
     assert extremes.largest_force == pytest.approx(BALL_K * extremes.deepest, rel=1e-12)
     assert extremes.largest_t == extremes.deepest_t and extremes.most_points == 1
     line = summary(ball(), traj).splitlines()[-1]
-    assert line.startswith("contact     1 point on the ground") and "10 mm (ball at t = 0.324" in line
+    assert line.startswith("contact     1 point on the ground")
+    assert "10 mm (ball at t = 0.324" in line
     assert line.endswith("over every step") and "WARNING" not in summary(ball(), traj)
 
 
@@ -147,3 +148,4 @@ def test_a_simulator_keeps_the_extremes_of_its_steps_and_forgets_them_at_reset()
     sim.reset()
     sim.step(duration=0.2)
     assert not sim.trajectory().contact_extremes.touched
+

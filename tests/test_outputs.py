@@ -570,3 +570,33 @@ def test_a_contact_table_with_too_few_times_is_refused_naming_both_lengths(tmp_p
         assert not (tmp_path / "c.csv").exists()
     written = table.to_csv(tmp_path / "c.csv", t=[0.0, 0.1, 0.2]).read_text().splitlines()
     assert [line.split(",")[1] for line in written[1:]] == ["0.0", "0.2"]
+
+
+def ball(**run):
+    """The shipped ball_drop scene (a 10 ms bounce on a 1e5 N/m spring ground) with run keys
+    changed."""
+    scene = od.load_scene("ball_drop")
+    return scene.replace_run(**run)
+
+
+@pytest.mark.parametrize("integrator", ["dopri5", "rk4"])
+def test_ctrl_c_is_answered_after_a_handful_of_steps_however_long_the_chunk(
+    integrator, monkeypatch
+):
+    """Ctrl-C was checked between chunks of simulated time (DOPRI5) or after a first chunk of
+    64 steps: a stiff contact whose steps became tiny (2.9 million for 0.01 s) took 140 s to
+    stop, a 200-box scene 7 s. Each chunk is now also a budget of steps, FIRST_CHUNK (a few)
+    before the rate is known: a Ctrl-C that came before the run stops it after that many
+    trial steps, though the first span is the whole run (output_dt = duration)."""
+    from opendyn.sim import driver
+
+    monkeypatch.setattr(driver.Interrupt, "requested", True)  # as if Ctrl-C came at once
+    traj = od.simulate(ball(duration=0.5, output_dt=0.5, integrator=integrator, rtol=1e-10),
+                       raise_on_failure=False)
+    assert not traj.complete and traj.message.startswith("interrupted (Ctrl-C) at t = ")
+    assert 0 < traj.stats["steps"] + traj.stats["rejected_steps"] <= driver.FIRST_CHUNK <= 8
+    # od.Simulator's steps, likewise
+    sim = od.Simulator(ball(integrator=integrator, rtol=1e-10))
+    with pytest.raises(KeyboardInterrupt, match="interrupted"):
+        sim.step(duration=0.5)
+    assert 0 < sim.t < 0.5 and len(sim.trajectory().t) <= driver.FIRST_CHUNK + 1

@@ -252,18 +252,20 @@ def _scene_header(scene):
 
 def summary(scene, traj):
     """The run in a few lines: time, speed, steps, integrator statistics, energy; the
-    contact's extremes over every step, and a warning where a pair went deeper than half its
-    thinner geometry; for a floating robot that nothing but gravity acts on from outside, how
-    well its momentum was kept."""
+    contact's extremes over every step; a warning where a pair went deeper than half its
+    thinner geometry, and where the energy balance is off by more than ENERGY_WARNING; for a
+    floating robot that nothing but gravity acts on from outside, how well its momentum was
+    kept."""
     stats = traj.stats
     wall = stats["wall_s"]
     simulated = stats["simulated_s"]
     factor = simulated / wall if wall > 0 else float("inf")
     extremes = traj.contact_extremes
     too_deep = extremes.warning() if extremes is not None else ""
+    warnings = [w for w in (too_deep, _energy_warning(scene, traj)) if w]
     status = "complete" if traj.complete else "STOPPED EARLY (partial record)"
-    if too_deep:
-        status += ", with the warning below"
+    if warnings:
+        status += ", with the warning below" if len(warnings) == 1 else ", with the warnings below"
     if stats["compile_s"] > 0:
         ready = (
             f"{stats['compile_s']:.3g} s more compiling the step, once per machine and opendyn "
@@ -305,8 +307,7 @@ def summary(scene, traj):
         )
     if extremes is not None and len(traj.t):
         lines.append(_contact_line(traj) if traj.has_contact else _contacts_line(traj))
-    if too_deep:
-        lines.append(f"WARNING     {too_deep}")
+    lines += [f"WARNING     {warning}" for warning in warnings]
     if len(traj.com) and not (
         scene.contact or scene.wrenches or scene.constraints or scene.armature is not None
     ):
@@ -324,6 +325,42 @@ def summary(scene, traj):
             f"rad, max |A qd| = {traj.violation_velocity.max():.3g} m/s or rad/s"
         )
     return "\n".join(lines)
+
+
+# the energy balance's error, as a fraction of max |E|, past which the summary warns: the
+# integration, not the physics, made that much of the motion
+ENERGY_WARNING = 0.05
+
+
+def _energy_warning(scene, traj) -> str:
+    """A sentence when the energy balance's error max |E - E(0) - W| exceeds ENERGY_WARNING of
+    max |E| (the integrator made that much energy, or lost it), naming the likely cause by the
+    integrator; "" otherwise."""
+    if not len(traj.t):
+        return ""
+    scale = max(np.abs(traj.energy).max(), traj.kinetic.max(), 1e-300)
+    relative = np.abs(traj.energy_error).max() / scale
+    if not relative > ENERGY_WARNING:
+        return ""
+    run = scene.run
+    causes = {
+        "euler": f"explicit Euler adds energy at every step, first order in run.dt = {run.dt:g} "
+        "s: use rk4 or dopri5, or a smaller run.dt",
+        "semi_implicit_euler": f"semi-implicit Euler's step run.dt = {run.dt:g} s is too large "
+        "for the fastest motion: a smaller run.dt, or rk4 or dopri5",
+        "implicit_euler": f"implicit Euler damps the motion numerically, first order in run.dt "
+        f"= {run.dt:g} s, most where stiff springs (contact) act: a smaller run.dt, or dopri5",
+        "dopri5": f"run.rtol = {run.rtol:g} lets the error grow: tighten it",
+    }
+    cause = causes.get(
+        run.integrator,
+        f"the step run.dt = {run.dt:g} s is too large for the fastest motion (a stiff contact, "
+        "a light link): halve it and compare, or use dopri5",
+    )
+    return (
+        f"the energy balance is off by {relative:.2g} of max |E| (more than {ENERGY_WARNING:g}):"
+        f" the integration, not the physics, made or lost that energy; {cause}"
+    )
 
 
 def _momentum_line(scene, traj):

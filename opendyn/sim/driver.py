@@ -44,7 +44,10 @@ def compile_estimate(scene) -> str:
 
 
 CHUNK_SECONDS = 0.1  # wall time of one compiled chunk: progress and Ctrl-C granularity
-FIRST_CHUNK = 64  # fixed steps in the first chunk, before the rate is known
+# steps (fixed, or adaptive trials) in the first chunk, before the rate is known: few, since a
+# step of a scene of many bodies in contact may take 0.1 s (64 made a 200-box scene answer
+# Ctrl-C after 7 s); the next chunks grow by up to 8 times (next_steps)
+FIRST_CHUNK = 4
 
 
 def next_steps(steps, seconds, current):
@@ -237,7 +240,7 @@ class Stepper:
             at_start = integrators.Progress(0.0, self.scene.run.dt, 1)
 
             def loop():
-                self.adaptive_chunk(at_start, 0.0, x, first, out, counters)
+                self.adaptive_chunk(at_start, 0.0, x, first, out, counters, FIRST_CHUNK)
         else:
 
             def loop():
@@ -258,10 +261,10 @@ class Stepper:
             counters, self.free,
         )
 
-    def adaptive_chunk(self, at, t_stop, x, first, out, counters):
+    def adaptive_chunk(self, at, t_stop, x, first, out, counters, max_steps):
         """integrators.run_adaptive on the State x, record and Counters from the Progress
-        `at` (time, first trial step, next output row) to t_stop; first: the FSAL Stage.
-        Returns (status, Progress reached)."""
+        `at` (time, first trial step, next output row) to t_stop, or for max_steps trial steps
+        if it gets no further; first: the FSAL Stage. Returns (status, Progress reached)."""
         run = self.scene.run
         settings = integrators.AdaptiveSettings(
             t0=0.0,
@@ -272,6 +275,7 @@ class Stepper:
             max_speed=run.max_speed,
             size_index=error_size_index(self.scene.model),
             t_land=math.inf,
+            max_steps=max_steps,
         )
         return integrators.run_adaptive(
             self.integ.tableau(), self.data, settings, at, t_stop, x, first, out.arrays(),

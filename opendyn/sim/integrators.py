@@ -103,11 +103,16 @@ FixedSettings = namedtuple("FixedSettings", ("t0", "dt", "every", "max_speed"))
 # and size_index (nv,) int64, the q index whose magnitude scales each v coordinate's position
 # error (-1: 1 rad); t_land (s): a time the steps land on besides the output times (the end of
 # a control period, where the held torque changes; inf for none: a chunk of a run merely stops
-# once past its t_stop).
+# once past its t_stop); max_steps: the trial steps (accepted and rejected) one call may take
+# before it returns where it stands, short of t_stop: a chunk's budget, so that a run whose
+# steps become tiny (a stiff contact) still comes back to its caller, who checks for Ctrl-C
+# (ALL_STEPS: no budget, the call runs to t_stop).
 AdaptiveSettings = namedtuple(
     "AdaptiveSettings",
-    ("t0", "t_end", "rtol", "atol", "output_dt", "max_speed", "size_index", "t_land"),
+    ("t0", "t_end", "rtol", "atol", "output_dt", "max_speed", "size_index", "t_land",
+     "max_steps"),
 )
+ALL_STEPS = 2**62
 # Two times closer than SLIVER max(1, |t|) s are one: the sums that give an output time
 # (t0 + r output_dt) and the end of a control period (t + duration) round differently, and the
 # rounding (a few 1e-17 s at t = 0.06 s) is no step to take.
@@ -394,8 +399,9 @@ def run_adaptive(tableau, scene, settings, at, t_stop, x, first, out, counters, 
 
     Steps are cut so that they land on the output times and on settings.t_land (no row is
     recorded there unless it is an output time); the loop stops once t >= t_stop (t_stop <=
-    t_land). A time within SLIVER of t counts as reached: an output time is recorded at once,
-    and t_land ends the loop with t = t_land. The error of each v coordinate's
+    t_land), or after settings.max_steps trial steps, short of t_stop (the caller goes on
+    from the Progress returned). A time within SLIVER of t counts as reached: an output time is
+    recorded at once, and t_land ends the loop with t = t_land. The error of each v coordinate's
     position is scaled by the magnitude of q[settings.size_index[j]] (the coordinate itself for
     a joint, a floating base's position for its translation), by 1 rad where that is -1 (a
     rotation). first: the Stage at the current state (the FSAL stage), kept up to date.
@@ -411,6 +417,7 @@ def run_adaptive(tableau, scene, settings, at, t_stop, x, first, out, counters, 
     kq, kv, kw = work.kq, work.kv, work.kw
     x1 = State(np.empty(q.shape[0]), np.empty(nv), np.empty(2))
     t, h, row = at.t, at.h, at.row
+    trials = 0
     while t < t_stop:
         t_out = min(settings.t0 + row * settings.output_dt, settings.t_end)
         sliver = SLIVER * max(1.0, abs(t))
@@ -421,6 +428,9 @@ def run_adaptive(tableau, scene, settings, at, t_stop, x, first, out, counters, 
         if settings.t_land - t <= sliver:  # at the end of the control period but for rounding
             t = max(t, settings.t_land)
             break
+        if trials == settings.max_steps:  # the chunk's budget spent: back to the caller
+            break
+        trials += 1
         t_land = min(t_out, settings.t_land)
         # land on the output time (or t_land) when the step reaches it or would leave a sliver
         # before it

@@ -270,6 +270,7 @@ class _Loop:
                 t0=0.0, t_end=run.duration, rtol=run.rtol, atol=run.atol,
                 output_dt=run.output_dt, max_speed=run.max_speed,
                 size_index=error_size_index(scene.model), t_land=math.inf,
+                max_steps=integrators.ALL_STEPS,  # a run is whole: the batch's chunks are runs
             )
             at = integrators.Progress(0.0, run.dt, 1)
             self.kernel, self.head = rollout_adaptive, (integ.tableau(), settings, at)

@@ -136,7 +136,9 @@ def _run_fixed(stepper, nsteps, every, x, out, counters, bar, stop):
 
 
 def _run_adaptive(stepper, x, out, counters, bar, stop):
-    """Adaptive steps in compiled chunks of simulated time. Returns (status, time reached)."""
+    """Adaptive steps in compiled chunks of simulated time, each also cut at a budget of trial
+    steps sized to about CHUNK_SECONDS of wall time (next_steps), so that Ctrl-C is answered
+    however small the steps become. Returns (status, time reached)."""
     run = stepper.scene.run
     nv = stepper.scene.model.nv
     first = integrators.Stage(np.empty((2, nv)), np.empty(2), np.empty(nv))  # the FSAL stage
@@ -148,11 +150,12 @@ def _run_adaptive(stepper, x, out, counters, bar, stop):
     out.filled = 1
     at = integrators.Progress(0.0, run.dt, 1)
     span = max(run.output_dt, run.duration / 1000)
+    budget = FIRST_CHUNK
     while at.t < run.duration:
         t_stop = min(run.duration, at.t + span)
         tic = time.perf_counter()
-        t_before = at.t
-        status, at = stepper.adaptive_chunk(at, t_stop, x, first, out, counters)
+        t_before, trials = at.t, counters.accepted[0] + counters.rejected[0]
+        status, at = stepper.adaptive_chunk(at, t_stop, x, first, out, counters, budget)
         out.filled = at.row
         if bar is not None:
             bar.update(at.t - t_before)
@@ -160,7 +163,10 @@ def _run_adaptive(stepper, x, out, counters, bar, stop):
             return status, at.t
         if stop.requested and at.t < run.duration:
             return Status.INTERRUPTED, at.t
-        span = next_span(span, time.perf_counter() - tic, run.duration)
+        seconds = time.perf_counter() - tic
+        span = next_span(span, seconds, run.duration)
+        trials = int(counters.accepted[0] + counters.rejected[0] - trials)
+        budget = next_steps(trials, seconds, budget)
     return 0, at.t
 
 

@@ -180,6 +180,7 @@ class Simulator:
             self._adaptive = integrators.AdaptiveSettings(
                 t0=t, t_end=math.inf, rtol=run.rtol, atol=run.atol, output_dt=run.output_dt,
                 max_speed=run.max_speed, size_index=error_size_index(model), t_land=math.inf,
+                max_steps=integrators.ALL_STEPS,
             )
         else:
             self._fixed = integrators.FixedSettings(
@@ -387,7 +388,8 @@ class Simulator:
 
     def _advance_adaptive(self, t_land):
         """Adaptive steps landing on t_land (s), in chunks of about CHUNK_SECONDS under an
-        Interrupt. Returns the status."""
+        Interrupt (a span of simulated time, cut at a budget of trial steps). Returns the
+        status."""
         run, stop = self.scene.run, self._interrupt
         x, first = self._x, self._first
         # the held torque may have changed: the first (FSAL) stage is evaluated anew
@@ -402,8 +404,12 @@ class Simulator:
         self._reserve(int((t_land - self._t0) / run.output_dt) + 2)
         settings = self._adaptive._replace(t_land=t_land)
         span = run.output_dt if stop is not None else math.inf
+        budget = FIRST_CHUNK  # trial steps a chunk may take (under an Interrupt)
         while self._t < t_land:
             tic = time.perf_counter()
+            trials = self._counters.accepted[0] + self._counters.rejected[0]
+            if stop is not None:
+                settings = settings._replace(max_steps=budget)
             status, self._at = self._run_adaptive(
                 self._tableau, self._data, settings, self._at, min(t_land, self._t + span), x,
                 first, self._record, self._counters, self._free,
@@ -413,7 +419,10 @@ class Simulator:
             self._steps = int(self._counters.accepted[0])
             if status or (stop is not None and stop.requested):
                 return status
-            span = next_span(span, time.perf_counter() - tic, t_land - self._t0)
+            seconds = time.perf_counter() - tic
+            span = next_span(span, seconds, t_land - self._t0)
+            trials = int(self._counters.accepted[0] + self._counters.rejected[0] - trials)
+            budget = next_steps(trials, seconds, budget)
         return 0
 
     def _check_record(self, duration):
