@@ -18,12 +18,13 @@ from scipy.special import ellipk, ellipkinc
 
 import opendyn as od
 from opendyn.errors import SceneError
+from opendyn.io.urdf import shipped_robots_dir
 from opendyn.sim.record import QUATERNION_NORM_BOUND
 
 pin = pytest.importorskip("pinocchio")
 from pin_adapter import PinOracle  # noqa: E402
 
-T_HANDLE = str(od.io.urdf.shipped_robots_dir() / "t_handle.urdf")
+T_HANDLE = str(shipped_robots_dir() / "t_handle.urdf")
 
 
 def _scene(data):
