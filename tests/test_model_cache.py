@@ -136,3 +136,42 @@ def test_a_load_that_warns_warns_every_time_and_is_not_stored(tmp_path, cache):
 def test_the_cache_can_be_switched_off(tmp_path, monkeypatch):
     monkeypatch.setenv("OPENDYN_MODEL_CACHE", "0")
     assert model_cache._folder() is None
+
+
+def test_a_large_world_mesh_says_it_computes_its_hull_and_keeps_it(tmp_path, cache, capsys,
+                                                                     monkeypatch):
+    """A [[world]] mesh of over 100k vertices: the first scene announces its hull on stderr;
+    the next loads the hull from the cache, computing none (hull_vertices is not called)."""
+    import trimesh
+
+    from opendyn.io.scene import sections_world
+
+    # 81920 triangles: an STL of 245760 corners
+    trimesh.creation.icosphere(subdivisions=6, radius=1.0).export(tmp_path / "ball.stl")
+    data = {
+        "objects": [{"name": "box", "shape": "box", "size": [0.2, 0.2, 0.2], "mass": 1.0,
+                     "position": [0.0, 0.0, 2.0]}],
+        "world": [{"name": "ball", "shape": "mesh", "mesh": "ball.stl", "size": [2, 2, 2]}],
+        "effects": {"gravity": True, "contact": {"geometry": "collision", "stiffness": 1e4,
+                                       "friction": 0.5}},
+    }
+
+    def ball():
+        scene = od.scene_from_dict(data, base_dir=tmp_path)
+        return next(g for g in scene.model.geometries if g.name == "ball")
+
+    first = ball()
+    err = capsys.readouterr().err
+    assert "computing the convex hull of the world mesh" in err and "ball.stl" in err, err
+    assert "(245760 vertices" in err and np.abs(first.vertices).max() == pytest.approx(2.0)
+
+    def refused(*args):
+        raise AssertionError("the hull was computed again")
+
+    monkeypatch.setattr(sections_world, "hull_vertices", refused)
+    again = ball()
+    assert np.array_equal(again.vertices, first.vertices)
+    assert "computing the convex hull" not in capsys.readouterr().err
+    data["world"][0]["size"] = [1, 1, 1]  # another scale: another entry
+    with pytest.raises(AssertionError, match="computed again"):
+        ball()

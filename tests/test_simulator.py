@@ -317,3 +317,32 @@ def test_a_torque_that_alone_passes_max_speed_in_one_step_is_named_as_the_cause(
     assert "Likely cause: the torque the step was given (|tau| up to 1e+09 on 'FL_HAA')" in message
     assert "past max_speed = 10000; check the torque" in message and "dopri5" not in message
     assert stopped.value.trajectory.t[-1] == pytest.approx(0.01)
+
+
+def test_the_wall_time_of_a_controlled_run_counts_the_controller_s_calls():
+    """A controller that sleeps 20 ms a call: the run's wall time holds the sleeps, and the
+    summary's real-time factor is the whole run's, with the compiled step's alone beside it."""
+    import time
+
+    from opendyn.cli.simulate import summary
+
+    calls = []
+
+    def sleepy(t, q, qd):
+        calls.append(t)
+        time.sleep(0.02)
+        return np.zeros(2)
+
+    scene = pendulum(duration=0.05)
+    traj = od.simulate(scene, controller=sleepy, control_dt=0.01)
+    slept = 0.02 * len(calls)
+    assert len(calls) == 5
+    assert traj.stats["wall_s"] >= slept and traj.stats["controller_s"] >= slept
+    assert traj.stats["wall_s"] > traj.stats["controller_s"]
+    (line,) = [line for line in summary(scene, traj).splitlines() if line.startswith("simulated")]
+    factor = traj.stats["simulated_s"] / traj.stats["wall_s"]
+    assert f"({factor:.3g}x real time; of it " in line
+    assert "s in the Python controller, the compiled step alone " in line
+    sim = od.Simulator(scene, controller=sleepy, control_dt=0.01)
+    sim.step(duration=0.03)
+    assert sim.trajectory().stats["wall_s"] >= 0.06

@@ -139,3 +139,18 @@ def test_a_process_that_only_loads_kernels_imports_none_of_numbas_compiler_regis
     loaded, q_end = out.stdout.strip().splitlines()[-1].split(" ", 1)
     assert loaded == "True", out.stderr
     np.testing.assert_array_equal(np.array(ast.literal_eval(q_end)), expected)
+
+
+def test_the_collision_queries_compile_notice_says_how_long_they_take(capsys):
+    """Compiling distances or collisions takes 27-36 s on 2 cores: their notice says so
+    (not "a few seconds")."""
+    from opendyn._runtime import compile_notice
+    from opendyn.algorithm.collision import queries
+
+    for kernel in (queries.distances_kernel, queries.collisions_kernel):
+        compile_notice._watch._announce(kernel)
+        compile_notice._watch.bar.close()
+        compile_notice._watch.bar = None
+        (line,) = capsys.readouterr().err.strip().splitlines()
+        assert f"compiling opendyn.algorithm.collision.queries.{kernel.py_func.__name__} " in line
+        assert "(20-35 s on 2 cores;" in line and "a few seconds" not in line

@@ -9,7 +9,9 @@ hit raises no event), so:
   - the first compilation of a call prints one line on stderr (what, why, about how long, that it
     happens once per machine and opendyn version) and a bar that counts the pieces compiled;
   - `compiling(what, pieces)` announces a planned compilation of known size (a simulation's
-    loop, `opendyn compile` (opendyn.cli.cache)): the bar then moves over those pieces.
+    loop, `opendyn compile` (opendyn.cli.cache)): the bar then moves over those pieces;
+  - `expect(kernel, estimate)` gives the notice of a kernel called on its own (the collision
+    queries) its measured time; any other such kernel compiles in seconds.
 `compile_seconds()` is the total time spent compiling in this process. The listener is on from
 this module's import, which opendyn._runtime.kernel_cache makes (every kernel module imports
 that one), naming its folder (`cached_in`).
@@ -38,6 +40,7 @@ class _Watch(event.Listener):
         self.plan = None  # (what, pieces, estimate) of an announced compilation
         self.quiet = False
         self.folder = None  # the cache folder the notice names (None: none is writable)
+        self.estimates = {}  # {kernel's Python function: the notice's words} (expect)
 
     def on_start(self, ev):
         dispatcher = ev.data["dispatcher"]
@@ -66,23 +69,28 @@ class _Watch(event.Listener):
                 self.bar.close()
                 self.bar = None
 
-    def _announce(self, dispatcher):
-        """The notice line, then a bar (planned pieces, or one kernel and its callees)."""
-        from tqdm import tqdm
-
+    def notice(self, dispatcher) -> tuple[str, int]:
+        """(the notice line, the bar's pieces) of a compilation that starts with `dispatcher`:
+        the planned one's, else that kernel's alone (its expected time, else a few seconds)."""
         if self.plan is not None:
             what, pieces, estimate = self.plan
             estimate = estimate() if callable(estimate) else estimate
         else:
             what, pieces = f"{dispatcher.py_func.__module__}.{dispatcher.py_func.__name__}", 1
-            estimate = "a few seconds"
+            estimate = self.estimates.get(dispatcher.py_func, "a few seconds")
         where = f"cached in {self.folder}" if self.folder else "no writable cache: every process"
-        print(
+        line = (
             f"opendyn: compiling {what} for this machine ({estimate} on 2 cores; once per "
-            f"machine and opendyn version, {where})",
-            file=sys.stderr,
-            flush=True,
+            f"machine and opendyn version, {where})"
         )
+        return line, pieces
+
+    def _announce(self, dispatcher):
+        """The notice line, then a bar (planned pieces, or one kernel and its callees)."""
+        from tqdm import tqdm
+
+        line, pieces = self.notice(dispatcher)
+        print(line, file=sys.stderr, flush=True)
         self.bar = tqdm(
             total=pieces,
             unit="piece",
@@ -102,6 +110,13 @@ event.register("numba:compile", _watch)
 def cached_in(folder):
     """The cache folder the notice names (None: no writable one)."""
     _watch.folder = folder
+
+
+def expect(kernel, estimate: str):
+    """The words on how long compiling `kernel` (a compiled function called on its own, with
+    its callees) takes on 2 cores, e.g. "about 30 s", for its notice; returns `kernel`."""
+    _watch.estimates[kernel.py_func] = estimate
+    return kernel
 
 
 def compile_seconds() -> float:

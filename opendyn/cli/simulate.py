@@ -251,7 +251,8 @@ def _scene_header(scene):
 
 
 def summary(scene, traj):
-    """The run in a few lines: time, speed, steps, integrator statistics, energy; the
+    """The run in a few lines: time, speed (the whole wall time's, a Python controller's calls
+    included, and then the compiled step's alone), steps, integrator statistics, energy; the
     contact's extremes over every step; a warning where a pair went deeper than half its
     thinner geometry, and where the energy balance is off by more than ENERGY_WARNING; for a
     floating robot that nothing but gravity acts on from outside, how well its momentum was
@@ -273,6 +274,14 @@ def summary(scene, traj):
         )
     else:
         ready = f"{stats['load_s']:.2g} s more to load the compiled step"
+    controller = stats.get("controller_s", 0.0)
+    if controller > 0:
+        step = wall - controller
+        alone = simulated / step if step > 0 else float("inf")
+        ready = (
+            f"of it {controller:.3g} s in the Python controller, the compiled step alone "
+            f"{alone:.3g}x real time; {ready}"
+        )
     lines = [
         f"run         {status}",
         f"simulated   {simulated:.4g} s in {wall:.3g} s wall ({factor:.3g}x real time; {ready})",

@@ -16,6 +16,11 @@ the URDF names, as found now (io.meshes.mesh_files, which looks them up again, s
 now resolves elsewhere is a change). An entry whose files changed is a miss: the Model is built
 again and replaces it. A load that warned is not stored, so that its warnings are not lost on
 the next. OPENDYN_MODEL_CACHE=0 switches the cache off (every load_urdf builds its Model).
+
+A scene's [[world]] mesh is kept the same way (cached_world_mesh): its convex hull and its
+hollow, named by a hash of opendyn's source digest, the file's bytes and the scale, so that a
+large world mesh (a room scanned into hundreds of thousands of vertices: most of a minute) costs
+its hull once.
 """
 
 from __future__ import annotations
@@ -56,6 +61,26 @@ def cached_model(file: str, srdf, options: tuple, build):
     if files is not None and not caught:
         _write(path, files, model)
     return model
+
+
+def cached_world_mesh(file: str, scale, build):
+    """What `build()` makes of the world mesh `file` scaled by `scale` (3 floats): its hull's
+    vertices and its hollow (sections_world), the stored ones when the cache holds an entry of
+    the same bytes and scale, else build()'s, stored for next time."""
+    folder = _folder()
+    files = None if folder is None else _hashes([file])
+    if files is None:  # (a file that cannot be read: the build says what is wrong)
+        return build()
+    h = hashlib.sha256()
+    for part in (DIGEST, "world mesh", *files.values(), repr(tuple(map(float, scale)))):
+        h.update(part.encode() + b"\0")
+    path = folder / "world_meshes" / f"{h.hexdigest()[:32]}.pkl"
+    kept = _read(path, files)
+    if kept is not None:
+        return kept
+    kept = build()
+    _write(path, files, kept)
+    return kept
 
 
 def _folder() -> pathlib.Path | None:

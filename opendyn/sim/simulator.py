@@ -110,7 +110,8 @@ class Simulator:
             self._tableau = self._integ.tableau()
         else:
             self._switches = self._integ.switches()
-        self._wall = 0.0
+        self._wall = 0.0  # wall time (s) of the compiled steps
+        self._controller_wall = 0.0  # wall time (s) of the controller's calls
         self._row_bytes = Samples.row_bytes(self.model.nq, self.model.nv)
         self._rate = None  # wall seconds per simulated second of the last step
         self._interrupt = None  # the Interrupt of a long step or of run_controlled
@@ -282,7 +283,11 @@ class Simulator:
         if self._controller is None:
             self._held[:] = tau_user
         else:
-            self._held[:] = tau_user + self._control()
+            tic = time.perf_counter()
+            try:
+                self._held[:] = tau_user + self._control()
+            finally:
+                self._controller_wall += time.perf_counter() - tic
         self._advance(t_end)
 
     def _control(self):
@@ -498,7 +503,8 @@ class Simulator:
             "steps": self._steps,
             "rejected_steps": int(self._counters.rejected[0]),
             "evaluations": int(self._counters.evaluations[0]),
-            "wall_s": self._wall,
+            "wall_s": self._wall + self._controller_wall,
+            "controller_s": self._controller_wall,
             "compile_s": self._compile_s,
             "load_s": self._load_s,
             "simulated_s": self._t - self._t0,

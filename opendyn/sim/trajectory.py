@@ -97,7 +97,8 @@ class Trajectory:
     kinetic, potential (K,) J; work_applied, work_passive (K,) J,
     the work done since t = 0 by control and applied wrenches, and by damping, friction and limits.
     complete: False when the run stopped early (failure or interrupt); message says why.
-    stats: steps, rejected steps, dynamics evaluations, wall time (s), kernel load time (s);
+    stats: steps, rejected steps, dynamics evaluations, wall time (s: wall_s, a Python
+      controller's calls included, controller_s of it theirs), kernel load time (s);
       with a floating base quaternion_norm_error, the largest | |quat| - 1 | of the samples.
     violation_position, violation_velocity: (K,) max_i |phi_i(q)| (m or rad) and max_i |(A qd)_i|
     (m/s or rad/s) over the scene's constraints at each sample; empty (0,) without constraints.

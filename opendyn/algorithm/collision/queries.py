@@ -24,6 +24,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
+from ..._runtime.compile_notice import expect
 from ..._runtime.kernel_cache import JIT, UNCOUNTED
 from ..._runtime.options import as_real
 from ..._runtime.status import Status
@@ -199,6 +200,12 @@ def collisions_kernel(ibuf, fbuf, work, q, table, pairs, margin, geometry_work, 
         if pair_status:
             status = pair_status
     return status, count
+
+
+# what compiling a query (and the narrow phase it calls) takes on a 2-core machine: 27-36 s the
+# first one a process compiles, about 18 s the other (docs/performance/startup.md)
+expect(distances_kernel, "20-35 s")
+expect(collisions_kernel, "20-35 s")
 
 
 def _table(model):

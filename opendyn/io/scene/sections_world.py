@@ -21,6 +21,7 @@ be read (each one named).
 from __future__ import annotations
 
 import dataclasses
+import sys
 import warnings
 
 import numpy as np
@@ -32,8 +33,28 @@ from ...sim.effects.geometry_contact import GROUND, GeometryContact, pair_table
 from ...sim.values import ValueReader, what_is
 from ...spatial.algebra import rpy_matrix
 from ..concavity import gross_hollow
-from ..meshes import MeshError, hull_vertices
+from ..meshes import MeshError, hull_vertices, read_mesh
+from ..model_cache import cached_world_mesh
 from ..urdf import load_urdf
+
+LARGE_MESH = 100_000  # vertices of a world mesh whose hull is announced (655k: 50-60 s)
+
+
+def _hull(path: str, size) -> tuple[np.ndarray, object]:
+    """(the hull's vertices (n, 3) m, the gross hollow or None) of the world mesh `path` scaled
+    by `size`; a mesh of over LARGE_MESH vertices says first that it takes a while (its result
+    is then kept on disk: opendyn.io.model_cache.cached_world_mesh)."""
+    count = len(read_mesh(path)[0])
+    if count > LARGE_MESH:
+        print(
+            f"opendyn: computing the convex hull of the world mesh {path} ({count} vertices: "
+            "about a minute per 600,000; kept in the model cache for later runs unless "
+            "OPENDYN_MODEL_CACHE=0)",
+            file=sys.stderr,
+            flush=True,
+        )
+    return hull_vertices(path, size), gross_hollow(path, size, environment=True)
+
 
 OBJECT_KEYS = (
     "name", "urdf", "shape", "size", "mass", "position", "rpy", "orientation", "velocity",
@@ -181,8 +202,7 @@ class WorldSection(ValueReader):
             self.fail(f"{where}.mesh", "missing: a mesh entry needs its file (STL, OBJ, DAE)")
         path = self.existing_file(table["mesh"], f"{where}.mesh", "mesh", self.base_dir)
         try:
-            vertices = hull_vertices(str(path), size)
-            hollow = gross_hollow(str(path), size, environment=True)
+            vertices, hollow = cached_world_mesh(str(path), size, lambda: _hull(str(path), size))
         except MeshError as e:
             self.fail(f"{where}.mesh", str(e))
         if hollow is not None:
