@@ -128,7 +128,7 @@ def test_a_blocking_controller_is_stopped_and_the_partial_record_written(signals
     # a run stopped early: exit status 1, as for any Ctrl-C or SIGTERM during a run
     assert code == 1 and seconds < 5, stderr
     assert f"interrupted ({name}) at t = 0.06 s" in stderr, stderr
-    partial = od.Trajectory.load(tmp_path / "run.npz")
+    partial = od.Trajectory.load(tmp_path / "run-partial.npz")
     assert not partial.complete and partial.t[-1] == pytest.approx(0.06, abs=1e-12)
 
 
@@ -514,3 +514,63 @@ def test_a_rollout_with_one_bad_q0_row_fails_that_run_and_runs_the_others():
     assert result.message[1] == "rollout: q0[1] is not finite: [nan  0.]"
     first = od.rollout(scene, q0=[[np.nan, 0.0], [0.2, 0.1]])
     assert list(first.status) == ["failed", "complete"]
+
+
+# -- the last pass: what a user tried after the round's fixes ----------------------------------
+
+
+def test_an_effect_both_enabled_and_disabled_is_refused_naming_both(capsys):
+    """--enable gravity --disable gravity ran with no effects at all, exit 0."""
+    argv = ["simulate", "double_pendulum_swing", "--no-save", "-q", "--duration", "0.01",
+            "--enable", "gravity", "--disable", "gravity"]
+    assert main(argv) == 2
+    assert "--enable gravity and --disable gravity" in capsys.readouterr().err
+
+
+def test_run_control_dt_with_a_compiled_control_law_warns_that_it_changes_nothing(tmp_path):
+    """[run] control_dt with a built-in [control] type (pd, constant) was accepted, even
+    below dt, and did nothing: the law acts at every evaluation."""
+    scene = (shipped_robots_dir() / "planar_3r_limits.toml").read_text()
+    assert 'type = "constant"' in scene and "[run]\n" in scene
+    path = tmp_path / "held.toml"
+    path.write_text(scene.replace("[run]\n", "[run]\ncontrol_dt = 0.0025\n", 1).replace(
+        'urdf = "', f'urdf = "{shipped_robots_dir()}/', 1))
+    with pytest.warns(od.SceneWarning, match=r"run.control_dt: 0.0025 s is the period of a Py"):
+        od.load_scene(path)
+
+
+def test_a_trajectory_is_not_written_over_the_files_its_run_read(tmp_path):
+    """tr.to_csv("dp.toml") replaced the scene file with a table; save("") and save(123) said
+    nothing of the argument."""
+    scene = tmp_path / "dp.toml"
+    scene.write_text((shipped_robots_dir() / "double_pendulum_swing.toml").read_text().replace(
+        'urdf = "', f'urdf = "{shipped_robots_dir()}/', 1))
+    traj = od.simulate(od.load_scene(scene).replace_run(duration=0.01))
+    before = scene.read_bytes()
+    with pytest.raises(ValueError, match="is a file this run read"):
+        traj.to_csv(scene)
+    with pytest.raises(ValueError, match="is a file this run read"):
+        traj.to_csv(od.load_scene(scene).model.source)  # the robot's URDF
+    assert scene.read_bytes() == before
+    with pytest.raises(ValueError, match=r"Trajectory.save: path is empty"):
+        traj.save("")
+    with pytest.raises(TypeError, match=r"Trajectory.to_csv: path must be a file name .* int"):
+        traj.to_csv(123)
+
+
+def test_messages_that_named_the_wrong_thing(tmp_path, capsys):
+    """A scene file given as --controller was "No module named 'dp'"; a folder given as a
+    scene "no such scene file"; [effects]' valid keys listed contact twice."""
+    scene = tmp_path / "dp.toml"
+    scene.write_text("")
+    argv = ["simulate", "double_pendulum_swing", "--no-save", "-q", "--duration", "0.01",
+            "--controller", f"{scene}:f"]
+    assert main(argv) == 2
+    assert f"{str(scene)!r} is not a Python file" in capsys.readouterr().err
+    with pytest.raises(od.SceneError, match="is a folder, not a scene file"):
+        od.load_scene(tmp_path)
+    with pytest.raises(od.SceneError) as unknown:
+        od.scene_from_dict({"robot": {"urdf": "double_pendulum.urdf"}, "effects": {"gravty": 1}},
+                           base_dir=shipped_robots_dir())
+    valid = str(unknown.value).split("valid keys in [effects]: ")[1].split(", ")
+    assert len(valid) == len(set(valid)) and "contact" in valid

@@ -150,7 +150,8 @@ def test_every_name_the_file_system_allows_is_written(tmp_path, monkeypatch, cap
     monkeypatch.chdir(tmp_path)
     most = os.pathconf(tmp_path, "PC_NAME_MAX")
     long_csv = "a" * (most - 12) + ".csv"  # as NAME-partial.csv (a stopped run's): the limit
-    long_npz = "é" * ((most - 5) // 2) + ".npz"  # its .json is the limit, or one byte under
+    # its -partial.json (a stopped run's) is the limit, or one byte under
+    long_npz = "é" * ((most - 13) // 2) + ".npz"
     names = ["with space.npz", 'quo"te\'s.npz', "new\nline.npz", "a:b*c?<>|.npz", "-dash.npz",
              "no-suffix", "ünïcødé 机器人.npz", ".hidden.npz", long_npz]
     for name in names:
@@ -430,11 +431,16 @@ def signal_a_long_run(out, ctrl_c, signals):
 def test_ctrl_c_or_sigterm_during_the_run_writes_the_partial_record_and_exits_1(
     signum, name, tmp_path
 ):
+    """The partial record goes to -o's partial name, long-partial.npz: a complete run's
+    long.npz from before is kept as it was (the stopped run wrote over it)."""
     out = tmp_path / "long.npz"
+    out.write_bytes(b"a complete run's record")
     status, stdout, stderr = signal_a_long_run(out, signal.SIG_DFL, [(signum, 0)])
     assert status == 1, stderr
     assert f"interrupted ({name}) at t = " in stderr and "STOPPED EARLY" in stdout
-    traj = od.Trajectory.load(out)
+    assert out.read_bytes() == b"a complete run's record"
+    assert f"wrote {tmp_path / 'long-partial.npz'}" in stdout
+    traj = od.Trajectory.load(tmp_path / "long-partial.npz")
     assert not traj.complete and traj.message.startswith(f"interrupted ({name})")
     assert 0 < traj.t[-1] < 3600
 
@@ -447,7 +453,7 @@ def test_started_with_ctrl_c_ignored_a_run_ignores_it_and_stops_on_sigterm(tmp_p
     status, _, stderr = signal_a_long_run(out, signal.SIG_IGN, signals)
     assert status == 1, stderr
     assert "interrupted (SIGTERM) at t = " in stderr and "Ctrl-C" not in stderr
-    assert not od.Trajectory.load(out).complete
+    assert not od.Trajectory.load(tmp_path / "long-partial.npz").complete
 
 
 def test_a_reader_that_closes_the_pipe_leaves_the_command_quiet_and_its_files_written(tmp_path):

@@ -6,8 +6,9 @@ after it with what failed said, and a fallback file for a trajectory that would 
 record) in the current folder (SCENE the scene file's name without .toml, which is a shipped
 scene's name; SCENE-partial.npz for a run that stopped early, so that it never replaces a
 complete record), `-o` elsewhere, `--no-save` not at all. `--csv NAME.csv` writes NAME.csv, with
-contacts between collision geometries NAME.contacts.csv beside it; a run that stopped early
-writes them as NAME-partial.csv and NAME-partial.contacts.csv, never over a complete run's.
+contacts between collision geometries NAME.contacts.csv beside it. A run that stopped early
+writes every output under its partial name, NAME-partial.SUFFIX (-o run.npz: run-partial.npz
+and .json; --csv, --plot, --html likewise), never over a complete run's.
 """
 
 from __future__ import annotations
@@ -58,9 +59,9 @@ def scene_stem(scene):
 
 
 def _named_outputs(args):
-    """(option, name, path) for each file the options name: -o's .npz and its .json record,
-    --csv's file for a complete run and for one that stopped early (`_for_run`), --plot,
-    --html. Raises ValueError for an empty name."""
+    """(option, name, path) for each file the options name, for a complete run and for one
+    that stopped early (`_for_run`): -o's .npz and its .json record, --csv, --plot, --html.
+    Raises ValueError for an empty name."""
     named = []
     for option, attr in OUTPUT_OPTIONS.items():
         name = getattr(args, attr)
@@ -70,13 +71,10 @@ def _named_outputs(args):
             raise ValueError(f"{option}: the file name is empty")
         if option == "-o" and os.path.isdir(name):
             raise ValueError(f"{option} {name}: is a folder, not a file; name the .npz to write")
-        if option == "-o":
-            paths = saved_paths(name)
-        elif option == "--csv":
-            paths = [pathlib.Path(_for_run(name, complete)) for complete in (True, False)]
-        else:
-            paths = [pathlib.Path(name)]
-        named += [(option, name, path) for path in paths]
+        for complete in (True, False):
+            path = _for_run(name, complete)
+            paths = saved_paths(path) if option == "-o" else [pathlib.Path(path)]
+            named += [(option, name, path) for path in paths]
     return named
 
 
@@ -172,7 +170,8 @@ def _save_record(scene, traj, args) -> bool | None:
     if args.no_save:
         return None
     if args.output is not None:
-        return _write("-o", args.output, lambda: saved_paths(traj.save(args.output)))
+        name = _for_run(args.output, traj.complete)
+        return _write("-o", name, lambda: saved_paths(traj.save(name)))
     name = _default_record(scene, traj.complete)
     return _write(DEFAULT_SAVE, name, lambda: saved_paths(traj.save(name)))
 
@@ -182,15 +181,17 @@ def _write_outputs(scene, traj, args, saved) -> bool:
     the others; and when one failed and the trajectory has no file (`saved`: False, or None
     with --no-save), it goes to a fallback file (`_save_fallback`), so that the run is never
     lost. Returns whether everything asked for was written, the trajectory's file included."""
+    csv, plot, html = (
+        None if name is None else _for_run(name, traj.complete)
+        for name in (args.csv, args.plot, args.html)
+    )
     writes = []
-    if args.csv is not None:
-        writes.append(("--csv", args.csv, lambda: _write_csv(traj, args.csv)))
-    if args.plot is not None:
-        writes.append(("--plot", args.plot, lambda: [traj.plot(args.plot)]))
-    if args.html is not None:
-        writes.append(
-            ("--html", args.html, lambda: [_write_html(scene, traj, args.html, args.collision)])
-        )
+    if csv is not None:
+        writes.append(("--csv", csv, lambda: _write_csv(traj, csv)))
+    if plot is not None:
+        writes.append(("--plot", plot, lambda: [traj.plot(plot)]))
+    if html is not None:
+        writes.append(("--html", html, lambda: [_write_html(scene, traj, html, args.collision)]))
     failed = saved is False
     for option, name, write in writes:
         failed = not _write(option, name, write) or failed
@@ -280,7 +281,7 @@ def _slug(name):
 
 
 def _write_csv(traj, name) -> list:
-    """The trajectory's CSV at `name`, or for a run that stopped early at NAME-partial.csv
-    (`_for_run`), and its contact table's beside it when it has one: the paths written."""
-    path = traj.to_csv(_for_run(name, traj.complete))
+    """The trajectory's CSV at `name` (a stopped run's partial name already, `_for_run`), and
+    its contact table's beside it when it has one: the paths written."""
+    path = traj.to_csv(name)
     return [path] if traj.contacts is None else [path, contacts_csv_path(path)]

@@ -109,6 +109,12 @@ def _simulate(args) -> int:
             f"--controller {args.controller} and --disable control: one runs a controller, the "
             "other switches control off; give one"
         )
+    both = sorted(set(args.enable) & set(args.disable))
+    if both:
+        raise ValueError(
+            f"--enable {both[0]} and --disable {both[0]}: one switches the effect on, the "
+            "other off; give one"
+        )
     with _doing("loading the scene and its robot; nothing was run"):
         scene = _scene_to_run(args)
         controller = None

@@ -320,6 +320,7 @@ def _provenance(scene, table):
             "settings": thaw(scene.settings),
             "effects": list(scene.effects),
             "stages": list(table.names) + (["armature"] if scene.armature is not None else []),
+            "files": list(scene.files),
         },
         "robot": {
             "name": scene.model.name,

@@ -94,6 +94,12 @@ def load_controller(spec, what):
             module = importlib.util.module_from_spec(spec_)
             sys.modules[module_name] = module
             spec_.loader.exec_module(module)
+        elif pathlib.Path(where).is_file():
+            # "dp.toml:f": a file, but not Python; as a module name it was "No module 'dp'"
+            raise SceneError(
+                f"{what}: {where!r} is not a Python file: a controller is FILE.py:NAME or "
+                "MODULE:NAME"
+            )
         else:
             module = importlib.import_module(where)
     except SceneError:

@@ -75,6 +75,18 @@ def _check_writable(paths):
             raise IsADirectoryError(errno.EISDIR, "is a folder, not a file", str(path))
 
 
+def _file_name(path, what) -> pathlib.Path:
+    """`path` as a Path, or a TypeError (not a file name) or ValueError (an empty one) naming
+    `what` (the method) and the argument."""
+    if not isinstance(path, (str, os.PathLike)):
+        raise TypeError(
+            f"{what}: path must be a file name (str or pathlib.Path), got {type(path).__name__}"
+        )
+    if not str(path).strip():
+        raise ValueError(f"{what}: path is empty; name the file to write")
+    return pathlib.Path(path)
+
+
 def saved_paths(path) -> tuple[pathlib.Path, pathlib.Path]:
     """The two files `Trajectory.save(path)` writes: `path` as a .npz (its suffix replaced by
     .npz, or .npz added), and the JSON record beside it (the same name, .json)."""
@@ -177,18 +189,36 @@ class Trajectory:
         """(K,) E(t) - E(0) - W_applied(t) - W_passive(t) (J): zero for exact integration."""
         return self.energy - self.energy[0] - self.work_applied - self.work_passive
 
+    def _check_outputs(self, paths, what):
+        """Refuse, before any is written, the files `paths` that one write makes where one
+        cannot be written (_check_writable) or is a file the run read, as its provenance names
+        them (the scene file, the robot's URDF, the files the scene names): ValueError naming
+        `what` and the file."""
+        _check_writable(paths)
+        scene, robot = self.provenance.get("scene", {}), self.provenance.get("robot", {})
+        read = [scene.get("source"), robot.get("urdf"), *scene.get("files", ())]
+        inputs = {os.path.realpath(f) for f in read if f and os.path.isfile(f)}
+        for path in paths:
+            if os.path.realpath(path) in inputs:
+                raise ValueError(
+                    f"{what}: {path} is a file this run read (its scene, its robot or a file "
+                    "the scene names); writing there would replace it: name another file"
+                )
+
     def save(self, path) -> pathlib.Path:
         """Write the arrays to `path` (.npz) with the provenance record as JSON, both inside the
         .npz (key "provenance") and beside it (same name, .json; see `saved_paths`). Each file
         is written atomically (`atomic_write`): an error or Ctrl-C during the save leaves the
-        file as it was, or absent, never truncated. Returns the .npz path."""
+        file as it was, or absent, never truncated. A file the run read (its scene, its
+        robot's URDF, a file the scene names) is refused. Returns the .npz path."""
+        path = _file_name(path, "Trajectory.save")
         if os.path.isdir(path):
             raise IsADirectoryError(
                 errno.EISDIR, "is a folder; name the .npz to write in it (FOLDER/run.npz)",
                 str(path),
             )
         path, json_path = saved_paths(path)
-        _check_writable((path, json_path))
+        self._check_outputs((path, json_path), "Trajectory.save")
         record = self.record()
         arrays = {name: getattr(self, name) for name in _ARRAYS + _VIOLATION}
         if self.has_contact:
@@ -293,9 +323,11 @@ class Trajectory:
         (ContactTable.to_csv, at contacts_csv_path(path)). A column name that holds a comma, a
         double quote or a line break (a joint's, a point's) is quoted (csv_field).
         Written atomically, like `save`; a name too long or a folder in the place of either
-        file is refused before either is written. Returns the path."""
-        path = pathlib.Path(path)
-        _check_writable([path] if self.contacts is None else [path, contacts_csv_path(path)])
+        file is refused before either is written, and so is a file the run read (`save`).
+        Returns the path."""
+        path = _file_name(path, "Trajectory.to_csv")
+        paths = [path] if self.contacts is None else [path, contacts_csv_path(path)]
+        self._check_outputs(paths, "Trajectory.to_csv")
         header = ["t", *(f"q_{n}" for n in self.q_names), *(f"qd_{n}" for n in self.v_names)]
         header += [*(f"tau_{n}" for n in self.v_names), "kinetic", "potential"]
         header += ["work_applied", "work_passive"]

@@ -40,6 +40,7 @@ class ValueReader:
 
     def keys(self, table, key, valid):
         self.table(table, key or "(top level)")
+        valid = tuple(dict.fromkeys(valid))  # two effects may read one key (contact)
         for k in table:
             if k not in valid:
                 full = f"{key}.{k}" if key else str(k)

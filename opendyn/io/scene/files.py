@@ -106,6 +106,8 @@ def _resolve_scene(path) -> pathlib.Path:
     shipped = shipped_scenes()
     if isinstance(path, str) and path in shipped:
         return shipped[path]
+    if file.is_dir():
+        raise SceneError(f"{path}: is a folder, not a scene file; name the .toml in it")
     robot = (
         f"; {path!r} is a robot: od.default_scene({path!r}) is its plainest scene"
         if path in available_robots()

@@ -240,6 +240,16 @@ def _build(data, source, base_dir, default_name=None, model=None) -> Scene:
     records = r.effects(data.get("effects", {}))
     r.contact_reaches(records["contact"])
     records["control"] = r.control(data.get("control"), q0[model.q_index])
+    kind = (data.get("control") or {}).get("type")
+    if run.control_dt is not None and records["control"] is not None and kind != "python":
+        warnings.warn(
+            f"{source}: run.control_dt: {run.control_dt:g} s is the period of a Python "
+            f"controller (--controller, od.simulate(controller=...)); the scene's [control] "
+            f"type = {kind!r} is compiled into the step and acts at every evaluation, not held "
+            "for a period: the value changes nothing here",
+            SceneWarning,
+            stacklevel=3,
+        )
     return Scene(
         name=name,
         model=model,
