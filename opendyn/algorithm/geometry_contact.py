@@ -27,18 +27,22 @@ normal held where they are (their motion along the shapes and the normal's turni
 out; the accuracy study measures what that costs):
 
     df/d(delta) = k u,  u = n - mu v_t / s,           d(delta)/dq = -n^T J
-    df/dv_r     = -c u n^T - mu f_n P_t / s,          P_t = 1 - n n^T
-    K += J^T (k u n^T) J,     D += J^T (c u n^T + mu f_n P_t / s) J
+    df/dv_r     = -c u n^T - mu f_n F,                P_t = 1 - n n^T
+    F           = P_t / s - (1 - w) v_t v_t^T / s^3,  w = v_s / s
+    K += J^T (k u n^T) J,     D += J^T (c u n^T + mu f_n F) J
 
-The friction's part of D is its secant, the viscous coefficient mu f_n / s at the step's slip,
-not its tangent mu f_n (P_t / s - v_t v_t^T / s^3): along the slip the tangent's slope is
-mu f_n v_s^2 / s^3, next to nothing once |v_t| >> v_s, so a linearly implicit step takes the
-friction as explicit there, and where a step's friction impulse exceeds what stops the slip the
-velocity overshoots zero and flips sign every step, for ever (a box spinning on the ground at
-1 ms went on flipping at 0.05 rad/s, gaining energy in the balance). With the secant the step
-is implicit in the slip at its own coefficient, v_t' = v_t / (1 + dt mu f_n / (m s)) for a
-point of mass m: the full Coulomb deceleration while sliding, and a slip that decays to rest
-instead of overshooting.
+F is the friction's tangent (w = 0) with part of its secant (w = 1, the viscous coefficient
+P_t / s) along the slip. Across the slip both are 1 / s. Along it the tangent's slope,
+v_s^2 / s^3, is next to nothing once |v_t| >> v_s: a linearly implicit step takes the friction
+as explicit there, and where a step's friction impulse exceeds what stops the slip the velocity
+overshoots zero and flips sign every step, for ever (a box spinning on the ground at 1 ms went
+on flipping at 0.05 rad/s, gaining energy in the balance). The secant alone stops that, but it
+takes the friction at the step's end velocity, slowing a steady slide by a dt / v (a box on a
+20 degree ramp slid 0.24% slow at 1 ms). The slope along the slip with weight w,
+v_s / s^2 + (1 - w) v_s^2 / s^3, is the secant's at rest (w = 1) and the tangent's where the
+slip is fast: a slip that one step's impulse A = dt mu f_n / m would reverse is cut to
+v - A / (1 + A v_s / v^2), short of zero or within v_s of it, where the tangent itself is
+stiff, so it comes to rest; a steady slide keeps its Coulomb deceleration to (v_s / v) a dt / v.
 """
 
 from __future__ import annotations
@@ -127,17 +131,20 @@ def contact_force(body_tree, posed, bodies, row, law, qd, tau, linear, scratch):
         tau[j] += J[0, j] * f[0] + J[1, j] * f[1] + J[2, j] * f[2]
     if jac:
         # K += J^T (k u n^T) J
-        add_sandwich(J, AJ, k, u, n, 0.0, slip, K)
-        # D += J^T (c u n^T + mu f_n P_t / s) J
-        add_sandwich(J, AJ, c, u, n, mu * f_n, slip, D)
+        add_sandwich(J, AJ, k, u, n, (0.0, slip, v_s), v_t, K)
+        # D += J^T (c u n^T + mu f_n F) J
+        add_sandwich(J, AJ, c, u, n, (mu * f_n, slip, v_s), v_t, D)
     return spring, delta
 
 
 @njit(**JIT)
-def add_sandwich(J, AJ, gain, u, n, slide, slip, out):
-    """out (nv, nv) += J^T A J with A = gain u n^T + slide P_t / s, P_t = 1 - n n^T, s = slip;
-    AJ (3, nv) scratch."""
+def add_sandwich(J, AJ, gain, u, n, friction, v_t, out):
+    """out (nv, nv) += J^T A J with A = gain u n^T + slide F (the module docstring's F:
+    P_t / s - (1 - w) v_t v_t^T / s^3, P_t = 1 - n n^T, w = v_s / s); friction = (slide,
+    s the slip, v_s), v_t (3,) the tangential velocity; AJ (3, nv) scratch."""
+    slide, slip, v_s = friction
     nv = J.shape[1]
+    along = (1.0 - v_s / slip) / (slip * slip * slip)
     for r in range(3):
         for j in range(nv):
             AJ[r, j] = 0.0
@@ -145,7 +152,7 @@ def add_sandwich(J, AJ, gain, u, n, slide, slip, out):
             A = gain * u[r] * n[m]
             if slide != 0.0:
                 P = (1.0 if r == m else 0.0) - n[r] * n[m]
-                A += slide * P / slip
+                A += slide * (P / slip - along * v_t[r] * v_t[m])
             if A != 0.0:
                 for j in range(nv):
                     AJ[r, j] += A * J[m, j]
