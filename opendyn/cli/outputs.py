@@ -139,9 +139,7 @@ def _inputs(scene, controller):
     the files the scene names (SRDF, objects' URDFs, world meshes, its controller's file), the
     meshes those URDFs name, and the file of --controller FILE.py:NAME."""
     inputs = {}
-    model = scene.model
-    named = [(scene.source, "the scene file"), (model.source, "the robot's URDF")]
-    named += [(path, "a file the scene names") for path in scene.files]
+    named = list(scene.inputs())
     urdfs = [path for path, _ in named if str(path).endswith(".urdf")]
     named += [(mesh, "a mesh of the robot or an object") for u in urdfs for mesh in mesh_files(u)]
     where, _ = function_parts(controller) if controller else (None, None)

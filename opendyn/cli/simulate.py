@@ -297,7 +297,7 @@ def summary(scene, traj):
     if len(traj.t):
         energy = traj.energy
         error = np.abs(traj.energy_error)
-        scale = max(np.abs(energy).max(), traj.kinetic.max(), 1e-300)
+        scale = _energy_scale(traj)
         conservative = not np.any(traj.work_applied) and not np.any(traj.work_passive)
         if conservative:
             lines.append(
@@ -347,14 +347,19 @@ def summary(scene, traj):
 ENERGY_WARNING = 0.05
 
 
+def _energy_scale(traj) -> float:
+    """max |E| over the samples (J; the kinetic energy where that is larger), the scale the
+    summary measures the energy balance's error against."""
+    return max(np.abs(traj.energy).max(), traj.kinetic.max(), 1e-300)
+
+
 def _energy_warning(scene, traj) -> str:
     """A sentence when the energy balance's error max |E - E(0) - W| exceeds ENERGY_WARNING of
     max |E| (the integrator made that much energy, or lost it), naming the likely cause by the
     integrator; "" otherwise."""
     if not len(traj.t):
         return ""
-    scale = max(np.abs(traj.energy).max(), traj.kinetic.max(), 1e-300)
-    relative = np.abs(traj.energy_error).max() / scale
+    relative = np.abs(traj.energy_error).max() / _energy_scale(traj)
     if not relative > ENERGY_WARNING:
         return ""
     run = scene.run

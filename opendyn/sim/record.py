@@ -189,9 +189,9 @@ def warn_too_deep(traj, stacklevel):
     """A RuntimeWarning (at `stacklevel` above the caller) when a contact pair of the
     Trajectory traj went deeper than its limit (ContactExtremes.warning): the run completes,
     but what it computed is no longer two bodies touching."""
-    extremes = traj.contact_extremes
-    if extremes is not None and extremes.warning():
-        warnings.warn(f"simulate: {extremes.warning()}", RuntimeWarning, stacklevel=stacklevel + 1)
+    too_deep = traj.contact_extremes.warning() if traj.contact_extremes is not None else ""
+    if too_deep:
+        warnings.warn(f"simulate: {too_deep}", RuntimeWarning, stacklevel=stacklevel + 1)
 
 
 def records_of(scene, table, q, qd):
@@ -320,7 +320,7 @@ def _provenance(scene, table):
             "settings": thaw(scene.settings),
             "effects": list(scene.effects),
             "stages": list(table.names) + (["armature"] if scene.armature is not None else []),
-            "files": list(scene.files),
+            "inputs": [path for path, _ in scene.inputs()],
         },
         "robot": {
             "name": scene.model.name,

@@ -84,6 +84,14 @@ class Scene:
         object.__setattr__(self, "settings", _freeze(thaw(self.settings)))
         object.__setattr__(self, "other_effects", MappingProxyType(dict(self.other_effects)))
 
+    def inputs(self) -> tuple[tuple[str, str], ...]:
+        """(path, what it is) of each file the scene was made of: the scene file, the robot's
+        URDF and the other files it names (`files`); a source that is no file ("<dict>") is
+        left out. An output written there would replace an input of the run."""
+        named = [(self.source, "the scene file"), (self.model.source, "the robot's URDF")]
+        named += [(path, "a file the scene names") for path in self.files]
+        return tuple((str(path), what) for path, what in named if path and os.path.isfile(path))
+
     @property
     def effects(self) -> tuple[str, ...]:
         """The names of the effects that are on, in the registry's order (registry.names())."""

@@ -192,12 +192,10 @@ class Trajectory:
     def _check_outputs(self, paths, what):
         """Refuse, before any is written, the files `paths` that one write makes where one
         cannot be written (_check_writable) or is a file the run read, as its provenance names
-        them (the scene file, the robot's URDF, the files the scene names): ValueError naming
-        `what` and the file."""
+        them (Scene.inputs): ValueError naming `what` and the file."""
         _check_writable(paths)
-        scene, robot = self.provenance.get("scene", {}), self.provenance.get("robot", {})
-        read = [scene.get("source"), robot.get("urdf"), *scene.get("files", ())]
-        inputs = {os.path.realpath(f) for f in read if f and os.path.isfile(f)}
+        read = self.provenance.get("scene", {}).get("inputs", ())
+        inputs = {os.path.realpath(f) for f in read if os.path.isfile(f)}
         for path in paths:
             if os.path.realpath(path) in inputs:
                 raise ValueError(
