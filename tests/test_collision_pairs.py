@@ -390,7 +390,7 @@ def every_pair(codes, sizes, vertices, none, poses, standing, work, rows, n):
                 a = (codes[i], sizes[i], vi, standing)
                 pair_distance(a[0], a[1], a[2], a[3], box[0], box[1], box[2], box[3], rows[0], work)
                 status |= 8 * (face_contacts(a, box, 0.0, rows, work) < 4)
-        box_contacts(1, sizes[1], none, poses[1], 1, sizes[1], none, poses[2], rows, work)
+        box_contacts((1, sizes[1], none, poses[1]), (1, sizes[1], none, poses[2]), 0.0, rows, work)
     return status
 
 

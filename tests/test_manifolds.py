@@ -84,8 +84,48 @@ def contacts_of_boxes(size_a, T_a, size_b, T_b):
     """The rows (d, p_A, p_B, n) of two boxes' contacts."""
     rows = np.full((MAX_CONTACTS, 10), np.nan)
     a, b = shape(BOX, size_a), shape(BOX, size_b)
-    count = box_contacts(a[0], a[1], hull(a[2]), T_a, b[0], b[1], hull(b[2]), T_b, rows, WORK)
+    box_a, box_b = (a[0], a[1], hull(a[2]), T_a), (b[0], b[1], hull(b[2]), T_b)
+    count = box_contacts(box_a, box_b, 0.0, rows, WORK)
     return rows[:count]
+
+
+def test_a_box_a_hair_from_flat_keeps_its_corners_within_the_margin():
+    """A 0.2 x 0.4 x 0.1 box on the slab, tilted by -1e-5 rad about y so that its bottom face's
+    x = -0.1 edge is 1e-7 m into the slab and its x = +0.1 edge 1.9e-6 m above it: within a
+    1e-3 m margin the manifold keeps all four corners, each at its own signed distance (a
+    velocity-level step that lost the two above would let the box tip about the other two);
+    without a margin only the two that overlap."""
+    tilt = -1e-5
+    R = rot((0, 1, 0), tilt)
+    centre = np.array([0.0, 0.0, 0.15 - 1e-7]) - R @ (-0.1, 0.0, -0.05) + (-0.1, 0.0, -0.05)
+    T = pose(R, centre)
+    a, b = shape(BOX, (0.2, 0.4, 0.1)), SLAB
+    for margin, count in ((1e-3, 4), (0.0, 2)):
+        rows = np.full((MAX_CONTACTS, 10), np.nan)
+        box_a, box_b = (a[0], a[1], hull(a[2]), T), (b[0], b[1], hull(b[2]), pose())
+        found = box_contacts(box_a, box_b, margin, rows, WORK)
+        assert found == count
+        corners = [T[:3, :3] @ (sx * 0.1, sy * 0.2, -0.05) + T[:3, 3]
+                   for sx in (-1, 1) for sy in (-1, 1)]
+        expected = sorted(c[2] - 0.1 for c in corners)[:count]
+        np.testing.assert_allclose(sorted(rows[:found, 0]), expected, atol=1e-15)
+
+
+def test_boxes_a_hair_apart_give_their_four_corners_at_the_gap():
+    """Two stacked boxes 1e-11 m apart, face on face (a hard contact's resting state, where
+    GJK's and EPA's answers degrade: one gave a tilted normal and a 0.12 m depth): within a
+    1e-3 m margin the separating axis gives the four corners, each at the 1e-11 m gap, normal
+    +z; 1 mm apart, beyond a 0.5 mm margin, none."""
+    a, b = shape(BOX, (0.2, 0.2, 0.1)), shape(BOX, (0.2, 0.2, 0.1))
+    for gap, margin, count in ((1e-11, 1e-3, 4), (1e-3, 5e-4, 0)):
+        T_b = pose(np.eye(3), (0.0, 0.0, 0.1 + gap))
+        rows = np.full((MAX_CONTACTS, 10), np.nan)
+        box_a, box_b = (a[0], a[1], hull(a[2]), pose()), (b[0], b[1], hull(b[2]), T_b)
+        found = box_contacts(box_a, box_b, margin, rows, WORK)
+        assert found == count
+        if count:
+            np.testing.assert_allclose(rows[:found, 0], gap, atol=1e-15)
+            np.testing.assert_allclose(rows[:found, 7:10], np.tile((0, 0, 1.0), (4, 1)))
 
 
 def test_a_box_resting_on_a_box_touches_at_four_points():
@@ -242,7 +282,8 @@ def test_a_mesh_on_a_box_or_a_mesh_touches_at_its_face_corners():
         check_rows(rows, cube, T, slab, pose())
     boxes = np.full((MAX_CONTACTS, 10), np.nan)
     size = np.full(3, 0.2)
-    count = box_contacts(BOX, size, hull([]), T, BOX, SLAB[1], hull([]), pose(), boxes, WORK)
+    cube, slab = (BOX, size, hull([]), T), (BOX, SLAB[1], hull([]), pose())
+    count = box_contacts(cube, slab, 0.0, boxes, WORK)
     assert count == 4 and sorted(map(tuple, boxes[:, 1:4].round(12))) == corners
     angles = np.arange(6) * np.pi / 3
     ring = np.stack([0.1 * np.cos(angles), 0.1 * np.sin(angles), np.zeros(6)], axis=1)

@@ -54,10 +54,14 @@ def supporting_edge(T, h, i, L):
 
 
 @njit(**UNCOUNTED)
-def box_box(a, b, out):
-    """Boxes a and b: -1 when an axis separates them (out untouched: GJK measures the
-    distance), else the least-overlap axis' index k (0-2 A's faces, 3-5 B's, 6-14 the edge pairs
-    u_(k-6)//3 x v_(k-6)%3) with out = (-depth, p_A, p_B, L) (closed_forms.write_inflated)."""
+def box_box(a, b, margin, out):
+    """Boxes a and b: -1 when an axis separates them by more than margin (m; out untouched:
+    GJK measures the distance), else the least-overlap axis' index k (0-2 A's faces, 3-5 B's,
+    6-14 the edge pairs u_(k-6)//3 x v_(k-6)%3) with out = (-depth, p_A, p_B, L)
+    (closed_forms.write_inflated). Within the margin but apart, the least overlap is negative:
+    the axis that separates them most, -depth their gap along it (exact for a face; a
+    contact's manifold, where GJK's and EPA's answers degrade as two faces come to touch
+    within rounding)."""
     T_a, T_b = a[3], b[3]
     h_a = (0.5 * a[1][0], 0.5 * a[1][1], 0.5 * a[1][2])
     h_b = (0.5 * b[1][0], 0.5 * b[1][1], 0.5 * b[1][2])
@@ -76,7 +80,7 @@ def box_box(a, b, out):
             L = scale(L, 1.0 / length)
         s = dot(L, t)
         overlap = projected_radius(T_a, h_a, L) + projected_radius(T_b, h_b, L) - abs(s)
-        if overlap < 0.0:
+        if overlap < -margin:
             return -1
         if overlap < depth - (EDGE_BIAS if k >= 6 else 0.0):
             depth, best, kind = overlap, (L if s >= 0.0 else scale(L, -1.0)), k

@@ -1,14 +1,19 @@
-"""The contact manifold of two overlapping boxes: up to four points, each with its own depth,
-by clipping (clipping.py), on the separating axis of box_box.py:
+"""The contact manifold of two boxes, overlapping or apart by at most the margin: up to four
+points, each with its own depth, by clipping (clipping.py), on the separating axis of
+box_box.py:
 
-  1. the separating-axis test (box_box.py) gives the axis of least overlap L, from a towards b;
+  1. the separating-axis test (box_box.py) gives the axis of least overlap L, from a towards b
+     (of most separation, for boxes apart within the margin);
      an edge pair gives its one contact, unless a face axis lies within features.FACE_ON of L
      (faces a hair from parallel), a face is the reference face, normal N (outward)
   2. the incident face: the other box's face whose outward normal is most against N
   3. the incident face's four corners clipped by the reference face's four side planes
      (u_j . (x - c) <= h_j and -u_j . (x - c) <= h_j for the face's two in-plane axes)
-  4. each remaining point x below the reference face, s = N . (x - f) <= 0 (f on the face), is a
-     contact of depth s: x on the incident box, x - s N on the reference face
+  4. each remaining point x below the reference face or within the margin above it,
+     s = N . (x - f) <= margin (f on the face), is a contact of depth s: x on the incident box,
+     x - s N on the reference face (a corner a hair above the face, of a box that rocks or
+     rests a hair from flat, stays in the manifold: a velocity-level step that lost it would
+     let the box tip about the others)
   5. more than four: clipping.reduce_to_four
 
 Each contact is a row of the narrow phase's out layout (d, p_A, p_B, L). The deepest of the
@@ -61,12 +66,14 @@ def clipped_contacts(work, T_ref, h_ref, r, N, count):
 
 
 @njit(**UNCOUNTED)
-def below_reference(a, b, kind, L, work):
+def below_reference(a, b, axis_of, margin, work):
     """Steps 2-4 for boxes a and b whose least-overlap axis L (from a towards b) is face axis
-    `kind` (< 6) of box_box: the incident face clipped by the reference face's side planes, the
-    points x under the reference face in work rows POLYGON.., each with its depth s = N . (x - f)
-    (<= 0) in column DEPTH. Returns (count, N) with N the reference face's outward normal (L
-    when it is A's, -L when it is B's)."""
+    `kind` (< 6) of box_box, axis_of = (kind, L): the incident face clipped by the reference
+    face's side planes, the points x at most margin (m) above the reference face in work rows
+    POLYGON.., each with its depth s = N . (x - f) (<= margin) in column DEPTH. Returns
+    (count, N) with N the reference face's outward normal (L when it is A's, -L when it is
+    B's)."""
+    kind, L = axis_of
     if kind < 3:  # A's face is the reference: N = L
         T_ref, size_ref, T_inc, size_inc, r, N = a[3], a[1], b[3], b[1], kind, L
     else:  # B's: N = -L
@@ -77,10 +84,10 @@ def below_reference(a, b, kind, L, work):
     incident_face(work, T_inc, h_inc, N)
     count = clipped_contacts(work, T_ref, h_ref, r, N, 4)
     below = 0
-    for i in range(count):  # keep those under the reference face, with their depth s
+    for i in range(count):  # keep those under the reference face or within the margin
         x = row(work, POLYGON + i, 0)
         s = dot(N, sub(x, face))
-        if s <= 0.0:
+        if s <= margin:
             put(work, POLYGON + below, 0, x)
             work[POLYGON + below, DEPTH] = s
             below += 1
@@ -113,14 +120,16 @@ def box_witnesses(a, b, kind, out, work):
     projection). An edge pair's points (kind >= 6) stay as box_box found them."""
     if kind >= 6:
         return
-    count, N = below_reference(a, b, kind, (out[NORMAL], out[NORMAL + 1], out[NORMAL + 2]), work)
+    L = (out[NORMAL], out[NORMAL + 1], out[NORMAL + 2])
+    count, N = below_reference(a, b, (kind, L), 0.0, work)
     if count == 0:  # (rounding) the separating-axis points
         return
     deepest = 0
     for i in range(count):
         if work[POLYGON + i, DEPTH] < work[POLYGON + deepest, DEPTH]:
             deepest = i
-    write_face_contact(out, row(work, POLYGON + deepest, 0), work[POLYGON + deepest, DEPTH], N, kind)
+    depth = work[POLYGON + deepest, DEPTH]
+    write_face_contact(out, row(work, POLYGON + deepest, 0), depth, N, kind)
 
 
 @njit(**UNCOUNTED)
@@ -142,14 +151,13 @@ def face_on(a, b, L):
 
 
 @njit(**UNCOUNTED)
-def box_contacts(code_a, size_a, hull_a, T_a, code_b, size_b, hull_b, T_b, contacts, work):
-    """Up to four contacts of boxes a and b (the arguments as pair_distance's; code_a
-    and code_b BOX) into rows of contacts (4, OUT_SIZE), the deepest first; `work`
-    as pair_distance's. Returns their count: 0 when the boxes are apart, 1 for an edge on an
-    edge (pair_distance's result)."""
-    a = (code_a, size_a, hull_a, T_a)
-    b = (code_b, size_b, hull_b, T_b)
-    kind = box_box(a, b, contacts[0])
+def box_contacts(a, b, margin, contacts, work):
+    """Up to four contacts of boxes a and b overlapping or apart by at most margin (m) (each
+    (code, size, hull, T) as pair_distance's arguments, the codes BOX) into rows of contacts
+    (4, OUT_SIZE), the deepest first, the points of the incident face at most margin above the
+    reference face included; `work` as pair_distance's. Returns their count: 0 when the boxes
+    are farther apart, 1 for an edge on an edge (box_box's result)."""
+    kind = box_box(a, b, margin, contacts[0])
     if kind < 0:
         return 0
     L = row(contacts, 0, NORMAL)
@@ -157,7 +165,7 @@ def box_contacts(code_a, size_a, hull_a, T_a, code_b, size_b, hull_b, T_b, conta
         kind, L = face_on(a, b, L)
         if kind < 0:
             return 1
-    below, N = below_reference(a, b, kind, L, work)
+    below, N = below_reference(a, b, (kind, L), margin, work)
     if below == 0:  # (rounding) the separating-axis contact alone
         return 1
     n_contacts = 0

@@ -98,7 +98,7 @@ def ordered_distance(a, b, out, work):
         sphere_box(a, b, out)
         return Status.OK.value
     if code_a == BOX and code_b == BOX:
-        kind = box_box(a, b, out)
+        kind = box_box(a, b, 0.0, out)
         if kind >= 0:
             box_witnesses(a, b, kind, out, work)
             return Status.OK.value

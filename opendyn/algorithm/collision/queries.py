@@ -150,7 +150,7 @@ def pair_contacts(a, b, margin, rows, scratch):
     box-box manifold of overlapping boxes, a halfspace's, or the narrow phase's contact and
     the face or edge manifold clipped around it (face_contacts.py). Returns (count, status)."""
     if a[0] == BOX and b[0] == BOX:
-        count = box_contacts(a[0], a[1], a[2], a[3], b[0], b[1], b[2], b[3], rows, scratch)
+        count = box_contacts(a, b, margin, rows, scratch)
         if count:
             return count, Status.OK.value
     elif b[0] == HALFSPACE and a[0] != HALFSPACE:
