@@ -50,7 +50,7 @@ if TYPE_CHECKING:  # the public names and their modules, read by `attach` (and b
     from .algorithm.rnea import bias_forces, coriolis_forces, gravity_forces, inverse_dynamics
     from .algorithm.rnea_derivatives import inverse_dynamics_derivatives
     from .algorithm.task_space import frame_acceleration, task_space_bias, task_space_mass_matrix
-    from .api import Simulator, linearize, rollout, simulate
+    from .api import Simulator, contact_problem, linearize, rollout, simulate
     from .errors import (
         NonFiniteResultError,
         RolloutInterrupted,
@@ -101,6 +101,7 @@ __all__ = [
     "load_scene",
     "scene_from_dict",
     "linearize",
+    "contact_problem",
     "simulate",
     "Simulator",
     "rollout",

@@ -135,3 +135,40 @@ def linearize(scene, t=0.0, q=None, qd=None, tau=None, discrete=False):
     arguments (named), or a singular mass matrix (SingularMassMatrixError).
     """
     return _linearize.linearize(as_scene(scene, "linearize"), t, q, qd, tau, discrete)
+
+
+def contact_problem(scene, q=None, qd=None, t=0.0):
+    """One step of a scene's hard model (model = "hard" in [effects.contact], [effects.limits]
+    or [effects.friction]) from (t, q, qd), laid open: the contacts found at q, the free
+    velocity, the constraint rows, the Delassus matrix, the impulses and the velocity after the
+    step (opendyn.sim.hard_step's docstring gives the equations).
+
+    Args:
+      scene: a Scene, a scene file or a shipped scene's name, with a hard section.
+      q: (nq,) configuration, default the scene's q0; qd: (nv,) velocity, default qd0; t: s.
+    Returns a ContactProblem (opendyn.sim.hard): contacts (a ContactList: pair, feature,
+      bodies (C, 2), point (C, 3) m, frame (C, 3, 3) rows t1, t2, n, depth (C,) m, mu (C,);
+      world frame), v_free (nv,), J (m, nv), G (m, m) = J M^-1 J^T + compliance, g (m,) m/s,
+      blocks (B, 3) int (kind, first row, rows; opendyn.algorithm.ncp), param (B,), lam (m,)
+      the impulses (N s or N m s), v_next (nv,), q_next (nq,), iterations, residual (m/s).
+    Raises SceneError for a scene without a hard section, ValueError for a bad q or qd.
+    """
+    from .errors import SceneError
+    from .sim import effects, hard, hard_settings, step, step_inputs
+
+    scene = as_scene(scene, "contact_problem")
+    if not hard_settings.sections(scene):
+        raise SceneError(
+            f"{scene.source}: contact_problem: the scene has no hard section (model = \"hard\" "
+            "in [effects.contact], [effects.limits] or [effects.friction])"
+        )
+    model = scene.model
+    q = scene.q0.copy() if q is None else step_inputs.checked_configuration(
+        model, q, "contact_problem: q"
+    )
+    qd = scene.qd0.copy() if qd is None else step_inputs.checked_vector(
+        model, qd, "contact_problem: qd"
+    )
+    table = effects.stage_table(scene)
+    data = step.scene_data(model, table)
+    return hard.contact_problem(scene, table, data, (float(t), q, qd))

@@ -22,6 +22,7 @@ from ..io.scene.files import (
     shipped_scenes,
 )
 from ..io.urdf import load_urdf
+from ..sim import hard_settings
 from ..sim.effects import registry
 from ..sim.integrators import INTEGRATORS
 from ..sim.scene import thaw
@@ -256,6 +257,26 @@ def _scene_header(scene):
     return "\n".join(lines)
 
 
+def _solver_line(scene, traj):
+    """The hard model's solves: how many steps did not converge, with their worst residual, or
+    that every one did, with the most iterations a sample's took."""
+    stats = traj.stats
+    settings = next(iter(hard_settings.sections(scene).values()))
+    name = settings.solver.upper()
+    unconverged = stats["unconverged_steps"]
+    if unconverged:
+        return (
+            f"solver      {name}: {unconverged} of {stats['steps']} steps stopped at "
+            f"max_iterations = {settings.max_iterations} above the tolerance "
+            f"{settings.tolerance:g} m/s (worst residual {stats['worst_residual']:.3g} m/s)"
+        )
+    most = int(traj.solver_iterations.max(initial=0))
+    return (
+        f"solver      {name}: every step converged to {settings.tolerance:g} m/s (at most "
+        f"{most} iterations at a sample)"
+    )
+
+
 def summary(scene, traj):
     """The run in a few lines: time, speed (the whole wall time's, a Python controller's calls
     included, and then the compiled step's alone), steps, integrator statistics, energy; the
@@ -294,6 +315,8 @@ def summary(scene, traj):
         f"steps       {stats['steps']} accepted, {stats['rejected_steps']} rejected, "
         f"{stats['evaluations']} dynamics evaluations",
     ]
+    if "unconverged_steps" in stats:
+        lines.append(_solver_line(scene, traj))
     if len(traj.t):
         energy = traj.energy
         error = np.abs(traj.energy_error)

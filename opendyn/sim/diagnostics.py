@@ -300,7 +300,8 @@ def check_contact_step(scene, table):
     rate and the step that suits it."""
     run = scene.run
     integ = integrators.INTEGRATORS[run.integrator]
-    if scene.contact is None or integ.adaptive or integ.kind == integrators.IMPLICIT:
+    compliant = effects.contact.record(scene) or effects.geometry_contact.record(scene)
+    if compliant is None or integ.adaptive or integ.kind == integrators.IMPLICIT:
         return
     limit = 2.8 if integ.order == 4 else 2.0
     module = effects.contact if effects.contact.record(scene) else effects.geometry_contact

@@ -17,7 +17,7 @@ import numpy as np
 from .._runtime.compile_notice import compile_seconds, compiling
 from ..errors import SceneError
 from ..multibody.joints import FREE
-from . import effects, integrators, step
+from . import effects, hard_settings, integrators, step
 from .record import Samples, records_of
 
 # what compiling a run's pieces takes on a 2-core machine, in seconds: everything that
@@ -112,12 +112,16 @@ class UserCodeInterrupted(KeyboardInterrupt):
 
 def integrator_of(scene):
     """The Integrator the scene's run names, checked against the scene (semi-implicit Euler
-    takes no constraints: SceneError)."""
+    in momentum form takes no constraints: SceneError; with a hard model it is the
+    velocity-level step, whose solve takes them as equality rows)."""
     integ = integrators.INTEGRATORS[scene.run.integrator]
-    if scene.constraints and integ.kind == integrators.SEMI_IMPLICIT:
+    hard = hard_settings.sections(scene)
+    if scene.constraints and integ.kind == integrators.SEMI_IMPLICIT and not hard:
         raise SceneError(
             f"{scene.source}: run.integrator: semi_implicit_euler (symplectic, in momentum form) "
-            "does not support constraints; use rk4, dopri5, euler or implicit_euler"
+            "does not support constraints; use rk4, dopri5, euler or implicit_euler, or a hard "
+            'model (model = "hard" in [effects.contact], [effects.limits] or '
+            "[effects.friction]), whose velocity-level step solves them as equality rows"
         )
     return integ
 
@@ -234,7 +238,8 @@ class Stepper:
         """load_kernels for this run at the State x, its loop called for zero steps on a
         scratch record (the types of a run's own)."""
         model = self.scene.model
-        out, counters = Samples(1, model.nq, model.nv), integrators.new_counters()
+        out = Samples(1, model.nq, model.nv, self.data.hard)
+        counters = integrators.new_counters()
         if self.integ.adaptive:
             first = integrators.Stage(np.zeros((2, model.nv)), np.zeros(2), np.zeros(model.nv))
             at_start = integrators.Progress(0.0, self.scene.run.dt, 1)

@@ -65,6 +65,7 @@ from ..multibody.layout import body_count
 from ..multibody.work_views import scratch_rows
 from ..spatial.compiled import ad_twist
 from .euler_steps import implicit_velocity_step, symplectic_euler_step
+from .hard_step import hard_velocity_step, log_sample
 from .step import evaluate
 
 EXPLICIT_RK, SEMI_IMPLICIT, IMPLICIT = 0, 1, 2  # fixed-step loop kinds
@@ -91,8 +92,9 @@ StepWork = namedtuple(
 # run_adaptive's FSAL stage at the current state: k (2, nv) = (qd, qdd), power (2,) (applied,
 # passive; W) and tau (nv,) the control torque.
 Stage = namedtuple("Stage", ("k", "power", "tau"))
-# The recorded rows: t (K,), q (K, nq), qd (K, nv), tau (K, nv) the control torque, w (K, 2).
-Record = namedtuple("Record", ("t", "q", "qd", "tau", "w"))
+# The recorded rows: t (K,), q (K, nq), qd (K, nv), tau (K, nv) the control torque, w (K, 2),
+# and hard: the hard model's HardLog of the same rows (opendyn.sim.hard_step), or None.
+Record = namedtuple("Record", ("t", "q", "qd", "tau", "w", "hard"))
 # (1,) int64 each: dynamics evaluations, accepted and rejected steps (the last two adaptive).
 Counters = namedtuple("Counters", ("evaluations", "accepted", "rejected"))
 # run_fixed's settings: t0 (s) the time of global step 0, the step dt (s), every (the record
@@ -349,8 +351,18 @@ def fixed_step(tableau, implicit, symplectic, scene, t, dt, x, x1, work, free):
     if implicit is not None:
         return implicit_velocity_step(scene, t, dt, x, x1, work), 1
     if symplectic is not None:
-        return symplectic_euler_step(scene, t, dt, x, x1, work), 1
+        return velocity_step(scene.hard, scene, t, dt, x, x1, work), 1
     return Status.OK.value, 0
+
+
+@njit(**JIT)
+def velocity_step(hard, scene, t, dt, x, x1, work):
+    """semi_implicit_euler's step: the hard model's velocity-level step (hard: its HardTable,
+    opendyn.sim.hard_step) or, without one (hard None: numba drops that branch when it
+    compiles), symplectic Euler in momentum form. Returns a Status."""
+    if hard is not None:
+        return hard_velocity_step(hard, scene, t, dt, x, x1, work)
+    return symplectic_euler_step(scene, t, dt, x, x1, work)
 
 
 @njit(**JIT)
@@ -384,6 +396,7 @@ def run_fixed(switches, scene, settings, step0, nsteps, x, out, counters, free):
         fold_step(scene.touch)
         if g % every == 0:
             record(out, g // every, t, x, work.tau)
+            log_sample(out.hard, scene.hard, g // every, dt)
         copy_into(x1.q, x.q)
         copy_into(x1.qd, x.qd)
         copy_into(x1.w, x.w)

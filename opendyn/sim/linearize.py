@@ -30,6 +30,7 @@ from ..algorithm.aba_derivatives import aba_derivatives_kernel, coupled_switch
 from ..algorithm.singular import singular_mass_matrix
 from ..multibody.joints import FREE
 from ..spatial.algebra import ad
+from . import hard_settings
 from .effects import registry
 from .effects.interface import CONTROL
 from .effects.tangent import LinearAt, space_axes
@@ -70,6 +71,14 @@ def linearize(scene, t=0.0, q=None, qd=None, tau=None, discrete=False):
         raise ValueError(
             f"linearize: scene {scene.name!r} has constraints, whose linearization is not built "
             "yet; linearize it without them (scene.without('constraints'))"
+        )
+    hard = hard_settings.sections(scene)
+    if hard:
+        raise ValueError(
+            f"linearize: scene {scene.name!r} has {next(iter(hard))}.model = \"hard\": its "
+            "contacts, limits or friction are constraints solved at each step, a map with no "
+            "derivative where a contact opens, closes or sticks; linearize it with the "
+            "compliant model"
         )
     t = finite(as_real(t, "linearize: t"), "linearize: t")
     discrete = flag(discrete, "linearize: discrete")

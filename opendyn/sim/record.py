@@ -26,6 +26,7 @@ from ..algorithm.geometry_contact import (
     geometry_contact_record_kernel,
 )
 from .contacts import ContactExtremes, ContactTable
+from .hard import grow_log, log_table, new_log, solve_stats, sphere_forces
 from .effects.geometry_contact import GROUND
 from ..algorithm.energy import energies
 from .scene import thaw
@@ -43,14 +44,17 @@ def gravity_of(scene):
 
 
 class Samples:
-    """The recorded rows: t, q, qd, tau and the work (applied, passive) of each sample."""
+    """The recorded rows: t, q, qd, tau and the work (applied, passive) of each sample, and
+    with a hard model (hard: its HardTable, opendyn.sim.hard_step) its HardLog of the same
+    rows."""
 
-    def __init__(self, rows, nq, nv):
+    def __init__(self, rows, nq, nv, hard=None):
         self.t = np.full(rows, np.nan)
         self.q = np.full((rows, nq), np.nan)
         self.qd = np.full((rows, nv), np.nan)
         self.tau = np.full((rows, nv), np.nan)
         self.w = np.full((rows, 2), np.nan)
+        self.hard = new_log(hard, rows)
         self.filled = 0
 
     @staticmethod
@@ -60,7 +64,7 @@ class Samples:
 
     def arrays(self):
         """The integrators.Record (t, q, qd, tau, w) that the compiled loops write."""
-        return integrators.Record(self.t, self.q, self.qd, self.tau, self.w)
+        return integrators.Record(self.t, self.q, self.qd, self.tau, self.w, self.hard)
 
     def put(self, r, t, x, tau):
         """Row r <- the time t, the State x and the control torque tau there."""
@@ -77,6 +81,7 @@ class Samples:
                 new = np.full((rows, *old.shape[1:]), np.nan)
                 new[: len(old)] = old
                 setattr(self, name, new)
+        self.hard = grow_log(self.hard, rows)
 
     def copy(self):
         """A copy of the filled rows."""
@@ -84,6 +89,8 @@ class Samples:
         out = Samples(n, self.q.shape[1], self.qd.shape[1])
         for name in ("t", "q", "qd", "tau", "w"):
             getattr(out, name)[:] = getattr(self, name)[:n]
+        if self.hard is not None:
+            out.hard = type(self.hard)(*(part[:n].copy() for part in self.hard))
         out.filled = n
         return out
 
@@ -149,7 +156,10 @@ def trajectory_of(scene, table, out, n, complete, message, stats, touch=None):
         kinetic = potential = np.full(n, np.nan)
         spheres, off, centroidal = None, (np.zeros(0),) * 2, {}
     contact = {}
-    if scene.contact is not None:
+    if table.hard is not None and out.hard is not None:
+        contact, spheres = hard_record(scene, table, out.hard, n, (q, qd)), None
+        stats = {**stats, **solve_stats(table.hard)}
+    elif scene.contact is not None:
         contact["contact_extremes"] = contact_extremes(scene, table, touch, spheres, t)
     if isinstance(spheres, ContactTable):
         contact["contacts"] = spheres
@@ -183,6 +193,35 @@ def trajectory_of(scene, table, out, n, complete, message, stats, touch=None):
         stats=stats,
         provenance=_provenance(scene, table),
     )
+
+
+def hard_record(scene, table, log, n, states):
+    """The Trajectory's contact record of a hard run from its HardLog log (first n samples;
+    states = (q, qd) there): the solve's iterations and residual per sample, and the contacts
+    with their forces lambda / dt: the spheres' points and penetrations at the samples with
+    their forces, or the geometry contact's ContactTable."""
+    found = {
+        "solver_iterations": log.solver[:n, 0].copy(),
+        "solver_residual": log.solver[:n, 1].copy(),
+    }
+    spheres = effects.contact.hard(scene)
+    if spheres is not None:
+        params = effects.contact.contact_table(scene.model, spheres)
+        points, _, depth = contact_record(scene.model, params, *states)
+        found.update(
+            contact_names=tuple(p.name for p in spheres.points),
+            contact_point=points,
+            contact_force=sphere_forces(log, n, len(spheres.points)),
+            penetration=depth,
+            ground_height=spheres.ground_height,
+        )
+    elif effects.geometry_contact.hard(scene) is not None:
+        sample, pair, point, normal, force, depth = log_table(log, n)
+        pairs = table.hard.geometry[1]
+        found["contacts"] = ContactTable(
+            sample, pair, point, normal, force, depth, pair_names(scene.model, pairs)
+        )
+    return found
 
 
 def warn_too_deep(traj, stacklevel):

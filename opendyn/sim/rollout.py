@@ -43,7 +43,7 @@ from .._runtime.signals import signal_name
 from ..algorithm.checks import as_float_array
 from ..algorithm.configuration import check_unit_quaternions
 from ..errors import RolloutInterrupted, SceneError, SceneWarning
-from . import effects, integrators
+from . import effects, hard_settings, integrators
 from .diagnostics import check_contact_step, failure_message
 from .driver import (
     READY_PIECES,
@@ -90,6 +90,13 @@ def rollout(scene, q0=None, qd0=None, params=None, threads=None, record="samples
         raise SceneError(
             f"{scene.source}: control.type: a Python controller runs in Python at every control "
             "period; rollout runs compiled scenes only (use od.simulate or od.Simulator)"
+        )
+    hard = hard_settings.sections(scene)
+    if hard:
+        raise SceneError(
+            f"{scene.source}: {next(iter(hard))}.model: rollout does not yet run the hard model "
+            "(its solve keeps per-run warm starts that the batch's threads would share); run "
+            "it with od.simulate or od.Simulator"
         )
     if record not in RECORDS:
         raise ValueError(f"rollout: record must be 'samples' or 'final', got {record!r}")
@@ -181,7 +188,7 @@ def run_batch(runs, threads, keep, progress=False):
     # every step (336 MB, one thread), where the runs' threads write it anyway
     out = integrators.Record(
         np.empty((n, K)), np.empty((n, K, model.nq)), np.empty((n, K, model.nv)),
-        np.empty((n, K, model.nv)), np.empty((n, K, 2)),
+        np.empty((n, K, model.nv)), np.empty((n, K, 2)), None,
     )
     counters = np.zeros((n, 3), dtype=np.int64)
     outcome = Outcome(
@@ -418,7 +425,8 @@ def _nan_past_rows(out, rows, runs):
         r = int(rows[i])
         if r < out.t.shape[1]:
             for array in out:
-                array[i, r:] = np.nan
+                if array is not None:  # a rollout keeps no hard log (Record.hard)
+                    array[i, r:] = np.nan
 
 
 def _next_size(size, done, seconds, threads):

@@ -85,13 +85,13 @@ def run_views(base, batch, i, start):
         base.ibuf, run.fbuf, run.effects, run.armature, base.method, run.constraints,
         base.forces, base.loads, base.KD,
         constraint_room(run.constraints, body_count(base.ibuf), dof_count(base.ibuf)),
-        base.work, base.world, base.room, base.touch,
+        base.work, base.world, base.room, base.touch, base.hard,
     )
     x, out, c = batch.x, batch.out, batch.counters
     return (
         scene,
         State(x.q[i].copy(), x.qd[i].copy(), x.w[i].copy()),
-        Record(out.t[i], out.q[i], out.qd[i], out.tau[i], out.w[i]),
+        Record(out.t[i], out.q[i], out.qd[i], out.tau[i], out.w[i], None),
         Counters(c[i, 0:1].copy(), c[i, 1:2].copy(), c[i, 2:3].copy()),
     )
 
@@ -104,7 +104,8 @@ def end_run(scene, batch, i, status, rows, t, x, counters, tau):
     NaN where they fail. The last state is appended to the record when a complete run's record
     has room for it (a fixed-step run's end) or a failed run's last row is earlier."""
     out = Record(
-        batch.out.t[i], batch.out.q[i], batch.out.qd[i], batch.out.tau[i], batch.out.w[i]
+        batch.out.t[i], batch.out.q[i], batch.out.qd[i], batch.out.tau[i], batch.out.w[i],
+        None,
     )
     tau_end = batch.outcome.tau[i]
     if tau is None:

@@ -119,7 +119,7 @@ class RolloutResult:
             "simulated_s": float(self.t[i, self.rows[i] - 1]) if self.rows[i] else 0.0,
         }
         n = int(self.rows[i])
-        out = Record(self.t[i], self.q[i], self.qd[i], self.tau[i], self._w[i])
+        out = Record(self.t[i], self.q[i], self.qd[i], self.tau[i], self._w[i], None)
         if np.any(scene.model.jtype == FREE):
             stats["quaternion_norm_error"] = float(
                 quaternion_norm_error(scene.model, self.q[i, :n]).max(initial=0.0)

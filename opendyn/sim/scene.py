@@ -25,6 +25,7 @@ import numpy as np
 
 from ..errors import SceneError
 from ..multibody.model import Model
+from . import hard_settings
 from .effects import registry
 from .effects.contact import Contact
 from .effects.control import Control
@@ -83,6 +84,7 @@ class Scene:
     def __post_init__(self):
         object.__setattr__(self, "settings", _freeze(thaw(self.settings)))
         object.__setattr__(self, "other_effects", MappingProxyType(dict(self.other_effects)))
+        hard_settings.check(self)
 
     def inputs(self) -> tuple[tuple[str, str], ...]:
         """(path, what it is) of each file the scene was made of: the scene file, the robot's

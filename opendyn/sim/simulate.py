@@ -60,7 +60,7 @@ def simulate(scene, *, progress=False, raise_on_failure=True, controller=None, c
         nsteps, every, rows = preflight(scene, integ)
         check_contact_step(scene, table)
         ready.done()
-        out = Samples(rows, model.nq, model.nv)
+        out = Samples(rows, model.nq, model.nv, table.hard)
         x = integrators.State(
             np.array(scene.q0, dtype=np.float64),
             np.array(scene.qd0, dtype=np.float64),

@@ -39,6 +39,7 @@ from ..algorithm.contact_extremes import restart
 from ..errors import SceneError, SimulationError
 from . import effects, integrators, step
 from .diagnostics import check_contact_step, failure_message
+from .hard import restart_hard
 from .driver import (
     CHUNK_SECONDS,
     FIRST_CHUNK,
@@ -169,10 +170,11 @@ class Simulator:
         self._steps = 0
         self._stopped = ""
         self._counters = integrators.new_counters()
-        self._samples = Samples(16, model.nq, model.nv)
+        self._samples = Samples(16, model.nq, model.nv, self._data.hard)
         self._record = self._samples.arrays()
         self._held[:] = 0.0
         restart(self._data.touch)
+        restart_hard(self._data.hard)
         run = self.scene.run
         if self._integ.adaptive:
             nv = model.nv

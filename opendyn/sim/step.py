@@ -182,12 +182,13 @@ def solve_with(con, aba, crba, newton_euler, scene, q, qd, tau, qdd):
 # of a Data of the model that the kernels work in, world, True when an effect the scene names
 # reads the world poses (place puts them in work), or None, room, the geometry contact's
 # GeometryRoom, or None, and touch, the contact's running extremes that its stage writes and
-# the loops fold at every step (opendyn.algorithm.contact_extremes), or None without contact.
+# the loops fold at every step (opendyn.algorithm.contact_extremes), or None without contact,
+# and hard, the hard model's HardTable (opendyn.sim.hard_step), or None.
 SceneData = namedtuple(
     "SceneData",
     (
         "ibuf", "fbuf", "effects", "armature", "method", "constraints", "forces", "loads",
-        "KD", "con_work", "work", "world", "room", "touch",
+        "KD", "con_work", "work", "world", "room", "touch", "hard",
     ),
 )
 
@@ -225,6 +226,7 @@ def scene_data(model, table, held=None):
         True if table.world_poses else None,
         contact_room(table, model.nv),
         contact_touch(table),
+        table.hard,
     )
 
 

@@ -34,6 +34,7 @@ _ARRAYS = ("t", "q", "qd", "tau", "kinetic", "potential", "work_applied", "work_
 _VIOLATION = ("violation_position", "violation_velocity")  # empty without constraints
 _CONTACT = ("contact_point", "contact_force", "penetration")  # empty without contact
 _CENTROIDAL = ("com", "centroidal_momentum")  # empty without a floating base
+_SOLVER = ("solver_iterations", "solver_residual")  # empty without a hard model
 # their CSV columns: the centre of mass, then h_G = (k_G, l_G)
 _CENTROIDAL_COLUMNS = tuple(f"com_{a}" for a in "xyz") + tuple(
     f"{part}_{a}" for part in ("kG", "lG") for a in "xyz"
@@ -130,6 +131,11 @@ class Trajectory:
     the deepest penetration, the largest force, each with its pair and time, the most points
     at once and each pair's deepest, over every step of the run and not only the samples
     (which can miss a bounce between two of them); None without contact.
+    solver_iterations, solver_residual: (K,) with a hard model (opendyn.sim.hard), the
+    iterations and the residual (m/s, opendyn.algorithm.ncp) of the contact solve of the step
+    from each sample; empty (0,) otherwise. With a hard model the contact forces (contact_force,
+    contacts.force) are those of the step from each sample, lambda / dt, at the contacts found
+    at the sample; a contacts row's depth is then -d, negative for a gap within the margin.
     provenance: the scene, integrator, versions and timing, as plain JSON types.
     """
 
@@ -159,6 +165,8 @@ class Trajectory:
     centroidal_momentum: np.ndarray = field(default_factory=lambda: np.zeros((0, 6)))
     contacts: ContactTable | None = None
     contact_extremes: ContactExtremes | None = None
+    solver_iterations: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    solver_residual: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
     def __post_init__(self):
         # a fixed-base record (nq = nv = the joints) names its columns by the joints
@@ -225,6 +233,8 @@ class Trajectory:
             arrays["ground_height"] = np.array(self.ground_height)
         if len(self.com):
             arrays.update({name: getattr(self, name) for name in _CENTROIDAL})
+        if len(self.solver_iterations):
+            arrays.update({name: getattr(self, name) for name in _SOLVER})
         if self.contacts is not None:
             arrays.update(self.contacts.arrays())
         if self.contact_extremes is not None:
@@ -283,6 +293,7 @@ class Trajectory:
                 arrays["contact_names"] = tuple(str(n) for n in data["contact_names"])
                 arrays["ground_height"] = float(data["ground_height"])
             arrays.update({name: data[name] for name in _CENTROIDAL if name in data})
+            arrays.update({name: data[name] for name in _SOLVER if name in data})
             if "contacts_sample" in data:
                 arrays["contacts"] = ContactTable.from_arrays(data)
             if "extremes_head" in data:

@@ -80,7 +80,8 @@ The file format (every key optional unless marked required):
     duration = 10.0                        # s, > 0 (default 5); for a fixed-step integrator
                                            # a whole number of steps dt
     integrator = "rk4"                     # euler, semi_implicit_euler, rk4, dopri5,
-                                           # implicit_euler (default rk4)
+                                           # implicit_euler (default rk4); a hard model
+                                           # (model = "hard" below) needs semi_implicit_euler
     dt = 0.001                             # s, > 0: the fixed step, or dopri5's first trial step
     output_dt = 0.01                       # s: recorded sample interval (default 0.01, or dt if
                                            # dt > 0.01); a whole multiple of dt for fixed steps
@@ -100,12 +101,31 @@ The file format (every key optional unless marked required):
     [effects.friction]
     coefficients = "urdf"                  # as damping, from <dynamics friction>
     smoothing = 0.01                       # rad/s or m/s, > 0
+    # model = "hard"                       # "compliant" (default: the smoothed law above) or
+                                           # "hard": |lambda| <= f_c dt, static friction held
+                                           # exactly (no smoothing); then also the hard
+                                           # model's settings, as the contact's below:
+    # stabilization = 0.2                  # compliance, solver, tolerance, max_iterations
+    # compliance = 0.0
+    # solver = "admm"
+    # tolerance = 1e-8
+    # max_iterations = 100
     [effects.armature]
     values = 0.1                           # required: number, list or table
     [effects.limits]
     stiffness = 1e4                        # required: number, list or table; acts only on
                                            # joints with a finite limit (a number is 0 elsewhere)
     damping = 10.0                         # default 0
+    # model = "hard"                       # "compliant" (default: the spring-dampers above)
+                                           # or "hard": a unilateral row per limit within
+                                           # margin (no stiffness, no damping); then also the
+                                           # hard model's settings, as the contact's below:
+    # margin = 1e-3                        # rad or m
+    # stabilization = 0.2
+    # compliance = 0.0
+    # solver = "admm"
+    # tolerance = 1e-8
+    # max_iterations = 100
 
     [effects.contact]                      # the ground: the plane z = ground_height, normal +z
     ground_height = 0.0                    # m (world frame; default 0)
@@ -122,6 +142,20 @@ The file format (every key optional unless marked required):
                                            # world and the ground (named "ground") at the
                                            # same law, equal and opposite on both bodies
     # self_collision = false               # with geometry: the robot's own pairs take part
+    # model = "hard"                       # "compliant" (default: the law above) or "hard":
+                                           # contacts as constraints of the velocity-level
+                                           # step (only friction per pair; no stiffness,
+                                           # damping or slip_velocity). Its settings, in any
+                                           # hard section (the limits' and friction's too;
+                                           # the same where repeated):
+    # margin = 1e-3                        # m (rad for limits) >= 0: a gap within it is a row
+    # stabilization = 0.2                  # in [0, 1]: the share of a penetration taken out
+                                           # per step
+    # compliance = 0.0                     # s/kg >= 0, added to every row of G
+    # solver = "admm"                      # "admm" or "pgs"
+    # tolerance = 1e-8                     # m/s > 0, on the NCP's residual
+    # max_iterations = 100                 # >= 1; a step that does not converge still
+                                           # completes, and the summary counts it
     # [[effects.contact.points]]
     # frame = "FL_FOOT"                    # required: a frame (link or joint name) that moves
     # position = [0.0, 0.0, 0.0]           # m, the sphere's centre in the frame (default 0)

@@ -30,13 +30,18 @@ from ...algorithm.contact import (
     contact_on_poses,
 )
 from ...algorithm.contact_extremes import begin
+from ..hard_settings import SOLVER_KEYS, HardSettings, read_model
 from ..values import what_is
 from .interface import OK, PASSIVE, floats
 from .tangent import bracket, path_axes, point_velocities, wrench_tangent
 
 NAME = "contact"
 SECTION = "effects"
-KEYS = ("ground_height", "stiffness", "damping", "friction", "slip_velocity", "points")
+KEYS = (
+    "ground_height", "stiffness", "damping", "friction", "slip_velocity", "points", "model",
+    *SOLVER_KEYS,
+)
+COMPLIANT_KEYS = ("stiffness", "damping", "slip_velocity")  # the compliant law's own
 POINT_KEYS = ("frame", "position", "radius")  # of each [[effects.contact.points]]
 FIELD = "contact"
 OFF = None
@@ -76,7 +81,9 @@ class ContactPoint:
 class Contact:
     """Compliant contact of spheres with the ground plane z = ground_height (world frame,
     normal +z; opendyn.algorithm.contact). ground_height m; stiffness k N/m > 0; damping d
-    N s/m >= 0; friction mu >= 0; slip_velocity v_s m/s > 0; points: the spheres."""
+    N s/m >= 0; friction mu >= 0; slip_velocity v_s m/s > 0; points: the spheres. hard: the
+    hard model's settings (opendyn.sim.hard), or None for the compliant law; a hard contact has
+    stiffness and damping 0 (it has no spring)."""
 
     ground_height: float
     stiffness: float
@@ -84,10 +91,19 @@ class Contact:
     friction: float
     slip_velocity: float
     points: tuple[ContactPoint, ...]
+    hard: HardSettings | None = None
 
 
 def record(scene) -> Contact | None:
-    return scene.contact if isinstance(scene.contact, Contact) else None
+    """The scene's compliant contact of spheres (a force of the step), else None."""
+    contact = scene.contact
+    return contact if isinstance(contact, Contact) and contact.hard is None else None
+
+
+def hard(scene) -> Contact | None:
+    """The scene's hard contact of spheres (rows of the velocity-level step), else None."""
+    contact = scene.contact
+    return contact if isinstance(contact, Contact) and contact.hard is not None else None
 
 
 def read(r, table) -> Contact | None:
@@ -104,22 +120,27 @@ def read(r, table) -> Contact | None:
                 f'{field}; add geometry = "collision" or remove it',
             )
     r.keys(table, key, KEYS)
-    for field in ("stiffness", "friction", "points"):
+    settings = read_model(r, table, key, COMPLIANT_KEYS)
+    needed = ("friction", "points") if settings else ("stiffness", "friction", "points")
+    for field in needed:
         if field not in table:
             r.fail(
                 f"{key}.{field}",
-                'missing: [effects.contact] needs stiffness (N/m), friction (mu) and points '
-                '("urdf" or [[effects.contact.points]] tables)',
+                f"missing: [effects.contact] needs {'' if settings else 'stiffness (N/m), '}"
+                'friction (mu) and points ("urdf" or [[effects.contact.points]] tables)',
             )
     return Contact(
         ground_height=r.number(table.get("ground_height", 0.0), f"{key}.ground_height"),
-        stiffness=r.number(table["stiffness"], f"{key}.stiffness", positive=True),
+        stiffness=0.0 if settings else r.number(
+            table["stiffness"], f"{key}.stiffness", positive=True
+        ),
         damping=r.number(table.get("damping", 0.0), f"{key}.damping", minimum=0.0),
         friction=r.number(table["friction"], f"{key}.friction", minimum=0.0),
         slip_velocity=r.number(
             table.get("slip_velocity", 1e-3), f"{key}.slip_velocity", positive=True
         ),
         points=read_points(r, table["points"], f"{key}.points"),
+        hard=settings,
     )
 
 

@@ -15,12 +15,13 @@ import numpy as np
 from numba import njit
 
 from ..._runtime.kernel_cache import JIT
+from ..hard_settings import SHARED, HardSettings, read_model
 from .interface import OK, PASSIVE, floats, joint_labels, v_indices
 
 NAME = "friction"
 SECTION = "effects"
 JOINTS = True  # acts on the joint coordinates only: a robot without joints refuses it
-KEYS = ("coefficients", "smoothing")
+KEYS = ("coefficients", "smoothing", "model", *SHARED)  # no margin: a row at every joint
 FIELD = "friction"
 OFF = None
 DOC = "-f_c tanh(qd / v_s), Coulomb smoothed over the velocity scale v_s (default 0.01)"
@@ -35,11 +36,14 @@ DERIVATIVES = ("D",)
 class Friction:
     """Smoothed Coulomb friction: generalized force -coulomb * tanh(qd / smoothing).
 
-    coulomb: (n,) per joint, N m or N, >= 0. smoothing: rad/s or m/s, > 0.
+    coulomb: (n,) per joint, N m or N, >= 0. smoothing: rad/s or m/s, > 0. hard: the hard
+    model's settings (opendyn.sim.hard_settings: |lambda_j| <= f_c dt, static friction held
+    exactly), or None for the smoothed law.
     """
 
     coulomb: np.ndarray
     smoothing: float = 0.01
+    hard: HardSettings | None = None
 
 
 # f_c (n,) the Coulomb forces; v_s (n,) the smoothing, every joint's the same; iv (n,) int64
@@ -47,7 +51,15 @@ Params = namedtuple("Params", ("f_c", "v_s", "iv"))
 
 
 def record(scene) -> Friction | None:
-    return scene.friction
+    """The scene's smoothed friction (a force of the step), else None."""
+    friction = scene.friction
+    return friction if friction is not None and friction.hard is None else None
+
+
+def hard(scene) -> Friction | None:
+    """The scene's hard friction (rows of the velocity-level step), else None."""
+    friction = scene.friction
+    return friction if friction is not None and friction.hard is not None else None
 
 
 def read(r, table) -> Friction | None:
@@ -56,9 +68,10 @@ def read(r, table) -> Friction | None:
         return None
     key = "effects.friction"
     r.keys(table, key, KEYS)
+    settings = read_model(r, table, key, ("smoothing",))
     coulomb = r.coefficients(table, key, "coefficients", r.model.friction, "friction")
     smoothing = r.number(table.get("smoothing", 0.01), f"{key}.smoothing", positive=True)
-    return Friction(coulomb=coulomb, smoothing=smoothing)
+    return Friction(coulomb=coulomb, smoothing=smoothing, hard=settings)
 
 
 def pack(friction, model) -> Params:

@@ -29,12 +29,14 @@ from ...algorithm.geometry_contact import geometry_contact_on_poses
 from ...multibody.assembly import object_of
 from ...multibody.geometry import Geometry, GeometryTable
 from ...multibody.model import Frame
+from ..hard_settings import SOLVER_KEYS, HardSettings, read_model
 from .interface import OK, PASSIVE
 
 NAME = "contact"
 SECTION = "effects"
 LAW_KEYS = ("stiffness", "damping", "friction", "slip_velocity")
-KEYS = ("geometry", "ground_height", *LAW_KEYS, "self_collision", "pairs")
+KEYS = ("geometry", "ground_height", *LAW_KEYS, "self_collision", "pairs", "model", *SOLVER_KEYS)
+COMPLIANT_KEYS = ("stiffness", "damping", "slip_velocity")  # the compliant law's own
 PAIR_KEYS = ("a", "b", *LAW_KEYS, "enabled")  # of each [[effects.contact.pairs]]
 COLLISION_ONLY = ("geometry", "self_collision", "pairs")  # keys the spheres' contact lacks
 FIELD = "contact"
@@ -86,16 +88,27 @@ class PairSetting:
 class GeometryContact:
     """Contact between the scene's collision geometries (module docstring): the ground plane
     z = ground_height m (world frame, normal +z), the default Law, whether the robot's own
-    pairs take part, and the per-pair settings."""
+    pairs take part, and the per-pair settings. hard: the hard model's settings
+    (opendyn.sim.hard_settings), or None for the compliant law; a hard contact's laws have
+    stiffness and damping 0 (only their friction counts)."""
 
     ground_height: float
     law: Law
     self_collision: bool
     pairs: tuple[PairSetting, ...]
+    hard: HardSettings | None = None
 
 
 def record(scene) -> GeometryContact | None:
-    return scene.contact if isinstance(scene.contact, GeometryContact) else None
+    """The scene's compliant geometry contact (a force of the step), else None."""
+    contact = scene.contact
+    return contact if isinstance(contact, GeometryContact) and contact.hard is None else None
+
+
+def hard(scene) -> GeometryContact | None:
+    """The scene's hard geometry contact (rows of the velocity-level step), else None."""
+    contact = scene.contact
+    return contact if isinstance(contact, GeometryContact) and contact.hard is not None else None
 
 
 def read(r, table) -> GeometryContact | None:
@@ -114,14 +127,21 @@ def read(r, table) -> GeometryContact | None:
     geometry = r.string(table["geometry"], f"{key}.geometry", ("collision",))
     if geometry != "collision":
         r.fail(f"{key}.geometry", f'expected "collision", found {geometry!r}')
-    for field in ("stiffness", "friction"):
+    settings = read_model(r, table, key, COMPLIANT_KEYS)
+    for field in ("friction",) if settings else ("stiffness", "friction"):
         if field not in table:
-            r.fail(f"{key}.{field}", "missing: the contact needs stiffness (N/m) and friction (mu)")
+            r.fail(
+                f"{key}.{field}",
+                "missing: the contact needs "
+                + ("friction (mu)" if settings else "stiffness (N/m) and friction (mu)"),
+            )
+    default = Law(0.0, 0.0, None, 1e-3) if settings else None
     found = GeometryContact(
         ground_height=r.number(table.get("ground_height", 0.0), f"{key}.ground_height"),
-        law=_law(r, table, key, None),
+        law=_law(r, table, key, default),
         self_collision=r.boolean(table.get("self_collision", False), f"{key}.self_collision"),
-        pairs=_pair_settings(r, table.get("pairs", []), f"{key}.pairs"),
+        pairs=_pair_settings(r, table.get("pairs", []), f"{key}.pairs", settings),
+        hard=settings,
     )
     if len(pair_table(r.model, found)[1]) == 0:
         r.fail(key, 'geometry = "collision": nothing can touch: ' + _why_untouched(r.model, found))
@@ -176,7 +196,7 @@ def _law(r, table, key, default) -> Law:
     )
 
 
-def _pair_settings(r, value, key) -> tuple[PairSetting, ...]:
+def _pair_settings(r, value, key, hard=None) -> tuple[PairSetting, ...]:
     if isinstance(value, dict):
         value = [value]
     if not isinstance(value, list):
@@ -185,6 +205,12 @@ def _pair_settings(r, value, key) -> tuple[PairSetting, ...]:
     for k, table in enumerate(value):
         where = f"{key}[{k}]"
         r.keys(table, where, PAIR_KEYS)
+        for field in COMPLIANT_KEYS if hard is not None else ():
+            if field in table:
+                r.fail(
+                    f"{where}.{field}",
+                    'is the compliant law\'s; model = "hard" has only friction per pair',
+                )
         for field in ("a", "b"):
             if field not in table:
                 r.fail(f"{where}.{field}", "missing: a pair names a and b")

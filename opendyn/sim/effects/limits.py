@@ -19,12 +19,13 @@ from numba import njit
 
 from ..._runtime.arrays import immutable
 from ..._runtime.kernel_cache import JIT
+from ..hard_settings import SOLVER_KEYS, HardSettings, read_model
 from .interface import OK, PASSIVE, floats, joint_labels, q_indices, v_indices
 
 NAME = "limits"
 SECTION = "effects"
 JOINTS = True  # acts on the joint coordinates only: a robot without joints refuses it
-KEYS = ("stiffness", "damping")
+KEYS = ("stiffness", "damping", "model", *SOLVER_KEYS)
 FIELD = "limits"
 OFF = None
 DOC = "-k (q - limit) - d qd, only while past a URDF limit"
@@ -43,12 +44,15 @@ class Limits:
 
     stiffness: (n,) per joint, N m/rad or N/m, >= 0; damping: (n,) N m s/rad or N s/m, >= 0;
     both 0 where the joint has no finite limit. lower, upper: (n,) rad or m, the model's limits.
+    hard: the hard model's settings (opendyn.sim.hard_settings: a unilateral row per limit
+    within its margin), or None for the spring-dampers (then stiffness and damping are 0).
     """
 
     stiffness: np.ndarray
     damping: np.ndarray
     lower: np.ndarray
     upper: np.ndarray
+    hard: HardSettings | None = None
 
 
 # each (n,): stiffness, damping, lower and upper limits; iq, iv int64 the joints' indices
@@ -56,7 +60,15 @@ Params = namedtuple("Params", ("stiffness", "damping", "lower", "upper", "iq", "
 
 
 def record(scene) -> Limits | None:
-    return scene.limits
+    """The scene's limit spring-dampers (a force of the step), else None."""
+    limits = scene.limits
+    return limits if limits is not None and limits.hard is None else None
+
+
+def hard(scene) -> Limits | None:
+    """The scene's hard limits (rows of the velocity-level step), else None."""
+    limits = scene.limits
+    return limits if limits is not None and limits.hard is not None else None
 
 
 def read(r, table) -> Limits | None:
@@ -74,7 +86,8 @@ def read(r, table) -> Limits | None:
             f"no joint of {m.name!r} has a finite position limit, so limit spring-dampers "
             f"would never act; remove [effects.limits]",
         )
-    if "stiffness" not in table:
+    settings = read_model(r, table, key, ("stiffness", "damping"))
+    if "stiffness" not in table and settings is None:
         r.fail(f"{key}.stiffness", "missing: give a number, a list or a table {joint = N m/rad}")
     out = {}
     for field in ("stiffness", "damping"):
@@ -95,6 +108,7 @@ def read(r, table) -> Limits | None:
         damping=out["damping"],
         lower=immutable(m.lower),
         upper=immutable(m.upper),
+        hard=settings,
     )
 
 

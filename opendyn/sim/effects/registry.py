@@ -71,8 +71,13 @@ def in_section(section) -> tuple:
 
 
 def is_on(scene, name) -> bool:
-    """Whether `scene` names the effect called `name`."""
-    return any(effect.record(scene) is not None for effect in named(name))
+    """Whether `scene` names the effect called `name`: as a force of the step (its record), or
+    as rows of the hard model's velocity-level step (its `hard`, where it has one)."""
+    return any(
+        effect.record(scene) is not None
+        or getattr(effect, "hard", lambda _: None)(scene) is not None
+        for effect in named(name)
+    )
 
 
 def scene_fields(records) -> dict:

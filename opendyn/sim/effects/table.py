@@ -10,7 +10,7 @@ import numpy as np
 
 from ...algorithm.constraints import ConstraintTable, constraint_table
 from ...algorithm.forward import NO_ARMATURE
-from . import armature, registry
+from . import armature, contact, geometry_contact, registry
 
 
 @dataclass(frozen=True)
@@ -32,7 +32,10 @@ class StageTable:
       (alpha, beta); None when the scene has none (the constrained solve is then neither
       compiled nor run).
     world_poses: whether an effect the scene names reads the bodies' world poses (its module
-      declares WORLD_POSES): the step then places them once per evaluation.
+      declares WORLD_POSES), or the hard model's contact does: the step then places them once
+      per evaluation.
+    hard: the hard model's HardTable (opendyn.sim.hard_step), or None when no section of the
+      scene is hard (the velocity-level step's rows are then neither compiled nor run).
     """
 
     effects: tuple
@@ -42,6 +45,7 @@ class StageTable:
     armature: np.ndarray
     constraints: tuple | None = None
     world_poses: bool = False
+    hard: tuple | None = None
 
     def params(self, effect):
         """The parameters in the slot of `effect` (a module of registry.stages()), or None."""
@@ -67,6 +71,7 @@ def stage_table(scene) -> StageTable:
         gains = np.array(scene.baumgarte if scene.baumgarte is not None else (0.0, 0.0))
         constraints = ConstraintTable(c_rows, c_params, gains)
     rotors = armature.record(scene)
+    hard = hard_of(scene, constraints)
     return StageTable(
         effects=tuple(effects),
         names=tuple(names),
@@ -74,5 +79,18 @@ def stage_table(scene) -> StageTable:
         method="crba" if model.coupled else "aba",
         armature=NO_ARMATURE if rotors is None else armature.pack(rotors, model),
         constraints=constraints,
-        world_poses=world_poses,
+        world_poses=world_poses or (hard is not None and hard.room.found.pair.shape[0] > 0),
+        hard=hard,
     )
+
+
+def hard_of(scene, constraints):
+    """The scene's HardTable (opendyn.sim.hard.hard_table), or None when nothing is hard;
+    constraints: its ConstraintTable, or None."""
+    from ..hard import hard_table  # the hard step is built on the stage machinery
+
+    model = scene.model
+    spheres = contact.contact_table(model, scene.contact) if contact.hard(scene) else None
+    pairs = geometry_contact.hard(scene)
+    packed = None if pairs is None else geometry_contact.pack(pairs, model)
+    return hard_table(scene, spheres, packed, constraints)
