@@ -308,10 +308,13 @@ def test_the_scene_examples_load_and_the_complete_one_runs():
     """The complete scene example runs (0.1 s); each fragment loads with the robot of its
     section: the floating base (Solo12, complete), the payload (UR5, complete), contact on
     Solo12, the objects and world of the contact between geometries (complete: a scene of
-    objects alone), constraints on the shipped four-bar scene's initial state."""
+    objects alone), the hard model's run and contact on those objects, constraints on the
+    shipped four-bar scene's initial state."""
     (full,) = (tomllib.loads(b) for b in blocks("docs/guides/scenes.md", "toml"))
     floating, payload = (tomllib.loads(b) for b in blocks("docs/guides/robots.md", "toml"))
-    contact, geometry = (tomllib.loads(b) for b in blocks("docs/guides/contact.md", "toml"))
+    contact, hard, geometry = (
+        tomllib.loads(b) for b in blocks("docs/guides/contact.md", "toml")
+    )
     (constraints,) = (tomllib.loads(b) for b in blocks("docs/guides/constraints.md", "toml"))
     scene = od.scene_from_dict(full, base_dir=shipped_robots_dir())
     assert scene.effects == ("gravity", "damping", "wrench", "control")
@@ -326,6 +329,10 @@ def test_the_scene_examples_load_and_the_complete_one_runs():
     assert boxed.model.objects == ("box",) and boxed.model.world == ("table",)
     # gravity named: pasted alone, the box rests on the table instead of floating
     assert boxed.effects == ("gravity", "contact") and boxed.contact.pairs[0].law.friction == 0.2
+    # the hard model's fragment, on the same objects: contact as constraints of the step
+    effects = {**geometry["effects"], **hard["effects"]}
+    held = od.scene_from_dict({**geometry, "run": hard["run"], "effects": effects})
+    assert held.effects == ("gravity", "contact") and held.contact.hard is not None
     four_bar = tomllib.loads((shipped_robots_dir() / "four_bar.toml").read_text())
     del four_bar["constraints"], four_bar["baumgarte"]  # the fragment's, on the same state
     closed = od.scene_from_dict({**four_bar, **constraints}, base_dir=shipped_robots_dir())

@@ -31,6 +31,7 @@ BENCHMARKS = {
     "bench_scenes.py": ("scenes.md", ()),
     "bench_collision.py": ("collision.md", ("pinocchio",)),
     "bench_contact.py": ("contact.md", ("mujoco",)),
+    "bench_hard_contact.py": ("hard-contact.md", ("mujoco", "pinocchio")),
 }
 
 
