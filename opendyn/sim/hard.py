@@ -29,6 +29,7 @@ from .hard_step import (
     HardLog,
     HardRoom,
     HardTable,
+    Impulses,
     hard_velocity_step,
 )
 
@@ -89,7 +90,10 @@ def hard_table(scene, spheres, geometry, constraints=None) -> HardTable | None:
     nv = model.nv
     room = HardRoom(
         contact_list(capacity),
-        contact_list(capacity),
+        Impulses(
+            np.zeros(1, dtype=np.int64), np.zeros(capacity, dtype=np.int64),
+            np.zeros(capacity, dtype=np.int64), np.zeros((capacity, 3)),
+        ),
         pairs,
         np.zeros((rows, nv)),
         np.zeros((rows, nv)),

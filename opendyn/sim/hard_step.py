@@ -67,13 +67,18 @@ HardTable = namedtuple(
     "HardTable",
     ("spheres", "geometry", "limits", "friction", "constraints", "settings", "solver", "room"),
 )
-# What the step works in, made once per run: the contact list `found` and the previous step's
-# ids and impulses `before` (ContactLists, before's frame rows holding lambda), the geometry
-# pairs' PairRoom (or None), the rows J and Y = M^-1 J^T (m', nv), G, its factor F and G_s,
-# G preconditioned (m', m') (opendyn.algorithm.ncp), vectors (12, m'), blocks (B', 3) int, param (B',), owner (m',) int (the joint row's 3 k + c:
-# joint k's lower limit c = 0, upper 1, friction 2), scratch (2, 3), J3 (3, nv), S (6,), the
-# joints' previous impulses (n, 3) (lower limit, upper limit, friction), the limits that are
-# rows of this step's solve (n, 2) (1: a row; limit_rows) and stats (6,).
+# The contacts' impulses of a step, kept for the next one's warm start: count (1,) int, and
+# per contact its pair and feature (C,) int, the id of opendyn.algorithm.contact_list, and
+# lambda (C, 3) (t1, t2, n; N s).
+Impulses = namedtuple("Impulses", ("count", "pair", "feature", "lam"))
+# What the step works in, made once per run: the contact list `found`, the step before's
+# Impulses `before`, the geometry pairs' PairRoom (or None), the rows J and Y = M^-1 J^T
+# (m', nv), G, its factor F and G_s, G preconditioned (m', m') (opendyn.algorithm.ncp),
+# vectors (12, m'), blocks (B', 3) int, param (B',), owner (m',) int (a joint row's 3 k + c:
+# joint k's lower limit c = 0, upper 1, friction 2; -1 - i: constraint row i), scratch
+# (2, 3), J3 (3, nv), S (6,), the joints' previous impulses (n, 3) (lower limit, upper limit,
+# friction), the limits that are rows of this step's solve (n, 2) (1: a row; limit_rows) and
+# stats (6,).
 HardRoom = namedtuple(
     "HardRoom",
     ("found", "before", "pairs", "J", "Y", "G", "F", "G_s", "vectors", "blocks", "param", "owner",
@@ -103,7 +108,7 @@ def warm_contact(room, k, lam, r):
     for i in range(before.count[0]):
         if before.pair[i] == found.pair[k] and before.feature[i] == found.feature[k]:
             for c in range(3):
-                lam[r + c] = before.point[i, c]
+                lam[r + c] = before.lam[i, c]
             return
 
 
@@ -295,7 +300,7 @@ def keep_impulses(hard, m):
     for k in range(n):
         before.pair[k], before.feature[k] = found.pair[k], found.feature[k]
         for c in range(3):
-            before.point[k, c] = lam[3 * k + c]
+            before.lam[k, c] = lam[3 * k + c]
     for r in range(3 * n, m):
         owner = room.owner[r]
         if owner >= 0:
