@@ -7,9 +7,11 @@ from __future__ import annotations
 
 import os
 
+from .errors import SceneError
 from .io.scene.files import load_scene
 from .io.scene.variants import Variants
 from .multibody.model import Model
+from .sim import effects, hard, hard_settings, step, step_inputs
 from .sim import linearize as _linearize
 from .sim import rollout as _rollout
 from .sim import simulate as _simulate
@@ -153,9 +155,6 @@ def contact_problem(scene, q=None, qd=None, t=0.0):
       the impulses (N s or N m s), v_next (nv,), q_next (nq,), iterations, residual (m/s).
     Raises SceneError for a scene without a hard section, ValueError for a bad q or qd.
     """
-    from .errors import SceneError
-    from .sim import effects, hard, hard_settings, step, step_inputs
-
     scene = as_scene(scene, "contact_problem")
     if not hard_settings.sections(scene):
         raise SceneError(

@@ -30,8 +30,7 @@ import numpy as np
 from numba import njit
 
 from .._runtime.kernel_cache import JIT
-from .collision import DISTANCE, MAX_CONTACTS, NORMAL, OUT_SIZE, POINT_A, POINT_B
-from .collision.narrow_phase import COLUMNS, ROWS
+from .collision import DISTANCE, NORMAL, POINT_A, POINT_B
 from .collision.queries import pair_rows
 from .collision.world import bounding_boxes, pair_near, place_geometries
 from .contact import lowest_point
@@ -40,12 +39,6 @@ from .kinematics import add_point_jacobian
 ContactList = namedtuple(
     "ContactList", ("count", "pair", "feature", "bodies", "point", "frame", "depth", "mu")
 )
-
-# The geometry pairs' scratch (made once per run): the geometries' world poses T_sg (G, 3, 4),
-# the hulls' climbing hints (G,) int, bounding boxes (G, 6), the narrow phase's scratch and one
-# pair's rows (MAX_CONTACTS, OUT_SIZE).
-PairRoom = namedtuple("PairRoom", ("T_sg", "hints", "boxes", "scratch", "rows"))
-
 
 def contact_list(capacity) -> ContactList:
     """An empty ContactList with room for `capacity` entries."""
@@ -58,17 +51,6 @@ def contact_list(capacity) -> ContactList:
         np.zeros((capacity, 3, 3)),
         np.zeros(capacity),
         np.zeros(capacity),
-    )
-
-
-def pair_room(geometries) -> PairRoom:
-    """The PairRoom of `geometries` geometries."""
-    return PairRoom(
-        np.zeros((geometries, 3, 4)),
-        np.zeros(geometries, dtype=np.int64),
-        np.zeros((geometries, 6)),
-        np.zeros((ROWS, COLUMNS)),
-        np.zeros((MAX_CONTACTS, OUT_SIZE)),
     )
 
 
@@ -129,8 +111,8 @@ def find_sphere_contacts(posed, spheres, margin, found, scratch):
 @njit(**JIT)
 def find_pair_contacts(posed, geometry, margin, room, found, scratch):
     """found += the manifold points within margin (m) of every pair of collision geometries:
-    geometry = (table: the GeometryTable's arrays, pairs (P, 2) int, mu (P,)); room: a
-    PairRoom; posed = (R_s, p_s) the bodies' world poses; scratch (2, 3). Each point at the
+    geometry = (table: the GeometryTable's arrays, pairs (P, 2) int, mu (P,)); room: the
+    geometry contact's GeometryRoom (opendyn.algorithm.geometry_contact); posed = (R_s, p_s) the bodies' world poses; scratch (2, 3). Each point at the
     midpoint of its witness points, with the narrow phase's normal (a to b) and distance.
     Nothing for geometry None (numba drops the call when it compiles)."""
     if geometry is None:

@@ -35,6 +35,7 @@ from ..algorithm.contact_extremes import (
     RUN,
     extremes_room,
 )
+from ..algorithm.geometry_contact import DEPTH, FORCE, NORMAL_AT, PAIR, POINT
 
 COLUMNS = (
     "sample", "pair", "a", "b", "x", "y", "z", "nx", "ny", "nz", "fx", "fy", "fz", "depth",
@@ -65,6 +66,20 @@ class ContactTable:
     def b(self) -> np.ndarray:
         """(C,) the name of each row's geometry b."""
         return np.array([b for _, b in self.pair_names] or [""], dtype=str)[self.pair]
+
+    @classmethod
+    def of_rows(cls, sample, rows, pair_names) -> ContactTable:
+        """The table of rows (C, ROW) in opendyn.algorithm.geometry_contact's record layout
+        (pair, point, normal, force, depth), each of the sample in sample (C,)."""
+        return cls(
+            sample=sample,
+            pair=rows[:, PAIR].astype(np.int64),
+            point=rows[:, POINT : POINT + 3],
+            normal=rows[:, NORMAL_AT : NORMAL_AT + 3],
+            force=rows[:, FORCE : FORCE + 3],
+            depth=rows[:, DEPTH],
+            pair_names=pair_names,
+        )
 
     def at(self, k) -> ContactTable:
         """The rows of sample k."""

@@ -13,8 +13,8 @@ import numpy as np
 
 from ..algorithm.constraints import ROW_COUNT
 from ..algorithm.constraints.terms import terms_work
-from ..algorithm.contact_list import contact_list, pair_room
-from ..algorithm.geometry_contact import DEPTH, FORCE, NORMAL_AT, PAIR, POINT, ROW
+from ..algorithm.contact_list import contact_list
+from ..algorithm.geometry_contact import FORCE, PAIR, ROW, geometry_room
 from ..algorithm.ncp import SOLVERS
 from .hard_settings import sections
 from .hard_step import (
@@ -60,7 +60,7 @@ def hard_table(scene, spheres, geometry, constraints=None) -> HardTable | None:
     if geometry is not None:
         table, pair_index, law = geometry
         geometry_rows = (table, pair_index, np.ascontiguousarray(law[:, 2]))
-        pairs = pair_room(len(table[0]))
+        pairs = geometry_room(len(table[0]), model.nv)
         capacity += 4 * len(pair_index)
     limit_rows = None
     if limits is not None:
@@ -132,9 +132,11 @@ def restart_hard(hard):
 
 def new_log(hard, samples) -> HardLog | None:
     """A HardLog of `samples` rows for the HardTable hard, or None for None."""
-    if hard is None:
-        return None
-    width = hard.room.found.pair.shape[0]
+    return None if hard is None else empty_log(hard.room.found.pair.shape[0], samples)
+
+
+def empty_log(width, samples) -> HardLog:
+    """A HardLog of `samples` rows of `width` contacts each, empty."""
     return HardLog(
         np.zeros(samples, dtype=np.int64), np.zeros((samples, width, ROW)), np.zeros((samples, 2))
     )
@@ -144,44 +146,28 @@ def grow_log(log, samples) -> HardLog | None:
     """The HardLog with room for `samples` rows, the old ones kept."""
     if log is None or len(log.counts) >= samples:
         return log
-    new = new_log_like(log, samples)
+    new = empty_log(log.rows.shape[1], samples)
     for old, fresh in zip(log, new):
         fresh[: len(old)] = old
     return new
 
 
-def new_log_like(log, samples) -> HardLog:
-    return HardLog(
-        np.zeros(samples, dtype=np.int64),
-        np.zeros((samples, log.rows.shape[1], ROW)),
-        np.zeros((samples, 2)),
-    )
-
-
-def log_table(log, n):
-    """(sample, pair, point, normal, force, depth) of the first n samples of a HardLog, one
-    row per contact per sample (depth: the penetration -d, negative for a gap within the
-    margin)."""
+def log_rows(log, n):
+    """(sample (C,) int, rows (C, geometry_contact.ROW)) of the first n samples of a HardLog:
+    one row per contact per sample, in the geometry contact record's layout (its depth the
+    penetration -d, negative for a gap within the margin)."""
     counts = log.counts[:n]
     keep = np.arange(log.rows.shape[1])[None, :] < counts[:, None]
-    rows = log.rows[:n][keep]
-    return (
-        np.repeat(np.arange(n), counts),
-        rows[:, PAIR].astype(np.int64),
-        rows[:, POINT : POINT + 3],
-        rows[:, NORMAL_AT : NORMAL_AT + 3],
-        rows[:, FORCE : FORCE + 3],
-        rows[:, DEPTH],
-    )
+    return np.repeat(np.arange(n), counts), log.rows[:n][keep]
 
 
 def sphere_forces(log, n, points):
     """(K, P, 3) N: each contact sphere's force at the first n samples of a hard run's
     HardLog (`points` spheres), lambda / dt of the step from each sample, zero for a sphere
     that is not in the sample's list."""
-    sample, pair, _, _, force, _ = log_table(log, n)
+    sample, rows = log_rows(log, n)
     forces = np.zeros((n, points, 3))
-    forces[sample, pair] = force
+    forces[sample, rows[:, PAIR].astype(np.int64)] = rows[:, FORCE : FORCE + 3]
     return forces
 
 

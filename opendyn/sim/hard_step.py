@@ -72,7 +72,7 @@ HardTable = namedtuple(
 # lambda (C, 3) (t1, t2, n; N s).
 Impulses = namedtuple("Impulses", ("count", "pair", "feature", "lam"))
 # What the step works in, made once per run: the contact list `found`, the step before's
-# Impulses `before`, the geometry pairs' PairRoom (or None), the rows J and Y = M^-1 J^T
+# Impulses `before`, the geometry pairs' GeometryRoom (or None), the rows J and Y = M^-1 J^T
 # (m', nv), G, its factor F and G_s, G preconditioned (m', m') (opendyn.algorithm.ncp),
 # vectors (12, m'), blocks (B', 3) int, param (B',), owner (m',) int (a joint row's 3 k + c:
 # joint k's lower limit c = 0, upper 1, friction 2; -1 - i: constraint row i), scratch

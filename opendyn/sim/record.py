@@ -16,22 +16,17 @@ from .._runtime.version import __version__
 from ..algorithm.centroidal import centroidal_record
 from ..algorithm.constraints import ROW_COUNT, constraint_terms_kernel
 from ..algorithm.contact import contact_record_kernel
+from ..algorithm.energy import energies
 from ..algorithm.geometry_contact import (
-    DEPTH,
-    FORCE,
-    NORMAL_AT,
-    PAIR,
-    POINT,
     ROW,
     geometry_contact_record_kernel,
 )
-from .contacts import ContactExtremes, ContactTable
-from .hard import grow_log, log_table, new_log, solve_stats, sphere_forces
-from .effects.geometry_contact import GROUND
-from ..algorithm.energy import energies
-from .scene import thaw
 from ..multibody.joints import FREE
 from . import effects, integrators
+from .contacts import ContactExtremes, ContactTable
+from .effects.geometry_contact import GROUND
+from .hard import grow_log, log_rows, new_log, solve_stats, sphere_forces
+from .scene import thaw
 
 # integrate renormalises the quaternion at every step, so a recorded one is a product of unit
 # quaternions rounded a few times: its norm is 1 within a few units of float64 rounding (2.2e-16)
@@ -216,11 +211,9 @@ def hard_record(scene, table, log, n, states):
             ground_height=spheres.ground_height,
         )
     elif effects.geometry_contact.hard(scene) is not None:
-        sample, pair, point, normal, force, depth = log_table(log, n)
-        pairs = table.hard.geometry[1]
-        found["contacts"] = ContactTable(
-            sample, pair, point, normal, force, depth, pair_names(scene.model, pairs)
-        )
+        sample, rows = log_rows(log, n)
+        names = pair_names(scene.model, table.hard.geometry[1])
+        found["contacts"] = ContactTable.of_rows(sample, rows, names)
     return found
 
 
@@ -293,15 +286,8 @@ def geometry_contact_record(model, contacts, q, qd):
     offsets[1:] = np.cumsum(counts)[:-1]
     rows = np.zeros((int(counts.sum()), ROW))
     run_rows(geometry_contact_record_kernel, len(q), *args, (counts, offsets, rows))
-    return ContactTable(
-        sample=np.repeat(np.arange(len(q)), counts),
-        pair=rows[:, PAIR].astype(np.int64),
-        point=rows[:, POINT : POINT + 3],
-        normal=rows[:, NORMAL_AT : NORMAL_AT + 3],
-        force=rows[:, FORCE : FORCE + 3],
-        depth=rows[:, DEPTH],
-        pair_names=pair_names(model, contacts[1]),
-    )
+    sample = np.repeat(np.arange(len(q)), counts)
+    return ContactTable.of_rows(sample, rows, pair_names(model, contacts[1]))
 
 
 def pair_names(model, pairs) -> tuple[tuple[str, str], ...]:
