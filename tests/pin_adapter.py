@@ -21,6 +21,7 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
+from opendyn.multibody.joints import FREE
 from opendyn.verify.oracle import PinocchioOracle
 
 
@@ -35,11 +36,40 @@ def angular_first(x, axis=0):
 swap_halves = angular_first
 
 
+def free_bodies_model(od_model):
+    """Pinocchio's model of an opendyn model whose bodies are all rigid bodies on free joints
+    at the root (a scene's primitive objects, [[objects]], which no URDF describes), built
+    joint by joint: per body a JointModelFreeFlyer named as the body's joint, placed at the
+    body's home pose, carrying the body's inertia (read from its spatial inertia G), and the
+    model's gravity."""
+    model = pin.Model()
+    model.gravity = pin.Motion(np.asarray(od_model.gravity, float), np.zeros(3))
+    for i, name in enumerate(od_model.body_joints):
+        if od_model.parent[i] >= 0 or od_model.jtype[i] != FREE:
+            raise ValueError(f"body {od_model.body_names[i]!r} is not a free body at the root")
+        placement = pin.SE3(np.asarray(od_model.R_home[i]), np.asarray(od_model.p_home[i]))
+        joint = model.addJoint(0, pin.JointModelFreeFlyer(), placement, name)
+        # G = [[I_c + m [c][c]^T, m [c]], [m [c]^T, m 1]] (opendyn.spatial.algebra)
+        G = np.asarray(od_model.G[i])
+        mass = G[3, 3]
+        c = np.array([G[2, 4], G[0, 5], G[1, 3]]) / mass
+        I_c = G[:3, :3] - mass * pin.skew(c) @ pin.skew(c).T
+        model.appendBodyToJoint(joint, pin.Inertia(mass, c, I_c), pin.SE3.Identity())
+    return model
+
+
 class PinOracle(PinocchioOracle):
-    """PinocchioOracle with the conversions of this module (see its docstring)."""
+    """PinocchioOracle with the conversions of this module (see its docstring). With no URDF
+    (urdf_path empty: the model of a scene's objects alone) its Pinocchio model is
+    free_bodies_model's; its conversions are the same."""
 
     def __init__(self, urdf_path, od_model, mimic=False):
-        super().__init__(urdf_path, od_model, mimic)
+        if urdf_path:
+            super().__init__(urdf_path, od_model, mimic)
+        else:
+            self.pin, self.od, self.coupled = pin, od_model, od_model.coupled
+            self.model = free_bodies_model(od_model)
+            self.data = self.model.createData()
         model = self.model
         order = np.full(od_model.nv, -1)  # order[k]: Pinocchio's index of opendyn's v_k
         self.free_q = []  # (opendyn q index, Pinocchio q index) of each free joint
@@ -112,4 +142,4 @@ class PinOracle(PinocchioOracle):
         return angular_first(pin.dccrba(self.model, self.data, self.q(q), v) @ v)
 
 
-__all__ = ["PinOracle", "angular_first", "swap_halves"]
+__all__ = ["PinOracle", "angular_first", "free_bodies_model", "swap_halves"]

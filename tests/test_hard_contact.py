@@ -16,6 +16,7 @@ from pin_contact import ncp_residuals, relative_point_contact_jacobian, solve_wi
 import opendyn as od
 from opendyn.algorithm import ncp
 from opendyn.cli.simulate import summary
+from opendyn.sim import hard_settings
 from opendyn.sim.scene import thaw
 
 G = 9.81
@@ -151,18 +152,23 @@ def test_a_dropped_ball_comes_to_rest_on_the_ground_carrying_its_weight():
     assert traj.stats["unconverged_steps"] == 0
 
 
+def box_on_table_hard(**contact):
+    """The shipped box_on_table with model = "hard" (and `contact`'s keys) at 2 ms."""
+    settings = _thaw(od.load_scene("box_on_table"))
+    table = settings["effects"]["contact"]
+    for key in ("stiffness", "damping"):
+        table.pop(key)
+    table.update(model="hard", **contact)
+    settings["run"] = {"integrator": "semi_implicit_euler", "dt": 0.002, "duration": 1.0}
+    return od.scene_from_dict(settings, base_dir=_robots())
+
+
 def test_a_box_on_a_table_rests_on_it_carrying_its_weight():
     """box_on_table with model = "hard" (its box starts 2.5e-5 m into the table, the compliant
     law's resting depth): the stabilization lifts it out, and at rest its four corners are
     less than 1e-6 m deep, their normal forces adding up to m g (to the solve's tolerance
     over dt: 5e-6 N of 9.81 N)."""
-    settings = _thaw(od.load_scene("box_on_table"))
-    contact = settings["effects"]["contact"]
-    for key in ("stiffness", "damping"):
-        contact.pop(key)
-    contact["model"] = "hard"
-    settings["run"] = {"integrator": "semi_implicit_euler", "dt": 0.002, "duration": 1.0}
-    traj = od.simulate(od.scene_from_dict(settings, base_dir=_robots()))
+    traj = od.simulate(box_on_table_hard())
     for k in np.flatnonzero(traj.t >= 0.5)[:-1]:
         rows = traj.contacts.at(k)
         assert len(rows) == 4 and np.abs(rows.depth).max() <= 1e-6
@@ -317,72 +323,222 @@ def solo12_feet():
     )
 
 
+def agrees_with_pinocchio(scene, oracle, q, qd):
+    """One step of the scene's hard contact from (q, qd), od.contact_problem's, against the same
+    problem built with Pinocchio: each contact's rows J_b(x) - J_a(x) from Pinocchio's
+    kinematics (in opendyn's column order) equal opendyn's to 1e-10; v_free = qd + dt M^-1 (-h)
+    from pin.aba (gravity, no torque) equals opendyn's; with G = J M^-1 J^T (M from pin.crba),
+    g = J v_free plus each normal row's drift (max(d, 0) + stabilization min(d, 0)) / dt and a
+    cone of the contact's mu per contact, opendyn's impulses satisfy the cone, the dual cone
+    and complementarity (residuals computed here), and its velocity after the step is
+    v_free + M^-1 J^T lambda.
+
+    Where the contacts' normal rows are independent, the velocity after the step is also that
+    of every one of Pinocchio's ADMMConstraintSolver and PGSConstraintSolver that converges, to
+    1e-7 m/s, at least one of them converging. Where they are not (a body touching another at
+    three or more coplanar points: a face), the normal impulses are statically indeterminate
+    and so is the NCP's answer: opendyn's and Pinocchio's answers, all solving the problem to
+    1e-11, differ by up to 1e-3 m/s at a sliding box's corners, so none is compared.
+
+    Returns (the problem, the Pinocchio solvers that converged): () when there is no contact,
+    None when the normal rows are dependent."""
+    model = scene.model
+    problem = od.contact_problem(scene, q, qd)
+    contacts = problem.contacts
+    if not contacts.count:
+        return problem, ()
+    assert problem.J.shape[0] == 3 * contacts.count  # contacts alone: no other rows
+    settings = hard_settings.sections(scene)["effects.contact"]
+    dt = scene.run.dt
+    q_pin = oracle.q(q)
+    pin_model, pin_data = oracle.model, oracle.data
+
+    def joint(body):  # body -1 is the world, Pinocchio's joint 0
+        return 0 if body < 0 else pin_model.getJointId(model.body_joints[body])
+
+    # the rows, from Pinocchio's kinematics, in opendyn's column order
+    J = np.vstack([
+        relative_point_contact_jacobian(
+            pin_model, pin_data, q_pin, joint(a), joint(b), x, frame.T
+        )[:, oracle.perm_v]
+        for (a, b), x, frame in zip(contacts.bodies, contacts.point, contacts.frame)
+    ])
+    np.testing.assert_allclose(J, problem.J, atol=1e-10)
+    M = oracle.back_matrix(pin.crba(pin_model, pin_data, q_pin))
+    M = np.triu(M) + np.triu(M, 1).T
+    tau0 = np.zeros(pin_model.nv)
+    v_free = qd + dt * oracle.back(pin.aba(pin_model, pin_data, q_pin, oracle.v(qd), tau0))
+    np.testing.assert_allclose(v_free, problem.v_free, atol=1e-9)
+    G_pin = J @ np.linalg.solve(M, J.T)
+    g_pin = J @ v_free
+    for k, d in enumerate(contacts.depth):
+        g_pin[3 * k + 2] += (max(d, 0.0) + settings.stabilization * min(d, 0.0)) / dt
+    blocks = [("cone", 3 * k, mu) for k, mu in enumerate(contacts.mu)]
+    compliance = settings.compliance
+    found = ncp_residuals(G_pin, g_pin, blocks, problem.lam, compliance)
+    assert max(found["primal"], found["dual"], found["complementarity"]) <= 1e-8, found
+    pushed = v_free + np.linalg.solve(M, J.T @ problem.lam)
+    np.testing.assert_allclose(problem.v_next, pushed, atol=1e-9)
+    if np.linalg.matrix_rank(J[2::3], tol=1e-9 * np.linalg.norm(J[2::3], 2)) < contacts.count:
+        return problem, None
+    converged = []
+    for solver in ("admm", "pgs"):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)
+            lam, info = solve_with_pinocchio(
+                G_pin, g_pin, blocks, solver, 1e-13, 100000, compliance, return_info=True
+            )
+        if not info["converged"]:  # Pinocchio's PGS stalls on some of these states
+            continue
+        v_next = v_free + np.linalg.solve(M, J.T @ lam)
+        np.testing.assert_allclose(problem.v_next, v_next, atol=1e-7, err_msg=solver)
+        converged.append(solver)
+    assert converged
+    return problem, converged
+
+
 def test_one_step_agrees_with_pinocchios_solvers_on_solo12():
     """Solo12 on its four feet at random states (touching, sliding, sticking): the same
     problem built with Pinocchio's kinematics (each foot's contact rows J_b(x) in its frame),
     Delassus matrix and free velocity, solved by Pinocchio's ADMMConstraintSolver and
     PGSConstraintSolver, gives opendyn's velocity after the step to 1e-7 m/s; opendyn's
     impulses, put into Pinocchio's G and g, satisfy the cone, the dual cone and
-    complementarity (residuals computed here)."""
+    complementarity (residuals computed here; agrees_with_pinocchio)."""
     scene = solo12_feet()
     model = scene.model
     oracle = PinOracle(model.source, model)
     rng = np.random.default_rng(3)
-    dt = scene.run.dt
     checked = 0
-    for trial in range(8):
+    for _ in range(8):
         q = scene.q0.copy()
         q[7:] += rng.uniform(-0.2, 0.2, model.nv - 6)
         feet = np.array([od.frame_pose(model, q, f)[2, 3] for f in ("FL_FOOT", "FR_FOOT",
                                                                        "HL_FOOT", "HR_FOOT")])
         q[2] += 0.016 - feet.min() + rng.uniform(-2e-3, 2e-3)
         qd = rng.normal(scale=0.3, size=model.nv)
-        problem = od.contact_problem(scene, q, qd)
-        if not len(problem.lam):
-            continue
-        checked += 1
-        q_pin = oracle.q(q)
-        pin_model, pin_data = oracle.model, oracle.data
-        # the rows, from Pinocchio's kinematics, in opendyn's column order
-        rows = []
-        for k in range(problem.contacts.count):
-            body = problem.contacts.bodies[k, 1]
-            joint = pin_model.getJointId(model.body_joints[body])
-            J_k = relative_point_contact_jacobian(
-                pin_model, pin_data, q_pin, 0, joint, problem.contacts.point[k],
-                problem.contacts.frame[k].T,
-            )
-            rows.append(J_k[:, oracle.perm_v])
-        J = np.vstack(rows)
-        np.testing.assert_allclose(J, problem.J, atol=1e-10)
-        M = oracle.back_matrix(pin.crba(pin_model, pin_data, q_pin))
-        M = np.triu(M) + np.triu(M, 1).T
-        tau0 = np.zeros(pin_model.nv)
-        a = oracle.back(pin.aba(pin_model, pin_data, q_pin, oracle.v(qd), tau0))
-        v_free = qd + dt * a
-        np.testing.assert_allclose(v_free, problem.v_free, atol=1e-9)
-        G_pin = J @ np.linalg.solve(M, J.T)
-        g_pin = J @ v_free
-        for k in range(problem.contacts.count):
-            d = problem.contacts.depth[k]
-            g_pin[3 * k + 2] += (max(d, 0.0) + 0.2 * min(d, 0.0)) / dt
-        blocks = [("cone", 3 * k, 0.7) for k in range(problem.contacts.count)]
-        found = ncp_residuals(G_pin, g_pin, blocks, problem.lam)
-        assert max(found["primal"], found["dual"], found["complementarity"]) <= 1e-8, found
-        agreed = 0
-        for solver in ("admm", "pgs"):
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore", RuntimeWarning)
-                lam, info = solve_with_pinocchio(
-                    G_pin, g_pin, blocks, solver, 1e-13, 100000, return_info=True
-                )
-            if not info["converged"]:  # Pinocchio's PGS stalls on some of these states
-                continue
-            v_next = v_free + np.linalg.solve(M, J.T @ lam)
-            np.testing.assert_allclose(problem.v_next, v_next, atol=1e-7)
-            agreed += 1
-        assert agreed >= 1
+        _, converged = agrees_with_pinocchio(scene, oracle, q, qd)
+        checked += bool(converged)
     assert checked >= 4
+
+
+BOX_HALF = np.array([0.1, 0.1, 0.05])  # the half sizes of the shipped scenes' boxes
+BOX_CORNERS = BOX_HALF * np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)])
+
+
+def on_face(rng, face, shape, gap, offset, yaw):
+    """(p, R) of a box resting on `face` = (R_s, x0): the plane through x0 with the normal
+    R_s[:, 2], R_s's other columns its in-plane axes. The box's yaw about the normal is
+    uniform in +-yaw, its centre up to `offset` from x0 in the plane, its lowest corner `gap`
+    above the plane (< 0: into it), and `shape` its tilt: "face" (1e-4 rad: the whole bottom
+    face within the margin), "edge" (10-40 mrad about the box's x or y axis: one edge, two
+    corners) or "corner" (10-40 mrad about another axis: one corner)."""
+    R_s, x0 = face
+    angle = rng.uniform(0.01, 0.04) * rng.choice((-1.0, 1.0))
+    if shape == "face":
+        axis = np.r_[rng.normal(scale=1e-4, size=2), 0.0]
+    elif shape == "edge":
+        axis = angle * np.eye(3)[rng.integers(2)]
+    else:
+        phi = rng.choice((0.25, 0.75)) * math.pi + rng.uniform(-0.4, 0.4)
+        axis = angle * np.array([math.cos(phi), math.sin(phi), 0.0])
+    R = R_s @ pin.exp3(np.array([0.0, 0.0, rng.uniform(-yaw, yaw)])) @ pin.exp3(axis)
+    n = R_s[:, 2]
+    lowest = (BOX_CORNERS @ R.T @ n).min()
+    p = x0 + R_s[:, :2] @ rng.uniform(-offset, offset, 2) + (gap - lowest) * n
+    return p, R
+
+
+def box_velocity(rng, face, motion, gap, dt):
+    """A box's world twist (omega, v) relative to `face`'s: "stick" (1e-3 m/s along the face,
+    1e-2 rad/s) or "slide" (0.1-0.5 m/s in a random direction along it, 0.2 rad/s); closing
+    at up to 1e-2 m/s when `gap` <= 0, else at 0.8-1.5 times gap / dt (most of the gaps close
+    within the step)."""
+    R_s = face[0]
+    if motion == "stick":
+        along, spin = rng.normal(scale=1e-3, size=2), 1e-2
+    else:
+        direction = rng.uniform(0.0, 2.0 * math.pi)
+        along = rng.uniform(0.1, 0.5) * np.array([math.cos(direction), math.sin(direction)])
+        spin = 0.2
+    closing = rng.uniform(0.0, 1e-2) if gap <= 0.0 else rng.uniform(0.8, 1.5) * gap / dt
+    return rng.normal(scale=spin, size=3), R_s @ np.r_[along, -closing]
+
+
+def pose_q(p, R):
+    return np.r_[p, pin.Quaternion(R).coeffs()]  # (x, y, z, w) in both
+
+
+def box_states(scene, rng, count):
+    """`count` random states (q, qd) of a scene of boxes in contact: each box's lowest corner
+    within the margin of its support or up to a margin into it, its tilt a face, an edge or a
+    corner, sticking or sliding (on_face, box_velocity). A scene with a world box (box_on_table,
+    box_incline_hard) has its one box on that box's top face; one without (box_stack_hard) its
+    boxes stacked on the ground, each on the one below with a twist relative to it, and in
+    every other state none of them on a face."""
+    margin = hard_settings.sections(scene)["effects.contact"].margin
+    dt = scene.run.dt
+    shapes, motions = ("face", "edge", "corner"), ("stick", "slide")
+    world = scene.settings.get("world")
+    for k in range(count):
+        q, qd = [], []
+        if world:
+            size, position = world[0]["size"], world[0]["position"]
+            R_s = pin.rpy.rpyToMatrix(*world[0].get("rpy", (0.0, 0.0, 0.0)))
+            face = (R_s, np.asarray(position, float) + R_s[:, 2] * size[2] / 2.0)
+            gap = rng.uniform(0.0, margin) if k % 2 else rng.uniform(-margin, 0.0)
+            p, R = on_face(rng, face, shapes[k % 3], gap, offset=0.2, yaw=math.pi)
+            omega, v = box_velocity(rng, face, motions[k // 3 % 2], gap, dt)
+            q.append(pose_q(p, R))
+            qd.append(np.r_[R.T @ omega, R.T @ v])
+        else:
+            face, twist = (np.eye(3), np.zeros(3)), np.zeros(6)  # the ground, at rest
+            for _ in scene.model.objects:
+                gap = rng.uniform(-margin, margin)
+                shape = rng.choice(shapes if k % 2 else shapes[1:])
+                p, R = on_face(rng, face, shape, gap, offset=0.01, yaw=0.05)
+                omega, v = box_velocity(rng, face, rng.choice(motions), gap, dt)
+                # twists (omega, the velocity at the world's origin), the one below added
+                twist = twist + np.r_[omega, v - np.cross(omega, p)]
+                q.append(pose_q(p, R))
+                qd.append(np.r_[R.T @ twist[:3], R.T @ (twist[3:] + np.cross(twist[:3], p))])
+                face = (R, p + R[:, 2] * BOX_HALF[2])
+        yield np.concatenate(q), np.concatenate(qd)
+
+
+@pytest.mark.parametrize("name", ["box_on_table", "box_incline_hard", "box_stack_hard"])
+def test_one_step_agrees_with_pinocchios_solvers_on_collision_geometry(name):
+    """Boxes of collision geometry (box_on_table made hard, box_incline_hard, box_stack_hard,
+    whose contacts between two boxes move both: rows J_b(x) - J_a(x)) at random states in
+    contact: sticking and sliding, within the margin and slightly into their support, flat on
+    a face or tilted onto an edge or a corner (box_states). Each step's problem built with
+    Pinocchio's kinematics, Delassus matrix and free velocity (the objects on free-flyer joints
+    of a model built joint by joint) agrees with opendyn's as agrees_with_pinocchio checks: the
+    rows, the free velocity and opendyn's impulses solving Pinocchio's problem at every state;
+    the velocity after the step that of each of Pinocchio's ADMM and PGS solvers that
+    converges where no box lies on a face (there the answer is not unique)."""
+    tight = {"tolerance": 1e-11, "max_iterations": 100000}
+    if name == "box_on_table":
+        scene = box_on_table_hard(**tight)
+    else:
+        settings = _thaw(od.load_scene(name))
+        settings["effects"]["contact"].update(tight)
+        scene = od.scene_from_dict(settings, base_dir=_robots())
+    model = scene.model
+    oracle = PinOracle(model.source, model)
+    rng = np.random.default_rng(11)
+    count = 8 if name == "box_stack_hard" else 12
+    compared = active = between_boxes = 0
+    for q, qd in box_states(scene, rng, count):
+        problem, converged = agrees_with_pinocchio(scene, oracle, q, qd)
+        assert problem.contacts.count > 0
+        active += bool(np.any(problem.lam))
+        if converged is not None:
+            compared += 1
+            between_boxes += int(np.all(problem.contacts.bodies >= 0, axis=1).sum())
+    assert active >= count - 2  # most states press or rub
+    assert compared >= count // 2
+    if name == "box_stack_hard":  # contacts of two moving boxes among those compared
+        assert between_boxes >= 30
 
 
 def pinned_hard(solver="admm", **run):
