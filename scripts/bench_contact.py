@@ -220,7 +220,7 @@ def collision_pass_per_call(scene, Q, rounds):
     model = scene.model
     contact = geometry_contact.record(scene)
     table_record = geometry_contact.geometry_table(model, contact)
-    table = tuple(getattr(table_record, f.name) for f in dataclasses.fields(table_record))
+    table = table_record.arrays()
     pairs, _ = geometry_contact.pair_table(model, contact)
     G = len(model.geometries) + 1
     geometry_work = (

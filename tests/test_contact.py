@@ -15,11 +15,14 @@ from scipy.integrate import solve_ivp
 from scipy.spatial.transform import Rotation
 
 import opendyn as od
-from opendyn.algorithm.contact import contact_kernel
+from opendyn.algorithm.contact import compliant_contact
+from opendyn.algorithm.contact_list import contact_room
+from opendyn.algorithm.kinematics import forward_kinematics
 from opendyn.errors import SceneError
-from opendyn.sim.scene import thaw
 from opendyn.io.urdf import shipped_robots_dir
 from opendyn.sim import effects
+from opendyn.sim.record import contact_record
+from opendyn.sim.scene import thaw
 
 G = 9.81
 ROBOTS = shipped_robots_dir()
@@ -311,16 +314,19 @@ def _solo_in_contact(friction, damping):
 
 
 def _contact_tau(scene, q, qd, jac=False):
+    """(tau, K, D) of the compliant law at (q, qd) (the step's kernel on its contact list) and
+    the spheres' (x, f, delta) as the record keeps them."""
     model = scene.model
-    bodies, params = effects.contact.contact_table(model, scene.contact)
-    n = len(bodies)
+    spheres = effects.contact.contact_table(model, scene.contact)
     tau, K, D = np.zeros(model.nv), np.zeros((model.nv,) * 2), np.zeros((model.nv,) * 2)
-    x, f, delta = np.empty((n, 3)), np.empty((n, 3)), np.empty(n)
-    contact_kernel(
-        model._ibuf, model._fbuf, model.data()._work, (bodies, params), q, qd, tau, (K, D, jac),
-        (x, f, delta),
+    work = model.data()._work
+    forward_kinematics(model._ibuf, model._fbuf, work, q)
+    compliant_contact(
+        (model._ibuf, model._fbuf, work), contact_room(spheres, None, model.nv),
+        (spheres, None), spheres.law, qd, (tau, (K, D, np.bool_(jac))), None, None,
     )
-    return tau, K, D, x, f, delta
+    x, f, delta = contact_record(model, spheres, q[None], qd[None])
+    return tau, K, D, x[0], f[0], delta[0]
 
 
 def test_contact_force_is_the_law_at_the_point_mapped_by_the_jacobian_transpose():

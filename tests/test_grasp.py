@@ -5,10 +5,9 @@ the Panda of panda_pick closes its fingers on a box, lifts it 20 cm and holds it
 
 from __future__ import annotations
 
-import importlib.util
-
 import numpy as np
 import pytest
+from shipped_controller import shipped_controller
 
 import opendyn as od
 from opendyn.io.urdf import shipped_robots_dir
@@ -18,27 +17,22 @@ G = 9.81
 MASS, MU = 0.5, 0.5  # kg, the box's; the fingers' Coulomb coefficient
 # Two fingers on prismatic joints 0.5 m above the ground, closing along world y (left along
 # +y, right along -y) on a box 0.04 m wide; each finger's collision box 0.02 x 0.01 x 0.06 m.
-FINGERS = """<robot name="two_fingers">
-  <link name="base"/>
-  <joint name="left" type="prismatic">
-    <parent link="base"/><child link="left_finger"/>
-    <origin xyz="0 -0.05 0.5"/><axis xyz="0 1 0"/>
+FINGER = """  <joint name="{side}" type="prismatic">
+    <parent link="base"/><child link="{side}_finger"/>
+    <origin xyz="0 {y} 0.5"/><axis xyz="0 {axis} 0"/>
     <limit lower="-0.05" upper="0.05" effort="100" velocity="1"/>
   </joint>
-  <link name="left_finger">
+  <link name="{side}_finger">
     <inertial><mass value="0.1"/><inertia ixx="1e-4" iyy="1e-4" izz="1e-4" ixy="0" ixz="0" iyz="0"/></inertial>
     <collision><geometry><box size="0.02 0.01 0.06"/></geometry></collision>
   </link>
-  <joint name="right" type="prismatic">
-    <parent link="base"/><child link="right_finger"/>
-    <origin xyz="0 0.05 0.5"/><axis xyz="0 -1 0"/>
-    <limit lower="-0.05" upper="0.05" effort="100" velocity="1"/>
-  </joint>
-  <link name="right_finger">
-    <inertial><mass value="0.1"/><inertia ixx="1e-4" iyy="1e-4" izz="1e-4" ixy="0" ixz="0" iyz="0"/></inertial>
-    <collision><geometry><box size="0.02 0.01 0.06"/></geometry></collision>
-  </link>
-</robot>"""
+"""
+FINGERS = (
+    '<robot name="two_fingers">\n  <link name="base"/>\n'
+    + FINGER.format(side="left", y=-0.05, axis=1)
+    + FINGER.format(side="right", y=0.05, axis=-1)
+    + "</robot>"
+)
 
 
 def pressed_box(tmp_path, squeeze, duration):
@@ -97,18 +91,9 @@ def test_two_fingers_hold_a_box_iff_twice_mu_times_their_force_carries_its_weigh
             np.testing.assert_allclose(side * rows.force[on, 1].sum(), squeeze, rtol=1e-8)
 
 
-def pick_controller():
-    """robots/panda_pick.py, the scene's controller, as a module."""
-    path = shipped_robots_dir() / "panda_pick.py"
-    spec = importlib.util.spec_from_file_location("panda_pick", path)
-    controller = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(controller)
-    return controller
-
-
 @pytest.fixture(scope="module")
 def picked():
-    controller = pick_controller()
+    controller = shipped_controller("panda_pick")
     scene = od.load_scene("panda_pick")
     return scene, controller, od.simulate(scene)
 
@@ -153,7 +138,7 @@ def test_the_box_drifts_in_the_hand_at_the_steps_first_order():
     velocity-level step's position error: the contact holds the two bodies' velocities equal
     (sticking), and q+ = q (+) dt v+ moves each along its own path, apart by O(dt^2) a step.
     Halving dt halves it (the ratio within [1.6, 2.5])."""
-    controller = pick_controller()
+    controller = shipped_controller("panda_pick")
     drift = []
     for dt in (0.002, 0.001):
         settings = thaw(od.load_scene("panda_pick").settings)

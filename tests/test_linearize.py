@@ -9,12 +9,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import scipy.signal
+from shipped_controller import shipped_controller
+from test_effects_registry import scene_named, scene_settings  # noqa: E402
 
 import opendyn as od
-from opendyn.io.urdf import shipped_robots_dir
 from opendyn.sim import effects, step
 from opendyn.sim.linearize import effect_forces
-from test_effects_registry import scene_named, scene_settings  # noqa: E402
 
 
 def scene_qdd(scene, t, q, qd, u):
@@ -239,12 +239,7 @@ def test_the_lqr_example_balances_the_double_pendulum_upright():
     """robots/double_pendulum_lqr: discrete LQR on linearize(..., discrete=True), from 0.1 rad
     off in both joints: the closed loop of the linearization is stable, the simulated error
     falls below 1e-6 rad from 3 s on, and the torques stay within the URDF's effort limits."""
-    import importlib.util
-
-    path = shipped_robots_dir() / "double_pendulum_lqr.py"
-    spec = importlib.util.spec_from_file_location("double_pendulum_lqr_example", path)
-    example = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(example)
+    example = shipped_controller("double_pendulum_lqr")
     A, B = od.linearize(example.PLANT, q=example.UPRIGHT, qd=np.zeros(2), discrete=True)
     assert np.abs(np.linalg.eigvals(A)).max() > 1.0  # upright is unstable without control
     assert np.abs(np.linalg.eigvals(A - B @ example.K)).max() < 0.995

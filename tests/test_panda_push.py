@@ -2,24 +2,18 @@
 across a table. The box moves by the commanded distance, nothing passes through anything, and
 the contact forces are in the record."""
 
-import importlib.util
-
 import numpy as np
 import pytest
+from shipped_controller import shipped_controller
 
 import opendyn as od
-from opendyn.io.urdf import shipped_robots_dir
 
 G = 9.81
 
 
 @pytest.fixture(scope="module")
 def controller():
-    path = shipped_robots_dir() / "panda_push.py"
-    spec = importlib.util.spec_from_file_location("panda_push", path)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return shipped_controller("panda_push")
 
 
 @pytest.fixture(scope="module")

@@ -93,7 +93,7 @@ def test_three_boxes_dropped_with_their_yaws_apart_come_to_rest():
     top centre within 1 mm of the bottom's axis), the contacts on each box carrying its weight.
     The top two boxes spin a little as they land; a linearly implicit step that took friction's
     tangent (whose slope along the slip vanishes) let that spin flip sign every step for ever:
-    the friction's secant holds it (opendyn.algorithm.geometry_contact)."""
+    the friction's secant holds it (opendyn.algorithm.contact_tangent)."""
     traj = od.simulate(
         scene(
             [box("bottom", 0.07), box("middle", 0.19, 0.3), box("top", 0.31, 0.7)],

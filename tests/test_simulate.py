@@ -149,7 +149,7 @@ def test_disabled_effect_never_runs(effect):
     emptied = list(table_full.effects)
     poisoned = emptied[slot]
     for array in poisoned if isinstance(poisoned, tuple) else (poisoned,):
-        if array.dtype == np.float64:
+        if isinstance(array, np.ndarray) and array.dtype == np.float64:
             array[:] = np.nan
     emptied[slot] = None
     table_emptied = dataclasses.replace(table_off, effects=tuple(emptied))
@@ -187,7 +187,7 @@ functions = {stage.__name__.rsplit(".", 1)[1]: stage.apply for stage in registry
 functions.update(
     aba=aba.aba_on_poses, crba=crba.crba_kernel, rnea=rnea.rnea_kernel,
     newton_euler=forward.newton_euler_mass_matrix, mass_matrix_solve=forward.mass_matrix_solve,
-    contact_on_poses=contact.contact_on_poses, crba_on_poses=crba.crba_on_poses,
+    compliant_contact=contact.compliant_contact, crba_on_poses=crba.crba_on_poses,
     rnea_on_poses=rnea.rnea_on_poses, aba_kernel=aba.aba_kernel,
 )
 compiled = {name: [str(sig[0]) for sig in f.signatures] for name, f in functions.items()}
@@ -220,7 +220,7 @@ def test_a_scene_compiles_no_effect_it_does_not_name(tmp_path):
     assert compiled["aba"] and compiled["rnea"] == [] and compiled["aba_kernel"] == []
     assert compiled["crba_on_poses"] == [] and compiled["rnea_on_poses"] == []
     assert compiled["crba"] == [] and compiled["newton_euler"] == []
-    assert compiled["mass_matrix_solve"] == [] and compiled["contact_on_poses"] == []
+    assert compiled["mass_matrix_solve"] == [] and compiled["compliant_contact"] == []
     # and the run said so, in one notice on stderr for all it compiled (its start checks and
     # its record included), and reported all of it as the time it spent compiling
     assert proc.stderr.count("opendyn: compiling") == 1, proc.stderr

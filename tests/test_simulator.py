@@ -10,6 +10,7 @@ import textwrap
 
 import numpy as np
 import pytest
+from shipped_controller import shipped_controller
 
 import opendyn as od
 from opendyn.cli.main import main
@@ -265,12 +266,7 @@ def test_the_panda_impedance_example_holds_its_tool_with_the_commanded_stiffness
     """robots/panda_impedance: 10 N along world x at the tool from 0.6 s to 1.9 s (full
     force); the tool gives way by F / k_lin (k_lin = 500 N/m) and comes back; the energy
     balance closes with the controller's and the push's work."""
-    import importlib.util
-
-    path = shipped_robots_dir() / "panda_impedance.py"
-    spec = importlib.util.spec_from_file_location("panda_impedance_example", path)
-    example = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(example)
+    example = shipped_controller("panda_impedance")
     tr = od.simulate("panda_impedance")
     assert tr.complete
     p = np.array([od.frame_pose(example.MODEL, q, example.TOOL)[:3, 3] for q in tr.q])

@@ -190,8 +190,8 @@ def test_an_evaluation_and_a_step_allocate_nothing(scene, integrator):
 PLANTED = {
     "quadruped_drop": (
         "algorithm/contact.py",
-        "    J_p = effect_rows(work, nb, nv)  # (3, nv)\n",
-        "    J_p = np.empty((3, nv))\n",
+        "    J = effect_rows(work, nb, nv)\n",
+        "    J = np.empty((3, nv))\n",
     ),
     "solo12 computed torque": (
         "sim/effects/computed_torque.py",

@@ -14,7 +14,8 @@ its parent (they touch at the joint by construction), except the link pairs an S
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections import namedtuple
+from dataclasses import dataclass, fields
 
 import numpy as np
 
@@ -153,6 +154,10 @@ class GeometryTable:
         arrays = (body, T_body_geom, code, size, *ranges, seeds, *packed, hull_box)
         return cls(*(immutable(a, a.dtype) for a in arrays))
 
+    def arrays(self) -> GeometryArrays:
+        """The table as the compiled kernels take it: a GeometryArrays, its fields by name."""
+        return GeometryArrays(*(getattr(self, f.name) for f in fields(self)))
+
 
 def _packed(hulls):
     """The Hulls' arrays one after the other, in GeometryTable's order: the starts shifted to
@@ -203,3 +208,8 @@ def default_pairs(table: GeometryTable, parent, disabled_links=frozenset(), link
                 continue
             pairs.append((a, b))
     return immutable(np.array(pairs, dtype=np.int64).reshape(-1, 2), np.int64)
+
+
+GeometryArrays = namedtuple("GeometryArrays", [f.name for f in fields(GeometryTable)])
+"""A GeometryTable's arrays as a named record, which the compiled kernels read by field name
+(table.body, table.code, ...): the same fields, in the same order."""

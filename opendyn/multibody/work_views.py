@@ -173,7 +173,7 @@ def effect_rows(work, nb, nv):
 
 
 # The contact's derivatives per velocity coordinate j on the path from a touching point's body
-# to the root (opendyn.algorithm.contact.add_contact_tangent), row j of each, in {s}: the joint
+# to the root (opendyn.algorithm.contact_tangent.add_sphere_tangent), row j of each, in {s}: the joint
 # axis S_j and ad_{S_j}^T F_s, dF_s/dq_j (nv, 6) of the point's wrench F_s = (x x f, f), and
 # J_j(x) = v_j + w_j x x, df/dqd_j (nv, 3) of its force f. Views of a work buffer.
 ContactAxes = namedtuple("ContactAxes", ("S", "moved", "dF_dq", "J_x", "df_dqd"))

@@ -1,6 +1,6 @@
 """The contacts of a run between collision geometries, as a table: one row per contact point
 per recorded sample (their number changes from sample to sample), as opendyn.algorithm.
-geometry_contact finds them; and any contact's extremes over every step of a run
+contact finds them; and any contact's extremes over every step of a run
 (ContactExtremes, below the table).
 
     sample  (C,) int    the sample's index into the trajectory's t
@@ -35,7 +35,7 @@ from ..algorithm.contact_extremes import (
     RUN,
     extremes_room,
 )
-from ..algorithm.geometry_contact import DEPTH, FORCE, NORMAL_AT, PAIR, POINT
+from ..algorithm.contact import DEPTH, FORCE, NORMAL_AT, PAIR, POINT
 
 COLUMNS = (
     "sample", "pair", "a", "b", "x", "y", "z", "nx", "ny", "nz", "fx", "fy", "fz", "depth",
@@ -69,7 +69,7 @@ class ContactTable:
 
     @classmethod
     def of_rows(cls, sample, rows, pair_names) -> ContactTable:
-        """The table of rows (C, ROW) in opendyn.algorithm.geometry_contact's record layout
+        """The table of rows (C, ROW) in opendyn.algorithm.contact's record layout
         (pair, point, normal, force, depth), each of the sample in sample (C,)."""
         return cls(
             sample=sample,

@@ -13,8 +13,8 @@ import numpy as np
 
 from ..algorithm.constraints import ROW_COUNT
 from ..algorithm.constraints.terms import terms_work
-from ..algorithm.contact_list import contact_list
-from ..algorithm.geometry_contact import FORCE, PAIR, ROW, geometry_room
+from ..algorithm.contact import FORCE, PAIR, ROW
+from ..algorithm.contact_list import contact_room
 from ..algorithm.ncp import SOLVERS
 from .hard_settings import sections
 from .hard_step import (
@@ -36,9 +36,10 @@ from .hard_step import (
 
 def hard_table(scene, spheres, geometry, constraints=None) -> HardTable | None:
     """The step's HardTable of the scene, or None when no section is hard. spheres: the
-    contact spheres' (bodies, params) (effects.contact.contact_table) when the scene's contact
-    is a hard one of spheres; geometry: the geometry contact's packed (table, pairs, law)
-    (effects.geometry_contact.pack) when it is a hard one of geometries; else None each;
+    contact spheres' Spheres record (effects.contact.contact_table) when the scene's contact
+    is a hard one of spheres; geometry: the geometry contact's Geometries record
+    (effects.geometry_contact.pack) when it is a hard one of geometries; else None each (both
+    opendyn.algorithm.contact_list: the hard model reads their laws' mu);
     constraints: the scene's ConstraintTable (opendyn.algorithm.constraints), or None."""
     found = sections(scene)
     if not found:
@@ -50,18 +51,8 @@ def hard_table(scene, spheres, geometry, constraints=None) -> HardTable | None:
     n = len(model.joint_names)
     q_index = np.array(model.q_index, dtype=np.int64)
     v_index = np.array(model.v_index, dtype=np.int64)
-    capacity = 0
-    sphere_rows = geometry_rows = pairs = None
-    if spheres is not None:
-        bodies, params = spheres
-        mu = np.full(len(bodies), float(scene.contact.friction))
-        sphere_rows = (bodies, params, mu)
-        capacity += len(bodies)
-    if geometry is not None:
-        table, pair_index, law = geometry
-        geometry_rows = (table, pair_index, np.ascontiguousarray(law[:, 2]))
-        pairs = geometry_room(len(table[0]), model.nv)
-        capacity += 4 * len(pair_index)
+    contacts = contact_room(spheres, geometry, model.nv)
+    capacity = contacts.found.pair.shape[0]
     limit_rows = None
     if limits is not None:
         limit_rows = (q_index, v_index, np.array(model.lower, float), np.array(model.upper, float))
@@ -89,12 +80,12 @@ def hard_table(scene, spheres, geometry, constraints=None) -> HardTable | None:
     solver = np.array([SOLVERS[shared.solver], shared.max_iterations], dtype=np.int64)
     nv = model.nv
     room = HardRoom(
-        contact_list(capacity),
+        contacts.found,
         Impulses(
             np.zeros(1, dtype=np.int64), np.zeros(capacity, dtype=np.int64),
             np.zeros(capacity, dtype=np.int64), np.zeros((capacity, 3)),
         ),
-        pairs,
+        contacts.pairs,
         np.zeros((rows, nv)),
         np.zeros((rows, nv)),
         np.zeros((rows, rows)),
@@ -104,7 +95,7 @@ def hard_table(scene, spheres, geometry, constraints=None) -> HardTable | None:
         np.zeros((blocks, 3), dtype=np.int64),
         np.zeros(blocks),
         np.zeros(rows, dtype=np.int64),
-        np.zeros((2, 3)),
+        contacts.scratch,
         np.zeros((3, nv)),
         np.zeros(6),
         np.zeros((n, 3)),
@@ -112,7 +103,7 @@ def hard_table(scene, spheres, geometry, constraints=None) -> HardTable | None:
         np.zeros(6),
     )
     return HardTable(
-        sphere_rows, geometry_rows, limit_rows, friction_rows, equality_rows, settings, solver,
+        spheres, geometry, limit_rows, friction_rows, equality_rows, settings, solver,
         room,
     )
 
@@ -153,7 +144,7 @@ def grow_log(log, samples) -> HardLog | None:
 
 
 def log_rows(log, n):
-    """(sample (C,) int, rows (C, geometry_contact.ROW)) of the first n samples of a HardLog:
+    """(sample (C,) int, rows (C, opendyn.algorithm.contact.ROW)) of the first n samples of a HardLog:
     one row per contact per sample, in the geometry contact record's layout (its depth the
     penetration -d, negative for a gap within the margin)."""
     counts = log.counts[:n]

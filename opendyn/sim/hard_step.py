@@ -39,9 +39,9 @@ from .._runtime.status import Status
 from ..algorithm.cholesky import cholesky_factor, cholesky_substitute, largest_diagonal
 from ..algorithm.configuration import integrate_kernel
 from ..algorithm.constraints.terms import constraint_terms_in
-from ..algorithm.contact_list import contact_rows, find_pair_contacts, find_sphere_contacts
+from ..algorithm.contact_list import contact_rows, find_contacts
 from ..algorithm.crba import crba_on_poses
-from ..algorithm.geometry_contact import DEPTH, FORCE, NORMAL_AT, PAIR, POINT
+from ..algorithm.contact import DEPTH, FORCE, NORMAL_AT, PAIR, POINT
 from ..algorithm.ncp import BOX, CONE, EQUALITY, UNILATERAL, solve_ncp
 from ..algorithm.rnea import rnea_on_poses
 from ..multibody.layout import body_count, tree
@@ -57,8 +57,8 @@ SOLVER, MAX_ITERATIONS = range(2)
 # did not converge and the worst residual among them (m/s), the last step's rows m and blocks B
 ITERATIONS, RESIDUAL, UNCONVERGED, WORST, ROWS, BLOCKS = range(6)
 
-# The hard model as the step takes it: spheres (bodies (P,) int, params, mu (P,)) or None,
-# geometry (table, pairs (P, 2) int, mu (P,)) or None, limits (iq, iv (n,) int, lower, upper
+# The hard model as the step takes it: spheres (Spheres) or None, geometry (Geometries) or None
+# (opendyn.algorithm.contact_list), limits (iq, iv (n,) int, lower, upper
 # (n,)) or None, friction (iv (n,) int, f_c (n,)) or None, constraints (rows, params: the
 # scene's Pfaffian constraints as opendyn.algorithm.constraints tables them; A (k, nv),
 # Adot_qd (k,), phi (k,), their TermsWork and lambda (k,) of the step before) or None,
@@ -88,7 +88,7 @@ HardRoom = namedtuple(
 G_ROW, LAM = 0, 1
 LIMIT_PASSES = 4  # solves a step may take, each with the limits the last one's velocity reached
 # A run's per-sample record of the hard model (record.Samples): counts (K,) int, rows
-# (K, C, geometry_contact.ROW) of the contacts at each sample with their force lambda / dt,
+# (K, C, opendyn.algorithm.contact.ROW) of the contacts at each sample with their force lambda / dt,
 # solver (K, 2) the solve's iterations and residual there.
 HardLog = namedtuple("HardLog", ("counts", "rows", "solver"))
 
@@ -139,9 +139,7 @@ def assemble(hard, model, posed, q, reach, dt):
     body_tree = tree(model[0], model[1])
     room, settings = hard.room, hard.settings
     found = room.found
-    found.count[0] = 0
-    find_sphere_contacts(posed, hard.spheres, settings[MARGIN], found, room.scratch)
-    find_pair_contacts(posed, hard.geometry, settings[MARGIN], room.pairs, found, room.scratch)
+    find_contacts(posed, (hard.spheres, hard.geometry), settings[MARGIN], room)
     g, lam = room.vectors[G_ROW], room.vectors[LAM]
     m = 0
     for k in range(found.count[0]):

@@ -28,6 +28,7 @@ import numpy as np
 
 from .._runtime.memory import available_memory
 from ..algorithm.constraints import CONSTRAINT_TOLERANCE, broken_constraint
+from ..algorithm.contact_list import STIFFNESS
 from ..algorithm.energy import energies
 from ..errors import SceneError, SceneWarning
 from ..multibody.joints import FREE
@@ -100,11 +101,11 @@ def _check_contact_start(scene):
     if contact is None:
         return
     model = scene.model
-    bodies, params = effects.contact.pack(contact, model)
+    spheres = effects.contact.pack(contact, model)
     q, qd = np.array(scene.q0)[None], np.array(scene.qd0)[None]
-    depth = contact_record(model, (bodies, params), q, qd)[2][0]
+    depth = contact_record(model, spheres, q, qd)[2][0]
     stored = 0.5 * contact.stiffness * depth**2
-    mass = tree_masses(model)[bodies]
+    mass = tree_masses(model)[spheres.body]
     lift = mass * effects.contact.point_sizes(contact, model)
     allowed = allowed_energy(scene, contact.stiffness, mass, lift)
     k = int(np.argmax(stored - allowed))
@@ -132,12 +133,12 @@ def _check_geometry_start(scene):
     if contact is None:
         return
     model = scene.model
-    params = effects.geometry_contact.pack(contact, model)
+    geometry = effects.geometry_contact.pack(contact, model)
     q, qd = np.array(scene.q0)[None], np.array(scene.qd0)[None]
-    table = geometry_contact_record(model, params, q, qd)
+    table = geometry_contact_record(model, geometry, q, qd)
     if not len(table):
         return
-    pairs, k = params[1], params[2][:, 0]
+    pairs, k = geometry.pairs, geometry.law[:, STIFFNESS]
     stored = np.bincount(table.pair, 0.5 * k[table.pair] * table.depth**2, minlength=len(pairs))
     # each side's body (-1: the world, the ground among it), its tree's mass (a static side's
     # infinite: nothing lifts it) and its geometry's size

@@ -15,12 +15,9 @@ from .._runtime.batch import run_rows
 from .._runtime.version import __version__
 from ..algorithm.centroidal import centroidal_record
 from ..algorithm.constraints import ROW_COUNT, constraint_terms_kernel
-from ..algorithm.contact import contact_record_kernel
+from ..algorithm.contact import ROW, contact_record_kernel
+from ..algorithm.contact_list import STIFFNESS
 from ..algorithm.energy import energies
-from ..algorithm.geometry_contact import (
-    ROW,
-    geometry_contact_record_kernel,
-)
 from ..multibody.joints import FREE
 from . import effects, integrators
 from .contacts import ContactExtremes, ContactTable
@@ -120,7 +117,7 @@ def energies_of(scene, table, q, qd):
     if spheres is not None:
         potential = potential + 0.5 * spheres.stiffness * (contact[2] ** 2).sum(axis=1)
     elif contact is not None:  # each point's spring, at its pair's stiffness
-        k = table.params(effects.geometry_contact)[2][contact.pair, 0]
+        k = table.params(effects.geometry_contact).law[contact.pair, STIFFNESS]
         potential = potential + np.bincount(
             contact.sample, 0.5 * k * contact.depth**2, minlength=len(q)
         )
@@ -201,8 +198,9 @@ def hard_record(scene, table, log, n, states):
     }
     spheres = effects.contact.hard(scene)
     if spheres is not None:
-        params = effects.contact.contact_table(scene.model, spheres)
-        points, _, depth = contact_record(scene.model, params, *states)
+        points, _, depth = contact_record(
+            scene.model, effects.contact.contact_table(scene.model, spheres), *states
+        )
         found.update(
             contact_names=tuple(p.name for p in spheres.points),
             contact_point=points,
@@ -212,7 +210,7 @@ def hard_record(scene, table, log, n, states):
         )
     elif effects.geometry_contact.hard(scene) is not None:
         sample, rows = log_rows(log, n)
-        names = pair_names(scene.model, table.hard.geometry[1])
+        names = pair_names(scene.model, table.hard.geometry.pairs)
         found["contacts"] = ContactTable.of_rows(sample, rows, names)
     return found
 
@@ -261,33 +259,32 @@ def violation(model, table, q, qd):
     return position, velocity
 
 
-def contact_record(model, contacts, q, qd):
+def contact_record(model, spheres, q, qd):
     """(points (K, P, 3) m, forces (K, P, 3) N, penetrations (K, P) m) of the contact spheres
-    contacts = (bodies, params) (a stage table's contact parameters, effects.contact.pack) at the
+    (a Spheres record: a stage table's contact parameters, effects.contact.pack) at the
     samples (q (K, nq), qd (K, nv)), world frame (opendyn.algorithm.contact)."""
-    bodies, params = contacts
-    shape = (len(q), len(bodies))
+    shape = (len(q), len(spheres.body))
     points, forces, depth = np.empty(shape + (3,)), np.empty(shape + (3,)), np.empty(shape)
     run_rows(
-        contact_record_kernel, len(q), model._ibuf, model._fbuf, (bodies, params), (q, qd),
-        (points, forces, depth),
+        contact_record_kernel, len(q), model._ibuf, model._fbuf, (spheres, None), spheres.law,
+        (q, qd), (points, forces, depth),
     )
     return points, forces, depth
 
 
-def geometry_contact_record(model, contacts, q, qd):
+def geometry_contact_record(model, geometry, q, qd):
     """The ContactTable of the contact points at the samples (q (K, nq), qd (K, nv));
-    contacts: a stage table's parameters of effects.geometry_contact (pair_names from
+    geometry: a stage table's Geometries record of effects.geometry_contact (pair_names from
     model.geometries, the last geometry the ground): counted, then written
-    (opendyn.algorithm.geometry_contact.geometry_contact_record_kernel)."""
+    (opendyn.algorithm.contact.contact_record_kernel)."""
     counts, offsets = np.zeros(len(q), dtype=np.int64), np.zeros(len(q), dtype=np.int64)
-    args = (model._ibuf, model._fbuf, contacts, (q, qd))
-    run_rows(geometry_contact_record_kernel, len(q), *args, (counts, offsets, np.zeros((0, ROW))))
+    args = (model._ibuf, model._fbuf, (None, geometry), geometry.law, (q, qd))
+    run_rows(contact_record_kernel, len(q), *args, (counts, offsets, np.zeros((0, ROW))))
     offsets[1:] = np.cumsum(counts)[:-1]
     rows = np.zeros((int(counts.sum()), ROW))
-    run_rows(geometry_contact_record_kernel, len(q), *args, (counts, offsets, rows))
+    run_rows(contact_record_kernel, len(q), *args, (counts, offsets, rows))
     sample = np.repeat(np.arange(len(q)), counts)
-    return ContactTable.of_rows(sample, rows, pair_names(model, contacts[1]))
+    return ContactTable.of_rows(sample, rows, pair_names(model, geometry.pairs))
 
 
 def pair_names(model, pairs) -> tuple[tuple[str, str], ...]:
@@ -310,7 +307,7 @@ def contact_extremes(scene, table, touch, contact, t):
         limit = np.where(sizes > 0.0, 0.5 * sizes, np.inf)
         rows = _sphere_rows(contact)
     else:
-        ab = table.params(effects.geometry_contact)[1]
+        ab = table.params(effects.geometry_contact).pairs
         pairs = ["-".join(names) for names in pair_names(model, ab)]
         sizes = effects.geometry_contact.smallest_dimensions(model)
         limit = 0.5 * np.minimum(sizes[ab[:, 0]], sizes[ab[:, 1]])

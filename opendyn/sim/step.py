@@ -49,13 +49,13 @@ from .._runtime.kernel_cache import INLINE, JIT
 from .._runtime.status import Status
 from ..algorithm.aba import aba_on_poses
 from ..algorithm.constraints import ROW_COUNT, constrained_on_poses, constraint_work
+from ..algorithm.contact_extremes import extremes_room
+from ..algorithm.contact_list import contact_room
 from ..algorithm.forward import forward_kernel, method_switches
 from ..algorithm.kinematics import place_bodies
 from ..multibody.joints import place_joints, state_status
 from ..multibody.layout import body_count, tree
 from ..multibody.work_views import joint_poses
-from ..algorithm.contact_extremes import extremes_room
-from ..algorithm.geometry_contact import geometry_room
 from .effects import contact, geometry_contact, gravity, registry
 from .effects.dispatch import EVERY, run_stages
 from .effects.interface import Context, Out
@@ -180,8 +180,8 @@ def solve_with(con, aba, crba, newton_euler, scene, q, qd, tau, qdd):
 # integrator, con_work the constrained solve's ConstraintWork for the constraints' k rows
 # (their multipliers lam (k,), rows and scratch; None without constraints), work, the buffer
 # of a Data of the model that the kernels work in, world, True when an effect the scene names
-# reads the world poses (place puts them in work), or None, room, the geometry contact's
-# GeometryRoom, or None, and touch, the contact's running extremes that its stage writes and
+# reads the world poses (place puts them in work), or None, room, the compliant contact's
+# ContactRoom (opendyn.algorithm.contact_list: its contact list), or None, and touch, the contact's running extremes that its stage writes and
 # the loops fold at every step (opendyn.algorithm.contact_extremes), or None without contact,
 # and hard, the hard model's HardTable (opendyn.sim.hard_step), or None.
 SceneData = namedtuple(
@@ -224,17 +224,20 @@ def scene_data(model, table, held=None):
         constraint_room(table.constraints, model.nb, model.nv),
         model.data()._work,
         True if table.world_poses else None,
-        contact_room(table, model.nv),
+        compliant_room(table, model.nv),
         contact_touch(table),
         table.hard,
     )
 
 
-def contact_room(table, nv):
-    """The GeometryRoom of the scene's geometry contact (table: its StageTable), or None when
-    it names none."""
-    params = table.params(geometry_contact)
-    return None if params is None else geometry_room(geometry_contact.room_size(params), nv)
+def compliant_room(table, nv):
+    """The ContactRoom (opendyn.algorithm.contact_list) in which the scene's compliant contact
+    finds its contact list at every evaluation (table: its StageTable), or None when it names
+    none."""
+    spheres, geometries = table.params(contact), table.params(geometry_contact)
+    if spheres is None and geometries is None:
+        return None
+    return contact_room(spheres, geometries, nv)
 
 
 def contact_touch(table):
@@ -243,8 +246,8 @@ def contact_touch(table):
     StageTable), or None when it names no contact."""
     spheres, geometries = table.params(contact), table.params(geometry_contact)
     if geometries is not None:
-        return extremes_room(len(geometries[1]))
-    return None if spheres is None else extremes_room(len(spheres[0]))
+        return extremes_room(len(geometries.pairs))
+    return None if spheres is None else extremes_room(len(spheres.body))
 
 
 @njit(**JIT)

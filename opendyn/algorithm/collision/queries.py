@@ -17,7 +17,6 @@ points of each shape inside the other.
 
 from __future__ import annotations
 
-import dataclasses
 import warnings
 from typing import NamedTuple
 
@@ -169,7 +168,7 @@ def pair_contacts(a, b, margin, rows, scratch):
 @njit(**UNCOUNTED)
 def pair_rows(placed, i, j, margin, rows, scratch):
     """pair_contacts of geometries i and j as placed = (table, hints, T_sg) holds them (the
-    GeometryTable's arrays, the hulls' climbing starts and the world poses): up to
+    GeometryArrays, the hulls' climbing starts and the world poses): up to
     MAX_CONTACTS rows (OUT_SIZE each). Returns (count, status)."""
     table, hints, T_sg = placed
     a, b = shape_of(table, hints, T_sg, i), shape_of(table, hints, T_sg, j)
@@ -189,7 +188,7 @@ def collisions_kernel(ibuf, fbuf, work, q, table, pairs, margin, geometry_work, 
     count = 0
     for p in range(pairs.shape[0]):
         i, j = pairs[p, 0], pairs[p, 1]
-        if not pair_near(table[2], T_sg, boxes, i, j, margin):
+        if not pair_near(table.code, T_sg, boxes, i, j, margin):
             continue
         found, pair_status = pair_rows(
             (table, hints, T_sg), i, j, margin, rows[count : count + MAX_CONTACTS], scratch
@@ -209,9 +208,8 @@ expect(collisions_kernel, "20-35 s")
 
 
 def _table(model):
-    """The model's GeometryTable as the kernels take it: a tuple of its arrays in its order."""
-    t = model.geometry_table
-    return tuple(getattr(t, field.name) for field in dataclasses.fields(t))
+    """The model's GeometryTable as the kernels take it (GeometryArrays)."""
+    return model.geometry_table.arrays()
 
 
 def _pairs(model, pairs):

@@ -36,9 +36,9 @@ LO, HI = 0, 3  # a bounding box row (6,): lo (3,) then hi (3,), metres in {s}
 @njit(**UNCOUNTED)
 def place_geometries(R_s, p_s, table, T_sg):
     """T_sg (G, 3, 4) <- [R p] of T_{s,g} = T_{s,b} T_{b,g} for every geometry, with the bodies'
-    world poses R_s (nb, 3, 3), p_s (nb, 3) and table = (body (G,), T_body_geom (G, 4, 4), ...)
-    (GeometryTable's arrays in its order)."""
-    body, T_bg = table[0], table[1]
+    world poses R_s (nb, 3, 3), p_s (nb, 3) and table a GeometryArrays (opendyn.multibody.
+    geometry: body (G,), T_body_geom (G, 4, 4), ...)."""
+    body, T_bg = table.body, table.T_body_geom
     for k in range(body.shape[0]):
         b = body[k]
         for r in range(3):
@@ -58,15 +58,19 @@ def place_geometries(R_s, p_s, table, T_sg):
 @njit(**UNCOUNTED_INLINE)
 def shape_of(table, hints, T_sg, k):
     """Geometry k as the narrow phase's shape tuple (code, size (3,), hull, T), its hull the
-    table's rows of geometry k with hints[k] (support.py): table = GeometryTable's arrays in its
-    order (body, T_body_geom, code, size, vertex_range, face_range, seeds, vertices,
-    neighbor_start, neighbors, face_normal, face_start, face_vertices, vertex_face_start,
-    vertex_faces, hull_box)."""
-    v0, v1 = table[4][k, 0], table[4][k, 1]
-    f0, f1 = table[5][k, 0], table[5][k, 1]
-    faces = (table[10][f0:f1], table[11][f0 : f1 + 1], table[12], table[13][v0 : v1 + 1], table[14])
-    hull = (table[7][v0:v1], table[8][v0 : v1 + 1], table[9], table[6][k], hints[k : k + 1], faces)
-    return (table[2][k], table[3][k], hull, T_sg[k])
+    table's rows of geometry k with hints[k] (support.py): table a GeometryArrays
+    (opendyn.multibody.geometry)."""
+    v0, v1 = table.vertex_range[k, 0], table.vertex_range[k, 1]
+    f0, f1 = table.face_range[k, 0], table.face_range[k, 1]
+    faces = (
+        table.face_normal[f0:f1], table.face_start[f0 : f1 + 1], table.face_vertices,
+        table.vertex_face_start[v0 : v1 + 1], table.vertex_faces,
+    )
+    hull = (
+        table.vertices[v0:v1], table.neighbor_start[v0 : v1 + 1], table.neighbors,
+        table.seeds[k], hints[k : k + 1], faces,
+    )
+    return (table.code[k], table.size[k], hull, T_sg[k])
 
 
 @njit(**UNCOUNTED)
@@ -81,7 +85,7 @@ def bounding_boxes(table, hints, T_sg, boxes):
                 boxes[k, LO + i], boxes[k, HI + i] = -math.inf, math.inf
             continue
         if shape[0] == MESH:
-            hull_box_in_world(table[15][k], T_sg[k], boxes[k])
+            hull_box_in_world(table.hull_box[k], T_sg[k], boxes[k])
             continue
         r = core_radius(shape[0], shape[1])
         for i in range(3):

@@ -4,8 +4,8 @@
 
 with, at each sphere's lowest point, a spring-damper normal force f_n = max(0, k delta + d
 delta_dot) and regularised Coulomb friction f_t = -mu f_n v_t / sqrt(|v_t|^2 + v_s^2)
-(opendyn.algorithm.contact, which computes it and its linearisation J_p^T K_p J_p, J_p^T D_p
-J_p). Passive, with a conservative share: the springs' energy 1/2 k delta^2 is in E, so their
+(opendyn.algorithm.contact, the compliant law over the contact list, which computes it, and
+opendyn.algorithm.contact_tangent its linearisation J_p^T K_p J_p, J_p^T D_p J_p). Passive, with a conservative share: the springs' energy 1/2 k delta^2 is in E, so their
 power sum_p k delta_p delta_dot_p is added to out.power[1], the passive power, to take it out.
 """
 
@@ -18,21 +18,12 @@ from numba import njit
 
 from ..._runtime.arrays import immutable
 from ..._runtime.kernel_cache import JIT
-from ...algorithm.contact import (
-    DAMPING,
-    FRICTION,
-    GROUND,
-    PER_POINT,
-    SHARED,
-    SLIP,
-    STIFFNESS,
-    contact_jacobians_kernel,
-    contact_on_poses,
-)
+from ...algorithm.contact import compliant_contact, contact_jacobians_kernel
 from ...algorithm.contact_extremes import begin
+from ...algorithm.contact_list import Spheres
 from ..hard_settings import SOLVER_KEYS, HardSettings, read_model
 from ..values import what_is
-from .interface import OK, PASSIVE, floats
+from .interface import OK, PASSIVE
 from .tangent import bracket, path_axes, point_velocities, wrench_tangent
 
 NAME = "contact"
@@ -59,9 +50,9 @@ EXAMPLE = {
 }
 STAGE = "contact"
 ENERGY = PASSIVE
-WORLD_POSES = True  # its force reads the world poses the step places (contact_on_poses)
+WORLD_POSES = True  # its force reads the world poses the step places (compliant_contact)
 DERIVATIVES = ("K", "D")
-Params = None  # opendyn.algorithm.contact's (bodies, params): see contact_table
+Params = None  # a Spheres record (opendyn.algorithm.contact_list): see contact_table
 
 
 @dataclass(frozen=True, eq=False)
@@ -195,23 +186,24 @@ def read_points(r, value, key) -> tuple[ContactPoint, ...]:
     return tuple(points)
 
 
-def contact_table(model, contact):
-    """(bodies (P,) int64, params) of opendyn.algorithm.contact for a scene's contact
-    (Contact): the shared values (ground height, k, d, mu, v_s), then each point's sphere
-    centre c_b = T_body_frame (position, 1) in its body's frame (m) and radius (m)."""
-    bodies, chunks = [], []
+def contact_table(model, contact) -> Spheres:
+    """The Spheres record (opendyn.algorithm.contact_list) of a scene's contact (Contact): each
+    point's body, its sphere's centre c_b = T_body_frame (position, 1) in the body's frame (m)
+    and radius (m), the ground's height, and each point's law row (k, d, mu, v_s)."""
+    bodies, centres = [], []
     for point in contact.points:
         frame = model.frames[model.frame_index(point.frame)]
         bodies.append(frame.body)
-        chunks += [(frame.T_body_frame @ np.append(point.position, 1.0))[:3], point.radius]
-    shared = (
-        contact.ground_height,
-        contact.stiffness,
-        contact.damping,
-        contact.friction,
-        contact.slip_velocity,
+        centres.append((frame.T_body_frame @ np.append(point.position, 1.0))[:3])
+    law = (contact.stiffness, contact.damping, contact.friction, contact.slip_velocity)
+    count = len(bodies)
+    return Spheres(
+        np.array(bodies, dtype=np.int64),
+        np.array(centres, dtype=np.float64).reshape(count, 3),
+        np.array([p.radius for p in contact.points], dtype=np.float64),
+        float(contact.ground_height),
+        np.tile(np.array(law, dtype=np.float64), (count, 1)),
     )
-    return np.array(bodies, dtype=np.int64), floats(shared, *chunks)
 
 
 def pack(contact, model):
@@ -223,11 +215,10 @@ def point_sizes(contact, model) -> np.ndarray:
     (r = 0) the shortest side of the box that its body's points span in the body's frame (a
     box's eight corners span the box); 0 where neither gives one (points on a line or a
     plane)."""
-    bodies, params = contact_table(model, contact)
-    spheres = params[SHARED:].reshape(-1, PER_POINT)
-    sizes = 2.0 * spheres[:, 3]
+    spheres = contact_table(model, contact)
+    sizes = 2.0 * spheres.radius
     for p in np.flatnonzero(sizes == 0.0):
-        sizes[p] = np.ptp(spheres[bodies == bodies[p], :3], axis=0).min()
+        sizes[p] = np.ptp(spheres.centre[spheres.body == spheres.body[p]], axis=0).min()
     return sizes
 
 
@@ -240,19 +231,20 @@ def apply(p, ctx, out):
     """out.passive += sum_p J_p^T f_p, the ground's forces on the contact spheres;
     out.power[1] += their springs' share sum_p k delta_p delta_dot_p (with qd . tau it makes
     the contacts' non-conservative power); with out.jac, out.K, out.D (nv, nv) += their
-    linearisation (opendyn.algorithm.contact). p = (bodies (P,) int64, params), or None.
-    Works on the world poses the step placed in ctx.work (WORLD_POSES) and in its scratch,
-    allocating nothing; keeps no record of the points (the run's record recomputes them at
-    its samples), only this evaluation's deepest point and largest force in ctx.touch
-    (opendyn.algorithm.contact_extremes), each point its own pair with the ground. Returns
-    a Status."""
+    linearisation (opendyn.algorithm.contact). p: a Spheres record, or None. Finds the
+    spheres' contacts in ctx.room's list (a ContactRoom), on the world poses the step placed in
+    ctx.work (WORLD_POSES), allocating nothing; keeps no record of the points (the run's
+    record recomputes them at its samples), only this evaluation's deepest point and largest
+    force in ctx.touch (opendyn.algorithm.contact_extremes), each point its own pair with the
+    ground. Returns a Status."""
     if p is None:
         return OK
     # np.bool_(jac): a run-time flag, so that the kernel compiles once for both values
     linear = (out.K, out.D, np.bool_(out.jac))
     begin(ctx.touch, ctx.t)
-    out.power[1] += contact_on_poses(
-        ctx.ibuf, ctx.fbuf, ctx.work, p, ctx.qd, out.passive, linear, None, ctx.touch
+    out.power[1] += compliant_contact(
+        (ctx.ibuf, ctx.fbuf, ctx.work), ctx.room, (p, None), p.law, ctx.qd,
+        (out.passive, linear), ctx.touch, None,
     )
     return OK
 
@@ -264,11 +256,12 @@ def rates(contact, at):
     with f_n the point's share of the robot's weight. M^-1 J_p^T e_r is at.solve, the scene's
     own forward dynamics, so that the check compiles nothing the run does not."""
     model = at.scene.model
-    bodies, params = contact_table(model, contact)
-    J = np.empty((len(bodies), 3, model.nv))
-    contact_jacobians_kernel(model._ibuf, model._fbuf, (bodies, params), at.q, J)
-    inverse_mass = np.empty((len(bodies), 3))
-    for p in range(len(bodies)):
+    spheres = contact_table(model, contact)
+    count = len(spheres.body)
+    J = np.empty((count, 3, model.nv))
+    contact_jacobians_kernel(model._ibuf, model._fbuf, spheres, at.q, J)
+    inverse_mass = np.empty((count, 3))
+    for p in range(count):
         for r in range(3):
             tau = np.ascontiguousarray(J[p, r])
             qdd = at.solve(tau)
@@ -310,13 +303,12 @@ def tangent(contact, at):
     dtau_i/dqd_j = J_i(x) . df_j."""
     model = at.scene.model
     nv = model.nv
-    bodies, params = contact_table(model, contact)
-    h, k, d = params[GROUND], params[STIFFNESS], params[DAMPING]
-    mu, v_s = params[FRICTION], params[SLIP]
+    spheres = contact_table(model, contact)
+    h = spheres.ground
+    k, d, mu, v_s = contact.stiffness, contact.damping, contact.friction, contact.slip_velocity
     tau, dtau_dq, dtau_dqd = np.zeros(nv), np.zeros((nv, nv)), np.zeros((nv, nv))
-    for point, b in enumerate(bodies):
-        c_b = params[SHARED + PER_POINT * point : SHARED + PER_POINT * point + 3]
-        radius = params[SHARED + PER_POINT * point + 3]
+    for point, b in enumerate(spheres.body):
+        c_b, radius = spheres.centre[point], spheres.radius[point]
         c = at.axes.p_s[b] + at.axes.R_s[b] @ c_b
         x = c - np.array([0.0, 0.0, radius])
         delta = h - x[2]

@@ -3,8 +3,9 @@
     tau = sum over the touching pairs (a, b), over their contact points x, of J^T f
 
 with J = J_b(x) - J_a(x) and f the compliant normal force and regularised Coulomb friction of
-opendyn.algorithm.geometry_contact, which computes it and its linearisation: equal and opposite
-forces on the two bodies. The pairs: every geometry of the robot (its URDF's <collision>
+opendyn.algorithm.contact, the law over the contact list, which computes it (and
+opendyn.algorithm.contact_tangent its linearisation): equal and opposite forces on the two
+bodies. The pairs: every geometry of the robot (its URDF's <collision>
 elements, meshes as their convex hulls), of the scene's objects and of its world entries, and
 the ground plane z = ground_height (named "ground"), two by two: robot-world, robot-object,
 object-object and object-world, the robot's own pairs (model.collision_pairs: not a body and its
@@ -23,11 +24,11 @@ import numpy as np
 from numba import njit
 
 from ..._runtime.kernel_cache import JIT
-from ...algorithm.contact import contact_jacobians_kernel
+from ...algorithm.contact import compliant_contact, contact_jacobians_kernel
 from ...algorithm.contact_extremes import begin
-from ...algorithm.geometry_contact import geometry_contact_on_poses
+from ...algorithm.contact_list import Geometries, Spheres
 from ...multibody.assembly import object_of
-from ...multibody.geometry import Geometry, GeometryTable
+from ...multibody.geometry import Geometry, GeometryArrays, GeometryTable
 from ...multibody.model import Frame
 from ..hard_settings import SOLVER_KEYS, HardSettings, read_model
 from .interface import OK, PASSIVE
@@ -57,7 +58,7 @@ STAGE = "geometry contact"
 ENERGY = PASSIVE
 WORLD_POSES = True
 DERIVATIVES = ("K", "D")
-Params = None  # (table, pairs, law) of opendyn.algorithm.geometry_contact: see pack
+Params = None  # a Geometries record (opendyn.algorithm.contact_list): see pack
 GROUND = "ground"
 
 
@@ -300,16 +301,16 @@ def geometry_table(model, contact) -> GeometryTable:
     return GeometryTable.of((*model.geometries, ground), frames)
 
 
-def pack(contact, model):
-    """(table: the GeometryTable's arrays in its order, pairs (P, 2) int64, law (P, 4): k, c,
-    mu, v_s of each pair)."""
+def pack(contact, model) -> Geometries:
+    """The Geometries record (opendyn.algorithm.contact_list): the geometries with the ground
+    last (GeometryArrays), the pairs (P, 2) int64 and each pair's law row (k, c, mu, v_s)."""
     table = geometry_table(model, contact)
     pairs, laws = pair_table(model, contact)
     law = np.array(
         [[w.stiffness, w.damping, w.friction, w.slip_velocity] for w in laws], dtype=np.float64
     ).reshape(-1, 4)
-    arrays = tuple(np.array(getattr(table, f.name)) for f in dataclasses.fields(table))
-    return arrays, pairs, law
+    arrays = GeometryArrays(*(np.array(a) for a in table.arrays()))  # writable copies
+    return Geometries(arrays, pairs, law)
 
 
 def smallest_dimensions(model) -> np.ndarray:
@@ -330,11 +331,6 @@ def smallest_dimensions(model) -> np.ndarray:
     return sizes
 
 
-def room_size(params) -> int:
-    """How many geometries the pass places (the ground included): its GeometryRoom's size."""
-    return params[0][0].shape[0]
-
-
 def label(contact, model) -> str:
     return f"contact ({len(pair_table(model, contact)[0])} geometry pairs)"
 
@@ -343,17 +339,17 @@ def label(contact, model) -> str:
 def apply(p, ctx, out):
     """out.passive += sum J^T f over the touching pairs; out.power[1] += their springs' share
     sum k delta delta_dot; with out.jac, out.K, out.D += their linearisation
-    (opendyn.algorithm.geometry_contact). p = (table, pairs, law), or None. Works on the world
-    poses the step placed in ctx.work and in ctx.room (a GeometryRoom), allocating nothing;
-    this evaluation's deepest point and largest force go to ctx.touch
+    (opendyn.algorithm.contact). p: a Geometries record, or None. Finds the pairs' contacts in
+    ctx.room's list (a ContactRoom), on the world poses the step placed in ctx.work,
+    allocating nothing; this evaluation's deepest point and largest force go to ctx.touch
     (opendyn.algorithm.contact_extremes). Returns a Status."""
     if p is None:
         return OK
     linear = (out.K, out.D, np.bool_(out.jac))
     begin(ctx.touch, ctx.t)
-    out.power[1] += geometry_contact_on_poses(
-        ctx.ibuf, ctx.fbuf, ctx.work, p, ctx.room, ctx.qd, out.passive, linear, None,
-        ctx.touch,
+    out.power[1] += compliant_contact(
+        (ctx.ibuf, ctx.fbuf, ctx.work), ctx.room, (None, p), p.law, ctx.qd,
+        (out.passive, linear), ctx.touch, None,
     )
     return OK
 
@@ -375,12 +371,15 @@ def rates(contact, at):
     if not law:
         return []
     keys = sorted(law)
-    bodies = np.array([table.body[k] for k in keys], dtype=np.int64)
-    params = np.zeros(5 + 4 * len(keys))
-    for n, k in enumerate(keys):
-        params[5 + 4 * n : 8 + 4 * n] = table.T_body_geom[k][:3, 3]
+    # each geometry's origin, as a contact point of radius 0 (no ground, no law: the
+    # Jacobians alone)
+    origins = Spheres(
+        np.array([table.body[k] for k in keys], dtype=np.int64),
+        np.array([table.T_body_geom[k][:3, 3] for k in keys], dtype=np.float64),
+        np.zeros(len(keys)), 0.0, np.zeros((len(keys), 4)),
+    )
     J = np.empty((len(keys), 3, model.nv))
-    contact_jacobians_kernel(model._ibuf, model._fbuf, (bodies, params), at.q, J)
+    contact_jacobians_kernel(model._ibuf, model._fbuf, origins, at.q, J)
     inverse_mass = np.empty(len(keys))
     for n in range(len(keys)):
         worst = 0.0

@@ -75,8 +75,9 @@ ENERGY_CLASSES = (CONTROL, APPLIED, PASSIVE, CONSERVATIVE)
 # Data of the model, which the kernels work in, holding the poses the step placed at q: an
 # effect's force leaves them as they are), the time t (s), the state q (nq,), qd (nv,),
 # the base acceleration dV_0 (6,) (set by the gravity stage, which runs first, read by
-# computed torque), armature (nv,) the rotor inertias (or empty), room: the geometry
-# contact's GeometryRoom (opendyn.algorithm.geometry_contact), or None for a scene without it,
+# computed torque), armature (nv,) the rotor inertias (or empty), room: the compliant
+# contact's ContactRoom (opendyn.algorithm.contact_list), in which it finds its contact list,
+# or None for a scene without it,
 # and touch: the contact's running extremes, which the contact stage writes at every
 # evaluation (opendyn.algorithm.contact_extremes), or None for a scene without contact.
 Context = namedtuple(
