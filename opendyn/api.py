@@ -103,6 +103,9 @@ def rollout(scene, q0=None, qd0=None, params=None, threads=None, record="samples
     record: "samples" keeps every run's rows at the scene's output_dt, (N, K, ...) arrays;
       "final" only each run's last state, (N, 1, ...): memory does not grow with duration.
     progress: a progress bar over the runs (tqdm, on stderr) after a second.
+    A scene with a hard model (model = "hard") runs each run from no warm start, as simulate
+    does; the result keeps each run's unconverged_steps and worst_residual, not the per-sample
+    contact record and solver log of simulate's trajectory.
     N is the length of q0, qd0 and params (which must agree), 1 when none is given. Values that
     are not finite numbers are refused before anything runs (ValueError or TypeError naming the
     argument and the run); a value the scene refuses (a negative mass) or a start simulate

@@ -191,8 +191,6 @@ def test_the_hard_model_needs_the_velocity_level_step():
         od.scene_from_dict(data, base_dir=_robots())
     with pytest.raises(ValueError, match="hard"):
         od.linearize(hard_ball())
-    with pytest.raises(od.SceneError, match="rollout does not yet run the hard model"):
-        od.rollout(hard_ball(), q0=np.tile(hard_ball().q0, (2, 1)))
 
 
 def test_a_box_on_a_steep_ramp_holds_exactly_or_slides_at_coulombs_rate():

@@ -31,6 +31,7 @@ from .hard_step import (
     HardTable,
     Impulses,
     hard_velocity_step,
+    restart_hard,
 )
 
 
@@ -106,19 +107,6 @@ def hard_table(scene, spheres, geometry, constraints=None) -> HardTable | None:
         spheres, geometry, limit_rows, friction_rows, equality_rows, settings, solver,
         room,
     )
-
-
-def restart_hard(hard):
-    """A fresh start for the HardTable hard (None: nothing): no impulses to warm-start from,
-    the solver's counts at zero."""
-    if hard is None:
-        return
-    room = hard.room
-    room.before.count[0] = 0
-    room.joints[:] = 0.0
-    room.stats[:] = 0.0
-    if hard.constraints is not None:
-        hard.constraints[6][:] = 0.0
 
 
 def new_log(hard, samples) -> HardLog | None:

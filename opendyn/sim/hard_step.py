@@ -94,6 +94,40 @@ HardLog = namedtuple("HardLog", ("counts", "rows", "solver"))
 
 
 @njit(**JIT)
+def restart_hard(hard):
+    """A fresh start for the HardTable hard, as it is when made (opendyn.sim.hard.hard_table):
+    no impulses to warm-start from (the contacts', the joints' and the equality rows'), the
+    solver's counts at zero, and the geometry pairs' hulls climbing from their first vertex
+    again. Nothing for hard None (numba drops the code)."""
+    if hard is None:
+        return
+    room = hard.room
+    room.before.count[0] = 0
+    zero_matrix(room.joints)
+    fill(room.stats, 0.0)
+    forget_equalities(hard.constraints)
+    forget_hints(room.pairs)
+
+
+@njit(**JIT)
+def forget_equalities(constraints):
+    """The equality rows' impulses of the step before (constraints[6], HardTable) <- 0; nothing
+    for constraints None."""
+    if constraints is None:
+        return
+    fill(constraints[6], 0.0)
+
+
+@njit(**JIT)
+def forget_hints(pairs):
+    """Each hull's climbing start (the GeometryRoom pairs' hints) <- its first vertex; nothing
+    for pairs None (no geometry pairs)."""
+    if pairs is None:
+        return
+    fill(pairs.hints, 0)
+
+
+@njit(**JIT)
 def drift(d, stabilization, dt):
     """The normal row's velocity bias (m/s) of a gap d: max(d, 0) / dt + stabilization
     min(d, 0) / dt."""

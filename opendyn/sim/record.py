@@ -148,9 +148,11 @@ def trajectory_of(scene, table, out, n, complete, message, stats, touch=None):
         kinetic = potential = np.full(n, np.nan)
         spheres, off, centroidal = None, (np.zeros(0),) * 2, {}
     contact = {}
-    if table.hard is not None and out.hard is not None:
-        contact, spheres = hard_record(scene, table, out.hard, n, (q, qd)), None
-        stats = {**stats, **solve_stats(table.hard)}
+    if table.hard is not None:
+        # a rollout's run keeps no HardLog: its solve statistics come in stats
+        if out.hard is not None:
+            contact, spheres = hard_record(scene, table, out.hard, n, (q, qd)), None
+            stats = {**stats, **solve_stats(table.hard)}
     elif scene.contact is not None:
         contact["contact_extremes"] = contact_extremes(scene, table, touch, spheres, t)
     if isinstance(spheres, ContactTable):

@@ -19,7 +19,12 @@ How it runs:
     (opendyn.sim.rollout_loops) on a slice of the block; the loops release the GIL, and the
     next block is read while one runs;
   - every run has the same compiled step (the same integrator, run settings and kinds of
-    effects: params may not change them; a sweep groups runs that do) and its own steps.
+    effects: params may not change them; a sweep groups runs that do) and its own steps;
+  - a scene with a hard model (opendyn.sim.hard) keeps its solve's warm start from step to
+    step in a HardRoom: each call of the loop has its own, and each run restarts it, so that
+    a run gives what simulate gives whichever thread ran it and whatever ran before it. A run
+    keeps its solve's statistics (RolloutResult.unconverged_steps, worst_residual), not the
+    per-sample log of contacts, forces and iterations that simulate's trajectory holds.
 """
 
 from __future__ import annotations
@@ -43,7 +48,7 @@ from .._runtime.signals import signal_name
 from ..algorithm.checks import as_float_array
 from ..algorithm.configuration import check_unit_quaternions
 from ..errors import RolloutInterrupted, SceneError, SceneWarning
-from . import effects, hard_settings, integrators
+from . import effects, integrators
 from .diagnostics import check_contact_step, failure_message
 from .driver import (
     READY_PIECES,
@@ -90,13 +95,6 @@ def rollout(scene, q0=None, qd0=None, params=None, threads=None, record="samples
         raise SceneError(
             f"{scene.source}: control.type: a Python controller runs in Python at every control "
             "period; rollout runs compiled scenes only (use od.simulate or od.Simulator)"
-        )
-    hard = hard_settings.sections(scene)
-    if hard:
-        raise SceneError(
-            f"{scene.source}: {next(iter(hard))}.model: rollout does not yet run the hard model "
-            "(its solve keeps per-run warm starts that the batch's threads would share); run "
-            "it with od.simulate or od.Simulator"
         )
     if record not in RECORDS:
         raise ValueError(f"rollout: record must be 'samples' or 'final', got {record!r}")
@@ -193,7 +191,7 @@ def run_batch(runs, threads, keep, progress=False):
     counters = np.zeros((n, 3), dtype=np.int64)
     outcome = Outcome(
         np.zeros(n, np.int64), np.zeros(n, np.int64), np.full(n, np.nan),
-        np.full((n, model.nv), np.nan),
+        np.full((n, model.nv), np.nan), np.zeros((n, 2)),
     )
     notes = (np.full(n, INTERRUPTED, dtype="<U11"), [""] * n, [""] * n)
     which = np.full(n, -1, dtype=np.int64)
@@ -263,7 +261,8 @@ def run_batch(runs, threads, keep, progress=False):
 
 class _Loop:
     """The compiled loop of a batch's integrator, called on slices of a block's runs:
-    loop(block, start, stop), each call with its own scratch (a SceneData of the scene)."""
+    loop(block, start, stop), each call with its own scratch (a SceneData of the scene, with
+    its own copy of the hard model's HardTable, whose room the slice's runs use in turn)."""
 
     def __init__(self, runs, integ, every, nsteps, arrays):
         scene = runs.scene
@@ -303,7 +302,7 @@ class _Loop:
             push_run(entries, item)
         switch, settings, last = _private(self.head)
         base = scene_data(self.scene.model, self.table)
-        base = base._replace(ibuf=base.ibuf.copy())
+        base = base._replace(ibuf=base.ibuf.copy(), hard=_private(base.hard))
         batch = Batch(entries, which, *self.arrays)
         self.kernel(switch, base, settings, last, batch, _private(self.free), start, stop)
 
@@ -364,8 +363,10 @@ def _prepare(runs, block, which, x, notes, kind):
 
 
 def run_data(scene, table):
-    """The RunData of a run's scene and its stage table."""
-    return RunData(scene.model._fbuf, table.effects, table.armature, table.constraints)
+    """The RunData of a run's scene and its stage table: its hard model's HardTable without
+    its room (the loop's call lends it one: rollout_loops.run_hard)."""
+    hard = None if table.hard is None else table.hard._replace(room=None)
+    return RunData(scene.model._fbuf, table.effects, table.armature, table.constraints, hard)
 
 
 def _checked_run_data(first, scene, table, kind):

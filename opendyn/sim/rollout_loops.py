@@ -12,11 +12,13 @@ numbers bit for bit:
 
 A failed run (a state not finite or faster than max_speed, a singular mass matrix, a step that
 underflows) keeps its rows up to the failure and its last good state, and the other runs go on.
-What varies between runs (the model's inertias, the effects' parameters, the armature and the
-constraints: a RunData each, several runs may share one) is read per run; the step's scratch
-(forces, loads, K and D, the Data buffer, the contact's running extremes, which a rollout does
-not read: its trajectories take their contact's extremes from their samples) is the caller's
-SceneData, one per thread.
+What varies between runs (the model's inertias, the effects' parameters, the armature, the
+constraints and the hard model's rows and settings: a RunData each, several runs may share one)
+is read per run; the step's scratch (forces, loads, K and D, the Data buffer, the contact's
+running extremes, which a rollout does not read: its trajectories take their contact's extremes
+from their samples) is the caller's SceneData, one per thread. So is the hard model's HardRoom,
+which carries a run's warm start from step to step: each run restarts it (run_hard), so that it
+starts as simulate's run does, whichever runs went before it in the room.
 """
 
 from __future__ import annotations
@@ -31,13 +33,15 @@ from .._runtime.arrays import copy_into, fill
 from .._runtime.kernel_cache import BATCH, JIT
 from .._runtime.status import Status
 from ..multibody.layout import body_count, dof_count
+from .hard_step import UNCONVERGED, WORST, HardTable, restart_hard
 from .integrators import Counters, Record, Stage, State, record, run_adaptive, run_fixed
 from .step import SceneData, constraint_room, evaluate
 
 # What one run of a batch may change in the step: the model's fbuf (its inertias: a payload per
-# run), the stage table's effects tuple, armature and constraints (ConstraintTable or None).
+# run), the stage table's effects tuple, armature and constraints (ConstraintTable or None), and
+# hard, its HardTable with None for its room (the run works in its slice's: run_hard), or None.
 # Every run of a batch has the same types here, so one compiled loop runs them all.
-RunData = namedtuple("RunData", ("fbuf", "effects", "armature", "constraints"))
+RunData = namedtuple("RunData", ("fbuf", "effects", "armature", "constraints", "hard"))
 # A batch of N runs, run i's row of every array its own:
 #   runs: a numba typed List of RunData; which (stop - start,) int64: the entry of each run
 #      of the slice start..stop-1 in it, -1 for a run refused before it started;
@@ -51,8 +55,9 @@ RunData = namedtuple("RunData", ("fbuf", "effects", "armature", "constraints"))
 Batch = namedtuple("Batch", ("runs", "which", "x", "out", "counters", "outcome"))
 # How each run ended: status (N,) int64 (Status; 0 complete), rows (N,) int64 the rows it
 # recorded, t (N,) s the time it reached, tau (N, nv) the control torque at its last state
-# (NaN where the dynamics fail there).
-Outcome = namedtuple("Outcome", ("status", "rows", "t", "tau"))
+# (NaN where the dynamics fail there), solver (N, 2) with a hard model the steps whose solve
+# stopped above its tolerance and the worst residual among them (m/s; untouched without one).
+Outcome = namedtuple("Outcome", ("status", "rows", "t", "tau", "solver"))
 
 
 @njit(**JIT)
@@ -75,17 +80,18 @@ def push_run(runs, run):
 def run_views(base, batch, i, start):
     """(SceneData, State, Record, Counters) of run i of the Batch, which a slice from `start`
     runs: base (a SceneData: the model's ibuf, the method, the scratch, whether the world poses
-    are placed) with the run's RunData (fbuf, effects, armature, constraints) and its
-    constraints' ConstraintWork (their multipliers and the solve's scratch, made once per run);
-    its state and counters copied out (the loops write them at every step, and neighbouring
-    runs' rows share cache lines across threads), its record a view of its rows. end_run copies
-    them back."""
+    are placed, the hard model's room) with the run's RunData (fbuf, effects, armature,
+    constraints; the hard model's rows and settings in base's room, restarted: run_hard) and
+    its constraints' ConstraintWork (their multipliers and the solve's scratch, made once per
+    run); its state and counters copied out (the loops write them at every step, and
+    neighbouring runs' rows share cache lines across threads), its record a view of its rows.
+    end_run copies them back."""
     run = batch.runs[batch.which[i - start]]
     scene = SceneData(
         base.ibuf, run.fbuf, run.effects, run.armature, base.method, run.constraints,
         base.forces, base.loads, base.KD,
         constraint_room(run.constraints, body_count(base.ibuf), dof_count(base.ibuf)),
-        base.work, base.world, base.room, base.touch, base.hard,
+        base.work, base.world, base.room, base.touch, run_hard(run.hard, base.hard),
     )
     x, out, c = batch.x, batch.out, batch.counters
     return (
@@ -97,11 +103,39 @@ def run_views(base, batch, i, start):
 
 
 @njit(**JIT)
+def run_hard(hard, own):
+    """The HardTable a run steps with: its own rows and settings (hard: its RunData's, without
+    a room) in the room of `own` (the slice's HardTable, whose room its runs use one after
+    another), restarted (restart_hard: no impulses to warm-start from, the solver's counts at
+    zero), as simulate's HardTable is when it is made. None for hard None (no hard model:
+    numba drops the code)."""
+    if hard is None:
+        return None
+    table = HardTable(
+        hard.spheres, hard.geometry, hard.limits, hard.friction, hard.constraints, hard.settings,
+        hard.solver, own.room,
+    )
+    restart_hard(table)
+    return table
+
+
+@njit(**JIT)
+def keep_solve_stats(hard, solver):
+    """solver (2,) <- a run's statistics of the hard model's solves (hard: its HardTable after
+    the run): the steps whose solve stopped above the tolerance and the worst residual among
+    them (m/s). Nothing for hard None (numba drops the code)."""
+    if hard is None:
+        return
+    solver[0] = hard.room.stats[UNCONVERGED]
+    solver[1] = hard.room.stats[WORST]
+
+
+@njit(**JIT)
 def end_run(scene, batch, i, status, rows, t, x, counters, tau):
     """Close run i as simulate closes a run: its last State x and Counters into the batch's
-    rows, outcome <- (status, rows, t, tau), tau (nv,) the control torque at the last state x:
-    the given one, or (tau None: numba drops the other branch) the dynamics evaluated there,
-    NaN where they fail. The last state is appended to the record when a complete run's record
+    rows, outcome <- (status, rows, t, tau, the hard model's solve statistics: keep_solve_stats),
+    tau (nv,) the control torque at the last state x: the given one, or (tau None: numba drops
+    the other branch) the dynamics evaluated there, NaN where they fail. The last state is appended to the record when a complete run's record
     has room for it (a fixed-step run's end) or a failed run's last row is earlier."""
     out = Record(
         batch.out.t[i], batch.out.q[i], batch.out.qd[i], batch.out.tau[i], batch.out.w[i],
@@ -122,6 +156,7 @@ def end_run(scene, batch, i, status, rows, t, x, counters, tau):
     if append:
         record(out, rows, t, x, tau_end)
         rows += 1
+    keep_solve_stats(scene.hard, batch.outcome.solver[i])
     batch.outcome.status[i] = status
     batch.outcome.rows[i] = rows
     batch.outcome.t[i] = t

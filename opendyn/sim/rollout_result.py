@@ -9,6 +9,7 @@ import numpy as np
 
 from ..errors import SceneError
 from ..multibody.joints import FREE
+from . import hard_settings
 from .integrators import Record
 from .record import energies_of, quaternion_norm_error, trajectory_of
 
@@ -31,10 +32,15 @@ class RolloutResult:
       status (N,) "complete", "failed" (a failure, or a run that simulate would refuse: its
       initial state, its contact step) or "interrupted" (never started: Ctrl-C); complete
       (N,) bool; message [N] the cause ("" when complete); warnings [N] the scene's warnings;
-      steps, rejected_steps, evaluations (N,) int64.
+      steps, rejected_steps, evaluations (N,) int64;
+      with a hard model (opendyn.sim.hard), unconverged_steps (N,) int64 the steps whose solve
+      stopped at max_iterations above the tolerance and worst_residual (N,) m/s the largest
+      residual among them (0 when every solve converged); None without one.
     stats: the batch's integrator, runs, threads, wall_s (the runs' wall time), prepare_s (of it,
       reading and checking the runs' scenes), compile_s, load_s, steps_per_s.
-    trajectory(i): run i as the Trajectory simulate gives for its scene (scene_for(i)).
+    trajectory(i): run i as the Trajectory simulate gives for its scene (scene_for(i)); of a
+      hard model's run, without the per-sample contact record and solver log, which a rollout
+      does not keep.
     """
 
     def __init__(self, runs, integ, keep, arrays, outcome, counters, notes, stats):
@@ -51,6 +57,10 @@ class RolloutResult:
         self.status, self.message, self.warnings = notes
         self.complete = self.status == COMPLETE
         self.evaluations, self.steps, self.rejected_steps = counters.T
+        self.unconverged_steps = self.worst_residual = None
+        if hard_settings.sections(runs.scene):
+            self.unconverged_steps = outcome.solver[:, 0].astype(np.int64)
+            self.worst_residual = outcome.solver[:, 1]
         self.stats = stats
         wall = stats["wall_s"]
         stats["steps_per_s"] = float(self.steps.sum() / wall) if wall > 0 else 0.0
@@ -124,6 +134,9 @@ class RolloutResult:
             stats["quaternion_norm_error"] = float(
                 quaternion_norm_error(scene.model, self.q[i, :n]).max(initial=0.0)
             )
+        if self.unconverged_steps is not None:  # as simulate's hard run has them (solve_stats)
+            stats["unconverged_steps"] = int(self.unconverged_steps[i])
+            stats["worst_residual"] = float(self.worst_residual[i])
         return trajectory_of(
             scene, table, out, n, bool(self.complete[i]), self.message[i], stats
         )

@@ -39,7 +39,6 @@ from ..algorithm.contact_extremes import restart
 from ..errors import SceneError, SimulationError
 from . import effects, integrators, step
 from .diagnostics import check_contact_step, failure_message
-from .hard import restart_hard
 from .driver import (
     CHUNK_SECONDS,
     FIRST_CHUNK,
@@ -56,6 +55,7 @@ from .driver import (
     step_name,
 )
 from .effects import python_control
+from .hard_step import restart_hard
 from .preflight import byte_size, check_start, record_every
 from .record import Samples, trajectory_of, warn_too_deep
 from .run import whole_steps
