@@ -132,9 +132,9 @@ def grow_log(log, samples) -> HardLog | None:
 
 
 def log_rows(log, n):
-    """(sample (C,) int, rows (C, opendyn.algorithm.contact.ROW)) of the first n samples of a HardLog:
-    one row per contact per sample, in the geometry contact record's layout (its depth the
-    penetration -d, negative for a gap within the margin)."""
+    """(sample (C,) int, rows (C, opendyn.algorithm.contact.ROW)) of the first n samples of a
+    HardLog: one row per contact per sample, in the geometry contact record's layout (its depth
+    the penetration -d, negative for a gap within the margin)."""
     counts = log.counts[:n]
     keep = np.arange(log.rows.shape[1])[None, :] < counts[:, None]
     return np.repeat(np.arange(n), counts), log.rows[:n][keep]

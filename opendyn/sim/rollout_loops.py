@@ -133,10 +133,11 @@ def keep_solve_stats(hard, solver):
 @njit(**JIT)
 def end_run(scene, batch, i, status, rows, t, x, counters, tau):
     """Close run i as simulate closes a run: its last State x and Counters into the batch's
-    rows, outcome <- (status, rows, t, tau, the hard model's solve statistics: keep_solve_stats),
-    tau (nv,) the control torque at the last state x: the given one, or (tau None: numba drops
-    the other branch) the dynamics evaluated there, NaN where they fail. The last state is appended to the record when a complete run's record
-    has room for it (a fixed-step run's end) or a failed run's last row is earlier."""
+    rows, outcome <- (status, rows, t, tau, the hard model's solve statistics:
+    keep_solve_stats), tau (nv,) the control torque at the last state x: the given one, or
+    (tau None: numba drops the other branch) the dynamics evaluated there, NaN where they fail.
+    The last state is appended to the record when a complete run's record has room for it (a
+    fixed-step run's end) or a failed run's last row is earlier."""
     out = Record(
         batch.out.t[i], batch.out.q[i], batch.out.qd[i], batch.out.tau[i], batch.out.w[i],
         None,

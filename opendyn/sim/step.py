@@ -181,9 +181,9 @@ def solve_with(con, aba, crba, newton_euler, scene, q, qd, tau, qdd):
 # (their multipliers lam (k,), rows and scratch; None without constraints), work, the buffer
 # of a Data of the model that the kernels work in, world, True when an effect the scene names
 # reads the world poses (place puts them in work), or None, room, the compliant contact's
-# ContactRoom (opendyn.algorithm.contact_list: its contact list), or None, and touch, the contact's running extremes that its stage writes and
-# the loops fold at every step (opendyn.algorithm.contact_extremes), or None without contact,
-# and hard, the hard model's HardTable (opendyn.sim.hard_step), or None.
+# ContactRoom (opendyn.algorithm.contact_list: its contact list), or None, and touch, the
+# contact's running extremes that its stage writes and the loops fold at every step
+# (opendyn.algorithm.contact_extremes), or None without contact, and hard, the hard model's HardTable (opendyn.sim.hard_step), or None.
 SceneData = namedtuple(
     "SceneData",
     (

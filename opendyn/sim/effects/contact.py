@@ -5,8 +5,9 @@
 with, at each sphere's lowest point, a spring-damper normal force f_n = max(0, k delta + d
 delta_dot) and regularised Coulomb friction f_t = -mu f_n v_t / sqrt(|v_t|^2 + v_s^2)
 (opendyn.algorithm.contact, the compliant law over the contact list, which computes it, and
-opendyn.algorithm.contact_tangent its linearisation J_p^T K_p J_p, J_p^T D_p J_p). Passive, with a conservative share: the springs' energy 1/2 k delta^2 is in E, so their
-power sum_p k delta_p delta_dot_p is added to out.power[1], the passive power, to take it out.
+opendyn.algorithm.contact_tangent its linearisation J_p^T K_p J_p, J_p^T D_p J_p). Passive,
+with a conservative share: the springs' energy 1/2 k delta^2 is in E, so their power
+sum_p k delta_p delta_dot_p is added to out.power[1], the passive power, to take it out.
 """
 
 from __future__ import annotations
