@@ -42,9 +42,18 @@
    ten times looser), the energy-balance residual max |energy_error|, the deepest penetration
    and its error against the reference's at the same samples, evaluations and wall time.
    Stability per fixed-step integrator: the largest step run, the smallest refused, the largest
-   that completes and the largest whose max error is within 0.1 (m or rad). Then what the
-   stiffness costs: the ball drop (0.5 s) at k = 1e4 to 1e7 N/m, whose rate sqrt(k/m) sets RK4's
-   stability step 2.8 / rate, and each integrator's fastest run within 1e-3 m.
+   that completes and the largest whose max error is within 0.1 (m or rad). The hard contact
+   model on each scene (model = "hard": contacts as constraints of semi-implicit Euler's
+   velocity-level step, solved by ADMM; the compliant law's stiffness, damping and slip velocity
+   removed, the friction kept) over the same fixed steps (quick: 10 ms to 0.5 ms and 50 us): per
+   run its status, steps and wall time, the solves' unconverged steps and worst residual, the
+   deepest penetration at the samples (a contact within the margin, short of the surface,
+   counts as 0), the error against the hard model's own run at the finest step and the order of
+   its max error over the steps from ten times the finest, and the distance to the compliant
+   reference (what rigid contact changes against k = 1e5, an error of neither); the largest
+   usable step of each model side by side. Then what the stiffness costs: the ball drop (0.5 s)
+   at k = 1e4 to 1e7 N/m, whose rate sqrt(k/m) sets RK4's stability step 2.8 / rate, and each
+   integrator's fastest run within 1e-3 m.
 
 Writes into --out (default accuracy_study/ in the current folder): accuracy_vs_time.png (error
 against wall time, one curve per integrator: the Pareto plot), convergence.png (error against
@@ -80,6 +89,7 @@ from opendyn.algorithm.forward import METHODS, NO_ARMATURE  # noqa: E402
 from opendyn.io.scene.variants import Variants  # noqa: E402
 from opendyn.sim import effects, step  # noqa: E402
 from opendyn.sim.profile import stage_costs  # noqa: E402
+from opendyn.sim.scene import thaw  # noqa: E402
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 sys.path[:0] = [str(ROOT / "tests"), str(ROOT / "scripts")]
@@ -640,6 +650,17 @@ CONTACT_STEPS = {
         "dopri5": [1e-4, 1e-6, 1e-8],
     },
 }
+# The hard contact model (model = "hard": contacts as constraints of the velocity-level step,
+# semi_implicit_euler, solved by ADMM) over the fixed steps; the quick run's finest, its
+# reference, is 5e-5 s, so that its steps from 0.5 ms up lie HARD_FIT_FROM x above it, for the
+# order's fit.
+HARD_LABEL = "hard (semi-implicit Euler, ADMM)"
+HARD_STEPS = {
+    "full": CONTACT_STEPS["full"]["fixed"],
+    "quick": [1e-2, 5e-3, 2e-3, 1e-3, 5e-4, 5e-5],
+}
+HARD_FIT_FROM = 10  # the hard order is fitted over steps >= this x the finest (its reference)
+COMPLIANT_KEYS = ("stiffness", "damping", "slip_velocity")  # refused with model = "hard"
 USABLE = 0.1  # m or rad: the max error of a run that keeps the motion's shape
 STIFFNESSES = {"full": [1e4, 1e5, 1e6, 1e7], "quick": [1e5, 1e7]}  # N/m
 STIFFNESS_DURATION = 0.5  # s: the ball's fall, its bounce and half its rise
@@ -647,9 +668,10 @@ STIFFNESS_TARGET = 1e-3  # m: the max error the stiffness study asks of every in
 
 
 def penetration(traj):
-    """(K, P) m: the depth of each contact point of the run at each sample (sphere contact:
-    traj.penetration; between collision geometries, the deepest point of each sample's contact
-    table, P = 1)."""
+    """(K, P) m: the depth of each contact point of the run at each sample, >= 0 (sphere contact:
+    traj.penetration, zero off the ground; between collision geometries, the deepest point of
+    each sample's contact table, P = 1, zero where none is deeper than zero: a hard run's table
+    also holds the contacts within its margin, at a negative depth, their gap)."""
     if traj.contacts is None:
         return traj.penetration
     deepest = np.zeros((len(traj.t), 1))
@@ -673,13 +695,15 @@ def contact_reference(scene, rtol):
     )
 
 
-def contact_run(scene, integrator, x, ref, repeats):
+def contact_run(scene, integrator, x, ref, repeats, compliant=None):
     """One run of a contact scene at step x (s; dopri5: rtol = atol = x) as a row. status:
     "complete", "refused" (the simulator's stability check refused the step before the run;
     reason) or "failed" (failed_at, reason). A complete run has its final and max state error
     against `ref`, max |energy_error| (J), its deepest penetration (m) at its samples and the
-    distance to the reference's deepest at the same samples. A fixed step longer than the
-    scene's output_dt records every step."""
+    distance to the reference's deepest at the same samples; a run of the hard model, its
+    solves' unconverged_steps and worst_residual (m/s), and with `compliant` (the compliant
+    model's reference) its final and max distance to it, compliant_final and compliant_max (m or
+    rad). A fixed step longer than the scene's output_dt records every step."""
     row = dict(integrator=integrator, step=x)
     settings = _run_settings(integrator, x)
     if integrator != "dopri5":
@@ -704,15 +728,22 @@ def contact_run(scene, integrator, x, ref, repeats):
         penetration_max=deepest,
         penetration_error=abs(deepest - float(penetration(ref)[sample_rows(traj, ref)].max())),
     )
+    if "unconverged_steps" in traj.stats:
+        row.update(
+            unconverged_steps=int(traj.stats["unconverged_steps"]),
+            worst_residual=float(traj.stats["worst_residual"]),
+        )
+    if compliant is not None:
+        row["compliant_final"], row["compliant_max"] = state_error(traj, compliant)
     return row
 
 
-def stability(runs):
-    """Per fixed-step integrator: the largest step the simulator runs (does not refuse), the
-    smallest it refuses, the largest that completes and the largest whose max error is within
-    USABLE (None where no step of the sweep is)."""
+def stability(runs, names=FIXED):
+    """Per fixed-step integrator of `names`: the largest step the simulator runs (does not
+    refuse), the smallest it refuses, the largest that completes and the largest whose max error
+    is within USABLE (None where no step of the sweep is)."""
     out = {}
-    for name in FIXED:
+    for name in names:
         rows = [r for r in runs if r["integrator"] == name]
         out[name] = dict(
             largest_run=max((r["step"] for r in rows if r["status"] != "refused"), default=None),
@@ -728,10 +759,68 @@ def stability(runs):
     return out
 
 
+def hard_contact(scene):
+    """`scene` with its contact solved as constraints: [effects.contact] model = "hard" (the
+    compliant law's stiffness, damping and slip_velocity removed, friction kept, the hard
+    model's settings at their defaults) on the velocity-level step, run.integrator =
+    "semi_implicit_euler"."""
+    settings = thaw(scene.settings)
+    table = settings["effects"]["contact"]
+    for key in COMPLIANT_KEYS:
+        table.pop(key, None)
+    table["model"] = "hard"
+    settings["run"]["integrator"] = "semi_implicit_euler"
+    return od.scene_from_dict(
+        settings,
+        source=f"{scene.source} (hard contact)",
+        base_dir=od.io.urdf.shipped_robots_dir(),
+    )
+
+
+def hard_order(runs):
+    """fit_order of the hard model's max error (against its run at the finest step) over its
+    complete runs at steps of at least HARD_FIT_FROM x the finest: nearer, the reference's own
+    error, as large as theirs, steepens the slope. The max error and not the final one: a body
+    at rest at the end carries none of its landing's error there."""
+    finest = min(r["step"] for r in runs)
+    fitted = [r for r in runs if r["complete"] and r["step"] >= HARD_FIT_FROM * finest]
+    return fit_order([r["step"] for r in fitted], [r["error_max"] for r in fitted], 0.0)
+
+
+def hard_study(scene, compliant, mode, repeats, title):
+    """The hard model (hard_contact) on a contact scene over the steps HARD_STEPS[mode], each a
+    contact_run row whose error is against the hard model's own run at the finest step (its
+    convergence) and whose compliant_final and compliant_max are its distance to the compliant
+    model's reference `compliant` (what rigid contact changes, an error of neither); with the
+    hard settings, the reference's summary, hard_order and the step's stability."""
+    hard = hard_contact(scene)
+    finest = min(HARD_STEPS[mode])
+    ref = od.simulate(hard.replace_run(dt=finest))
+    runs = [
+        contact_run(hard, "semi_implicit_euler", x, ref, repeats, compliant)
+        for x in tqdm(HARD_STEPS[mode], desc=f"{title}, hard", leave=False)
+    ]
+    return dict(
+        label=HARD_LABEL,
+        settings=dataclasses.asdict(hard.contact.hard),
+        reference=dict(
+            step=finest,
+            steps=int(ref.stats["steps"]),
+            wall_s=ref.stats["wall_s"],
+            energy_error=float(np.max(np.abs(ref.energy_error))),
+            penetration_max=float(penetration(ref).max()),
+        ),
+        runs=runs,
+        order=hard_order(runs),
+        stability=stability(runs, ("semi_implicit_euler",))["semi_implicit_euler"],
+    )
+
+
 def contact_study(mode, repeats):
     """The contact scenes with every integrator x step (contact_run rows against each scene's
     reference): convergence orders, stability of the fixed steps, Pareto front and
-    recommendations; then what the contact stiffness costs (stiffness_study)."""
+    recommendations, and the hard model's runs (hard_study); then what the contact stiffness
+    costs (stiffness_study)."""
     sweeps = CONTACT_STEPS[mode]
     scenes = []
     for key, shipped, title, full_T, quick_T, rtol in CONTACT_SCENES:
@@ -758,6 +847,7 @@ def contact_study(mode, repeats):
                 stability=stability(runs),
                 pareto=pareto_front(runs),
                 recommendations=recommend(runs),
+                hard=hard_study(base, ref, mode, repeats, title),
             )
         )
     stiffness = stiffness_study(mode, repeats)
@@ -1195,6 +1285,8 @@ def contact_markdown(contact):
             f"\nConvergence orders (final error against step, as above): {orders or '-'}."
             f"\n\nPareto front (fastest first): {front}."
         )
+        out += hard_markdown(res)
+    out += usable_steps_markdown(contact)
     study = contact["stiffness"]
     out.append(
         f"\n### What the contact stiffness costs: the ball drop, {study['duration']:g} s\n\n"
@@ -1229,6 +1321,78 @@ def contact_markdown(contact):
             last = min(tried, key=lambda x: x["step"])
             cells.append(f"none ({_step(last)}: {last['error_max']:.1e} m)")
         out.append("| " + " | ".join(cells) + " |")
+    return out
+
+
+def hard_markdown(res):
+    """Markdown lines: a contact scene's runs of the hard model (hard_study), its order and the
+    stability of its step."""
+    hard = res["hard"]
+    ref, settings, st = hard["reference"], hard["settings"], hard["stability"]
+    out = [
+        (
+            f"\n#### The hard model: {hard['label']}\n\n"
+            'The same scene with model = "hard": contacts as constraints of the velocity-level '
+            f"step, friction as above (margin {settings['margin'] * 1e3:g} mm, stabilization "
+            f"{settings['stabilization']:g}, {settings['solver'].upper()} to "
+            f"{settings['tolerance']:.0e} m/s within {settings['max_iterations']} iterations). "
+            "Error: against the hard model's own run at the finest step, "
+            f"{_ms(ref['step'])} ({ref['steps']} steps, {ref['wall_s']:.3g} s): its convergence. "
+            "Distance to compliant: max over the samples of max_j |q_j - q_compliant,j| to the "
+            "compliant reference above, what rigid contact changes against the compliant law, "
+            "an error of neither: as the step shrinks it settles at the finest run's, the "
+            "difference between the two models. Penetration: the deepest at the samples, zero for a contact "
+            "short of the surface; a step that starts farther than the margin from a surface has "
+            "no row for it and may end inside it (by up to the approach speed times the step, "
+            "less the margin), and the stabilization takes that out over the following steps. "
+            "Unconverged: the steps whose solve stopped at the iteration limit above the "
+            "tolerance, and the largest residual among them (m/s).\n"
+        )
+    ]
+    out.append(
+        "| step | final error | max error | max distance to compliant | deepest penetration "
+        "(mm) | energy residual (J) | unconverged steps | worst residual (m/s) | steps | wall "
+        "(ms) |"
+    )
+    out.append("|---" * 10 + "|")
+    for r in hard["runs"]:
+        head = f"| {_step(r)} | "
+        if r["status"] == "refused":
+            out.append(head + f"refused: {_first_part(r)} |" + " - |" * 8)
+            continue
+        if r["complete"]:
+            cells = [_e(r["error_final"]), _e(r["error_max"]), _e(r["compliant_max"])]
+            cells += [f"{r['penetration_max'] * 1e3:.3g}", _e(r["energy_error"])]
+            cells += [str(r["unconverged_steps"]), _e(r["worst_residual"])]
+        else:
+            cells = [f"failed: {_first_part(r)}"] + ["-"] * 6
+        out.append(head + " | ".join(cells) + f" | {r['steps']} | {r['wall_s'] * 1e3:.3g} |")
+    order = "-" if hard["order"] is None else f"{hard['order']:.2f}"
+    out.append(
+        f"\nOrder of the max error against the step, over the steps from {HARD_FIT_FROM}x the "
+        f"finest: {order}. Largest step completing: {_ms(st['largest_complete'])}; largest "
+        f"usable (max error <= {USABLE:g}): {_ms(st['largest_usable'])}."
+    )
+    return out
+
+
+def usable_steps_markdown(contact):
+    """Markdown lines: the largest usable step of each model on each contact scene, the hard
+    model's against its finest step and the compliant law's against its DOPRI5 reference."""
+    out = [
+        (
+            "\n### The largest usable step of each contact model\n\nThe largest step of the "
+            f"sweep whose max error is within {USABLE:g} (m or rad) against the model's own "
+            "reference: the hard model's run at its finest step; DOPRI5 for the compliant law, "
+            "per integrator.\n"
+        ),
+        f"| scene | {HARD_LABEL} | " + " | ".join(f"compliant, {LABEL[n]}" for n in FIXED) + " |",
+        "|---" * (len(FIXED) + 2) + "|",
+    ]
+    for res in contact["scenes"]:
+        cells = [_ms(res["hard"]["stability"]["largest_usable"])]
+        cells += [_ms(res["stability"][n]["largest_usable"]) for n in FIXED]
+        out.append(f"| {res['title']}, {res['duration']:g} s | " + " | ".join(cells) + " |")
     return out
 
 

@@ -4,7 +4,10 @@ on the constrained four-bar, Baumgarte stabilisation bounds the loop-closure vio
 grows without it, and the violation converges at the integrator's order; on ground contact, the
 simulator refuses exactly the explicit steps beyond the contact's stability limit (sqrt(k/m) on
 the ball, friction near zero slip on the quadruped), implicit Euler lands the quadruped at 1 ms
-and converges at first order, and a stiffer contact needs a smaller RK4 step.
+and converges at first order, and a stiffer contact needs a smaller RK4 step. The hard contact
+model's rows: every step completes where the explicit parts of its step are stable, nothing is
+deeper than the step can carry past the margin (nothing at the finest step), the ball and the
+quadruped converge at first order, and the rigid ball stops where the compliant one bounces.
 
 Timings are recorded by the study and never held to a bound here: the page must show the times
 the study recorded, its growth exponents must be the fit of those times, and n RNEA calls must
@@ -457,9 +460,10 @@ def test_quick_study_writes_the_contact_section_plot_and_recommendations(quick_s
 
 
 def _contact_runs(record):
-    """(duration, run) of every contact run: both scenes and the stiffness study."""
+    """(duration, run) of every contact run: the scenes' (the compliant law's and the hard
+    model's) and the stiffness study's."""
     for res in record["contact"]["scenes"]:
-        for r in res["runs"]:
+        for r in res["runs"] + res["hard"]["runs"]:
             yield res["duration"], r
     study = record["contact"]["stiffness"]
     for row in study["rows"]:
@@ -584,3 +588,118 @@ def test_contact_recommendations_are_the_fastest_runs_within_each_bound(quick_st
                 continue
             assert pick["wall_s"] == min(r["wall_s"] for r in within)
         assert res["recommendations"]["0.01"] is not None, res["key"]
+
+
+def test_every_contact_scene_has_the_hard_models_rows(quick_run):
+    """Each contact scene runs the hard model (ADMM at its default settings) over the quick
+    hard sweep; every complete run records finite errors, distances to the compliant reference,
+    penetration, energy residual and solver statistics, a worst residual only with unconverged
+    steps; none is refused (the stability check before a run is the compliant contact's)."""
+    _, record, _, study = quick_run
+    for res in record["contact"]["scenes"]:
+        hard = res["hard"]
+        assert hard["label"] == study.HARD_LABEL
+        assert hard["settings"]["solver"] == "admm" and hard["settings"]["margin"] == 1e-3
+        assert [r["step"] for r in hard["runs"]] == study.HARD_STEPS["quick"]
+        assert hard["reference"]["step"] == min(study.HARD_STEPS["quick"])
+        for r in hard["runs"]:
+            assert r["integrator"] == "semi_implicit_euler" and r["status"] != "refused", r
+            if not r["complete"]:
+                continue
+            measured = [r[k] for k in ("error_final", "error_max", "compliant_final")]
+            measured += [r[k] for k in ("compliant_max", "penetration_max", "energy_error")]
+            assert np.isfinite(measured).all() and min(measured) >= 0, r
+            assert r["compliant_max"] >= r["compliant_final"], r
+            assert r["unconverged_steps"] >= 0 and 0 <= r["worst_residual"] < 1e-3, r
+            assert (r["worst_residual"] > 0) == (r["unconverged_steps"] > 0), r
+        finest = next(r for r in hard["runs"] if r["step"] == hard["reference"]["step"])
+        assert finest["error_max"] == 0.0  # the reference itself
+
+
+def _hard_runs(record, key):
+    """{step: run} of the hard model on contact scene `key`."""
+    return {r["step"]: r for r in _contact_scene(record, key)["hard"]["runs"]}
+
+
+def test_hard_runs_complete_where_the_explicit_part_of_the_step_is_stable(quick_study):
+    """The ball and the box complete at every step; the quadruped at 2 ms and below. At 10 ms
+    its PD damping (kd = 0.2 N m s/rad on the light hip joints), explicit in the step, is
+    unstable (dt x rate above 2) and the run stops, saying so."""
+    _, record = quick_study
+    for key in ("ball_drop", "box_drop"):
+        assert all(r["complete"] for r in _hard_runs(record, key).values()), key
+    quadruped = _hard_runs(record, "quadruped_drop")
+    assert all(r["complete"] for step, r in quadruped.items() if step <= 2e-3)
+    assert quadruped[1e-2]["status"] == "failed"
+    assert "PD damping" in quadruped[1e-2]["reason"]
+    for key in ("ball_drop", "quadruped_drop", "box_drop"):
+        stability = _contact_scene(record, key)["hard"]["stability"]
+        assert stability["largest_usable"] >= 2e-3, key
+
+
+def test_hard_contact_penetrates_only_what_a_step_carries_past_its_margin(quick_study):
+    """The hard model leaves nothing deeper than 1e-6 m at its finest step. A contact farther
+    than the margin at a step's start has no row in it, so the ball (falling 0.5 m, reaching
+    the ground at up to sqrt(2 g h) + g dt) ends a step at most v dt - margin deep."""
+    _, record = quick_study
+    for res in record["contact"]["scenes"]:
+        assert res["hard"]["reference"]["penetration_max"] < 1e-6, res["key"]
+    g, h = 9.81, 0.5
+    margin = _contact_scene(record, "ball_drop")["hard"]["settings"]["margin"]
+    for step, r in _hard_runs(record, "ball_drop").items():
+        reach = ((2 * g * h) ** 0.5 + g * step) * step - margin
+        assert r["penetration_max"] <= max(reach, 0.0) + 1e-6, r
+    # measured 18 mm at 10 ms, 0.7 mm at 1 ms: a step that crosses the margin sinks in
+    assert _hard_runs(record, "ball_drop")[1e-2]["penetration_max"] > 1e-3
+
+
+@pytest.mark.parametrize("scene", ["ball_drop", "quadruped_drop"])
+def test_hard_model_converges_at_first_order(quick_study, scene):
+    """The max error against the hard model's finest run, fitted from ten times that step up:
+    the velocity-level step is first order (measured 1.15 on the ball, 1.06 on Solo12)."""
+    _, record = quick_study
+    assert _contact_scene(record, scene)["hard"]["order"] == pytest.approx(1.0, abs=0.2)
+
+
+def test_the_rigid_ball_stops_where_the_compliant_one_bounces(quick_study):
+    """The hard model's impact is inelastic: the ball stays on the ground, while on the
+    undamped spring (k = 1e5) it leaves at its landing speed v after (pi + 2 atan(g / (w v))) / w
+    (w = sqrt(k / m)) and rises. At the end they are that rise apart; on Solo12 and the box the
+    two models land within 2 cm (or rad) of each other (measured 4.5e-3 and 1.7e-3)."""
+    _, record = quick_study
+    res = _contact_scene(record, "ball_drop")
+    m, g, k, h = 1.0, 9.81, 1e5, 0.5
+    v, w = (2 * g * h) ** 0.5, (k / m) ** 0.5
+    lift_off = (2 * h / g) ** 0.5 + (np.pi + 2 * np.arctan(g / (w * v))) / w
+    flight = res["duration"] - lift_off
+    rise = v * flight - g * flight**2 / 2
+    finest = _hard_runs(record, "ball_drop")[res["hard"]["reference"]["step"]]
+    assert finest["compliant_final"] == pytest.approx(rise, rel=1e-6)
+    for key in ("quadruped_drop", "box_drop"):
+        hard = _contact_scene(record, key)["hard"]
+        assert _hard_runs(record, key)[hard["reference"]["step"]]["compliant_max"] < 2e-2, key
+
+
+def test_study_page_shows_the_hard_rows_it_recorded(quick_study):
+    """Each contact scene's section of study.md has the hard model's table, one row per run
+    with its step and recorded errors, and the usable-step table the recorded steps."""
+    out, record = quick_study
+    text = (out / "study.md").read_text()
+    for res in record["contact"]["scenes"]:
+        section = text.split(f"\n### {res['title']}, {res['duration']:g} s\n", 1)[1]
+        rows = markdown_table(section, "#### The hard model")
+        assert len(rows) == len(res["hard"]["runs"]), res["key"]
+        for cells, r in zip(rows, res["hard"]["runs"]):
+            assert cells[0] == f"dt {r['step'] * 1e3:g} ms"
+            if r["complete"]:
+                assert cells[1:4] == [
+                    f"{r[key]:.1e}" for key in ("error_final", "error_max", "compliant_max")
+                ]
+                assert cells[6] == str(r["unconverged_steps"])
+            else:
+                assert cells[1].startswith("failed")
+    usable = markdown_table(text, "### The largest usable step of each contact model")
+    assert len(usable) == len(record["contact"]["scenes"])
+    for cells, res in zip(usable, record["contact"]["scenes"]):
+        assert cells[0].startswith(res["title"])
+        assert cells[1] == f"{res['hard']['stability']['largest_usable'] * 1e3:g} ms"
