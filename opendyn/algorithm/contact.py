@@ -217,7 +217,7 @@ def keep_spheres(spheres, posed, contacts, out, n):
     found, force = contacts
     for p in range(spheres.body.shape[0]):
         lowest_point(posed, spheres, p, x_c[n, p])
-        delta[n, p] = max(0.0, spheres.ground - x_c[n, p, 2])
+        delta[n, p] = max(0.0, spheres.ground[0] - x_c[n, p, 2])
     fill(f_c[n], 0.0)
     for k in range(found.count[0]):
         f_c[n, found.pair[k]] = force[k]

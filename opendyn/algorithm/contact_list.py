@@ -10,7 +10,7 @@ opendyn.sim.effects.geometry_contact.pack):
     Spheres     body (P,) int     each contact sphere's body
                 centre (P, 3) m   its centre in the body's frame
                 radius (P,) m     its radius (0: a point)
-                ground m          the height h of the ground plane z = h
+                ground (1,) m     the height h of the ground plane z = h
                 law (P, 4)        each sphere's law with the ground (a law row, below)
     Geometries  table             the geometries, the ground last (a GeometryArrays,
                                   opendyn.multibody.geometry)
@@ -184,7 +184,7 @@ def find_sphere_contacts(posed, spheres, margin, found, scratch):
     n[0], n[1], n[2] = 0.0, 0.0, 1.0
     for p in range(spheres.body.shape[0]):
         b = lowest_point(posed, spheres, p, x)
-        d = x[2] - spheres.ground
+        d = x[2] - spheres.ground[0]
         if d <= margin:
             add_contact(found, (p, 0), (-1, b), x, n, d, spheres.law[p, FRICTION])
 

@@ -202,7 +202,7 @@ def contact_table(model, contact) -> Spheres:
         np.array(bodies, dtype=np.int64),
         np.array(centres, dtype=np.float64).reshape(count, 3),
         np.array([p.radius for p in contact.points], dtype=np.float64),
-        float(contact.ground_height),
+        np.array([contact.ground_height], dtype=np.float64),
         np.tile(np.array(law, dtype=np.float64), (count, 1)),
     )
 
@@ -305,7 +305,7 @@ def tangent(contact, at):
     model = at.scene.model
     nv = model.nv
     spheres = contact_table(model, contact)
-    h = spheres.ground
+    h = spheres.ground[0]
     k, d, mu, v_s = contact.stiffness, contact.damping, contact.friction, contact.slip_velocity
     tau, dtau_dq, dtau_dqd = np.zeros(nv), np.zeros((nv, nv)), np.zeros((nv, nv))
     for point, b in enumerate(spheres.body):

@@ -376,7 +376,7 @@ def rates(contact, at):
     origins = Spheres(
         np.array([table.body[k] for k in keys], dtype=np.int64),
         np.array([table.T_body_geom[k][:3, 3] for k in keys], dtype=np.float64),
-        np.zeros(len(keys)), 0.0, np.zeros((len(keys), 4)),
+        np.zeros(len(keys)), np.zeros(1), np.zeros((len(keys), 4)),
     )
     J = np.empty((len(keys), 3, model.nv))
     contact_jacobians_kernel(model._ibuf, model._fbuf, origins, at.q, J)
