@@ -37,7 +37,7 @@ import numpy as np
 from numba import njit
 
 from .._runtime.arrays import fill
-from .._runtime.kernel_cache import BATCH, JIT
+from .._runtime.kernel_cache import BATCH, JIT, UNCOUNTED
 from ..multibody.layout import body_count, dof_count, tree
 from ..multibody.work_views import effect_rows, new_work, scratch_rows, world_poses
 from .contact_extremes import note
@@ -50,6 +50,7 @@ from .contact_list import (
     find_contacts,
     lowest_point,
     relative_jacobian,
+    room_parts,
 )
 from .contact_tangent import add_sandwich, add_sphere_tangent
 from .kinematics import add_point_jacobian, forward_kinematics
@@ -60,40 +61,41 @@ PAIR, POINT, NORMAL_AT, FORCE, DEPTH = 0, 1, 4, 7, 10
 ROW = 11
 
 
-@njit(**JIT)
-def force_row(force, k, scratch):
-    """(3,): where contact k's force goes, force's row k, or scratch when force is None (numba
-    drops the other branch)."""
+@njit(**UNCOUNTED)
+def keep_force(force, k, f):
+    """force[k] (3,) <- f (3,), contact k's force; nothing for force None (numba drops the
+    code)."""
     if force is None:
-        return scratch
-    return force[k]
+        return
+    force[k, 0], force[k, 1], force[k, 2] = f[0], f[1], f[2]
 
 
-@njit(**JIT)
-def compliant_forces(body_tree, work, room, sources, law, qd, out, touch, force):
-    """tau (nv,) += J_k^T f_k over the contacts of the list room.found (a ContactRoom, found at
-    the world poses R_s, p_s that `work` holds) of sources = (spheres, geometry) (Spheres and
-    Geometries, one of them None), the law above with each contact's pair's row of law (P, 4)
-    (the source's); out = (tau, linear): with linear = (K, D, jac) and jac, K, D (nv, nv) +=
-    its linearisation (opendyn.algorithm.contact_tangent: the spheres' exact one, or the
-    pairs' with the points held). force: None, or (C, 3) <- each contact's f (N, {s}; zero where it does not push).
-    touch: None, or the run's extremes, to which each contact that overlaps is noted with its
-    pair (opendyn.algorithm.contact_extremes.note). Works in `work`'s effect rows, scratch rows
-    and contact axes, allocating nothing. Returns sum k delta delta_dot (W), the springs' share
-    of the power."""
+@njit(**UNCOUNTED)
+def compliant_forces(body_tree, views, room, sources, law, qd, out, touch, force):
+    """tau (nv,) += J_k^T f_k over the contacts of the list room.found (a ContactRoom's
+    RoomParts, found at the world poses R_s, p_s that `work` holds) of sources = (spheres,
+    geometry) (Spheres and Geometries, one of them None), the law above with each contact's
+    pair's row of law (P, 4) (the source's); out = (tau, linear): with linear = (K, D, jac)
+    and jac, K, D (nv, nv) += its linearisation (opendyn.algorithm.contact_tangent: the
+    spheres' exact one, or the pairs' with the points held). force: None, or (C, 3) <- each
+    contact's f (N, {s}; zero where it does not push). touch: None, or the run's extremes, to
+    which each contact that overlaps is noted with its pair
+    (opendyn.algorithm.contact_extremes.note). views = (work, (R_s, p_s), J (3, nv), s (9, 6)):
+    the Data's buffer, its world poses, effect rows and scratch rows, which it works in (and in
+    work's contact axes), allocating nothing. Compiled without reference counting, as the
+    finders are: it binds the list's arrays at every contact. Returns sum k delta delta_dot
+    (W), the springs' share of the power."""
     tau, (K, D, jac) = out
     found = room.found
-    nb, nv = body_tree.parent.shape[0], qd.shape[0]
-    R_s, p_s = world_poses(work, nb)
-    J = effect_rows(work, nb, nv)
-    s = scratch_rows(work, nb, nv)
-    v_r, v_t, u, c_s = s[1, :3], s[1, 3:], s[2, 3:], s[3, :3]
+    work, (R_s, p_s), J, s = views
+    nv = qd.shape[0]
+    v_r, v_t, f, u, c_s = s[1, :3], s[1, 3:], s[2, :3], s[2, 3:], s[3, :3]
     spring = 0.0
     for k in range(found.count[0]):
-        f = force_row(force, k, s[2, :3])
         f[:] = 0.0
         delta = -found.depth[k]
         if delta <= 0.0:
+            keep_force(force, k, f)
             continue
         n, pair = found.frame[k, 2], found.pair[k]
         relative_jacobian(body_tree, (R_s, p_s), found, k, J, s[0])
@@ -111,6 +113,7 @@ def compliant_forces(body_tree, work, room, sources, law, qd, out, touch, force)
         f_n = k_p * delta + c_p * delta_dot
         if f_n <= 0.0:
             note(touch, pair, delta, 0.0)
+            keep_force(force, k, f)
             continue
         # v_t = v_r - (n . v_r) n; f = f_n n - mu f_n v_t / s
         for r in range(3):
@@ -123,14 +126,15 @@ def compliant_forces(body_tree, work, room, sources, law, qd, out, touch, force)
         # tau += J^T f
         for j in range(nv):
             tau[j] += J[0, j] * f[0] + J[1, j] * f[1] + J[2, j] * f[2]
+        keep_force(force, k, f)
         if jac:
             at = (qd, law[pair], v_r, v_t, f, u, c_s, slip, f_n)
             sphere_tangent(sources[0], (body_tree, work, room), k, at, K, D)
-            pair_tangent(sources[1], (body_tree, work, room), k, at, K, D)
+            pair_tangent(sources[1], (body_tree, work, room, J), k, at, K, D)
     return spring
 
 
-@njit(**JIT)
+@njit(**UNCOUNTED)
 def sphere_tangent(spheres, where, k, at, K, D):
     """K, D (nv, nv) -= the exact derivatives of contact k's generalized force, a sphere of
     the Spheres on the ground (opendyn.algorithm.contact_tangent); nothing for spheres None.
@@ -143,23 +147,24 @@ def sphere_tangent(spheres, where, k, at, K, D):
     qd, law, v_r, _, f, _, c_s, _, _ = at
     found = room.found
     # the sphere's centre c = x + r e_z, which its lowest point x moves with
-    c_s[:] = found.point[k]
+    for r in range(3):
+        c_s[r] = found.point[k, r]
     c_s[2] += spheres.radius[found.pair[k]]
     add_sphere_tangent(
         body_tree, work, found.bodies[k, 1], (found.point[k], c_s), law, qd, (v_r, f), K, D
     )
 
 
-@njit(**JIT)
+@njit(**UNCOUNTED)
 def pair_tangent(geometry, where, k, at, K, D):
     """K, D (nv, nv) -= the derivatives of contact k's generalized force with its point and
-    normal held, a contact of the Geometries' pairs (opendyn.algorithm.contact_tangent), J in
-    where's work's effect rows; nothing for geometry None. where and at as sphere_tangent's."""
+    normal held, a contact of the Geometries' pairs (opendyn.algorithm.contact_tangent);
+    nothing for geometry None. where = (body_tree, work, room, J (3, nv) the contact's
+    Jacobian); at as sphere_tangent's."""
     if geometry is None:
         return
-    body_tree, work, room = where
-    qd, law, _, v_t, _, u, _, slip, f_n = at
-    J = effect_rows(work, body_tree.parent.shape[0], qd.shape[0])
+    _, _, room, J = where
+    _, law, _, v_t, _, u, _, slip, f_n = at
     n, v_s, AJ = room.found.frame[k, 2], law[SLIP], room.pairs.AJ
     # K += J^T (k u n^T) J;  D += J^T (c u n^T + mu f_n F) J
     add_sandwich(J, AJ, law[STIFFNESS], u, n, (0.0, slip, v_s), v_t, K)
@@ -168,15 +173,18 @@ def pair_tangent(geometry, where, k, at, K, D):
 
 @njit(**JIT)
 def compliant_contact(model, room, sources, law, qd, out, touch, force):
-    """The compliant contact of one evaluation: room.found <- the contacts of sources =
-    (spheres, geometry) that overlap or touch (margin 0; find_contacts), then compliant_forces
-    over them (law, out, touch and force as there). model = (ibuf, fbuf, work), work
-    holding the bodies' world poses (forward kinematics placed at a valid q). Returns the
-    springs' power as compliant_forces."""
+    """The compliant contact of one evaluation: the list of room (a ContactRoom) <- the
+    contacts of sources = (spheres, geometry) that overlap or touch (margin 0;
+    find_contacts), then compliant_forces over them (law, out, touch and force as there).
+    model = (ibuf, fbuf, work), work holding the bodies' world poses (forward kinematics
+    placed at a valid q). Returns the springs' power as compliant_forces."""
     ibuf, fbuf, work = model
-    R_s, p_s = world_poses(work, body_count(ibuf))
-    find_contacts((R_s, p_s), sources, 0.0, room)
-    return compliant_forces(tree(ibuf, fbuf), work, room, sources, law, qd, out, touch, force)
+    nb, nv = body_count(ibuf), qd.shape[0]
+    posed = world_poses(work, nb)
+    parts = room_parts(room)
+    find_contacts(posed, sources, 0.0, parts)
+    views = (work, posed, effect_rows(work, nb, nv), scratch_rows(work, nb, nv))
+    return compliant_forces(tree(ibuf, fbuf), views, parts, sources, law, qd, out, touch, force)
 
 
 @njit(**BATCH)
@@ -192,7 +200,8 @@ def contact_record_kernel(ibuf, fbuf, sources, law, states, out, start, stop):
     nb, nv = body_count(ibuf), dof_count(ibuf)
     work = new_work(nb, nv)
     room = contact_room(sources[0], sources[1], nv)
-    force = np.zeros((room.found.pair.shape[0], 3))
+    found = room_parts(room).found  # the list compliant_contact fills, viewed
+    force = np.zeros((found.pair.shape[0], 3))
     tau = np.empty(nv)
     unused = np.empty((0, 0))
     no_jac = np.bool_(False)  # a run-time flag, as the step passes it: one compiled kernel
@@ -202,8 +211,8 @@ def contact_record_kernel(ibuf, fbuf, sources, law, states, out, start, stop):
             (ibuf, fbuf, work), room, sources, law, qd[n], (tau, (unused, unused, no_jac)), None,
             force,
         )
-        keep_spheres(sources[0], world_poses(work, nb), (room.found, force), out, n)
-        keep_pairs(sources[1], (room.found, force), out, n)
+        keep_spheres(sources[0], world_poses(work, nb), (found, force), out, n)
+        keep_pairs(sources[1], (found, force), out, n)
 
 
 @njit(**JIT)

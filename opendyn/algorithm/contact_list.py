@@ -47,7 +47,7 @@ from collections import namedtuple
 import numpy as np
 from numba import njit
 
-from .._runtime.kernel_cache import JIT
+from .._runtime.kernel_cache import JIT, UNCOUNTED, UNCOUNTED_INLINE
 from .collision import DISTANCE, MAX_CONTACTS, NORMAL, OUT_SIZE, POINT_A, POINT_B
 from .collision.narrow_phase import COLUMNS, ROWS
 from .collision.queries import pair_rows
@@ -65,24 +65,37 @@ ContactList = namedtuple(
 # the narrow phase's scratch, one pair's contact rows (MAX_CONTACTS, OUT_SIZE), and rows
 # (3, nv) for A J of the compliant law's linearisation (opendyn.algorithm.contact_tangent).
 GeometryRoom = namedtuple("GeometryRoom", ("T_sg", "hints", "boxes", "scratch", "rows", "AJ"))
-# What a contact list is found in, made once per run: the list `found`, the pairs' GeometryRoom
-# (None without geometries) and scratch (2, 3).
-ContactRoom = namedtuple("ContactRoom", ("found", "pairs", "scratch"))
+# What a contact list is found in, made once per run: ints (1 + 4 C,) int64 and floats
+# (14 C + 6,) the list's entries (list_of views them as a ContactList; the last six floats are
+# the finders' scratch, finder_scratch), and the pairs' GeometryRoom (None without geometries).
+# Two buffers, not the list's eight arrays: the room rides in the step's SceneData and Context,
+# which every compiled call of the step passes on, each array at a cost.
+ContactRoom = namedtuple("ContactRoom", ("ints", "floats", "pairs"))
+SCRATCH = 6  # the finders' scratch at the end of a room's floats: two (3,) vectors
 
 
 @njit(**JIT)
-def contact_list(capacity):
-    """An empty ContactList with room for `capacity` entries."""
+def list_of(ints, floats):
+    """The ContactList (module docstring) held in the buffers ints (1 + 4 C,) int64 and floats
+    (at least 14 C,), as views: count, pair, feature, bodies in ints, point, frame, depth, mu
+    in floats, each field contiguous."""
+    C = (ints.shape[0] - 1) // 4
     return ContactList(
-        np.zeros(1, dtype=np.int64),
-        np.zeros(capacity, dtype=np.int64),
-        np.zeros(capacity, dtype=np.int64),
-        np.zeros((capacity, 2), dtype=np.int64),
-        np.zeros((capacity, 3)),
-        np.zeros((capacity, 3, 3)),
-        np.zeros(capacity),
-        np.zeros(capacity),
+        ints[0:1],
+        ints[1 : 1 + C],
+        ints[1 + C : 1 + 2 * C],
+        ints[1 + 2 * C : 1 + 4 * C].reshape((C, 2)),
+        floats[0 : 3 * C].reshape((C, 3)),
+        floats[3 * C : 12 * C].reshape((C, 3, 3)),
+        floats[12 * C : 13 * C],
+        floats[13 * C : 14 * C],
     )
+
+
+@njit(**JIT)
+def finder_scratch(floats):
+    """(2, 3): the finders' scratch, the last SCRATCH floats of a ContactRoom's floats."""
+    return floats[floats.shape[0] - SCRATCH :].reshape((2, 3))
 
 
 @njit(**JIT)
@@ -120,11 +133,14 @@ def contact_room(spheres, geometry, nv):
     None) on a model of nv velocity coordinates: a list with room for every contact they can
     have (most_contacts), so that it never fills. Called from Python for a run's step and
     compiled into the record's kernels, which make one per thread."""
-    found = contact_list(most_contacts(spheres, geometry))
-    return ContactRoom(found, geometry_room(geometry, nv), np.zeros((2, 3)))
+    C = most_contacts(spheres, geometry)
+    return ContactRoom(
+        np.zeros(1 + 4 * C, dtype=np.int64), np.zeros(14 * C + SCRATCH),
+        geometry_room(geometry, nv),
+    )
 
 
-@njit(**JIT)
+@njit(**UNCOUNTED_INLINE)
 def add_contact(found, ids, bodies, x, n, depth, mu):
     """found's next entry <- the contact of ids = (pair, feature) between bodies = (a, b) at the
     point x (3,) with normal n (3,) (a to b), signed distance depth and coefficient mu; its
@@ -134,31 +150,30 @@ def add_contact(found, ids, bodies, x, n, depth, mu):
     if k >= found.pair.shape[0]:
         return
     found.count[0] = k + 1
-    found.pair[k], found.feature[k] = ids
-    found.bodies[k, 0], found.bodies[k, 1] = bodies
+    found.pair[k], found.feature[k] = ids[0], ids[1]
+    found.bodies[k, 0], found.bodies[k, 1] = bodies[0], bodies[1]
     found.depth[k], found.mu[k] = depth, mu
-    F = found.frame[k]
-    # e: the world axis least aligned with n
-    e = 0
-    for r in range(1, 3):
-        if abs(n[r]) < abs(n[e]):
-            e = r
-    # t1 = n x e / |n x e|
-    t1x = n[1] * (e == 2) - n[2] * (e == 1)
-    t1y = n[2] * (e == 0) - n[0] * (e == 2)
-    t1z = n[0] * (e == 1) - n[1] * (e == 0)
-    size = np.sqrt(t1x * t1x + t1y * t1y + t1z * t1z)
-    F[0, 0], F[0, 1], F[0, 2] = t1x / size, t1y / size, t1z / size
+    n0, n1, n2 = n[0], n[1], n[2]
+    # t1 = n x e / |n x e|, e the world axis least aligned with n (the first of the least)
+    if abs(n0) <= abs(n1) and abs(n0) <= abs(n2):
+        a0, a1, a2 = 0.0, n2, -n1  # n x e_x
+    elif abs(n1) <= abs(n2):
+        a0, a1, a2 = -n2, 0.0, n0  # n x e_y
+    else:
+        a0, a1, a2 = n1, -n0, 0.0  # n x e_z
+    size = np.sqrt(a0 * a0 + a1 * a1 + a2 * a2)
+    a0, a1, a2 = a0 / size, a1 / size, a2 / size
+    F = found.frame
+    F[k, 0, 0], F[k, 0, 1], F[k, 0, 2] = a0, a1, a2
     # t2 = n x t1
-    F[1, 0] = n[1] * F[0, 2] - n[2] * F[0, 1]
-    F[1, 1] = n[2] * F[0, 0] - n[0] * F[0, 2]
-    F[1, 2] = n[0] * F[0, 1] - n[1] * F[0, 0]
-    for r in range(3):
-        F[2, r] = n[r]
-        found.point[k, r] = x[r]
+    F[k, 1, 0] = n1 * a2 - n2 * a1
+    F[k, 1, 1] = n2 * a0 - n0 * a2
+    F[k, 1, 2] = n0 * a1 - n1 * a0
+    F[k, 2, 0], F[k, 2, 1], F[k, 2, 2] = n0, n1, n2
+    found.point[k, 0], found.point[k, 1], found.point[k, 2] = x[0], x[1], x[2]
 
 
-@njit(**JIT)
+@njit(**UNCOUNTED_INLINE)
 def lowest_point(posed, spheres, p, x_s):
     """x_s (3,) <- p_sb + R_sb c_b - r e_z, the lowest point of contact sphere p of the
     Spheres (centre c_b in its body b's frame, radius r) in {s}, posed = (R_s, p_s) the bodies'
@@ -172,7 +187,7 @@ def lowest_point(posed, spheres, p, x_s):
     return b
 
 
-@njit(**JIT)
+@njit(**UNCOUNTED)
 def find_sphere_contacts(posed, spheres, margin, found, scratch):
     """found += each contact sphere whose lowest point is within margin (m) of the ground
     plane: posed = (R_s, p_s) the bodies' world poses; spheres: Spheres; scratch (2, 3). The
@@ -189,7 +204,7 @@ def find_sphere_contacts(posed, spheres, margin, found, scratch):
             add_contact(found, (p, 0), (-1, b), x, n, d, spheres.law[p, FRICTION])
 
 
-@njit(**JIT)
+@njit(**UNCOUNTED)
 def find_pair_contacts(posed, geometry, margin, room, found, scratch):
     """found += the manifold points within margin (m) of every pair of collision geometries:
     geometry: Geometries; room: its GeometryRoom; posed = (R_s, p_s) the bodies' world poses;
@@ -217,17 +232,29 @@ def find_pair_contacts(posed, geometry, margin, room, found, scratch):
             )
 
 
-@njit(**JIT)
+@njit(**UNCOUNTED)
 def find_contacts(posed, sources, margin, room):
     """room.found <- the contacts within margin (m) of sources = (spheres, geometry) (Spheres,
     Geometries, either None), the spheres' first, at the bodies' world poses posed = (R_s,
-    p_s); room: a ContactRoom (or anything with its found, pairs and scratch)."""
+    p_s); room: anything with a ContactList found, the pairs' GeometryRoom pairs and scratch
+    (2, 3) (the hard step's HardRoom; room_parts of a ContactRoom)."""
     room.found.count[0] = 0
     find_sphere_contacts(posed, sources[0], margin, room.found, room.scratch)
     find_pair_contacts(posed, sources[1], margin, room.pairs, room.found, room.scratch)
 
 
+# A ContactRoom's parts by name, as the finders and the compliant law read them: found (the
+# ContactList of its buffers), pairs and scratch (room_parts).
+RoomParts = namedtuple("RoomParts", ("found", "pairs", "scratch"))
+
+
 @njit(**JIT)
+def room_parts(room):
+    """The RoomParts of a ContactRoom: its buffers viewed as the list and the scratch."""
+    return RoomParts(list_of(room.ints, room.floats), room.pairs, finder_scratch(room.floats))
+
+
+@njit(**UNCOUNTED)
 def contact_rows(body_tree, posed, found, k, J3, S, out):
     """out (3, nv) <- contact k's rows of the constraint Jacobian: its frame (t1, t2, n) times
     J = J_b(x) - J_a(x) (module docstring); J3 (3, nv) and S (6,) scratch."""
@@ -238,7 +265,7 @@ def contact_rows(body_tree, posed, found, k, J3, S, out):
             out[r, j] = F[r, 0] * J3[0, j] + F[r, 1] * J3[1, j] + F[r, 2] * J3[2, j]
 
 
-@njit(**JIT)
+@njit(**UNCOUNTED)
 def relative_jacobian(body_tree, posed, found, k, J, S):
     """J (3, nv) <- J_b(x) - J_a(x) of contact k at its point x, world axes (the velocity of
     b's material at x relative to a's per unit of v); S (6,) scratch."""

@@ -14,7 +14,7 @@ import numpy as np
 from ..algorithm.constraints import ROW_COUNT
 from ..algorithm.constraints.terms import terms_work
 from ..algorithm.contact import FORCE, PAIR, ROW
-from ..algorithm.contact_list import contact_room
+from ..algorithm.contact_list import contact_room, room_parts
 from ..algorithm.ncp import SOLVERS
 from .hard_settings import sections
 from .hard_step import (
@@ -52,7 +52,7 @@ def hard_table(scene, spheres, geometry, constraints=None) -> HardTable | None:
     n = len(model.joint_names)
     q_index = np.array(model.q_index, dtype=np.int64)
     v_index = np.array(model.v_index, dtype=np.int64)
-    contacts = contact_room(spheres, geometry, model.nv)
+    contacts = room_parts(contact_room(spheres, geometry, model.nv))
     capacity = contacts.found.pair.shape[0]
     limit_rows = None
     if limits is not None:
