@@ -183,7 +183,8 @@ def compliant_contact(model, room, sources, law, qd, out, touch, force):
     posed = world_poses(work, nb)
     parts = room_parts(room)
     find_contacts(posed, sources, 0.0, parts)
-    views = (work, posed, effect_rows(work, nb, nv), scratch_rows(work, nb, nv))
+    J = effect_rows(work, nb, nv)
+    views = (work, posed, J, scratch_rows(work, nb, nv))
     return compliant_forces(tree(ibuf, fbuf), views, parts, sources, law, qd, out, touch, force)
 
 
